@@ -1,0 +1,111 @@
+//! Tool configurations `q = (x, y, z, gamma, beta, alpha)` (mm, rad) and their rigid transforms.
+//!
+//! `R(q) = Rz(alpha) · Ry(beta) · Rx(gamma)` (the paper's matrix (6)), and
+//! `world_from_tool(p) = R(q) p + (x, y, z)`.
+
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3, Vector6};
+
+/// A 6-D configuration `q = (x, y, z, gamma, beta, alpha)`: translation in mm, Euler angles in
+/// rad with `R = Rz(alpha) Ry(beta) Rx(gamma)`.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Pose {
+    /// `(x, y, z, gamma, beta, alpha)`: mm, mm, mm, rad, rad, rad.
+    pub q: Vector6<f64>,
+}
+
+impl Pose {
+    /// The identity configuration (all zeros).
+    pub fn identity() -> Self {
+        Self {
+            q: Vector6::zeros(),
+        }
+    }
+
+    /// From `[x, y, z, gamma, beta, alpha]` (mm, rad).
+    pub fn from_array(q: [f64; 6]) -> Self {
+        Self {
+            q: Vector6::from(q),
+        }
+    }
+
+    /// As `[x, y, z, gamma, beta, alpha]` (mm, rad).
+    pub fn to_array(&self) -> [f64; 6] {
+        self.q.into()
+    }
+
+    /// Translation `(x, y, z)` in mm.
+    #[inline]
+    pub fn translation(&self) -> Vector3<f64> {
+        Vector3::new(self.q[0], self.q[1], self.q[2])
+    }
+
+    /// `R(q) = Rz(alpha) Ry(beta) Rx(gamma)`.
+    #[inline]
+    pub fn rotation_matrix(&self) -> Matrix3<f64> {
+        rotation_zyx(self.q[3], self.q[4], self.q[5])
+    }
+
+    /// `world_from_tool` as an isometry.
+    pub fn to_isometry(&self) -> Isometry3<f64> {
+        let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(
+            self.rotation_matrix(),
+        ));
+        Isometry3::from_parts(Translation3::from(self.translation()), rot)
+    }
+
+    /// The configuration of an isometry (Euler angles with `beta` in `[-pi/2, pi/2]`).
+    pub fn from_isometry(iso: &Isometry3<f64>) -> Self {
+        // nalgebra's euler_angles returns (roll, pitch, yaw) for R = Rz(yaw) Ry(pitch) Rx(roll).
+        let (gamma, beta, alpha) = iso.rotation.euler_angles();
+        let t = iso.translation.vector;
+        Self {
+            q: Vector6::new(t.x, t.y, t.z, gamma, beta, alpha),
+        }
+    }
+
+    /// True when all six numbers are finite.
+    #[inline]
+    pub fn is_finite(&self) -> bool {
+        self.q.iter().all(|v| v.is_finite())
+    }
+}
+
+/// `Rz(alpha) · Ry(beta) · Rx(gamma)` (rad).
+#[inline]
+pub fn rotation_zyx(gamma: f64, beta: f64, alpha: f64) -> Matrix3<f64> {
+    let (sg, cg) = gamma.sin_cos();
+    let (sb, cb) = beta.sin_cos();
+    let (sa, ca) = alpha.sin_cos();
+    Matrix3::new(
+        ca * cb,
+        ca * sb * sg - sa * cg,
+        ca * sb * cg + sa * sg,
+        sa * cb,
+        sa * sb * sg + ca * cg,
+        sa * sb * cg - ca * sg,
+        -sb,
+        cb * sg,
+        cb * cg,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rotation_matches_product_of_axis_rotations() {
+        let (g, b, a) = (0.3, -0.7, 1.9);
+        let r = Rotation3::from_axis_angle(&Vector3::z_axis(), a)
+            * Rotation3::from_axis_angle(&Vector3::y_axis(), b)
+            * Rotation3::from_axis_angle(&Vector3::x_axis(), g);
+        assert!((r.matrix() - rotation_zyx(g, b, a)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn isometry_round_trip() {
+        let p = Pose::from_array([1.0, -2.0, 3.0, 0.4, -0.2, 2.5]);
+        let back = Pose::from_isometry(&p.to_isometry());
+        assert!((back.q - p.q).norm() < 1e-12, "{back:?}");
+    }
+}

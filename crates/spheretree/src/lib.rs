@@ -1,0 +1,34 @@
+//! Hierarchical sphere-trees: the flat breadth-first tree type, builders, Bradshaw `.sph` IO
+//! and the fit measure.
+//!
+//! Entry points:
+//! - [`SphereTree`], [`Sphere`]: the tree (flat, breadth-first, branching B, unused slots).
+#![warn(missing_docs)]
+
+mod tree;
+
+pub use tree::{slot_count, Sphere, SphereTree};
+
+/// Errors of this crate.
+#[derive(Debug, thiserror::Error)]
+pub enum TreeError {
+    /// The tree shape is impossible.
+    #[error("bad tree shape: levels {levels}, branching {branching} (need levels >= 1, branching >= 2, fewer than 2^32 slots)")]
+    Shape {
+        /// Levels requested.
+        levels: u32,
+        /// Branching requested.
+        branching: u32,
+    },
+    /// The number of slots does not match the shape.
+    #[error("expected {expected} slots for this shape, found {found}")]
+    SlotCount {
+        /// Slots required by the shape.
+        expected: usize,
+        /// Slots supplied.
+        found: usize,
+    },
+    /// A structural invariant does not hold.
+    #[error("invalid sphere-tree: {0}")]
+    Invalid(String),
+}
