@@ -1,1 +1,51 @@
-//! mesh (in progress).
+//! Triangle meshes for haptic6d: loading (OBJ, STL, PLY), validation, and geometric queries
+//! (closest point, signed distance, inside test, surface sampling). Offline only: nothing here
+//! runs in the haptic frame.
+//!
+//! Entry points:
+//! - [`TriMesh`]: an indexed triangle mesh in the file's own units.
+#![warn(missing_docs)]
+
+/// An indexed triangle mesh. Coordinates are in the file's own units (scaled to mm by the
+/// scene); triangles are counter-clockwise seen from outside.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TriMesh {
+    /// Vertex positions (mesh units).
+    pub vertices: Vec<[f64; 3]>,
+    /// Triangles as vertex indices, counter-clockwise from outside.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl TriMesh {
+    /// Axis-aligned bounding box `(min, max)` of the vertices (mesh units); `None` when empty.
+    pub fn aabb(&self) -> Option<([f64; 3], [f64; 3])> {
+        let first = *self.vertices.first()?;
+        let mut lo = first;
+        let mut hi = first;
+        for v in &self.vertices {
+            for k in 0..3 {
+                lo[k] = lo[k].min(v[k]);
+                hi[k] = hi[k].max(v[k]);
+            }
+        }
+        Some((lo, hi))
+    }
+
+    /// The same mesh with every vertex mapped by `p -> (p - center) * scale` (a copy).
+    pub fn scaled_about(&self, center: [f64; 3], scale: f64) -> TriMesh {
+        TriMesh {
+            vertices: self
+                .vertices
+                .iter()
+                .map(|v| {
+                    [
+                        (v[0] - center[0]) * scale,
+                        (v[1] - center[1]) * scale,
+                        (v[2] - center[2]) * scale,
+                    ]
+                })
+                .collect(),
+            triangles: self.triangles.clone(),
+        }
+    }
+}
