@@ -3,8 +3,10 @@
 //!
 //! Entry points:
 //! - [`SphereTree`], [`Sphere`]: the tree (flat, breadth-first, branching B, unused slots).
+//! - [`sph`]: the Bradshaw `.sph` format ([`sph::read_sph`], [`sph::write_sph`]).
 #![warn(missing_docs)]
 
+pub mod sph;
 mod tree;
 
 pub use tree::{slot_count, Sphere, SphereTree};
