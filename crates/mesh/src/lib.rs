@@ -4,7 +4,16 @@
 //!
 //! Entry points:
 //! - [`TriMesh`]: an indexed triangle mesh in the file's own units.
+//! - [`load_mesh`]: OBJ / STL / PLY file to a validated [`TriMesh`] and a [`LoadReport`];
+//!   [`TriMesh::check_closed`] for builders that need a closed 2-manifold; [`MeshError`].
 #![warn(missing_docs)]
+
+mod error;
+pub mod load;
+pub mod validate;
+
+pub use error::MeshError;
+pub use load::{load_mesh, load_mesh_bytes, LoadReport, LoadedMesh, MeshFormat};
 
 /// An indexed triangle mesh. Coordinates are in the file's own units (scaled to mm by the
 /// scene); triangles are counter-clockwise seen from outside.
