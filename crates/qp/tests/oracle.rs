@@ -5,7 +5,7 @@
 mod common;
 
 use common::Instance;
-use qp::{DualWorkspace, Solution, Status};
+use qp::{ActiveSetWorkspace, DualWorkspace, Solution, Status};
 
 /// Relative objective agreement required of the exact solvers.
 const REL: f64 = 1e-9;
@@ -103,37 +103,75 @@ fn check_exact(name: &str, inst: &Instance, sol: &Solution, tag: &str, t: &mut T
     t.clarabel_worse += 1;
 }
 
-fn run_dual(count: usize, seed0: u64) {
-    let mut ws = DualWorkspace::new();
+/// Runs `solve` on `count` instances of every family and size, checking each against
+/// Clarabel and its own certificate.
+fn run_exact(name: &str, count: usize, seed0: u64, mut solve: impl FnMut(&Instance) -> Solution) {
     let mut t = Tally::default();
     for f in 0..4 {
         for &n in &SIZES {
             for s in 0..count {
                 let seed = seed0 + (f * 1_000_000 + n * 1000 + s) as u64;
                 let inst = instance(f, n, seed);
-                let sol = ws.solve(&inst.problem(), false);
-                check_exact(
-                    "dual",
-                    &inst,
-                    &sol,
-                    &format!("family {f} n {n} seed {seed}"),
-                    &mut t,
-                );
+                let sol = solve(&inst);
+                let tag = format!("family {f} n {n} seed {seed}");
+                check_exact(name, &inst, &sol, &tag, &mut t);
             }
         }
     }
-    println!("dual vs clarabel: {t:?}");
+    println!("{name} vs clarabel: {t:?}");
     // Clarabel is the less accurate one only on some nearly redundant instances.
     assert!(t.agree * 4 >= t.total * 3, "{t:?}");
 }
 
+fn dual_cold(ws: &mut DualWorkspace) -> impl FnMut(&Instance) -> Solution + '_ {
+    |inst| ws.solve(&inst.problem(), false)
+}
+
+fn active_from_start(ws: &mut ActiveSetWorkspace) -> impl FnMut(&Instance) -> Solution + '_ {
+    |inst| ws.solve(&inst.problem(), &inst.dq0)
+}
+
 #[test]
 fn dual_matches_clarabel() {
-    run_dual(6 * scale(), 1);
+    run_exact("dual", 6 * scale(), 1, dual_cold(&mut DualWorkspace::new()));
+}
+
+#[test]
+fn active_set_matches_clarabel() {
+    let mut ws = ActiveSetWorkspace::new();
+    run_exact("active-set", 6 * scale(), 1, active_from_start(&mut ws));
+}
+
+#[test]
+fn active_set_from_infeasible_start_uses_phase1() {
+    let mut ws = ActiveSetWorkspace::new();
+    let mut t = Tally::default();
+    let mut phase1 = 0;
+    for seed in 0..40u64 {
+        let inst = instance(1, 50, 900 + seed);
+        // Start from the device pose (dq = 0), infeasible whenever some d_k > 0.
+        let sol = ws.solve(&inst.problem(), &[0.0; 6]);
+        phase1 += ws.used_phase1() as usize;
+        check_exact(
+            "active-set",
+            &inst,
+            &sol,
+            &format!("zero start {seed}"),
+            &mut t,
+        );
+    }
+    assert!(phase1 > 20, "phase 1 ran {phase1} times");
 }
 
 #[test]
 #[ignore = "thousands of instances: cargo test -p qp --release -- --ignored"]
 fn dual_matches_clarabel_many() {
-    run_dual(60, 7_000_000);
+    run_exact("dual", 60, 7_000_000, dual_cold(&mut DualWorkspace::new()));
+}
+
+#[test]
+#[ignore = "thousands of instances: cargo test -p qp --release -- --ignored"]
+fn active_set_matches_clarabel_many() {
+    let mut ws = ActiveSetWorkspace::new();
+    run_exact("active-set", 60, 7_000_000, active_from_start(&mut ws));
 }

@@ -1,0 +1,120 @@
+//! One entry point for the three solvers.
+
+use crate::active_set::ActiveSetWorkspace;
+use crate::dual::DualWorkspace;
+use crate::pqp::PqpWorkspace;
+use crate::problem::Problem;
+use crate::solution::Solution;
+
+/// Which algorithm [`Solver`] runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum SolverKind {
+    /// Goldfarb–Idnani dual active-set, exact, warm-started from the last active set
+    /// (the default).
+    #[default]
+    Dual,
+    /// Primal active-set from a feasible start (the paper's baseline).
+    ActiveSet,
+    /// The paper's multiplicative-update PQP (its stopping rule by default).
+    Pqp,
+}
+
+impl SolverKind {
+    /// All kinds, in a fixed order.
+    pub const ALL: [SolverKind; 3] = [SolverKind::Dual, SolverKind::ActiveSet, SolverKind::Pqp];
+
+    /// The command-line name: `dual`, `active-set`, `pqp`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverKind::Dual => "dual",
+            SolverKind::ActiveSet => "active-set",
+            SolverKind::Pqp => "pqp",
+        }
+    }
+}
+
+impl std::fmt::Display for SolverKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for SolverKind {
+    type Err = crate::QpError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "dual" => Ok(SolverKind::Dual),
+            "active-set" | "activeset" | "active_set" => Ok(SolverKind::ActiveSet),
+            "pqp" => Ok(SolverKind::Pqp),
+            _ => Err(crate::QpError::UnknownSolver(s.to_string())),
+        }
+    }
+}
+
+/// A solver of the chosen kind with its caller-owned workspaces (create once, reuse every
+/// frame). The workspaces are public for their parameters and warm-start controls.
+#[derive(Debug, Clone)]
+pub struct Solver {
+    /// The algorithm used by [`Solver::solve`].
+    pub kind: SolverKind,
+    /// For [`SolverKind::Dual`]: start from the last solve's active set (default `true`).
+    pub warm_start: bool,
+    /// Workspace of the dual solver.
+    pub dual: DualWorkspace,
+    /// Workspace of the primal active-set solver.
+    pub active_set: ActiveSetWorkspace,
+    /// Workspace of the PQP solver (its `params` choose the stop rule).
+    pub pqp: PqpWorkspace,
+}
+
+impl Default for Solver {
+    /// The default: [`SolverKind::Dual`], warm-started.
+    fn default() -> Self {
+        Self::new(SolverKind::Dual)
+    }
+}
+
+impl Solver {
+    /// A solver of `kind` with default parameters (PQP: the paper's).
+    pub fn new(kind: SolverKind) -> Self {
+        Self {
+            kind,
+            warm_start: true,
+            dual: DualWorkspace::new(),
+            active_set: ActiveSetWorkspace::new(),
+            pqp: PqpWorkspace::new(),
+        }
+    }
+
+    /// Reserves room for problems of up to `n` rows in the workspace of the current kind.
+    pub fn reserve(&mut self, n: usize) {
+        match self.kind {
+            SolverKind::Dual => self.dual.reserve(n),
+            SolverKind::ActiveSet => self.active_set.reserve(n),
+            SolverKind::Pqp => self.pqp.reserve(n),
+        }
+    }
+
+    /// Solves `p`. `dq0` is a start point that should be feasible (`J dq0 >= d`, e.g.
+    /// `q_g_prev - q_h`); only [`SolverKind::ActiveSet`] uses it.
+    ///
+    /// # Real-time
+    /// Allocates only when `p.len()` exceeds every earlier `N` (see [`Solver::reserve`]);
+    /// never panics; bounded by each solver's iteration cap.
+    pub fn solve(&mut self, p: &Problem<'_>, dq0: &[f64; 6]) -> Solution {
+        match self.kind {
+            SolverKind::Dual => self.dual.solve(p, self.warm_start),
+            SolverKind::ActiveSet => self.active_set.solve(p, dq0),
+            SolverKind::Pqp => self.pqp.solve(p),
+        }
+    }
+
+    /// The multipliers (one per row) of the last solve of the current kind.
+    pub fn multipliers(&self) -> &[f64] {
+        match self.kind {
+            SolverKind::Dual => self.dual.multipliers(),
+            SolverKind::ActiveSet => self.active_set.multipliers(),
+            SolverKind::Pqp => self.pqp.multipliers(),
+        }
+    }
+}
