@@ -51,8 +51,12 @@ pub struct PqpParams {
     pub kkt_tol: Option<f64>,
     /// Cap on the number of multiplicative updates.
     pub max_iterations: u32,
-    /// Start from the last solve's multipliers (floored at `y0`) when `N` is unchanged.
+    /// Start from the last solve's multipliers (floored at `warm_floor`) when `N` is
+    /// unchanged (the rows are assumed to be in the same order).
     pub warm_start: bool,
+    /// Smallest warm-start multiplier: the update is multiplicative, so a zero could never
+    /// grow again.
+    pub warm_floor: f64,
 }
 
 impl PqpParams {
@@ -64,6 +68,7 @@ impl PqpParams {
             kkt_tol: None,
             max_iterations: 1000,
             warm_start: false,
+            warm_floor: 1e-9,
         }
     }
 
@@ -75,6 +80,7 @@ impl PqpParams {
             kkt_tol: Some(1e-6),
             max_iterations: 5000,
             warm_start: true,
+            warm_floor: 1e-9,
         }
     }
 }
@@ -138,8 +144,10 @@ impl PqpWorkspace {
     ///
     /// Returns [`Status::Solved`] when the stopping rule held (which for the paper's rule does
     /// not mean feasible: read the certificate), [`Status::Infeasible`] when the multipliers
-    /// prove that no feasible point lies within `1e6` times the problem's own length scale
-    /// (`max_k |d_k| / |n_k|`), [`Status::MaxIterations`] otherwise.
+    /// prove that no feasible point lies within `1e4` times the problem's own length scale
+    /// (`max_k |d_k| / |n_k|`, in the `G` norm) or a zero row has `d_k > 0`,
+    /// [`Status::MaxIterations`] otherwise (an infeasible problem often ends so: the
+    /// multipliers grow only slowly).
     ///
     /// # Real-time
     /// Allocates only if `p.len()` exceeds every earlier `N`; never panics; O(6N²) to form
@@ -153,7 +161,11 @@ impl PqpWorkspace {
             self.y.resize(n, prm.y0);
         } else {
             for v in &mut self.y {
-                *v = if v.is_finite() { v.max(prm.y0) } else { prm.y0 };
+                *v = if v.is_finite() {
+                    v.max(prm.warm_floor)
+                } else {
+                    prm.y0
+                };
             }
         }
         if n == 0 {
@@ -220,9 +232,9 @@ impl PqpWorkspace {
                 break Status::NumericalError;
             }
             let zn = yqy.max(0.0).sqrt();
-            if dy > 0.0 && dy > zn * 1e6 * length_scale {
+            if dy > 0.0 && dy > zn * 1e4 * length_scale {
                 // For any feasible x: d^T y <= y^T J x <= |z_y| |x|_G, so no feasible point
-                // lies within 1e6 length scales.
+                // lies within 1e4 length scales.
                 break Status::Infeasible;
             }
             if let Some(tol) = prm.kkt_tol {

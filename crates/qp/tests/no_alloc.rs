@@ -1,0 +1,94 @@
+//! Thousands of solves under an allocation counter: once a workspace has seen the largest N,
+//! no solver allocates, and the workspaces stop growing.
+//!
+//! (A counting allocator of our own rather than `assert_no_alloc`, whose release-mode
+//! features would clash with other crates' choice under workspace feature unification.)
+
+mod common;
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use qp::{PqpParams, Solver, SolverKind, Status};
+
+struct Counting;
+
+thread_local! {
+    static ARMED: Cell<bool> = const { Cell::new(false) };
+    static COUNT: Cell<usize> = const { Cell::new(0) };
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        note();
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        note();
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+fn note() {
+    // try_with: the thread-locals may be gone during thread teardown.
+    let _ = ARMED.try_with(|a| {
+        if a.get() {
+            let _ = COUNT.try_with(|c| c.set(c.get() + 1));
+        }
+    });
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// Allocations made by `f` on this thread.
+fn allocations<R>(f: impl FnOnce() -> R) -> (R, usize) {
+    COUNT.with(|c| c.set(0));
+    ARMED.with(|a| a.set(true));
+    let r = f();
+    ARMED.with(|a| a.set(false));
+    (r, COUNT.with(|c| c.get()))
+}
+
+#[test]
+fn counter_sees_allocations() {
+    let (_, n) = allocations(|| std::hint::black_box(vec![1u8; 64]));
+    assert!(n >= 1);
+}
+
+#[test]
+fn warmed_up_solves_do_not_allocate() {
+    // A haptic-like stream whose N varies frame to frame, below the warm-up size.
+    let mut r = common::rng(11);
+    let frames: Vec<common::Instance> = (0..400)
+        .map(|f| common::haptic(1 + (f * 37) % 300, 1 + f % 7, 0.05, &mut r))
+        .collect();
+    for kind in SolverKind::ALL {
+        let mut s = Solver::new(kind);
+        if kind == SolverKind::Pqp {
+            // The paper's stop, warm-started (exercises the warm path too).
+            s.pqp.params = PqpParams {
+                warm_start: true,
+                ..PqpParams::paper()
+            };
+        }
+        s.reserve(300);
+        // Phase 1 of the active-set solver has its own buffers: warm them up too.
+        s.solve(&frames[0].problem(), &[0.0; 6]);
+        let mut solved = 0;
+        let (_, n) = allocations(|| {
+            for _ in 0..5 {
+                for inst in &frames {
+                    // Start at the device pose: infeasible when any d_k > 0 (phase 1 runs).
+                    let sol = s.solve(&inst.problem(), &[0.0; 6]);
+                    solved += (sol.status == Status::Solved) as usize;
+                }
+            }
+        });
+        assert_eq!(n, 0, "{kind}: {n} allocations in 2000 warmed-up solves");
+        assert!(solved > 1000, "{kind}: only {solved} solved");
+    }
+}
