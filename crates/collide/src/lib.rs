@@ -1,10 +1,71 @@
 //! Collision detection between posed sphere-trees, and the linearized non-penetration
-//! constraints of the haptic QP.
+//! constraints of the haptic QP (DESIGN.md steps 1–2).
 //!
 //! Entry points:
-//! - [`Pose`]: the tool configuration `q = (x, y, z, gamma, beta, alpha)` (mm, rad).
+//! - [`Pose`]: the tool configuration `q = (x, y, z, gamma, beta, alpha)` (mm, rad),
+//!   `R = Rz(alpha) Ry(beta) Rx(gamma)`; [`rotation_zyx_partials`] its exact derivatives.
+//! - [`PackedTree`]: a [`spheretree::SphereTree`] repacked for traversal (objects with their
+//!   fixed pose applied).
+//! - [`overlap_tree_tree`], [`overlap_tree_trees`], [`collect_pairs`]: every leaf pair whose
+//!   gap is at most a margin (mm), through a visit closure or a reusable buffer, with a
+//!   caller-owned [`CollideWorkspace`]; [`LeafPair`] carries the geometry of the pair.
+//! - [`ConstraintForm`], [`Linearization`], [`fill_constraints`]: rows `J dq >= d`.
+//!
+//! ```
+//! use collide::{collect_pairs, fill_constraints, CollideWorkspace, ConstraintForm, PackedTree, Pose};
+//! use spheretree::{Sphere, SphereTree};
+//!
+//! // A two-level tree: a root and two leaves along x (mm).
+//! let mut tree = SphereTree::new_unused(2, 2).unwrap();
+//! tree.spheres_mut()[0] = Sphere::new([0.0; 3], 2.0);
+//! tree.spheres_mut()[1] = Sphere::new([-1.0, 0.0, 0.0], 1.0);
+//! tree.spheres_mut()[2] = Sphere::new([1.0, 0.0, 0.0], 1.0);
+//! let tool = PackedTree::new(&tree).unwrap();
+//! let objects = [PackedTree::new(&tree).unwrap()];
+//! let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+//! let mut pairs = Vec::with_capacity(16);
+//! let q_h = Pose::from_array([3.5, 0.0, 0.0, 0.0, 0.0, 0.0]);
+//! collect_pairs(&tool, &q_h, &objects, 0.0, &mut ws, &mut pairs).unwrap();
+//! assert_eq!(pairs.len(), 1); // tool's left leaf against the object's right leaf
+//! assert!((pairs[0].gap - -0.5).abs() < 1e-12);
+//! let (mut rows, mut rhs) = (vec![[0.0; 6]; 16], vec![0.0; 16]);
+//! let n = fill_constraints(ConstraintForm::Distance, &q_h, &q_h, &pairs, &mut rows, &mut rhs).unwrap();
+//! assert_eq!(n, 1);
+//! assert!((rows[0][0] - 1.0).abs() < 1e-12 && (rhs[0] - 0.5).abs() < 1e-12); // push +x by 0.5 mm
+//! ```
 #![warn(missing_docs)]
 
+mod constraint;
+mod packed;
 mod pose;
+mod traverse;
 
-pub use pose::{rotation_zyx, Pose};
+pub use constraint::{
+    constraint_value, fill_constraints, ConstraintForm, Linearization, DEGENERATE_DISTANCE,
+};
+pub use packed::PackedTree;
+pub use pose::{rotation_zyx, rotation_zyx_partials, Pose};
+pub use traverse::{
+    collect_pairs, overlap_tree_tree, overlap_tree_trees, CollideWorkspace, LeafPair,
+};
+
+/// Errors of this crate.
+#[derive(Debug, thiserror::Error)]
+pub enum CollideError {
+    /// A pose holds a NaN or infinite number.
+    #[error("pose is not finite; check the device input or the scene's pose (all six numbers must be finite)")]
+    NonFinitePose,
+    /// The sphere-tree breaks an invariant the traversal relies on.
+    #[error("sphere-tree cannot be used for collision detection: {0} (for files that do not keep 'parent contains children', call SphereTree::enforce_containment first)")]
+    InvalidTree(String),
+    /// A caller buffer is too short for the rows.
+    #[error("constraint buffers too short: {needed} pairs, {rows} rows, {rhs} right-hand sides; size them to the pair count")]
+    BufferTooSmall {
+        /// Rows needed (number of pairs).
+        needed: usize,
+        /// Length of the row buffer.
+        rows: usize,
+        /// Length of the right-hand-side buffer.
+        rhs: usize,
+    },
+}

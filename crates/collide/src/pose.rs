@@ -89,6 +89,30 @@ pub fn rotation_zyx(gamma: f64, beta: f64, alpha: f64) -> Matrix3<f64> {
     )
 }
 
+/// The exact partial derivatives of `R = Rz(alpha) Ry(beta) Rx(gamma)` with respect to
+/// `(gamma, beta, alpha)` (rad): `[dR/dgamma, dR/dbeta, dR/dalpha]`.
+pub fn rotation_zyx_partials(gamma: f64, beta: f64, alpha: f64) -> [Matrix3<f64>; 3] {
+    let (sg, cg) = gamma.sin_cos();
+    let (sb, cb) = beta.sin_cos();
+    let (sa, ca) = alpha.sin_cos();
+    let rx = Matrix3::new(1.0, 0.0, 0.0, 0.0, cg, -sg, 0.0, sg, cg);
+    let ry = Matrix3::new(cb, 0.0, sb, 0.0, 1.0, 0.0, -sb, 0.0, cb);
+    let rz = Matrix3::new(ca, -sa, 0.0, sa, ca, 0.0, 0.0, 0.0, 1.0);
+    let drx = Matrix3::new(0.0, 0.0, 0.0, 0.0, -sg, -cg, 0.0, cg, -sg);
+    let dry = Matrix3::new(-sb, 0.0, cb, 0.0, 0.0, 0.0, -cb, 0.0, -sb);
+    let drz = Matrix3::new(-sa, -ca, 0.0, ca, -sa, 0.0, 0.0, 0.0, 0.0);
+    [rz * ry * drx, rz * dry * rx, drz * ry * rx]
+}
+
+impl Pose {
+    /// `world_from_tool * p_in_tool` (mm).
+    #[inline]
+    pub fn transform_point(&self, p_in_tool: &[f64; 3]) -> [f64; 3] {
+        let w = self.rotation_matrix() * Vector3::from(*p_in_tool) + self.translation();
+        [w.x, w.y, w.z]
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -100,6 +124,26 @@ mod tests {
             * Rotation3::from_axis_angle(&Vector3::y_axis(), b)
             * Rotation3::from_axis_angle(&Vector3::x_axis(), g);
         assert!((r.matrix() - rotation_zyx(g, b, a)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn partials_match_finite_differences() {
+        let (g, b, a) = (0.3, -0.7, 1.9);
+        let d = rotation_zyx_partials(g, b, a);
+        let h = 1e-6;
+        let fd = [
+            (rotation_zyx(g + h, b, a) - rotation_zyx(g - h, b, a)) / (2.0 * h),
+            (rotation_zyx(g, b + h, a) - rotation_zyx(g, b - h, a)) / (2.0 * h),
+            (rotation_zyx(g, b, a + h) - rotation_zyx(g, b, a - h)) / (2.0 * h),
+        ];
+        for k in 0..3 {
+            assert!(
+                (d[k] - fd[k]).norm() < 1e-8,
+                "partial {k}: {} vs {}",
+                d[k],
+                fd[k]
+            );
+        }
     }
 
     #[test]

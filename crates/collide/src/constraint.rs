@@ -1,0 +1,208 @@
+//! Linearized non-penetration constraints `J dq >= d` for the haptic QP (DESIGN.md step 2).
+//!
+//! For a pair with tool sphere centre `p` (tool frame), radius `r_t`, object sphere centre `o`
+//! (world), radius `r_o`, and `c(q) = R(q) p + (x, y, z)`:
+//! - [`ConstraintForm::Squared`] (the paper's): `C(q) = |c(q) - o|^2 - (r_t + r_o)^2` (mm²);
+//! - [`ConstraintForm::Distance`] (default): `C(q) = |c(q) - o| - (r_t + r_o)` (mm), the signed
+//!   gap.
+//!
+//! Both are linearized at `q_lin` (= `q_g_prev`): `C(q_lin) + J (q - q_lin) >= 0` with
+//! `J = dC/dq` (1×6, exact partials of `R`), written as `J dq >= d` with `dq = q - q_h`:
+//! `d = J (q_lin - q_h) - C(q_lin)`.
+//!
+//! Why the distance form is the default: since `C_sq = (D - s)(D + s)` with `D = |c - o|`,
+//! `s = r_t + r_o`, the squared row equals `2D` times `(D - s)(D + s)/(2D) + dD/dq · dq >= 0`;
+//! near contact (`D ≈ s`) the factor `(D + s)/(2D) ≈ 1`, so both forms give the same feasible
+//! half-space to first order, but the distance rows have unit-norm translational part (the
+//! contact normal) instead of a scale of `2D` mm, which keeps the QP's dual well scaled across
+//! sphere sizes. Far from contact the squared form's half-space is looser.
+//!
+//! Angles: `q_lin - q_h` is taken component-wise, so the caller keeps Euler angles continuous
+//! (unwrapped) between frames.
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::{rotation_zyx_partials, CollideError, LeafPair, Pose};
+
+/// Which constraint function the rows linearize (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum ConstraintForm {
+    /// The paper's `C = |c - o|^2 - (r_t + r_o)^2` (mm²); `J` in mm (translation) and mm²/rad.
+    Squared,
+    /// The signed gap `C = |c - o| - (r_t + r_o)` (mm); `J` unitless (translation) and mm/rad.
+    #[default]
+    Distance,
+}
+
+/// Below this centre distance (mm) the direction `c - o` is undefined; see
+/// [`Linearization::value_gradient`].
+pub const DEGENERATE_DISTANCE: f64 = 1e-9;
+
+/// Everything about `q_lin` and `q_h` that all rows of a frame share: `R(q_lin)`, its three
+/// partials, the translation and `q_lin - q_h`. Build once per frame, then call
+/// [`Linearization::row`] per pair.
+#[derive(Clone, Copy, Debug)]
+pub struct Linearization {
+    form: ConstraintForm,
+    rot: Matrix3<f64>,
+    drot: [Matrix3<f64>; 3],
+    t: Vector3<f64>,
+    delta: [f64; 6],
+}
+
+impl Linearization {
+    /// Linearization of `form` at `q_lin` (mm, rad) for the QP variable `dq = q - q_h`.
+    /// Errors on a non-finite pose.
+    ///
+    /// # Real-time
+    /// No allocation, no panic, constant time.
+    pub fn new(form: ConstraintForm, q_lin: &Pose, q_h: &Pose) -> Result<Self, CollideError> {
+        if !q_lin.is_finite() || !q_h.is_finite() {
+            return Err(CollideError::NonFinitePose);
+        }
+        let q = &q_lin.q;
+        let mut delta = [0.0; 6];
+        for (k, d) in delta.iter_mut().enumerate() {
+            *d = q_lin.q[k] - q_h.q[k];
+        }
+        Ok(Self {
+            form,
+            rot: q_lin.rotation_matrix(),
+            drot: rotation_zyx_partials(q[3], q[4], q[5]),
+            t: q_lin.translation(),
+            delta,
+        })
+    }
+
+    /// The form being linearized.
+    pub fn form(&self) -> ConstraintForm {
+        self.form
+    }
+
+    /// `C(q_lin)` and `J = dC/dq (q_lin)` for a tool sphere (`p_in_tool`, `r_tool`; mm) and an
+    /// object sphere (`o_in_world`, `r_object`; mm).
+    ///
+    /// When the centres (nearly) coincide (`|c - o| < DEGENERATE_DISTANCE`) the direction
+    /// `c - o` is undefined (and the squared form's gradient vanishes); both forms then use the
+    /// unit direction `n` from `o` to the tool origin (or `+z` if that too is degenerate), with
+    /// the gradient's contact magnitude (`J = [n, n·dR p]`, times `2 (r_t + r_o)` for the squared
+    /// form), so the row still pushes the tool out.
+    ///
+    /// # Real-time
+    /// No allocation, no panic, constant time.
+    #[inline]
+    pub fn value_gradient(
+        &self,
+        p_in_tool: &[f64; 3],
+        r_tool: f64,
+        o_in_world: &[f64; 3],
+        r_object: f64,
+    ) -> (f64, [f64; 6]) {
+        let p = Vector3::from(*p_in_tool);
+        let o = Vector3::from(*o_in_world);
+        let c = self.rot * p + self.t;
+        let v = c - o;
+        let dist = v.norm();
+        let s = r_tool + r_object;
+        let (value, dir, scale) = match self.form {
+            ConstraintForm::Squared => {
+                let value = dist * dist - s * s;
+                if dist < DEGENERATE_DISTANCE {
+                    (value, self.fallback_direction(&o), 2.0 * s)
+                } else {
+                    (value, v, 2.0)
+                }
+            }
+            ConstraintForm::Distance => {
+                let value = dist - s;
+                if dist < DEGENERATE_DISTANCE {
+                    (value, self.fallback_direction(&o), 1.0)
+                } else {
+                    (value, v / dist, 1.0)
+                }
+            }
+        };
+        let g = dir * scale;
+        let mut j = [g.x, g.y, g.z, 0.0, 0.0, 0.0];
+        for k in 0..3 {
+            j[3 + k] = g.dot(&(self.drot[k] * p));
+        }
+        (value, j)
+    }
+
+    fn fallback_direction(&self, o: &Vector3<f64>) -> Vector3<f64> {
+        let v = self.t - o;
+        let n = v.norm();
+        if n >= DEGENERATE_DISTANCE {
+            v / n
+        } else {
+            Vector3::z()
+        }
+    }
+
+    /// The row `(J, d)` of `J dq >= d` for one pair: `d = J (q_lin - q_h) - C(q_lin)`.
+    ///
+    /// # Real-time
+    /// No allocation, no panic, constant time.
+    #[inline]
+    pub fn row(&self, pair: &LeafPair) -> ([f64; 6], f64) {
+        let (c, j) = self.value_gradient(
+            &pair.p_in_tool,
+            pair.r_tool,
+            &pair.o_in_world,
+            pair.r_object,
+        );
+        let jd: f64 = j.iter().zip(&self.delta).map(|(a, b)| a * b).sum();
+        (j, jd - c)
+    }
+}
+
+/// The exact (not linearized) constraint value `C(q)` of `form` at `pose` (mm, rad) for a tool
+/// sphere (`p_in_tool`, `r_tool`) and an object sphere (`o_in_world`, `r_object`), all mm.
+pub fn constraint_value(
+    form: ConstraintForm,
+    pose: &Pose,
+    p_in_tool: &[f64; 3],
+    r_tool: f64,
+    o_in_world: &[f64; 3],
+    r_object: f64,
+) -> f64 {
+    let c = pose.rotation_matrix() * Vector3::from(*p_in_tool) + pose.translation();
+    let dist = (c - Vector3::from(*o_in_world)).norm();
+    let s = r_tool + r_object;
+    match form {
+        ConstraintForm::Squared => dist * dist - s * s,
+        ConstraintForm::Distance => dist - s,
+    }
+}
+
+/// Fills `rows[k]` (`J_k`) and `rhs[k]` (`d_k`) of `J dq >= d` (`dq = q - q_h`), linearized at
+/// `q_lin`, for every pair; returns the number of rows written (`pairs.len()`).
+///
+/// Errors, writing nothing, if a buffer is shorter than `pairs` or a pose is not finite.
+///
+/// # Real-time
+/// No allocation, no panic, O(pairs).
+pub fn fill_constraints(
+    form: ConstraintForm,
+    q_lin: &Pose,
+    q_h: &Pose,
+    pairs: &[LeafPair],
+    rows: &mut [[f64; 6]],
+    rhs: &mut [f64],
+) -> Result<usize, CollideError> {
+    if rows.len() < pairs.len() || rhs.len() < pairs.len() {
+        return Err(CollideError::BufferTooSmall {
+            needed: pairs.len(),
+            rows: rows.len(),
+            rhs: rhs.len(),
+        });
+    }
+    let lin = Linearization::new(form, q_lin, q_h)?;
+    for ((pair, row), d) in pairs.iter().zip(rows.iter_mut()).zip(rhs.iter_mut()) {
+        let (j, dk) = lin.row(pair);
+        *row = j;
+        *d = dk;
+    }
+    Ok(pairs.len())
+}

@@ -1,0 +1,182 @@
+//! [`PackedTree`]: a sphere-tree repacked for traversal (used slots only, SoA, children
+//! contiguous, leaf flag precomputed).
+
+use nalgebra::Vector3;
+use spheretree::SphereTree;
+
+use crate::{CollideError, Pose};
+
+/// A [`SphereTree`] repacked for fast traversal.
+///
+/// Only used slots are kept, renumbered breadth-first so that the used children of every node
+/// are contiguous (`first_child[n] .. first_child[n] + child_count[n]`). Centres and radii are
+/// stored as separate arrays (structure of arrays). A node with `child_count == 0` is a leaf in
+/// the sense of [`SphereTree::is_leaf`] (a used slot with no used child), whichever level it sits
+/// on. [`PackedTree::slot`] maps a packed node back to its slot in the original tree.
+///
+/// Object trees are packed with their fixed pose applied (`world_from_object`), so their
+/// centres are in world coordinates; tool trees are packed in the tool frame and posed at query
+/// time.
+///
+/// The bounding rule "each parent contains its children" is checked on construction; it makes
+/// pruning by parent overlap exact.
+#[derive(Clone, Debug)]
+pub struct PackedTree {
+    pub(crate) x: Vec<f64>,
+    pub(crate) y: Vec<f64>,
+    pub(crate) z: Vec<f64>,
+    pub(crate) r: Vec<f64>,
+    pub(crate) first_child: Vec<u32>,
+    pub(crate) child_count: Vec<u32>,
+    pub(crate) slot: Vec<u32>,
+    pub(crate) leaf_count: usize,
+    pub(crate) max_children: usize,
+    pub(crate) levels: u32,
+}
+
+impl PackedTree {
+    /// Packs `tree` in its own frame (identity pose): use this for the tool, and for objects
+    /// whose pose is the identity.
+    ///
+    /// Errors if the root is unused, a value is not finite, a used slot has an unused parent,
+    /// or a parent does not contain a child (beyond `1e-9` relative to the root radius; call
+    /// [`SphereTree::enforce_containment`] first on trees from files that do not keep that rule).
+    pub fn new(tree: &SphereTree) -> Result<Self, CollideError> {
+        Self::with_pose(tree, &Pose::identity())
+    }
+
+    /// Packs `tree` with the fixed pose `world_from_object` (mm, rad) applied to its centres.
+    /// Same errors as [`PackedTree::new`].
+    pub fn with_pose(tree: &SphereTree, world_from_object: &Pose) -> Result<Self, CollideError> {
+        if !world_from_object.is_finite() {
+            return Err(CollideError::NonFinitePose);
+        }
+        let root_r = tree.spheres().first().map_or(0.0, |s| s.radius);
+        let tol = 1e-9 * root_r.abs().max(1.0);
+        tree.validate(tol)
+            .map_err(|e| CollideError::InvalidTree(e.to_string()))?;
+
+        let rot = world_from_object.rotation_matrix();
+        let t = world_from_object.translation();
+        let n_used = tree.spheres().iter().filter(|s| s.is_used()).count();
+        let mut packed = PackedTree {
+            x: Vec::with_capacity(n_used),
+            y: Vec::with_capacity(n_used),
+            z: Vec::with_capacity(n_used),
+            r: Vec::with_capacity(n_used),
+            first_child: Vec::with_capacity(n_used),
+            child_count: Vec::with_capacity(n_used),
+            slot: Vec::with_capacity(n_used),
+            leaf_count: 0,
+            max_children: 0,
+            levels: tree.levels(),
+        };
+        // Breadth-first over used slots: the queue is the packed order itself.
+        packed.push_slot(tree, 0, &rot, &t);
+        let mut head = 0;
+        while head < packed.slot.len() {
+            let s = packed.slot[head] as usize;
+            let first = packed.slot.len() as u32;
+            let mut count = 0u32;
+            for c in tree.children(s) {
+                if tree.sphere(c).is_used() {
+                    packed.push_slot(tree, c, &rot, &t);
+                    count += 1;
+                }
+            }
+            packed.first_child[head] = if count > 0 { first } else { 0 };
+            packed.child_count[head] = count;
+            packed.max_children = packed.max_children.max(count as usize);
+            if count == 0 {
+                packed.leaf_count += 1;
+            }
+            head += 1;
+        }
+        Ok(packed)
+    }
+
+    fn push_slot(
+        &mut self,
+        tree: &SphereTree,
+        s: usize,
+        rot: &nalgebra::Matrix3<f64>,
+        t: &Vector3<f64>,
+    ) {
+        let sp = tree.sphere(s);
+        let c = rot * Vector3::from(sp.center) + t;
+        self.x.push(c.x);
+        self.y.push(c.y);
+        self.z.push(c.z);
+        self.r.push(sp.radius);
+        self.first_child.push(0);
+        self.child_count.push(0);
+        self.slot.push(s as u32);
+    }
+
+    /// Number of packed nodes (= used slots of the original tree).
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.r.len()
+    }
+
+    /// True when there is no node (never: the root is always used).
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.r.is_empty()
+    }
+
+    /// Number of leaves (used slots without used children).
+    #[inline]
+    pub fn leaf_count(&self) -> usize {
+        self.leaf_count
+    }
+
+    /// Levels of the original tree (`depth + 1`).
+    #[inline]
+    pub fn levels(&self) -> u32 {
+        self.levels
+    }
+
+    /// Largest number of used children of any node.
+    #[inline]
+    pub fn max_children(&self) -> usize {
+        self.max_children
+    }
+
+    /// Slot index in the original [`SphereTree`] of packed node `n`.
+    #[inline]
+    pub fn slot(&self, n: usize) -> usize {
+        self.slot[n] as usize
+    }
+
+    /// Centre of packed node `n` in the packing frame (mm): the tree's own frame for
+    /// [`PackedTree::new`], the world for [`PackedTree::with_pose`].
+    #[inline]
+    pub fn center(&self, n: usize) -> [f64; 3] {
+        [self.x[n], self.y[n], self.z[n]]
+    }
+
+    /// Radius of packed node `n` (mm).
+    #[inline]
+    pub fn radius(&self, n: usize) -> f64 {
+        self.r[n]
+    }
+
+    /// True when packed node `n` is a leaf.
+    #[inline]
+    pub fn is_leaf(&self, n: usize) -> bool {
+        self.child_count[n] == 0
+    }
+
+    /// Packed indices of `n`'s used children (empty for a leaf).
+    #[inline]
+    pub fn children(&self, n: usize) -> std::ops::Range<usize> {
+        let f = self.first_child[n] as usize;
+        f..f + self.child_count[n] as usize
+    }
+
+    /// Packed indices of all leaves.
+    pub fn leaves(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..self.len()).filter(move |&n| self.is_leaf(n))
+    }
+}

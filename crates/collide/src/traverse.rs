@@ -1,0 +1,342 @@
+//! Simultaneous descent of a posed tool tree and static object trees: every overlapping leaf
+//! pair, allocation-free per query.
+
+use crate::{CollideError, PackedTree, Pose};
+
+/// One leaf pair found by the traversal, with the geometry the constraints need.
+///
+/// The pair is reported when `gap <= margin`, `gap = |c - o| - (r_tool + r_object)` measured at
+/// the query pose (`c` = the tool sphere's centre in the world).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LeafPair {
+    /// Index of the object tree in the slice given to the query (0 for [`overlap_tree_tree`]).
+    pub object: u32,
+    /// Slot of the tool leaf in the tool's [`spheretree::SphereTree`].
+    pub tool_slot: u32,
+    /// Slot of the object leaf in the object's [`spheretree::SphereTree`].
+    pub object_slot: u32,
+    /// Centre of the tool leaf sphere in the tool frame (mm): `p_in_tool`.
+    pub p_in_tool: [f64; 3],
+    /// Radius of the tool leaf sphere (mm).
+    pub r_tool: f64,
+    /// Centre of the object leaf sphere in the world (mm), the object's fixed pose applied.
+    pub o_in_world: [f64; 3],
+    /// Radius of the object leaf sphere (mm).
+    pub r_object: f64,
+    /// `|c - o| - (r_tool + r_object)` at the query pose (mm); negative = penetration depth.
+    pub gap: f64,
+}
+
+/// Caller-owned scratch memory for the traversal: the descent stack and a cache of posed tool
+/// centres (transformed lazily, a node's children all at once when it is first split).
+///
+/// Grow-only: a query grows it only when given a tree larger than any seen before (create it
+/// with [`CollideWorkspace::for_trees`] to never allocate in the haptic frame).
+#[derive(Clone, Debug, Default)]
+pub struct CollideWorkspace {
+    stack: Vec<(u32, u32)>,
+    /// Tool centres in the world (mm), valid for a node when its parent's stamp is current.
+    wx: Vec<f64>,
+    wy: Vec<f64>,
+    wz: Vec<f64>,
+    /// `children_posed[n] == epoch` when `n`'s children are posed for the current query.
+    children_posed: Vec<u32>,
+    epoch: u32,
+    rot: [[f64; 3]; 3],
+    t: [f64; 3],
+    /// Packed tool nodes posed during the last query (a work measure for benches).
+    posed_count: usize,
+}
+
+impl CollideWorkspace {
+    /// An empty workspace; the first query sizes it (allocates).
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// A workspace sized for `tool` against every tree in `objects`: queries on these trees
+    /// never allocate.
+    pub fn for_trees(tool: &PackedTree, objects: &[PackedTree]) -> Self {
+        let mut ws = Self::new();
+        for o in objects {
+            ws.reserve(tool, o);
+        }
+        if objects.is_empty() {
+            ws.reserve(tool, tool);
+        }
+        ws
+    }
+
+    /// Number of tool nodes whose world centre was computed by the last query.
+    pub fn posed_count(&self) -> usize {
+        self.posed_count
+    }
+
+    /// Bound on the stack depth of a depth-first descent that splits one node per step: each
+    /// step replaces one pair by at most `B` pairs, and a path makes at most
+    /// `levels_tool + levels_object` steps.
+    fn stack_bound(tool: &PackedTree, object: &PackedTree) -> usize {
+        let b = tool.max_children.max(object.max_children).max(1);
+        (tool.levels as usize + object.levels as usize + 1) * b + 1
+    }
+
+    fn reserve(&mut self, tool: &PackedTree, object: &PackedTree) {
+        let need = Self::stack_bound(tool, object);
+        if self.stack.capacity() < need {
+            self.stack.reserve(need - self.stack.len());
+        }
+        let n = tool.len();
+        if self.wx.len() < n {
+            self.wx.resize(n, 0.0);
+            self.wy.resize(n, 0.0);
+            self.wz.resize(n, 0.0);
+            self.children_posed.resize(n, 0);
+        }
+    }
+
+    /// Starts a query: sets the pose, invalidates the cache, poses the root.
+    fn begin(&mut self, tool: &PackedTree, world_from_tool: &Pose) {
+        let m = world_from_tool.rotation_matrix();
+        for (i, row) in self.rot.iter_mut().enumerate() {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = m[(i, j)];
+            }
+        }
+        self.t = [
+            world_from_tool.q[0],
+            world_from_tool.q[1],
+            world_from_tool.q[2],
+        ];
+        self.epoch = self.epoch.wrapping_add(1);
+        if self.epoch == 0 {
+            // Wrapped: clear every stamp so none is mistaken for current.
+            self.children_posed.iter_mut().for_each(|s| *s = 0);
+            self.epoch = 1;
+        }
+        self.pose_range(tool, 0, 1);
+        self.posed_count = 1;
+    }
+
+    #[inline(always)]
+    fn pose_range(&mut self, tool: &PackedTree, first: usize, end: usize) {
+        let r = self.rot;
+        let t = self.t;
+        let (px, py, pz) = (
+            &tool.x[first..end],
+            &tool.y[first..end],
+            &tool.z[first..end],
+        );
+        let wx = &mut self.wx[first..end];
+        let wy = &mut self.wy[first..end];
+        let wz = &mut self.wz[first..end];
+        for i in 0..px.len() {
+            let (x, y, z) = (px[i], py[i], pz[i]);
+            wx[i] = r[0][0] * x + r[0][1] * y + r[0][2] * z + t[0];
+            wy[i] = r[1][0] * x + r[1][1] * y + r[1][2] * z + t[1];
+            wz[i] = r[2][0] * x + r[2][1] * y + r[2][2] * z + t[2];
+        }
+    }
+
+    #[inline(always)]
+    fn pose_children(&mut self, tool: &PackedTree, n: usize) {
+        if self.children_posed[n] != self.epoch {
+            self.children_posed[n] = self.epoch;
+            let f = tool.first_child[n] as usize;
+            let e = f + tool.child_count[n] as usize;
+            self.pose_range(tool, f, e);
+            self.posed_count += e - f;
+        }
+    }
+}
+
+/// Every leaf pair of `tool` (posed by `world_from_tool`, mm/rad) and `object` (packed in the
+/// world) whose gap is at most `margin` (mm): overlapping pairs for `margin = 0`, plus pairs
+/// that come within `margin` of touching (anti-tunnelling: take `margin` at least the largest
+/// displacement of any tool point between `q_g_prev` and `q_h`). Calls `visit` once per pair
+/// (order unspecified); returns the number of pairs.
+///
+/// A negative or NaN `margin` is taken as 0. Errors only on a non-finite pose.
+///
+/// # Real-time
+/// Allocation-free when `ws` was made by [`CollideWorkspace::for_trees`] for these trees (else
+/// the first query sizes it). No panics. Bounded: visits each node pair at most once.
+pub fn overlap_tree_tree<F: FnMut(&LeafPair)>(
+    tool: &PackedTree,
+    world_from_tool: &Pose,
+    object: &PackedTree,
+    margin: f64,
+    ws: &mut CollideWorkspace,
+    mut visit: F,
+) -> Result<usize, CollideError> {
+    if !world_from_tool.is_finite() {
+        return Err(CollideError::NonFinitePose);
+    }
+    ws.reserve(tool, object);
+    ws.begin(tool, world_from_tool);
+    Ok(descend(
+        tool,
+        object,
+        0,
+        clean_margin(margin),
+        ws,
+        &mut visit,
+    ))
+}
+
+/// [`overlap_tree_tree`] against several object trees (each packed with its own fixed pose);
+/// [`LeafPair::object`] is the index in `objects`. The tool is posed once for all of them.
+///
+/// # Real-time
+/// As [`overlap_tree_tree`].
+pub fn overlap_tree_trees<F: FnMut(&LeafPair)>(
+    tool: &PackedTree,
+    world_from_tool: &Pose,
+    objects: &[PackedTree],
+    margin: f64,
+    ws: &mut CollideWorkspace,
+    mut visit: F,
+) -> Result<usize, CollideError> {
+    if !world_from_tool.is_finite() {
+        return Err(CollideError::NonFinitePose);
+    }
+    for o in objects {
+        ws.reserve(tool, o);
+    }
+    ws.begin(tool, world_from_tool);
+    let m = clean_margin(margin);
+    let mut total = 0;
+    for (i, o) in objects.iter().enumerate() {
+        total += descend(tool, o, i as u32, m, ws, &mut visit);
+    }
+    Ok(total)
+}
+
+/// [`overlap_tree_trees`] collecting into `pairs` (cleared first).
+///
+/// # Real-time
+/// As [`overlap_tree_tree`]; `pairs` grows (allocates) only past its capacity, so reserve it
+/// (e.g. `Vec::with_capacity(tool_leaves * 8)`) before the haptic loop.
+pub fn collect_pairs(
+    tool: &PackedTree,
+    world_from_tool: &Pose,
+    objects: &[PackedTree],
+    margin: f64,
+    ws: &mut CollideWorkspace,
+    pairs: &mut Vec<LeafPair>,
+) -> Result<usize, CollideError> {
+    pairs.clear();
+    overlap_tree_trees(tool, world_from_tool, objects, margin, ws, |p| {
+        pairs.push(*p)
+    })
+}
+
+#[inline]
+fn clean_margin(margin: f64) -> f64 {
+    if margin > 0.0 && margin.is_finite() {
+        margin
+    } else {
+        0.0
+    }
+}
+
+/// The descent proper. Pairs on the stack overlap (within the margin) and have at least one
+/// internal node; the larger internal sphere is split, its children are tested against the
+/// other sphere, and leaf–leaf hits are reported at once instead of being pushed.
+#[inline(never)]
+fn descend<F: FnMut(&LeafPair)>(
+    tool: &PackedTree,
+    obj: &PackedTree,
+    obj_id: u32,
+    m: f64,
+    ws: &mut CollideWorkspace,
+    visit: &mut F,
+) -> usize {
+    let mut count = 0usize;
+    if tool.is_empty() || obj.is_empty() {
+        return 0;
+    }
+    let report = |t: usize, o: usize, d2: f64, visit: &mut F| {
+        let pair = LeafPair {
+            object: obj_id,
+            tool_slot: tool.slot[t],
+            object_slot: obj.slot[o],
+            p_in_tool: [tool.x[t], tool.y[t], tool.z[t]],
+            r_tool: tool.r[t],
+            o_in_world: [obj.x[o], obj.y[o], obj.z[o]],
+            r_object: obj.r[o],
+            gap: d2.sqrt() - (tool.r[t] + obj.r[o]),
+        };
+        visit(&pair);
+    };
+
+    {
+        let dx = ws.wx[0] - obj.x[0];
+        let dy = ws.wy[0] - obj.y[0];
+        let dz = ws.wz[0] - obj.z[0];
+        let d2 = dx * dx + dy * dy + dz * dz;
+        let s = tool.r[0] + obj.r[0] + m;
+        if d2 > s * s {
+            return 0;
+        }
+        if tool.child_count[0] == 0 && obj.child_count[0] == 0 {
+            report(0, 0, d2, visit);
+            return 1;
+        }
+    }
+    ws.stack.clear();
+    ws.stack.push((0, 0));
+    while let Some((t, o)) = ws.stack.pop() {
+        let (t, o) = (t as usize, o as usize);
+        let tc = tool.child_count[t] as usize;
+        let oc = obj.child_count[o] as usize;
+        if tc != 0 && (oc == 0 || tool.r[t] >= obj.r[o]) {
+            // Split the tool node.
+            ws.pose_children(tool, t);
+            let f = tool.first_child[t] as usize;
+            let (ox, oy, oz) = (obj.x[o], obj.y[o], obj.z[o]);
+            let ro = obj.r[o] + m;
+            let e = f + tc;
+            let (wx, wy, wz) = (&ws.wx[f..e], &ws.wy[f..e], &ws.wz[f..e]);
+            let (rr, cc) = (&tool.r[f..e], &tool.child_count[f..e]);
+            for i in 0..tc {
+                let dx = wx[i] - ox;
+                let dy = wy[i] - oy;
+                let dz = wz[i] - oz;
+                let d2 = dx * dx + dy * dy + dz * dz;
+                let s = rr[i] + ro;
+                if d2 <= s * s {
+                    if cc[i] == 0 && oc == 0 {
+                        report(f + i, o, d2, visit);
+                        count += 1;
+                    } else {
+                        ws.stack.push(((f + i) as u32, o as u32));
+                    }
+                }
+            }
+        } else {
+            // Split the object node.
+            let f = obj.first_child[o] as usize;
+            let (tx, ty, tz) = (ws.wx[t], ws.wy[t], ws.wz[t]);
+            let rt = tool.r[t] + m;
+            let e = f + oc;
+            let (ox, oy, oz) = (&obj.x[f..e], &obj.y[f..e], &obj.z[f..e]);
+            let (rr, cc) = (&obj.r[f..e], &obj.child_count[f..e]);
+            for i in 0..oc {
+                let dx = tx - ox[i];
+                let dy = ty - oy[i];
+                let dz = tz - oz[i];
+                let d2 = dx * dx + dy * dy + dz * dz;
+                let s = rr[i] + rt;
+                if d2 <= s * s {
+                    if cc[i] == 0 && tc == 0 {
+                        report(t, f + i, d2, visit);
+                        count += 1;
+                    } else {
+                        ws.stack.push((t as u32, (f + i) as u32));
+                    }
+                }
+            }
+        }
+    }
+    count
+}

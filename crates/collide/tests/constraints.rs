@@ -1,0 +1,196 @@
+//! Constraint rows: J equals central finite differences of C (both forms), the right-hand side
+//! is the linearization `d = J (q_lin - q_h) - C(q_lin)`, and the two forms agree to first order
+//! at contact.
+
+use collide::{constraint_value, fill_constraints, ConstraintForm, LeafPair, Linearization, Pose};
+use proptest::prelude::*;
+
+fn pose_strategy() -> impl Strategy<Value = Pose> {
+    (
+        -100.0f64..100.0,
+        -100.0f64..100.0,
+        -100.0f64..100.0,
+        -3.2f64..3.2,
+        -1.5f64..1.5,
+        -3.2f64..3.2,
+    )
+        .prop_map(|(x, y, z, g, b, a)| Pose::from_array([x, y, z, g, b, a]))
+}
+
+fn point() -> impl Strategy<Value = [f64; 3]> {
+    proptest::array::uniform3(-60.0f64..60.0)
+}
+
+fn pair(p: [f64; 3], rt: f64, o: [f64; 3], ro: f64) -> LeafPair {
+    LeafPair {
+        object: 0,
+        tool_slot: 0,
+        object_slot: 0,
+        p_in_tool: p,
+        r_tool: rt,
+        o_in_world: o,
+        r_object: ro,
+        gap: 0.0,
+    }
+}
+
+/// Central differences of `C` at `pose`, step `h` (mm or rad).
+fn finite_difference(
+    form: ConstraintForm,
+    pose: &Pose,
+    p: &[f64; 3],
+    rt: f64,
+    o: &[f64; 3],
+    ro: f64,
+) -> [f64; 6] {
+    let h = 1e-5;
+    let mut g = [0.0; 6];
+    for (k, gk) in g.iter_mut().enumerate() {
+        let mut plus = *pose;
+        let mut minus = *pose;
+        plus.q[k] += h;
+        minus.q[k] -= h;
+        *gk = (constraint_value(form, &plus, p, rt, o, ro)
+            - constraint_value(form, &minus, p, rt, o, ro))
+            / (2.0 * h);
+    }
+    g
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    #[test]
+    fn gradient_equals_central_differences(
+        pose in pose_strategy(),
+        p in point(),
+        o in point(),
+        rt in 0.1f64..10.0,
+        ro in 0.1f64..10.0,
+        squared in any::<bool>(),
+    ) {
+        let form = if squared { ConstraintForm::Squared } else { ConstraintForm::Distance };
+        let lin = Linearization::new(form, &pose, &pose).unwrap();
+        let (c, j) = lin.value_gradient(&p, rt, &o, ro);
+        // Keep away from the distance form's kink at coincident centres.
+        let c_world = pose.transform_point(&p);
+        let dist = ((c_world[0] - o[0]).powi(2) + (c_world[1] - o[1]).powi(2) + (c_world[2] - o[2]).powi(2)).sqrt();
+        prop_assume!(dist > 1.0);
+        prop_assert!((c - constraint_value(form, &pose, &p, rt, &o, ro)).abs() <= 1e-9 * c.abs().max(1.0));
+        let fd = finite_difference(form, &pose, &p, rt, &o, ro);
+        let norm = j.iter().map(|v| v * v).sum::<f64>().sqrt();
+        for k in 0..6 {
+            prop_assert!(
+                (j[k] - fd[k]).abs() <= 1e-6 * norm,
+                "form {:?}, component {}: J {} vs FD {} (|J| {})", form, k, j[k], fd[k], norm
+            );
+        }
+    }
+
+    #[test]
+    fn rhs_is_the_linearization(
+        q_lin in pose_strategy(),
+        q_h in pose_strategy(),
+        p in point(),
+        o in point(),
+        rt in 0.1f64..10.0,
+        ro in 0.1f64..10.0,
+        squared in any::<bool>(),
+    ) {
+        let form = if squared { ConstraintForm::Squared } else { ConstraintForm::Distance };
+        let pairs = [pair(p, rt, o, ro)];
+        let mut rows = [[0.0; 6]; 1];
+        let mut rhs = [0.0; 1];
+        prop_assert_eq!(fill_constraints(form, &q_lin, &q_h, &pairs, &mut rows, &mut rhs).unwrap(), 1);
+        // Linearized C at q = q_h + dq must be J dq - d for any dq: C(q_lin) + J (q - q_lin).
+        let c_lin = constraint_value(form, &q_lin, &p, rt, &o, ro);
+        let dq = [0.3, -0.2, 0.1, 0.01, -0.02, 0.03];
+        let mut lhs = 0.0;
+        let mut lin = c_lin;
+        for k in 0..6 {
+            lhs += rows[0][k] * dq[k];
+            lin += rows[0][k] * (q_h.q[k] + dq[k] - q_lin.q[k]);
+        }
+        let scale = c_lin.abs().max(1.0) + rows[0].iter().map(|v| v.abs()).sum::<f64>() * 10.0;
+        prop_assert!((lhs - rhs[0] - lin).abs() <= 1e-9 * scale, "{} vs {}", lhs - rhs[0], lin);
+    }
+}
+
+/// At contact (`|c - o| = r_t + r_o`) the squared row is the distance row times `2 (r_t + r_o)`.
+#[test]
+fn forms_agree_at_contact() {
+    let q = Pose::from_array([1.0, 2.0, 3.0, 0.3, -0.4, 0.5]);
+    let q_h = Pose::from_array([1.5, 2.0, 2.0, 0.35, -0.4, 0.45]);
+    let p = [4.0, -1.0, 2.0];
+    let c = q.transform_point(&p);
+    let (rt, ro) = (1.5, 2.5);
+    let o = [c[0] + 4.0, c[1], c[2]]; // distance 4 = rt + ro
+    let sq = Linearization::new(ConstraintForm::Squared, &q, &q_h)
+        .unwrap()
+        .row(&pair(p, rt, o, ro));
+    let di = Linearization::new(ConstraintForm::Distance, &q, &q_h)
+        .unwrap()
+        .row(&pair(p, rt, o, ro));
+    for k in 0..6 {
+        assert!(
+            (sq.0[k] - 8.0 * di.0[k]).abs() < 1e-9,
+            "{k}: {:?} {:?}",
+            sq.0,
+            di.0
+        );
+    }
+    assert!((sq.1 - 8.0 * di.1).abs() < 1e-9);
+    // The distance form's translational part is the unit contact normal (-x: o is at +x).
+    assert!((di.0[0] + 1.0).abs() < 1e-12 && di.0[1].abs() < 1e-12 && di.0[2].abs() < 1e-12);
+}
+
+#[test]
+fn coincident_centres_still_give_a_usable_row() {
+    let q = Pose::from_array([0.0, 0.0, 10.0, 0.0, 0.0, 0.0]);
+    let o = q.transform_point(&[1.0, 2.0, 3.0]);
+    for form in [ConstraintForm::Squared, ConstraintForm::Distance] {
+        let (j, d) =
+            Linearization::new(form, &q, &q)
+                .unwrap()
+                .row(&pair([1.0, 2.0, 3.0], 1.0, o, 1.0));
+        assert!(j.iter().all(|v| v.is_finite()) && d.is_finite());
+        assert!(
+            j[..3].iter().map(|v| v * v).sum::<f64>() > 0.5,
+            "{form:?}: {j:?}"
+        );
+        assert!(d > 0.0, "deep penetration must ask to move: {d}");
+    }
+}
+
+#[test]
+fn short_buffers_are_an_error() {
+    let pairs = [pair([0.0; 3], 1.0, [3.0, 0.0, 0.0], 1.0); 3];
+    let mut rows = [[0.0; 6]; 2];
+    let mut rhs = [0.0; 3];
+    let q = Pose::identity();
+    assert!(fill_constraints(
+        ConstraintForm::Distance,
+        &q,
+        &q,
+        &pairs,
+        &mut rows,
+        &mut rhs
+    )
+    .is_err());
+    let bad = Pose::from_array([0.0, f64::INFINITY, 0.0, 0.0, 0.0, 0.0]);
+    let mut rows = [[0.0; 6]; 3];
+    assert!(fill_constraints(
+        ConstraintForm::Distance,
+        &bad,
+        &q,
+        &pairs,
+        &mut rows,
+        &mut rhs
+    )
+    .is_err());
+}
+
+#[test]
+fn default_form_is_distance() {
+    assert_eq!(ConstraintForm::default(), ConstraintForm::Distance);
+}

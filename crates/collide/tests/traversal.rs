@@ -1,0 +1,218 @@
+//! Traversal equals brute force on random trees and poses; unused slots never produce pairs;
+//! several objects; no allocation per query.
+
+mod common;
+
+use std::collections::HashSet;
+
+use collide::{collect_pairs, overlap_tree_tree, CollideWorkspace, LeafPair, PackedTree, Pose};
+use common::{brute_force_gaps, random_tree, TreeShape};
+use proptest::prelude::*;
+use spheretree::{Sphere, SphereTree};
+
+const EXTENT: f64 = 50.0;
+/// Rounding band around the margin (mm) where the two computations may disagree.
+const TIE: f64 = 1e-9;
+
+/// Checks that `found` (pairs of object `obj_id`) is exactly the brute-force set: every pair
+/// with gap < margin - TIE found once, every found pair has gap <= margin + TIE, its geometry is
+/// right and its slots are leaves.
+fn check_against_brute_force(
+    tool: &SphereTree,
+    world_from_tool: &Pose,
+    object: &SphereTree,
+    world_from_object: &Pose,
+    margin: f64,
+    obj_id: u32,
+    found: &[LeafPair],
+) {
+    let brute = brute_force_gaps(tool, world_from_tool, object, world_from_object);
+    let gaps: std::collections::HashMap<(u32, u32), f64> =
+        brute.iter().map(|&(t, o, g)| ((t, o), g)).collect();
+    let mut seen = HashSet::new();
+    for p in found.iter().filter(|p| p.object == obj_id) {
+        assert!(
+            seen.insert((p.tool_slot, p.object_slot)),
+            "duplicate pair {p:?}"
+        );
+        assert!(
+            tool.is_leaf(p.tool_slot as usize),
+            "tool slot not a leaf: {p:?}"
+        );
+        assert!(
+            object.is_leaf(p.object_slot as usize),
+            "object slot not a leaf: {p:?}"
+        );
+        let g = gaps[&(p.tool_slot, p.object_slot)];
+        assert!(
+            g <= margin + TIE,
+            "reported pair has gap {g} > margin {margin}: {p:?}"
+        );
+        assert!((g - p.gap).abs() < 1e-9, "gap {} vs brute force {g}", p.gap);
+        let ts = tool.sphere(p.tool_slot as usize);
+        assert_eq!(p.p_in_tool, ts.center);
+        assert_eq!(p.r_tool, ts.radius);
+        assert_eq!(p.r_object, object.sphere(p.object_slot as usize).radius);
+        let o = common::to_world(
+            world_from_object,
+            &object.sphere(p.object_slot as usize).center,
+        );
+        assert!(common::dist(&o, &p.o_in_world) < 1e-9);
+    }
+    for &(t, o, g) in &brute {
+        if g < margin - TIE {
+            assert!(
+                seen.contains(&(t, o)),
+                "missed pair ({t}, {o}) with gap {g}, margin {margin}"
+            );
+        }
+    }
+}
+
+fn shape(levels: u32, branching: u32, p_used: f64, p_early_leaf: f64) -> TreeShape {
+    TreeShape {
+        levels,
+        branching,
+        extent: EXTENT,
+        p_used,
+        p_early_leaf,
+    }
+}
+
+fn pose_strategy(reach: f64) -> impl Strategy<Value = Pose> {
+    (
+        -reach..reach,
+        -reach..reach,
+        -reach..reach,
+        -3.2f64..3.2,
+        -1.6f64..1.6,
+        -3.2f64..3.2,
+    )
+        .prop_map(|(x, y, z, g, b, a)| Pose::from_array([x, y, z, g, b, a]))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+
+    #[test]
+    fn traversal_equals_brute_force(
+        seed_t in any::<u64>(),
+        seed_o in any::<u64>(),
+        levels_t in 1u32..=4,
+        levels_o in 1u32..=4,
+        b_t in 2u32..=8,
+        b_o in 2u32..=8,
+        p_used in 0.3f64..1.0,
+        p_early in 0.0f64..0.3,
+        pose in pose_strategy(EXTENT),
+        margin in prop_oneof![Just(0.0), 0.0f64..10.0],
+    ) {
+        let tool = random_tree(seed_t, shape(levels_t, b_t, p_used, p_early));
+        let object = random_tree(seed_o, shape(levels_o, b_o, p_used, p_early));
+        let pt = PackedTree::new(&tool).unwrap();
+        let po = PackedTree::new(&object).unwrap();
+        let mut ws = CollideWorkspace::new();
+        let mut found = Vec::new();
+        let n = overlap_tree_tree(&pt, &pose, &po, margin, &mut ws, |p| found.push(*p)).unwrap();
+        prop_assert_eq!(n, found.len());
+        check_against_brute_force(&tool, &pose, &object, &Pose::identity(), margin, 0, &found);
+    }
+
+    #[test]
+    fn several_objects_equal_brute_force(
+        seeds in proptest::array::uniform4(any::<u64>()),
+        pose in pose_strategy(EXTENT),
+        object_poses in proptest::array::uniform3(pose_strategy(EXTENT)),
+        margin in 0.0f64..5.0,
+    ) {
+        let tool = random_tree(seeds[0], shape(4, 4, 0.7, 0.1));
+        let objects: Vec<SphereTree> =
+            (1..4).map(|i| random_tree(seeds[i], shape(3, 8, 0.6, 0.1))).collect();
+        let pt = PackedTree::new(&tool).unwrap();
+        let packed: Vec<PackedTree> = objects
+            .iter()
+            .zip(&object_poses)
+            .map(|(o, p)| PackedTree::with_pose(o, p).unwrap())
+            .collect();
+        let mut ws = CollideWorkspace::for_trees(&pt, &packed);
+        let mut found = Vec::new();
+        let n = collect_pairs(&pt, &pose, &packed, margin, &mut ws, &mut found).unwrap();
+        prop_assert_eq!(n, found.len());
+        for (i, (o, p)) in objects.iter().zip(&object_poses).enumerate() {
+            check_against_brute_force(&tool, &pose, o, p, margin, i as u32, &found);
+        }
+        // The same query object by object gives the same pairs.
+        let mut one_by_one = 0;
+        for po in &packed {
+            one_by_one += overlap_tree_tree(&pt, &pose, po, margin, &mut ws, |_| {}).unwrap();
+        }
+        prop_assert_eq!(one_by_one, n);
+    }
+}
+
+/// Unused slots sitting right on the other tree, with radii of any negative size, and used
+/// slots beneath nothing, never produce pairs; an early leaf (level 1) does.
+#[test]
+fn unused_slots_never_produce_pairs() {
+    let mut t = SphereTree::new_unused(3, 2).unwrap();
+    {
+        let s = t.spheres_mut();
+        s[0] = Sphere::new([0.0, 0.0, 0.0], 10.0);
+        s[1] = Sphere::new([-5.0, 0.0, 0.0], 5.0); // early leaf: children 3, 4 unused
+        s[2] = Sphere::new([5.0, 0.0, 0.0], 5.0);
+        s[3] = Sphere::new([-5.0, 0.0, 0.0], -1e6); // unused, huge negative radius
+        s[4] = Sphere::new([0.0, 0.0, 0.0], -0.0001);
+        s[5] = Sphere::new([3.0, 0.0, 0.0], 2.0);
+        s[6] = Sphere::new([0.0, 0.0, 0.0], -5.0); // unused inside everything
+    }
+    t.validate(1e-12).unwrap();
+    assert!(t.is_leaf(1) && !t.is_leaf(2) && t.is_leaf(5));
+    let p = PackedTree::new(&t).unwrap();
+    assert_eq!(p.len(), 4);
+    assert_eq!(p.leaf_count(), 2);
+    let mut ws = CollideWorkspace::new();
+    let mut found = Vec::new();
+    // Identity pose: every used sphere overlaps every other; only leaves 1 and 5 pair up.
+    let n = overlap_tree_tree(&p, &Pose::identity(), &p, 1.0, &mut ws, |q| {
+        found.push((q.tool_slot, q.object_slot))
+    })
+    .unwrap();
+    found.sort();
+    assert_eq!(n, 4);
+    assert_eq!(found, vec![(1, 1), (1, 5), (5, 1), (5, 5)]);
+}
+
+#[test]
+fn separated_trees_give_no_pairs_and_margin_brings_them_in() {
+    let tree = random_tree(7, shape(4, 8, 0.8, 0.0));
+    let p = PackedTree::new(&tree).unwrap();
+    let root_r = tree.sphere(0).radius;
+    let far = Pose::from_array([2.0 * root_r + 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    let mut ws = CollideWorkspace::for_trees(&p, std::slice::from_ref(&p));
+    assert_eq!(
+        overlap_tree_tree(&p, &far, &p, 0.0, &mut ws, |_| {}).unwrap(),
+        0
+    );
+    let n = overlap_tree_tree(&p, &far, &p, 2.0 * root_r, &mut ws, |_| {}).unwrap();
+    assert!(n > 0);
+}
+
+#[test]
+fn non_finite_pose_is_an_error() {
+    let tree = random_tree(3, shape(2, 4, 1.0, 0.0));
+    let p = PackedTree::new(&tree).unwrap();
+    let mut ws = CollideWorkspace::new();
+    let bad = Pose::from_array([f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    assert!(overlap_tree_tree(&p, &bad, &p, 0.0, &mut ws, |_| {}).is_err());
+}
+
+#[test]
+fn tree_breaking_containment_is_rejected_until_enforced() {
+    let mut t = SphereTree::new_unused(2, 2).unwrap();
+    t.spheres_mut()[0] = Sphere::new([0.0; 3], 1.0);
+    t.spheres_mut()[1] = Sphere::new([0.5, 0.0, 0.0], 0.7);
+    let err = PackedTree::new(&t).unwrap_err().to_string();
+    assert!(err.contains("enforce_containment"), "{err}");
+    t.enforce_containment();
+    PackedTree::new(&t).unwrap();
+}
