@@ -1,0 +1,329 @@
+//! Bunny vs bunny (4681 slots each, depth 4, B 8): our traversal against a brute-force loop and
+//! against parry3d-f64's QBVH simultaneous traversal of two compounds of balls, at poses giving
+//! ~50, ~200, ~1000 and ~5000 leaf pairs; then p50/p99 of individually timed queries.
+//!
+//! Run: `cargo bench -p collide --bench traversal` (add `-- --quick` for a short run).
+
+use std::hint::black_box;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use collide::{overlap_tree_tree, CollideWorkspace, PackedTree, Pose};
+use criterion::{BenchmarkId, Criterion};
+use parry3d_f64::math::{Isometry, Point, Real};
+use parry3d_f64::partitioning::Qbvh;
+use parry3d_f64::query::visitors::BoundingVolumeIntersectionsSimultaneousVisitor;
+use parry3d_f64::shape::{Compound, SharedShape};
+use spheretree::SphereTree;
+
+/// Mesh units -> mm (the bunny is ~10 units across: ~100 mm).
+const SCALE: f64 = 10.0;
+/// Fixed rotation of the tool in every scenario (rad), so the two bunnies are not aligned.
+const ROT: [f64; 3] = [0.4, -0.3, 0.8];
+const TARGETS: [usize; 4] = [50, 200, 1000, 5000];
+
+fn repo_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The bunny tree, in mm. Source: the Bradshaw toolkit's hubbard tree (depth 4, B 8), containment
+/// enforced.
+fn bunny_tree() -> (SphereTree, String) {
+    let path = repo_root().join("../shared/data/peers/bradshaw/bunny-hubbard.sph");
+    let mut tree = spheretree::sph::read_sph(&path)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+    for s in tree.spheres_mut() {
+        if s.is_used() {
+            s.center = s.center.map(|v| v * SCALE);
+            s.radius *= SCALE;
+        }
+    }
+    let growth = tree.enforce_containment();
+    (tree, format!("Bradshaw hubbard bunny-hubbard.sph x{SCALE} (containment enforced, max growth {growth:.3} mm)"))
+}
+
+fn pose_at(offset: f64) -> Pose {
+    Pose::from_array([offset, 0.0, 0.0, ROT[0], ROT[1], ROT[2]])
+}
+
+fn count(tool: &PackedTree, obj: &PackedTree, pose: &Pose, ws: &mut CollideWorkspace) -> usize {
+    overlap_tree_tree(tool, pose, obj, 0.0, ws, |_| {}).unwrap_or(0)
+}
+
+/// Bisection on the x offset (mm) for a pose with about `target` leaf pairs.
+fn find_offset(
+    tool: &PackedTree,
+    obj: &PackedTree,
+    target: usize,
+    ws: &mut CollideWorkspace,
+) -> (f64, usize) {
+    let (mut lo, mut hi) = (0.0, 2.0 * (tool.radius(0) + obj.radius(0)));
+    let mut best = (hi, count(tool, obj, &pose_at(hi), ws));
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        let n = count(tool, obj, &pose_at(mid), ws);
+        if n.abs_diff(target) < best.1.abs_diff(target) {
+            best = (mid, n);
+        }
+        if n >= target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    best
+}
+
+/// The brute-force reference: all leaf pairs, leaves as flat arrays, tool leaves transformed
+/// once per query into a reused buffer.
+struct Brute {
+    tool: Vec<[f64; 4]>,
+    obj: Vec<[f64; 4]>,
+    posed: Vec<[f64; 4]>,
+}
+
+impl Brute {
+    fn new(tool: &PackedTree, obj: &PackedTree) -> Self {
+        let leaves = |t: &PackedTree| -> Vec<[f64; 4]> {
+            t.leaves()
+                .map(|n| {
+                    let c = t.center(n);
+                    [c[0], c[1], c[2], t.radius(n)]
+                })
+                .collect()
+        };
+        let tool = leaves(tool);
+        let posed = tool.clone();
+        Self {
+            tool,
+            obj: leaves(obj),
+            posed,
+        }
+    }
+
+    fn query(&mut self, pose: &Pose, mut visit: impl FnMut(usize, usize, f64)) -> usize {
+        let r = pose.rotation_matrix();
+        let t = pose.translation();
+        for (p, s) in self.posed.iter_mut().zip(&self.tool) {
+            for k in 0..3 {
+                p[k] = r[(k, 0)] * s[0] + r[(k, 1)] * s[1] + r[(k, 2)] * s[2] + t[k];
+            }
+            p[3] = s[3];
+        }
+        let mut n = 0;
+        for (i, a) in self.posed.iter().enumerate() {
+            for (j, b) in self.obj.iter().enumerate() {
+                let d2 = (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2);
+                let s = a[3] + b[3];
+                if d2 <= s * s {
+                    visit(i, j, d2);
+                    n += 1;
+                }
+            }
+        }
+        n
+    }
+}
+
+/// parry3d-f64: each tree's leaves as a `Compound` of `Ball`s (parry builds its own QBVH over
+/// their AABBs); the query is parry's simultaneous BVH traversal (`Qbvh::traverse_bvtt_with_stack`
+/// with its `BoundingVolumeIntersectionsSimultaneousVisitor`, which transforms the tool's AABBs by
+/// the relative pose), followed by the exact ball-ball test on each AABB-overlapping leaf pair.
+struct Parry {
+    tool: Compound,
+    obj: Compound,
+    tool_balls: Vec<[f64; 4]>,
+    obj_balls: Vec<[f64; 4]>,
+    stack: Vec<(u32, u32)>,
+}
+
+impl Parry {
+    fn new(brute: &Brute) -> Self {
+        let compound = |balls: &[[f64; 4]]| {
+            Compound::new(
+                balls
+                    .iter()
+                    .map(|b| {
+                        (
+                            Isometry::translation(b[0], b[1], b[2]),
+                            SharedShape::ball(b[3]),
+                        )
+                    })
+                    .collect(),
+            )
+        };
+        Self {
+            tool: compound(&brute.tool),
+            obj: compound(&brute.obj),
+            tool_balls: brute.tool.clone(),
+            obj_balls: brute.obj.clone(),
+            stack: Vec::with_capacity(1024),
+        }
+    }
+
+    fn query(&mut self, pose: &Pose, mut visit: impl FnMut(u32, u32, f64)) -> usize {
+        let world_from_tool: Isometry<Real> = pose.to_isometry();
+        let (tb, ob) = (&self.tool_balls, &self.obj_balls);
+        let mut n = 0;
+        // Left: the object (world); right: the tool, AABBs mapped by world_from_tool.
+        let mut visitor = BoundingVolumeIntersectionsSimultaneousVisitor::with_relative_pos(
+            world_from_tool,
+            |&o: &u32, &t: &u32| {
+                let a = tb[t as usize];
+                let c = world_from_tool * Point::new(a[0], a[1], a[2]);
+                let b = ob[o as usize];
+                let d2 = (c.x - b[0]).powi(2) + (c.y - b[1]).powi(2) + (c.z - b[2]).powi(2);
+                let s = a[3] + b[3];
+                if d2 <= s * s {
+                    visit(t, o, d2);
+                    n += 1;
+                }
+                true
+            },
+        );
+        let q_obj: &Qbvh<u32> = self.obj.qbvh();
+        q_obj.traverse_bvtt_with_stack(self.tool.qbvh(), &mut visitor, &mut self.stack);
+        n
+    }
+}
+
+struct Scenario {
+    target: usize,
+    offset: f64,
+    pairs: usize,
+}
+
+fn percentiles(mut v: Vec<f64>) -> (f64, f64, f64) {
+    v.sort_by(|a, b| a.total_cmp(b));
+    let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+    (at(0.5), at(0.99), v[v.len() - 1])
+}
+
+fn main() {
+    let mut c = Criterion::default().configure_from_args();
+    let (tree, source) = bunny_tree();
+    let tool = PackedTree::new(&tree).expect("tool tree");
+    let obj = PackedTree::new(&tree).expect("object tree");
+    let mut ws = CollideWorkspace::for_trees(&tool, std::slice::from_ref(&obj));
+    let mut brute = Brute::new(&tool, &obj);
+    let mut parry = Parry::new(&brute);
+    println!("tree: {source}");
+    println!(
+        "slots {}, used {}, leaves {}; tool rotation (gamma, beta, alpha) = {ROT:?} rad, offset along x",
+        tree.len(),
+        tool.len(),
+        tool.leaf_count()
+    );
+
+    let scenarios: Vec<Scenario> = TARGETS
+        .iter()
+        .map(|&target| {
+            let (offset, pairs) = find_offset(&tool, &obj, target, &mut ws);
+            let pose = pose_at(offset);
+            // All three methods must agree on the pair count.
+            let b = brute.query(&pose, |_, _, _| {});
+            let p = parry.query(&pose, |_, _, _| {});
+            assert_eq!((b, p), (pairs, pairs), "brute force / parry disagree at offset {offset}");
+            println!("target ~{target}: offset {offset:.4} mm -> {pairs} leaf pairs (brute force and parry agree)");
+            Scenario { target, offset, pairs }
+        })
+        .collect();
+
+    let mut group = c.benchmark_group("bunny_vs_bunny");
+    for s in &scenarios {
+        let pose = pose_at(s.offset);
+        let id = format!("{}pairs", s.pairs);
+        group.bench_with_input(BenchmarkId::new("collide", &id), &pose, |b, pose| {
+            b.iter(|| {
+                let mut acc = 0.0;
+                let n =
+                    overlap_tree_tree(&tool, black_box(pose), &obj, 0.0, &mut ws, |p| acc += p.gap);
+                black_box((n, acc))
+            })
+        });
+        group.bench_with_input(BenchmarkId::new("parry_qbvh", &id), &pose, |b, pose| {
+            b.iter(|| {
+                let mut acc = 0.0;
+                let n = parry.query(black_box(pose), |_, _, d2| acc += d2);
+                black_box((n, acc))
+            })
+        });
+    }
+    group.finish();
+    let mut group = c.benchmark_group("bunny_vs_bunny_brute");
+    group.sample_size(10);
+    for s in &scenarios {
+        let pose = pose_at(s.offset);
+        let id = format!("{}pairs", s.pairs);
+        group.bench_with_input(BenchmarkId::new("brute_force", &id), &pose, |b, pose| {
+            b.iter(|| {
+                let mut acc = 0.0;
+                let n = brute.query(black_box(pose), |_, _, d2| acc += d2);
+                black_box((n, acc))
+            })
+        });
+    }
+    group.finish();
+
+    // Individually timed queries: p50 / p99 / max (µs), one thread.
+    let runs = if std::env::args().any(|a| a == "--quick") {
+        200
+    } else {
+        3000
+    };
+    println!("\nper-query timings over {runs} queries each (µs): p50 / p99 / max");
+    println!("| pairs | collide p50 | collide p99 | collide max | parry p50 | parry p99 | brute p50 | parry/collide | brute/collide |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for s in &scenarios {
+        let pose = pose_at(s.offset);
+        let time = |f: &mut dyn FnMut() -> usize, n: usize| -> Vec<f64> {
+            (0..n)
+                .map(|_| {
+                    let t0 = Instant::now();
+                    black_box(f());
+                    t0.elapsed().as_secs_f64() * 1e6
+                })
+                .collect()
+        };
+        let ours = percentiles(time(
+            &mut || {
+                overlap_tree_tree(&tool, black_box(&pose), &obj, 0.0, &mut ws, |p| {
+                    black_box(p);
+                })
+                .unwrap_or(0)
+            },
+            runs,
+        ));
+        let theirs = percentiles(time(
+            &mut || {
+                parry.query(black_box(&pose), |_, _, d2| {
+                    black_box(d2);
+                })
+            },
+            runs,
+        ));
+        let brute_n = (runs / 100).max(5);
+        let bf = percentiles(time(
+            &mut || {
+                brute.query(black_box(&pose), |_, _, d2| {
+                    black_box(d2);
+                })
+            },
+            brute_n,
+        ));
+        println!(
+            "| {} (~{}) | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.0} | {:.1}x | {:.0}x |",
+            s.pairs,
+            s.target,
+            ours.0,
+            ours.1,
+            ours.2,
+            theirs.0,
+            theirs.1,
+            bf.0,
+            theirs.0 / ours.0,
+            bf.0 / ours.0
+        );
+    }
+    c.final_summary();
+}
