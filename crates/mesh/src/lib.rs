@@ -6,6 +6,8 @@
 //! - [`TriMesh`]: an indexed triangle mesh in the file's own units.
 //! - [`load_mesh`]: OBJ / STL / PLY file to a validated [`TriMesh`] and a [`LoadReport`];
 //!   [`TriMesh::check_closed`] for builders that need a closed 2-manifold; [`MeshError`].
+//! - [`MeshQuery`]: closest point, signed distance, inside test.
+//! - [`sample_surface`]: area-weighted seeded surface samples with normals.
 #![warn(missing_docs)]
 
 mod error;
@@ -14,6 +16,12 @@ pub mod validate;
 
 pub use error::MeshError;
 pub use load::{load_mesh, load_mesh_bytes, LoadReport, LoadedMesh, MeshFormat};
+
+pub mod query;
+pub mod sample;
+
+pub use query::{ClosestPoint, Feature, MeshQuery};
+pub use sample::{sample_surface, SurfaceSample};
 
 /// An indexed triangle mesh. Coordinates are in the file's own units (scaled to mm by the
 /// scene); triangles are counter-clockwise seen from outside.

@@ -4,8 +4,12 @@
 //! Entry points:
 //! - [`SphereTree`], [`Sphere`]: the tree (flat, breadth-first, branching B, unused slots).
 //! - [`sph`]: the Bradshaw `.sph` format ([`sph::read_sph`], [`sph::write_sph`]).
+//! - [`build::build_tree`]: sphere-trees from a closed mesh (tight or octree builder).
+//! - [`eval::evaluate_fit`]: the fit measure of DESIGN.md, per level, in toolkit units.
 #![warn(missing_docs)]
 
+pub mod build;
+pub mod eval;
 pub mod sph;
 mod tree;
 
@@ -30,6 +34,9 @@ pub enum TreeError {
         /// Slots supplied.
         found: usize,
     },
+    /// A builder could not build a tree from this input.
+    #[error("cannot build the sphere-tree: {0}")]
+    Build(String),
     /// A structural invariant does not hold.
     #[error("invalid sphere-tree: {0}")]
     Invalid(String),

@@ -1,0 +1,185 @@
+//! Sphere-tree builders.
+//!
+//! Entry point: [`build_tree`]`(mesh, &`[`BuildParams`]`, progress)` with a [`BuildMethod`]:
+//! - [`BuildMethod::Tight`] (default): recursive balanced clustering of dense surface samples
+//!   (position + normal) into B patches per node; each leaf sphere covers its patch while
+//!   protruding as little as possible out of the mesh (centre optimised inward against an
+//!   upper bound of the protrusion, then checked against a denser sample set so coverage holds);
+//!   parents are the smallest spheres enclosing their children.
+//! - [`BuildMethod::Octree`]: the fast one: cells of an octree on the bounding cube that meet
+//!   the surface, each bounded by its circumscribed sphere (full coverage by construction).
+//!
+//! Rule kept by every builder: each used parent sphere **contains** each used child sphere
+//! (checked by [`SphereTree::validate`]). All builders work in the toolkit frame (mesh scaled
+//! about its bounding-box centre to longest side 2000) and return the tree in the mesh's own
+//! frame and units.
+
+#![allow(clippy::needless_range_loop)] // xyz loops read better indexed
+
+mod enclose;
+mod octree;
+mod partition;
+mod tight;
+
+pub use enclose::enclosing_sphere;
+
+use crate::eval::toolkit_frame;
+use crate::{Sphere, SphereTree, TreeError};
+use mesh::TriMesh;
+
+/// Which builder [`build_tree`] runs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BuildMethod {
+    /// Octree cells meeting the surface, circumscribed spheres: fast, full coverage, loose.
+    Octree,
+    /// Clustered surface patches with optimised leaf spheres: tight (the default).
+    #[default]
+    Tight,
+}
+
+impl BuildMethod {
+    /// The name used on the command line (`octree`, `tight`).
+    pub fn name(self) -> &'static str {
+        match self {
+            BuildMethod::Octree => "octree",
+            BuildMethod::Tight => "tight",
+        }
+    }
+}
+
+impl std::str::FromStr for BuildMethod {
+    type Err = TreeError;
+    fn from_str(s: &str) -> Result<Self, TreeError> {
+        match s {
+            "octree" => Ok(BuildMethod::Octree),
+            "tight" => Ok(BuildMethod::Tight),
+            other => Err(TreeError::Build(format!(
+                "unknown build method `{other}`: use `tight` or `octree`"
+            ))),
+        }
+    }
+}
+
+/// Options of [`build_tree`]. Lengths are in toolkit units (mesh longest side = 2000).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BuildParams {
+    /// Depth of the tree (levels = depth + 1; default 4).
+    pub depth: u32,
+    /// Branching factor B (default 8; the octree needs B >= 8 and leaves the rest unused).
+    pub branching: u32,
+    /// Which builder (default [`BuildMethod::Tight`]).
+    pub method: BuildMethod,
+    /// Seed of every random choice (surface samples); the same seed gives the same tree.
+    pub seed: u64,
+    /// Tight builder: surface samples per leaf slot used to shape the patches (default 32).
+    pub samples_per_leaf: usize,
+    /// Tight builder: surface samples per leaf slot used to check coverage (default 128).
+    pub check_samples_per_leaf: usize,
+    /// Tight builder: weight of the leaf radius in the leaf objective
+    /// `protrusion bound + size_weight * radius` (default 0.02): 0 lets leaf spheres grow
+    /// towards the medial axis, larger values keep them small at a little more protrusion.
+    pub size_weight: f64,
+    /// Tight builder: every leaf radius is grown by this much beyond its patch (toolkit units,
+    /// default 1.0) so the thin slivers between neighbouring caps are covered too.
+    pub coverage_margin: f64,
+}
+
+impl Default for BuildParams {
+    fn default() -> Self {
+        Self {
+            depth: 4,
+            branching: 8,
+            method: BuildMethod::Tight,
+            seed: 1,
+            samples_per_leaf: 32,
+            check_samples_per_leaf: 128,
+            size_weight: 0.02,
+            coverage_margin: 1.0,
+        }
+    }
+}
+
+impl BuildParams {
+    /// The fast preset: the octree builder at `depth`.
+    pub fn fastest_build(depth: u32) -> Self {
+        Self {
+            depth,
+            method: BuildMethod::Octree,
+            ..Self::default()
+        }
+    }
+
+    /// The tight preset (the default) at `depth`.
+    pub fn tightest(depth: u32) -> Self {
+        Self {
+            depth,
+            ..Self::default()
+        }
+    }
+}
+
+/// Builds a sphere-tree of `mesh` (mesh units; must be a closed, consistently oriented
+/// 2-manifold for the tight builder's inside test — check with `TriMesh::check_closed`).
+/// `progress` is called with the completed fraction in `0..=1` (from worker threads).
+/// The result is in the mesh's own frame and passes [`SphereTree::validate`].
+///
+/// Errors on an empty or degenerate mesh, a bad shape, or an octree with `branching < 8`.
+pub fn build_tree(
+    mesh: &TriMesh,
+    params: &BuildParams,
+    progress: &(dyn Fn(f64) + Sync),
+) -> Result<SphereTree, TreeError> {
+    let levels = params.depth.checked_add(1).ok_or(TreeError::Shape {
+        levels: u32::MAX,
+        branching: params.branching,
+    })?;
+    let mut tree = SphereTree::new_unused(levels, params.branching)?;
+    let (centre, scale) = toolkit_frame(mesh).ok_or_else(|| {
+        TreeError::Build("the mesh is empty or has no extent: give a mesh with triangles".into())
+    })?;
+    let m = mesh.scaled_about(centre, scale);
+    if m.triangles.is_empty() {
+        return Err(TreeError::Build(
+            "the mesh has no triangles: give a closed triangle mesh".into(),
+        ));
+    }
+    progress(0.0);
+    match params.method {
+        BuildMethod::Octree => octree::build(&m, &mut tree, progress)?,
+        BuildMethod::Tight => tight::build(&m, params, &mut tree, progress)?,
+    }
+    // Back to the mesh frame. The similarity keeps containment up to rounding; grow parents
+    // by that rounding (≤ 1e-12 relative) so validate() holds exactly.
+    for s in tree.spheres_mut() {
+        if s.is_used() {
+            *s = Sphere::new(
+                [
+                    s.center[0] / scale + centre[0],
+                    s.center[1] / scale + centre[1],
+                    s.center[2] / scale + centre[2],
+                ],
+                s.radius / scale,
+            );
+        }
+    }
+    tree.enforce_containment();
+    progress(1.0);
+    Ok(tree)
+}
+
+/// Fills every internal used slot bottom-up with the smallest sphere enclosing its used
+/// children (toolkit frame). Slots whose children are all unused stay as they are.
+pub(crate) fn fill_parents(tree: &mut SphereTree) {
+    for level in (0..tree.depth()).rev() {
+        for n in tree.level_range(level) {
+            let kids: Vec<Sphere> = tree
+                .children(n)
+                .map(|c| *tree.sphere(c))
+                .filter(|s| s.is_used())
+                .collect();
+            if !kids.is_empty() {
+                tree.spheres_mut()[n] = enclosing_sphere(&kids);
+            }
+        }
+    }
+}
