@@ -175,6 +175,29 @@ impl PackedTree {
         f..f + self.child_count[n] as usize
     }
 
+    /// An upper bound (mm) on how far any point of this tree's geometry moves while the
+    /// configuration goes along the straight segment from `a` to `b` (mm, rad), measured from
+    /// either end: `|t_a - t_b| + (|dgamma| + |dbeta| + |dalpha|) * rho`, with `rho` the largest
+    /// distance from the tool origin to a point in the root sphere (each partial of `R` has
+    /// spectral norm 1, so `R` is 1-Lipschitz in each angle).
+    ///
+    /// Use it as the traversal margin at `b = q_h` with `a = q_g_prev` (anti-tunnelling): every
+    /// leaf pair that touches anywhere on the segment has gap at most this at `q_h`. Valid for a
+    /// tree packed with [`PackedTree::new`] (the tool's own frame).
+    ///
+    /// # Real-time
+    /// No allocation, no panic, constant time.
+    pub fn sweep_margin(&self, a: &Pose, b: &Pose) -> f64 {
+        let rho = if self.is_empty() {
+            0.0
+        } else {
+            (self.x[0].powi(2) + self.y[0].powi(2) + self.z[0].powi(2)).sqrt() + self.r[0].max(0.0)
+        };
+        let d = a.q - b.q;
+        let dt = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        dt + (d[3].abs() + d[4].abs() + d[5].abs()) * rho
+    }
+
     /// Packed indices of all leaves.
     pub fn leaves(&self) -> impl Iterator<Item = usize> + '_ {
         (0..self.len()).filter(move |&n| self.is_leaf(n))

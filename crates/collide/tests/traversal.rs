@@ -216,3 +216,46 @@ fn tree_breaking_containment_is_rejected_until_enforced() {
     t.enforce_containment();
     PackedTree::new(&t).unwrap();
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// Every point of the tool moves at most `sweep_margin` along the segment, and a pair that
+    /// touches somewhere on the segment is found at `q_h` with that margin.
+    #[test]
+    fn sweep_margin_bounds_motion_along_the_segment(
+        seed in any::<u64>(),
+        q_prev in pose_strategy(EXTENT),
+        dq in proptest::array::uniform6(-0.5f64..0.5),
+    ) {
+        let tool = random_tree(seed, shape(3, 8, 0.7, 0.1));
+        let pt = PackedTree::new(&tool).unwrap();
+        let mut q_h = q_prev;
+        for k in 0..6 {
+            q_h.q[k] += dq[k] * if k < 3 { 20.0 } else { 1.0 };
+        }
+        let margin = pt.sweep_margin(&q_prev, &q_h);
+        let object = random_tree(seed ^ 0x5eed, shape(3, 8, 0.7, 0.1));
+        let po = PackedTree::new(&object).unwrap();
+        let mut ws = CollideWorkspace::new();
+        let mut found = HashSet::new();
+        overlap_tree_tree(&pt, &q_h, &po, margin, &mut ws, |p| {
+            found.insert((p.tool_slot, p.object_slot));
+        })
+        .unwrap();
+        for i in 0..=20 {
+            let s = i as f64 / 20.0;
+            let q = Pose { q: q_prev.q + (q_h.q - q_prev.q) * s };
+            for leaf in tool.leaves() {
+                let p = tool.sphere(leaf).center;
+                let moved = common::dist(&q.transform_point(&p), &q_h.transform_point(&p));
+                prop_assert!(moved <= margin * (1.0 + 1e-12) + 1e-9, "{moved} > {margin}");
+            }
+            for (t, o, g) in brute_force_gaps(&tool, &q, &object, &Pose::identity()) {
+                if g <= 0.0 {
+                    prop_assert!(found.contains(&(t, o)), "pair ({t}, {o}) touches at s = {s} but was not found");
+                }
+            }
+        }
+    }
+}
