@@ -231,8 +231,8 @@ proptest! {
         let tool = random_tree(seed, shape(3, 8, 0.7, 0.1));
         let pt = PackedTree::new(&tool).unwrap();
         let mut q_h = q_prev;
-        for k in 0..6 {
-            q_h.q[k] += dq[k] * if k < 3 { 20.0 } else { 1.0 };
+        for (k, d) in dq.iter().enumerate() {
+            q_h.q[k] += d * if k < 3 { 20.0 } else { 1.0 };
         }
         let margin = pt.sweep_margin(&q_prev, &q_h);
         let object = random_tree(seed ^ 0x5eed, shape(3, 8, 0.7, 0.1));
