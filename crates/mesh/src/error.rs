@@ -7,12 +7,12 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
     /// The file could not be read.
-    #[error("cannot read mesh file {path}: {source}")]
+    #[error("cannot read mesh file {path}: {error}")]
     Read {
         /// The file.
         path: PathBuf,
-        /// The OS error.
-        source: std::io::Error,
+        /// The OS error (part of the message, not a separate source).
+        error: std::io::Error,
     },
     /// The file's format is not one this crate reads.
     #[error(

@@ -79,9 +79,9 @@ pub struct LoadedMesh {
 /// follow its format (truncated, wrong counts), no face, NaN or infinite coordinates,
 /// out-of-range indices, faces of fewer than 3 vertices, or only degenerate triangles.
 pub fn load_mesh(path: &Path) -> Result<LoadedMesh, MeshError> {
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Read {
+    let bytes = std::fs::read(path).map_err(|error| MeshError::Read {
         path: path.to_path_buf(),
-        source,
+        error,
     })?;
     load_mesh_bytes(&bytes, path)
 }

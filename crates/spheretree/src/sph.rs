@@ -40,12 +40,12 @@ use crate::{slot_count, Sphere, SphereTree};
 #[derive(Debug, thiserror::Error)]
 pub enum SphError {
     /// The file could not be read.
-    #[error("cannot read sphere-tree file {path}: {source}")]
+    #[error("cannot read sphere-tree file {path}: {error}")]
     Read {
         /// The file.
         path: PathBuf,
-        /// The OS error.
-        source: std::io::Error,
+        /// The OS error (part of the message, not a separate source).
+        error: std::io::Error,
     },
     /// The text is not a valid `.sph` file.
     #[error("{source_name}:{line}: {message}")]
@@ -59,13 +59,13 @@ pub enum SphError {
     },
     /// The file could not be written; an existing file at the path is left untouched.
     #[error(
-        "cannot write sphere-tree file {path}: {source} (any existing file there is unchanged)"
+        "cannot write sphere-tree file {path}: {error} (any existing file there is unchanged)"
     )]
     Write {
         /// The target file.
         path: PathBuf,
-        /// The OS error.
-        source: std::io::Error,
+        /// The OS error (part of the message, not a separate source).
+        error: std::io::Error,
     },
     /// The tree cannot be written faithfully.
     #[error("cannot write slot {slot}: {message}")]
@@ -79,9 +79,9 @@ pub enum SphError {
 
 /// Reads a `.sph` file (see the module docs for the format). Errors name the file and line.
 pub fn read_sph(path: &Path) -> Result<SphereTree, SphError> {
-    let bytes = std::fs::read(path).map_err(|source| SphError::Read {
+    let bytes = std::fs::read(path).map_err(|error| SphError::Read {
         path: path.to_path_buf(),
-        source,
+        error,
     })?;
     // The toolkit's trailer is free text; do not fail on stray non-UTF-8 bytes there.
     let text = String::from_utf8_lossy(&bytes);
@@ -251,9 +251,9 @@ pub fn to_sph_string(tree: &SphereTree) -> Result<String, SphError> {
 /// removed and an existing file at `path` is left as it was.
 pub fn write_sph(tree: &SphereTree, path: &Path) -> Result<(), SphError> {
     let text = to_sph_string(tree)?;
-    write_atomic(path, text.as_bytes()).map_err(|source| SphError::Write {
+    write_atomic(path, text.as_bytes()).map_err(|error| SphError::Write {
         path: path.to_path_buf(),
-        source,
+        error,
     })
 }
 
