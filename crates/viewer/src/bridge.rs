@@ -1,0 +1,383 @@
+//! The UDP device bridge: a server thread that takes POSE datagrams from one device program,
+//! drives the haptic loop with them and answers each with a WRENCH; and [`BridgeClient`], the
+//! device program's side. The protocol is in [`crate::protocol`] and docs/VIEWER.md.
+//!
+//! Safety rule: a device whose POSE stream stops for longer than the timeout is released —
+//! the haptic thread holds it at the graphic pose, so force and torque go to zero — and the
+//! client, for its part, renders zero force when no WRENCH arrived within its own timeout.
+
+use std::io;
+use std::net::{SocketAddr, UdpSocket};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use collide::Pose;
+
+use crate::error::ViewerError;
+use crate::hub::{InputHub, InputSource, StateHub};
+use crate::protocol::{
+    decode, encode_bye, flags, seq_newer, Header, Kind, Message, PoseMsg, WrenchMsg, BYE_LEN,
+    POSE_LEN, WRENCH_LEN,
+};
+
+/// Bridge settings.
+#[derive(Clone, Debug)]
+pub struct BridgeParams {
+    /// Address to bind (e.g. `127.0.0.1:8081`; port 0 picks a free one).
+    pub addr: SocketAddr,
+    /// A device whose POSE stream is silent this long is released (zero force).
+    pub timeout: Duration,
+}
+
+/// Counters of what the bridge did, readable while it runs.
+#[derive(Debug, Default)]
+pub struct BridgeStats {
+    /// POSE datagrams applied.
+    pub accepted: AtomicU64,
+    /// POSE datagrams dropped as duplicate or out of order (sequence not newer).
+    pub stale: AtomicU64,
+    /// Datagrams that failed to decode.
+    pub malformed: AtomicU64,
+    /// POSE datagrams refused because another client owns the bridge.
+    pub busy: AtomicU64,
+    /// Times a client timed out.
+    pub timeouts: AtomicU64,
+}
+
+/// A running bridge server thread.
+pub struct UdpBridge {
+    local: SocketAddr,
+    stop: Arc<AtomicBool>,
+    stats: Arc<BridgeStats>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl UdpBridge {
+    /// Binds `params.addr` and starts the bridge thread (`haptic6d-udp`), feeding `input` and
+    /// answering from `state`.
+    pub fn spawn(
+        params: &BridgeParams,
+        input: Arc<InputHub>,
+        state: Arc<StateHub>,
+    ) -> Result<Self, ViewerError> {
+        let bind_err = |source| ViewerError::Bind {
+            what: "UDP bridge",
+            addr: params.addr.to_string(),
+            source,
+        };
+        let socket = UdpSocket::bind(params.addr).map_err(bind_err)?;
+        socket
+            .set_read_timeout(Some(Duration::from_millis(10)))
+            .map_err(bind_err)?;
+        let local = socket.local_addr().map_err(bind_err)?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let stats = Arc::new(BridgeStats::default());
+        let server = Server {
+            socket,
+            input,
+            state,
+            timeout: params.timeout,
+            stop: stop.clone(),
+            stats: stats.clone(),
+            owner: None,
+            seq: 0,
+        };
+        let thread = std::thread::Builder::new()
+            .name("haptic6d-udp".into())
+            .spawn(move || server.run())
+            .map_err(ViewerError::Thread)?;
+        Ok(Self {
+            local,
+            stop,
+            stats,
+            thread: Some(thread),
+        })
+    }
+
+    /// The bound address (useful with port 0).
+    pub fn local_addr(&self) -> SocketAddr {
+        self.local
+    }
+
+    /// The bridge's counters.
+    pub fn stats(&self) -> &BridgeStats {
+        &self.stats
+    }
+
+    /// Stops the bridge thread.
+    pub fn shutdown(mut self) {
+        self.halt();
+    }
+
+    fn halt(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for UdpBridge {
+    fn drop(&mut self) {
+        self.halt();
+    }
+}
+
+struct Owner {
+    addr: SocketAddr,
+    last_seq: u32,
+    last_rx: Instant,
+}
+
+struct Server {
+    socket: UdpSocket,
+    input: Arc<InputHub>,
+    state: Arc<StateHub>,
+    timeout: Duration,
+    stop: Arc<AtomicBool>,
+    stats: Arc<BridgeStats>,
+    owner: Option<Owner>,
+    seq: u32,
+}
+
+impl Server {
+    fn run(mut self) {
+        let mut buf = [0u8; 512];
+        while !self.stop.load(Ordering::Acquire) {
+            let now = Instant::now();
+            if let Some(o) = &self.owner {
+                if now.duration_since(o.last_rx) > self.timeout {
+                    // The loop already releases on the command's expiry; free the bridge too.
+                    self.owner = None;
+                    self.stats.timeouts.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+            let (n, from) = match self.socket.recv_from(&mut buf) {
+                Ok(x) => x,
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                    ) =>
+                {
+                    continue
+                }
+                // E.g. ICMP port unreachable from a client that went away: keep serving.
+                Err(_) => continue,
+            };
+            match decode(&buf[..n]) {
+                Ok(Message::Pose(p)) => self.on_pose(p, from),
+                Ok(Message::Bye(_)) => {
+                    if self.owner.as_ref().is_some_and(|o| o.addr == from) {
+                        self.input.release(InputSource::Udp);
+                        self.owner = None;
+                    }
+                }
+                Ok(Message::Wrench(_)) | Err(_) => {
+                    self.stats.malformed.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+        }
+        if self.owner.is_some() {
+            self.input.release(InputSource::Udp);
+        }
+    }
+
+    fn on_pose(&mut self, p: PoseMsg, from: SocketAddr) {
+        let now = Instant::now();
+        match &mut self.owner {
+            Some(o) if o.addr != from => {
+                self.stats.busy.fetch_add(1, Ordering::Relaxed);
+                self.reply(&p, from, flags::BUSY | flags::RELEASED, false);
+                return;
+            }
+            Some(o) => {
+                if !seq_newer(p.header.seq, o.last_seq) {
+                    self.stats.stale.fetch_add(1, Ordering::Relaxed);
+                    return;
+                }
+                o.last_seq = p.header.seq;
+                o.last_rx = now;
+            }
+            None => {
+                self.owner = Some(Owner {
+                    addr: from,
+                    last_seq: p.header.seq,
+                    last_rx: now,
+                });
+            }
+        }
+        let applied = self
+            .input
+            .submit(
+                InputSource::Udp,
+                Pose::from_array(p.q),
+                Some(now + self.timeout),
+            )
+            .is_ok();
+        if applied {
+            self.stats.accepted.fetch_add(1, Ordering::Relaxed);
+        }
+        self.reply(&p, from, 0, applied);
+    }
+
+    fn reply(&mut self, p: &PoseMsg, to: SocketAddr, extra: u16, applied: bool) {
+        self.seq = self.seq.wrapping_add(1);
+        let mut msg = self.state.with_latest(|s| {
+            let ours = applied && !s.released && s.source == InputSource::Udp as u8;
+            let mut fl = extra;
+            if !ours {
+                fl |= flags::RELEASED;
+            }
+            if s.pairs > 0 {
+                fl |= flags::CONTACT;
+            }
+            WrenchMsg {
+                header: Header {
+                    kind: Kind::Wrench,
+                    flags: fl,
+                    seq: 0,
+                    ack: p.header.seq,
+                    time_us: p.header.time_us,
+                },
+                force: if ours { s.force } else { [0.0; 3] },
+                torque: if ours { s.torque } else { [0.0; 3] },
+                graphic: s.graphic,
+                pairs: s.pairs,
+            }
+        });
+        msg.header.seq = self.seq;
+        let mut out = [0u8; WRENCH_LEN];
+        let n = msg.encode(&mut out);
+        // A lost reply is covered by the client's own timeout.
+        let _ = self.socket.send_to(&out[..n], to);
+    }
+}
+
+/// The device program's end of the bridge: sends POSEs, keeps the newest WRENCH, and says
+/// which wrench to render (zero when the server has gone quiet).
+pub struct BridgeClient {
+    socket: UdpSocket,
+    server: SocketAddr,
+    seq: u32,
+    timeout: Duration,
+    epoch: Instant,
+    last: Option<(Instant, WrenchMsg)>,
+}
+
+impl BridgeClient {
+    /// A client for the bridge at `server`, bound to an ephemeral port on the matching
+    /// interface, non-blocking. `timeout`: with no WRENCH for this long, [`Self::wrench`]
+    /// returns zero.
+    pub fn connect(server: SocketAddr, timeout: Duration) -> io::Result<Self> {
+        let local: SocketAddr = if server.ip().is_loopback() {
+            if server.is_ipv4() {
+                "127.0.0.1:0"
+            } else {
+                "[::1]:0"
+            }
+        } else if server.is_ipv4() {
+            "0.0.0.0:0"
+        } else {
+            "[::]:0"
+        }
+        .parse()
+        .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
+        let socket = UdpSocket::bind(local)?;
+        socket.set_nonblocking(true)?;
+        Ok(Self {
+            socket,
+            server,
+            seq: 0,
+            timeout,
+            epoch: Instant::now(),
+            last: None,
+        })
+    }
+
+    /// Sends the device pose `q` (mm, rad); returns its sequence number.
+    pub fn send_pose(&mut self, q: [f64; 6]) -> io::Result<u32> {
+        self.seq = self.seq.wrapping_add(1);
+        let msg = PoseMsg {
+            header: Header {
+                kind: Kind::Pose,
+                flags: 0,
+                seq: self.seq,
+                ack: 0,
+                time_us: self.epoch.elapsed().as_micros() as u64,
+            },
+            q,
+        };
+        let mut buf = [0u8; POSE_LEN];
+        let n = msg.encode(&mut buf);
+        self.socket.send_to(&buf[..n], self.server)?;
+        Ok(self.seq)
+    }
+
+    /// Reads every WRENCH waiting on the socket and keeps the newest (by `ack`); returns it if
+    /// one arrived now.
+    pub fn poll(&mut self) -> io::Result<Option<WrenchMsg>> {
+        let mut buf = [0u8; 512];
+        let mut got = None;
+        loop {
+            match self.socket.recv_from(&mut buf) {
+                Ok((n, from)) => {
+                    if from != self.server {
+                        continue;
+                    }
+                    if let Ok(Message::Wrench(w)) = decode(&buf[..n]) {
+                        let newer = self
+                            .last
+                            .as_ref()
+                            .is_none_or(|(_, l)| !seq_newer(l.header.ack, w.header.ack));
+                        if newer {
+                            self.last = Some((Instant::now(), w));
+                            got = Some(w);
+                        }
+                    }
+                }
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => return Ok(got),
+                // ICMP errors (server not listening) surface here; treat as "nothing yet".
+                Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => return Ok(got),
+                Err(e) => return Err(e),
+            }
+        }
+    }
+
+    /// The newest WRENCH received, with its arrival time.
+    pub fn last(&self) -> Option<&(Instant, WrenchMsg)> {
+        self.last.as_ref()
+    }
+
+    /// Round-trip time of the newest WRENCH (its echoed `time_us` against this client's clock).
+    pub fn round_trip(&self) -> Option<Duration> {
+        let (at, w) = self.last.as_ref()?;
+        let sent = self.epoch + Duration::from_micros(w.header.time_us);
+        at.checked_duration_since(sent)
+    }
+
+    /// The force (N) and torque (N·mm) to render at `now`: the newest WRENCH's, or zero when
+    /// none arrived within the timeout or the server says the device is released.
+    pub fn wrench(&self, now: Instant) -> ([f64; 3], [f64; 3]) {
+        match &self.last {
+            Some((at, w))
+                if now.duration_since(*at) <= self.timeout
+                    && w.header.flags & flags::RELEASED == 0 =>
+            {
+                (w.force, w.torque)
+            }
+            _ => ([0.0; 3], [0.0; 3]),
+        }
+    }
+
+    /// Tells the server to release the device now.
+    pub fn bye(&mut self) -> io::Result<()> {
+        self.seq = self.seq.wrapping_add(1);
+        let mut buf = [0u8; BYE_LEN];
+        let n = encode_bye(self.seq, &mut buf);
+        self.socket.send_to(&buf[..n], self.server)?;
+        Ok(())
+    }
+}

@@ -1,0 +1,226 @@
+//! Lock-free hand-over between the haptic thread and everyone else.
+//!
+//! - [`InputHub`]: many writers (page connections, the UDP bridge) → the haptic thread. The
+//!   writers serialise among themselves with a mutex; the haptic thread reads the latest
+//!   [`DeviceCommand`] from a triple buffer without locking.
+//! - [`StateHub`]: the haptic thread → many readers (WebSocket streams, the UDP bridge). The
+//!   haptic thread publishes every frame into a triple buffer without locking; readers share
+//!   the output end behind a mutex.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use collide::Pose;
+
+use crate::sim::FrameState;
+
+/// Who is driving the device pose.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[repr(u8)]
+pub enum InputSource {
+    /// Nobody: the device is held at the graphic pose (zero force).
+    #[default]
+    None = 0,
+    /// The web page (mouse, keys, gamepad).
+    Page = 1,
+    /// The UDP device bridge.
+    Udp = 2,
+    /// A program using the library directly (tests, scripts).
+    Script = 3,
+}
+
+/// The latest device pose and where it came from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DeviceCommand {
+    /// Device configuration (mm, rad).
+    pub pose: Pose,
+    /// Who sent it.
+    pub source: InputSource,
+    /// Increases by one with every accepted command.
+    pub seq: u64,
+    /// After this instant the command is stale: the haptic thread releases the device (holds
+    /// it at the graphic pose, zero force). `None` = never stale.
+    pub expires: Option<Instant>,
+}
+
+impl Default for DeviceCommand {
+    fn default() -> Self {
+        Self {
+            pose: Pose::identity(),
+            source: InputSource::None,
+            seq: 0,
+            expires: None,
+        }
+    }
+}
+
+impl DeviceCommand {
+    /// True when this command drives the device at `now` (a source is set and it has not expired).
+    #[inline]
+    pub fn is_live(&self, now: Instant) -> bool {
+        self.source != InputSource::None && self.expires.is_none_or(|e| now < e)
+    }
+}
+
+/// Why a command was not accepted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Rejected {
+    /// Another source is live and has priority (a live UDP device outranks the page).
+    Busy(InputSource),
+    /// The pose has a NaN or infinite component.
+    NotFinite,
+}
+
+/// Many writers → the haptic thread: the latest [`DeviceCommand`].
+pub struct InputHub {
+    writer: Mutex<Writer>,
+    resets: AtomicU64,
+}
+
+struct Writer {
+    input: triple_buffer::Input<DeviceCommand>,
+    last: DeviceCommand,
+}
+
+/// The haptic thread's end of an [`InputHub`].
+pub struct InputReader {
+    output: triple_buffer::Output<DeviceCommand>,
+}
+
+impl InputReader {
+    /// The latest command.
+    ///
+    /// # Real-time
+    /// Wait-free, no allocation, no panic.
+    #[inline]
+    pub fn latest(&mut self) -> DeviceCommand {
+        *self.output.read()
+    }
+}
+
+impl InputHub {
+    /// A hub and the haptic thread's reader; no command yet (the device is released).
+    pub fn new() -> (Self, InputReader) {
+        let (input, output) = triple_buffer::triple_buffer(&DeviceCommand::default());
+        (
+            Self {
+                writer: Mutex::new(Writer {
+                    input,
+                    last: DeviceCommand::default(),
+                }),
+                resets: AtomicU64::new(0),
+            },
+            InputReader { output },
+        )
+    }
+
+    /// Submits a device pose from `source`, stale after `expires`. A live UDP command outranks
+    /// the page: page poses are rejected while a UDP device drives the loop. Returns the
+    /// command's sequence number.
+    pub fn submit(
+        &self,
+        source: InputSource,
+        pose: Pose,
+        expires: Option<Instant>,
+    ) -> Result<u64, Rejected> {
+        if !pose.is_finite() {
+            return Err(Rejected::NotFinite);
+        }
+        let mut w = self.writer.lock().unwrap_or_else(|p| p.into_inner());
+        let now = Instant::now();
+        if source == InputSource::Page && w.last.source == InputSource::Udp && w.last.is_live(now) {
+            return Err(Rejected::Busy(InputSource::Udp));
+        }
+        let cmd = DeviceCommand {
+            pose,
+            source,
+            seq: w.last.seq + 1,
+            expires,
+        };
+        w.last = cmd;
+        w.input.write(cmd);
+        Ok(cmd.seq)
+    }
+
+    /// Releases the device now if `source` is driving it (zero force until the next command).
+    pub fn release(&self, source: InputSource) {
+        let mut w = self.writer.lock().unwrap_or_else(|p| p.into_inner());
+        if w.last.source == source {
+            let cmd = DeviceCommand {
+                pose: w.last.pose,
+                source: InputSource::None,
+                seq: w.last.seq + 1,
+                expires: None,
+            };
+            w.last = cmd;
+            w.input.write(cmd);
+        }
+    }
+
+    /// The last command accepted (whether or not the haptic thread has seen it).
+    pub fn last(&self) -> DeviceCommand {
+        self.writer.lock().unwrap_or_else(|p| p.into_inner()).last
+    }
+
+    /// Asks the haptic thread to re-seat the god-object and the device at the start pose.
+    pub fn request_reset(&self) {
+        self.resets.fetch_add(1, Ordering::Release);
+    }
+
+    /// How many resets were requested so far (the haptic thread compares with its own count).
+    ///
+    /// # Real-time
+    /// One atomic load.
+    #[inline]
+    pub fn reset_count(&self) -> u64 {
+        self.resets.load(Ordering::Acquire)
+    }
+}
+
+/// The haptic thread → many readers: the latest [`FrameState`].
+pub struct StateHub {
+    output: Mutex<triple_buffer::Output<FrameState>>,
+}
+
+/// The haptic thread's end of a [`StateHub`].
+pub struct StatePublisher {
+    input: triple_buffer::Input<FrameState>,
+}
+
+impl StatePublisher {
+    /// Publishes `state` (copied into the back buffer, reusing its memory).
+    ///
+    /// # Real-time
+    /// Wait-free; no allocation (all buffers are sized for the display contacts at
+    /// construction); O(contacts).
+    #[inline]
+    pub fn publish(&mut self, state: &FrameState) {
+        self.input.input_buffer_mut().copy_from(state);
+        self.input.publish();
+    }
+}
+
+impl StateHub {
+    /// A hub starting with `initial` and the haptic thread's publisher.
+    pub fn new(initial: &FrameState) -> (Self, StatePublisher) {
+        let (input, output) = triple_buffer::triple_buffer(initial);
+        (
+            Self {
+                output: Mutex::new(output),
+            },
+            StatePublisher { input },
+        )
+    }
+
+    /// Runs `f` on the latest state (blocks other readers, never the haptic thread).
+    pub fn with_latest<R>(&self, f: impl FnOnce(&FrameState) -> R) -> R {
+        let mut out = self.output.lock().unwrap_or_else(|p| p.into_inner());
+        f(out.read())
+    }
+
+    /// A copy of the latest state.
+    pub fn latest(&self) -> FrameState {
+        self.with_latest(|s| s.clone())
+    }
+}

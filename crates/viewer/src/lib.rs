@@ -1,0 +1,29 @@
+//! haptic6d's interactive viewer and device bridge (`haptic6d serve`).
+//!
+//! Entry points:
+//! - [`Simulation`]: the seam to the haptic engine — a device pose in, a [`FrameState`]
+//!   (graphic pose, force, torque, pairs, timings, contacts) out.
+//! - [`HapticLoop::spawn`]: steps a simulation at 1 kHz on the named thread
+//!   `haptic6d-haptic`; device poses go in through [`InputHub`], states come out through
+//!   [`StateHub`], both lock-free on the haptic side; it records trajectories to CSV.
+//! - [`server::router`]: the axum app (page, scene, WebSocket state stream at display rate).
+//! - [`UdpBridge`] / [`BridgeClient`]: the UDP device bridge ([`protocol`], version 1).
+#![warn(missing_docs)]
+
+pub mod bridge;
+pub mod error;
+pub mod haptic;
+pub mod hub;
+pub mod protocol;
+pub mod recorder;
+pub mod server;
+pub mod sim;
+
+pub use bridge::{BridgeClient, BridgeParams, BridgeStats, UdpBridge};
+pub use error::ViewerError;
+pub use haptic::{HapticLoop, LoopParams};
+pub use hub::{DeviceCommand, InputHub, InputSource, Rejected, StateHub};
+pub use recorder::RecordingSummary;
+pub use sim::{
+    ContactPair, FrameState, NamedMesh, SceneGeometry, Simulation, MAX_DISPLAY_CONTACTS,
+};

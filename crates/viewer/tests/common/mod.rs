@@ -1,0 +1,86 @@
+//! A test double for the viewer's infrastructure tests: a point tool above the floor `z >= 0`
+//! (the god-object is the device pose with z clamped), so expected wrenches are known exactly.
+//! The shipped `serve` path uses the real render pipeline; this only exercises transport.
+#![allow(dead_code)]
+
+use collide::Pose;
+use mesh::TriMesh;
+use viewer::{ContactPair, FrameState, NamedMesh, SceneGeometry, Simulation};
+
+/// Translational stiffness of the floor (N/mm).
+pub const KT: f64 = 1.0;
+
+pub struct Floor {
+    graphic: Pose,
+}
+
+impl Floor {
+    pub fn new() -> Self {
+        Self {
+            graphic: Pose::from_array([0.0, 0.0, 10.0, 0.0, 0.0, 0.0]),
+        }
+    }
+}
+
+fn square(z: f64, half: f64) -> TriMesh {
+    TriMesh {
+        vertices: vec![
+            [-half, -half, z],
+            [half, -half, z],
+            [half, half, z],
+            [-half, half, z],
+        ],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+    }
+}
+
+impl Simulation for Floor {
+    fn scene(&self) -> SceneGeometry {
+        SceneGeometry {
+            name: "floor".into(),
+            tool: NamedMesh {
+                name: "tool".into(),
+                mesh: square(0.0, 1.0),
+                pose: [0.0; 6],
+            },
+            objects: vec![NamedMesh {
+                name: "floor".into(),
+                mesh: square(0.0, 100.0),
+                pose: [0.0; 6],
+            }],
+            kt: KT,
+            kr: 1000.0,
+            max_force: 20.0,
+        }
+    }
+
+    fn start_pose(&self) -> Pose {
+        Pose::from_array([0.0, 0.0, 10.0, 0.0, 0.0, 0.0])
+    }
+
+    fn step(&mut self, device: &Pose, out: &mut FrameState) {
+        let mut g = *device;
+        let contact = g.q[2] < 0.0;
+        if contact {
+            g.q[2] = 0.0;
+        }
+        self.graphic = g;
+        out.graphic = g.to_array();
+        out.force = [0.0, 0.0, KT * (g.q[2] - device.q[2])];
+        out.torque = [0.0; 3];
+        out.pairs = u32::from(contact);
+        out.penetration_mm = 0.0;
+        if contact {
+            out.push_contact(ContactPair {
+                tool_centre: [g.q[0], g.q[1], g.q[2] + 1.0],
+                tool_radius: 1.0,
+                object_centre: [g.q[0], g.q[1], -1.0],
+                object_radius: 1.0,
+            });
+        }
+    }
+
+    fn reset(&mut self, pose: &Pose) {
+        self.graphic = *pose;
+    }
+}
