@@ -14,6 +14,7 @@ use parry3d_f64::math::{Isometry, Point, Real};
 use parry3d_f64::partitioning::Qbvh;
 use parry3d_f64::query::visitors::BoundingVolumeIntersectionsSimultaneousVisitor;
 use parry3d_f64::shape::{Compound, SharedShape};
+use spheretree::build::{build_tree, BuildParams};
 use spheretree::SphereTree;
 
 /// Mesh units -> mm (the bunny is ~10 units across: ~100 mm).
@@ -26,12 +27,34 @@ fn repo_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-/// The bunny tree, in mm. Source: the Bradshaw toolkit's hubbard tree (depth 4, B 8), containment
+/// The bunny tree, in mm: `spheretree::build::build_tree` (default tight builder, depth 4, B 8)
+/// on assets/bunny.obj scaled by 10 (~100 mm). With `COLLIDE_BENCH_TREE=hubbard`, the Bradshaw
+/// toolkit's hubbard tree (../shared/data/peers/bradshaw/bunny-hubbard.sph) instead, containment
 /// enforced.
 fn bunny_tree() -> (SphereTree, String) {
-    let path = repo_root().join("../shared/data/peers/bradshaw/bunny-hubbard.sph");
-    let mut tree = spheretree::sph::read_sph(&path)
-        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+    let mut tree;
+    let source;
+    if std::env::var("COLLIDE_BENCH_TREE").as_deref() == Ok("hubbard") {
+        let path = repo_root().join("../shared/data/peers/bradshaw/bunny-hubbard.sph");
+        tree = spheretree::sph::read_sph(&path)
+            .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+        source = "Bradshaw toolkit hubbard tree bunny-hubbard.sph".to_string();
+    } else {
+        let path = repo_root().join("assets/bunny.obj");
+        let mesh = mesh::load_mesh(&path)
+            .unwrap_or_else(|e| panic!("cannot load {}: {e}", path.display()))
+            .mesh;
+        let params = BuildParams::default();
+        let t0 = Instant::now();
+        tree = build_tree(&mesh, &params, &|_| {}).expect("bunny tree build");
+        source = format!(
+            "build_tree({}, depth {}, B {}) on assets/bunny.obj, built in {:.1} s",
+            params.method.name(),
+            params.depth,
+            params.branching,
+            t0.elapsed().as_secs_f64()
+        );
+    }
     for s in tree.spheres_mut() {
         if s.is_used() {
             s.center = s.center.map(|v| v * SCALE);
@@ -39,7 +62,10 @@ fn bunny_tree() -> (SphereTree, String) {
         }
     }
     let growth = tree.enforce_containment();
-    (tree, format!("Bradshaw hubbard bunny-hubbard.sph x{SCALE} (containment enforced, max growth {growth:.3} mm)"))
+    (
+        tree,
+        format!("{source}, x{SCALE} to mm (containment enforced: max growth {growth:.3} mm)"),
+    )
 }
 
 fn pose_at(offset: f64) -> Pose {
