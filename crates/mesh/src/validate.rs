@@ -1,7 +1,7 @@
 //! Validation: from raw polygons as read from a file to a clean [`TriMesh`], and the closed
 //! 2-manifold check ([`TriMesh::check_closed`]) for builders that need an inside.
 //!
-//! The cleaning steps, in order (see [`clean_polygons`]):
+//! The cleaning steps [`crate::load_mesh`] applies, in order:
 //! 1. every vertex coordinate must be finite, every face index in range, every face at least
 //!    3 vertices long (errors);
 //! 2. polygons are split into triangles by a fan from their first vertex;
