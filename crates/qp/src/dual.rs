@@ -21,7 +21,7 @@
 
 use crate::basis::{scaled, Basis, DIM};
 use crate::problem::{dot6, Problem};
-use crate::solution::{Solution, Status};
+use crate::solution::{Kkt, Solution, Status};
 
 /// Tuning of the dual active-set solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -56,6 +56,8 @@ pub struct DualWorkspace {
     pub params: DualParams,
     basis: Basis,
     y: Vec<f64>,
+    /// Per row: `1 / |n_k|` (+inf for a zero row, NaN until first needed).
+    inv_n: Vec<f64>,
     hint: [usize; DIM],
     hint_len: usize,
 }
@@ -77,6 +79,7 @@ impl DualWorkspace {
     /// Reserves room for problems of up to `n` rows, so that later solves do not allocate.
     pub fn reserve(&mut self, n: usize) {
         self.y.reserve(n.saturating_sub(self.y.len()));
+        self.inv_n.reserve(n.saturating_sub(self.inv_n.len()));
     }
 
     /// The multipliers `y` (one per row, `>= 0`) of the last solve.
@@ -121,23 +124,61 @@ impl DualWorkspace {
             self.hint_len = 0;
             return Solution::zero(Status::Solved);
         }
-        let (status, z, iterations) = self.run(p, &hint[..hint_len]);
-        for c in 0..self.basis.k {
-            self.y[self.basis.idx[c]] = self.basis.u[c];
+        let (status, z, iterations, max_violation) = self.run(p, &hint[..hint_len]);
+        let b = &self.basis;
+        for c in 0..b.k {
+            self.y[b.idx[c]] = b.u[c];
         }
-        self.hint_len = self.basis.k;
-        self.hint[..self.basis.k].copy_from_slice(self.basis.indices());
+        self.hint_len = b.k;
+        self.hint[..b.k].copy_from_slice(b.indices());
         let isg = inv_sqrt(p.g());
         let dq: [f64; 6] = std::array::from_fn(|i| z[i] * isg[i]);
-        Solution::finish(p, dq, &self.y, status, iterations)
+        if status != Status::Solved {
+            return Solution::finish(p, dq, &self.y, status, iterations);
+        }
+        // Optimal: the last scan measured the violation at this dq; the other residuals
+        // involve only the (at most 6) rows with y_k != 0.
+        let (g, j, d) = (p.g(), p.j(), p.d());
+        let mut jty = [0.0f64; DIM];
+        let (mut dty, mut comp, mut miny) = (0.0f64, 0.0f64, f64::INFINITY);
+        for c in 0..b.k {
+            let (row, u) = (&j[b.idx[c]], b.u[c]);
+            let sk = dot6(row, &dq) - d[b.idx[c]];
+            comp = comp.max((u * sk).abs());
+            miny = miny.min(u);
+            dty += d[b.idx[c]] * u;
+            for i in 0..DIM {
+                jty[i] += u * row[i];
+            }
+        }
+        let mut stat = 0.0f64;
+        let mut dual = dty;
+        for i in 0..DIM {
+            stat = stat.max((g[i] * dq[i] - jty[i]).abs());
+            dual -= 0.5 * jty[i] * jty[i] / g[i];
+        }
+        let objective = p.objective(&dq);
+        let kkt = Kkt {
+            max_violation: max_violation.max(0.0),
+            min_multiplier: if b.k < n { miny.min(0.0) } else { miny },
+            complementarity: comp,
+            stationarity: stat,
+            duality_gap: objective - dual,
+        };
+        Solution::with_kkt(dq, status, iterations, objective, kkt)
     }
 
-    /// The Goldfarb–Idnani iteration; returns the status, `z` and the iteration count.
-    fn run(&mut self, p: &Problem<'_>, hint: &[usize]) -> (Status, [f64; DIM], u32) {
+    /// The Goldfarb–Idnani iteration; returns the status, `z`, the iteration count and the
+    /// largest `d_k - J_k dq` found by the last scan.
+    fn run(&mut self, p: &Problem<'_>, hint: &[usize]) -> (Status, [f64; DIM], u32, f64) {
         let prm = self.params;
         let (j, d) = (p.j(), p.d());
         let n = j.len();
         let isg = inv_sqrt(p.g());
+        let ig: [f64; DIM] = std::array::from_fn(|i| isg[i] * isg[i]);
+        self.inv_n.clear();
+        self.inv_n.resize(n, f64::NAN);
+        let inv_n = &mut self.inv_n[..];
         let b = &mut self.basis;
         let mut z = [0.0f64; DIM];
 
@@ -173,32 +214,119 @@ impl DualWorkspace {
         }
 
         let mut iterations = 0u32;
+        let mut cand = [0usize; CAND];
+        let mut cand_w = [0.0f64; CAND];
+        let mut cand_u = [[0.0f64; DIM]; CAND];
+        let mut n_cand = 0;
+        let mut last_max_r = f64::NAN;
         loop {
-            // Step 1: the most violated row.
+            // Step 1: the most violated row. Row k is violated when its distance in the
+            // scaled space, v_k = (d_k - J_k dq) / |n_k|, exceeds tol (|d_k| / |n_k| + |z|);
+            // pick the largest w_k = v_k - tol |d_k| / |n_k|. A zero row with d_k > 0 has
+            // w_k = +inf.
             let dq: [f64; DIM] = std::array::from_fn(|i| z[i] * isg[i]);
             let zn = dot6(&z, &z).sqrt();
             if !zn.is_finite() {
-                return (Status::NumericalError, z, iterations);
+                return (Status::NumericalError, z, iterations, f64::NAN);
             }
+            let limit = prm.tol * zn;
             let mut best = usize::MAX;
-            let mut best_v = 0.0f64;
-            for (k, (row, &dk)) in j.iter().zip(d).enumerate() {
-                let s = dot6(row, &dq) - dk;
-                if s < 0.0 {
-                    let nk = scaled(row, &isg);
-                    let nrm = dot6(&nk, &nk).sqrt();
-                    if -s > prm.tol * (dk.abs() + nrm * zn) {
-                        let v = -s / nrm;
-                        // v = inf for a zero row with d_k > 0: picked first, found infeasible.
-                        if v > best_v && !b.contains(k) {
-                            best = k;
-                            best_v = v;
-                        }
+            let mut best_w = limit;
+            // Re-check the candidates of the last full scan first (O(6 CAND)).
+            for &k in &cand[..n_cand] {
+                let r = d[k] - dot6(&j[k], &dq);
+                if r > 0.0 && !b.contains(k) {
+                    let w = (r - prm.tol * d[k].abs()) * inv_n[k];
+                    if w > best_w {
+                        best = k;
+                        best_w = w;
                     }
                 }
             }
             if best == usize::MAX {
-                return (Status::Solved, z, iterations);
+                // Full scan, keeping the CAND most violated rows as the next candidates.
+                n_cand = 0;
+                let mut min_pos = 0;
+                let mut min_w = f64::INFINITY;
+                let mut max_r = f64::NEG_INFINITY;
+                // Stays 0 unless some r is NaN or infinite (f64::max would hide a NaN).
+                let mut poison = 0.0f64;
+                for (k, (row, &dk)) in j.iter().zip(d).enumerate() {
+                    let r = dk - dot6(row, &dq);
+                    max_r = max_r.max(r);
+                    poison += r * 0.0;
+                    // Only a row with r > 0 can have w_k > 0; its scale is computed once per
+                    // solve, when first needed (NaN marks "not yet"; a zero row gets +inf).
+                    if r > 0.0 {
+                        let mut inv = inv_n[k];
+                        if inv.is_nan() {
+                            let n2 = norm2_scaled(row, &ig);
+                            inv = if n2 > 0.0 {
+                                1.0 / n2.sqrt()
+                            } else {
+                                f64::INFINITY
+                            };
+                            inv_n[k] = inv;
+                        }
+                        let w = (r - prm.tol * dk.abs()) * inv;
+                        if w > limit && (n_cand < CAND || w > min_w) && !b.contains(k) {
+                            // Keep the candidates diverse: a row nearly parallel to a kept
+                            // one replaces it if more violated (adding one of a patch of
+                            // nearly parallel rows satisfies the rest).
+                            let u = unit(&scaled(row, &isg), inv);
+                            let mut slot = usize::MAX;
+                            for c in 0..n_cand {
+                                if dot6(&u, &cand_u[c]) > SAME_DIRECTION {
+                                    slot = c;
+                                    break;
+                                }
+                            }
+                            if slot != usize::MAX {
+                                if w > cand_w[slot] {
+                                    cand[slot] = k;
+                                    cand_w[slot] = w;
+                                    cand_u[slot] = u;
+                                }
+                            } else if n_cand < CAND {
+                                cand[n_cand] = k;
+                                cand_w[n_cand] = w;
+                                cand_u[n_cand] = u;
+                                n_cand += 1;
+                            } else {
+                                cand[min_pos] = k;
+                                cand_w[min_pos] = w;
+                                cand_u[min_pos] = u;
+                            }
+                            if n_cand == CAND {
+                                min_pos = 0;
+                                for c in 1..CAND {
+                                    if cand_w[c] < cand_w[min_pos] {
+                                        min_pos = c;
+                                    }
+                                }
+                                min_w = cand_w[min_pos];
+                            }
+                        }
+                    }
+                }
+                if poison != 0.0 {
+                    return (Status::NumericalError, z, iterations, f64::NAN);
+                }
+                last_max_r = max_r;
+                for c in 0..n_cand {
+                    if cand_w[c] > best_w {
+                        best = cand[c];
+                        best_w = cand_w[c];
+                    }
+                }
+                if best == usize::MAX {
+                    let status = if max_r.is_finite() {
+                        Status::Solved
+                    } else {
+                        Status::NumericalError
+                    };
+                    return (status, z, iterations, max_r);
+                }
             }
             let pidx = best;
             let np = scaled(&j[pidx], &isg);
@@ -207,7 +335,7 @@ impl DualWorkspace {
             // Step 2: move until p is satisfied (then add it) or blocked (then drop).
             loop {
                 if iterations >= prm.max_iterations {
-                    return (Status::MaxIterations, z, iterations);
+                    return (Status::MaxIterations, z, iterations, last_max_r);
                 }
                 iterations += 1;
                 let sp = dot6(&np, &z) - d[pidx];
@@ -228,15 +356,12 @@ impl DualWorkspace {
                 }
                 let t2 = if dependent { f64::INFINITY } else { -sp / w2 };
                 if !(t1.is_finite() || t2.is_finite()) {
-                    return (
-                        if sp.is_finite() {
-                            Status::Infeasible
-                        } else {
-                            Status::NumericalError
-                        },
-                        z,
-                        iterations,
-                    );
+                    let status = if sp.is_finite() {
+                        Status::Infeasible
+                    } else {
+                        Status::NumericalError
+                    };
+                    return (status, z, iterations, last_max_r);
                 }
                 let t = t1.min(t2);
                 if !dependent {
@@ -250,7 +375,7 @@ impl DualWorkspace {
                 up += t;
                 if t2 <= t1 {
                     if !b.push(pidx, &np, up, 0.0) {
-                        return (Status::NumericalError, z, iterations);
+                        return (Status::NumericalError, z, iterations, last_max_r);
                     }
                     break;
                 }
@@ -259,6 +384,33 @@ impl DualWorkspace {
             }
         }
     }
+}
+
+/// Rows kept from a full scan as the next rows to try (most violated first).
+const CAND: usize = 8;
+
+/// Cosine above which two candidate rows count as the same direction.
+const SAME_DIRECTION: f64 = 0.98;
+
+/// `v * inv` (a unit vector when `inv = 1 / |v|`; zero for a zero row).
+#[inline(always)]
+fn unit(v: &[f64; DIM], inv: f64) -> [f64; DIM] {
+    if inv.is_finite() {
+        v.map(|x| x * inv)
+    } else {
+        [0.0; DIM]
+    }
+}
+
+/// `|G^{-1/2} row|^2` given `ig = 1 / g`.
+#[inline(always)]
+fn norm2_scaled(row: &[f64; DIM], ig: &[f64; DIM]) -> f64 {
+    row[0] * row[0] * ig[0]
+        + row[1] * row[1] * ig[1]
+        + row[2] * row[2] * ig[2]
+        + row[3] * row[3] * ig[3]
+        + row[4] * row[4] * ig[4]
+        + row[5] * row[5] * ig[5]
 }
 
 /// `G^{-1/2}` as a 6-vector.

@@ -120,6 +120,34 @@ impl Solution {
         }
     }
 
+    /// Builds the solution from a certificate the solver computed itself.
+    pub(crate) fn with_kkt(
+        dq: [f64; 6],
+        status: Status,
+        iterations: u32,
+        objective: f64,
+        kkt: Kkt,
+    ) -> Self {
+        let finite = dq.iter().all(|v| v.is_finite())
+            && objective.is_finite()
+            && kkt.max_violation.is_finite()
+            && kkt.stationarity.is_finite()
+            && kkt.duality_gap.is_finite();
+        if !finite {
+            return Self {
+                iterations,
+                ..Self::zero(Status::NumericalError)
+            };
+        }
+        Self {
+            dq,
+            status,
+            iterations,
+            objective,
+            kkt,
+        }
+    }
+
     /// Builds the solution, computing objective and certificate; a non-finite `dq` or
     /// certificate turns the status into [`Status::NumericalError`].
     pub(crate) fn finish(

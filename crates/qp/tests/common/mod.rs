@@ -265,3 +265,37 @@ pub fn clarabel_with(inst: &Instance, tight: bool) -> Result<([f64; 6], f64), So
         st => Err(st),
     }
 }
+
+/// The sizes of the benchmark table.
+pub const BENCH_SIZES: [usize; 5] = [10, 50, 200, 1000, 2000];
+
+/// The seeded benchmark set for size `n`, used by the criterion bench and the table example
+/// alike: `count` haptic-like instances with `4 + n/50` contact patches (normals spread by
+/// 0.1 rad within a patch, so many rows are nearly redundant).
+pub fn bench_set(n: usize, count: usize) -> Vec<Instance> {
+    let mut r = rng(0xB3AC_0000 + n as u64);
+    (0..count)
+        .map(|_| haptic(n, 4 + n / 50, 0.1, &mut r))
+        .collect()
+}
+
+/// The slowly moving sequence of the warm-start benchmark for size `n`: 16 frames (the
+/// same memory footprint as `bench_set`), played forwards then backwards so that every step
+/// is a small one.
+pub fn bench_sequence(n: usize) -> Vec<Instance> {
+    haptic_sequence(n, 16, 0x5E0 + n as u64)
+}
+
+/// Index of frame `i` in a ping-pong walk over `len` frames.
+pub fn ping_pong(i: usize, len: usize) -> usize {
+    if len <= 1 {
+        return 0;
+    }
+    let period = 2 * (len - 1);
+    let k = i % period;
+    if k < len {
+        k
+    } else {
+        period - k
+    }
+}
