@@ -175,6 +175,9 @@ fn read_obj(bytes: &[u8], path: &Path) -> Result<RawPolygons, MeshError> {
         Err(tobj::LoadError::OpenFileFailed)
     })
     .map_err(|e| {
+        if let Some(located) = locate_obj_problem(bytes) {
+            return parse_error(path, "OBJ", located);
+        }
         let hint = match e {
             tobj::LoadError::FaceVertexOutOfBounds => {
                 " (a face refers to a vertex index that does not exist)"
@@ -216,6 +219,61 @@ fn read_obj(bytes: &[u8], path: &Path) -> Result<RawPolygons, MeshError> {
         }
     }
     Ok(raw)
+}
+
+/// Finds the first `v` or `f` line that breaks the rules (tobj's errors carry no line number):
+/// `line N: ...`, or `None` if no such line is found.
+fn locate_obj_problem(bytes: &[u8]) -> Option<String> {
+    let text = String::from_utf8_lossy(bytes);
+    let mut n_vertices: i64 = 0;
+    for (i, line) in text.lines().enumerate() {
+        let lineno = i + 1;
+        let mut tokens = line.split_whitespace();
+        match tokens.next() {
+            Some("v") => {
+                let nums: Vec<&str> = tokens.collect();
+                if nums.len() < 3 || nums.iter().any(|t| t.parse::<f64>().is_err()) {
+                    return Some(format!(
+                        "line {lineno}: vertex line `{}` needs three numbers `v x y z`",
+                        line.trim()
+                    ));
+                }
+                n_vertices += 1;
+            }
+            Some("f") => {
+                let corners: Vec<&str> = tokens.collect();
+                if corners.len() < 3 {
+                    return Some(format!(
+                        "line {lineno}: face `{}` has {} vertices; a face needs at least 3",
+                        line.trim(),
+                        corners.len()
+                    ));
+                }
+                for c in corners {
+                    let first = c.split('/').next().unwrap_or("");
+                    let Ok(ix) = first.parse::<i64>() else {
+                        return Some(format!(
+                            "line {lineno}: `{c}` is not a vertex reference (`f a b c`, `f a/t/n ...`)"
+                        ));
+                    };
+                    // 1-based, or negative = counted back from the last vertex so far.
+                    let resolved = if ix < 0 { n_vertices + ix + 1 } else { ix };
+                    if ix == 0 {
+                        return Some(format!(
+                            "line {lineno}: face refers to vertex 0, but OBJ vertex numbers start at 1"
+                        ));
+                    }
+                    if resolved < 1 || resolved > n_vertices {
+                        return Some(format!(
+                            "line {lineno}: face refers to vertex {ix}, but only {n_vertices} vertices are defined before this line"
+                        ));
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    None
 }
 
 // ---------------------------------------------------------------------------------------------

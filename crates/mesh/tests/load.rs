@@ -217,6 +217,29 @@ fn cube_in_every_format() {
     let l = load_mesh(&d.write("cube-d.ply", ply_binary_le(&v, &tris(), true))).unwrap();
     assert_cube(&l, MeshFormat::PlyBinaryLittleEndian);
 
+    let be = ply_binary_le(&v, &tris(), true);
+    let text_end = be.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+    let mut be_bytes = String::from_utf8(be[..text_end].to_vec())
+        .unwrap()
+        .replace("binary_little_endian", "binary_big_endian")
+        .into_bytes();
+    for p in &v {
+        for c in p {
+            be_bytes.extend(c.to_be_bytes());
+        }
+    }
+    for f in tris() {
+        be_bytes.push(3);
+        for i in f {
+            be_bytes.extend(i.to_be_bytes());
+        }
+    }
+    let l = load_mesh(&d.write("cube-be.ply", be_bytes)).unwrap();
+    assert_cube(&l, MeshFormat::PlyBinaryBigEndian);
+    let alt = ply_ascii(&v, &quads()).replace("vertex_indices", "vertex_index");
+    let l = load_mesh(&d.write("cube-alt.ply", alt)).unwrap();
+    assert_cube(&l, MeshFormat::PlyAscii);
+
     // Unknown extension: the content decides.
     let l = load_mesh(&d.write("cube.mesh", ply_binary_le(&v, &tris(), true))).unwrap();
     assert_cube(&l, MeshFormat::PlyBinaryLittleEndian);
@@ -389,8 +412,16 @@ fn malformed_files_give_one_line_errors() {
         ),
         "{m}"
     );
-    let (e, _) = load_err(&d, "index.obj", obj_text(&v, &faces));
-    assert!(matches!(e, MeshError::Parse { .. }), "{e}");
+    let (e, m) = load_err(&d, "index.obj", obj_text(&v, &faces));
+    // Line 2 + 8 vertices + 7 faces before it: the bad face is on line 18.
+    assert!(
+        matches!(e, MeshError::Parse { .. }) && m.contains("line 18"),
+        "{m}"
+    );
+    let (_, m) = load_err(&d, "badv.obj", "v 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    assert!(m.contains("line 1") && m.contains("three numbers"), "{m}");
+    let (_, m) = load_err(&d, "zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n");
+    assert!(m.contains("line 4"), "{m}");
     let (e, _) = load_err(
         &d,
         "neg.ply",
