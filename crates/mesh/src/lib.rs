@@ -21,7 +21,7 @@ pub mod query;
 pub mod sample;
 
 pub use query::{ClosestPoint, Feature, MeshQuery};
-pub use sample::{sample_surface, SurfaceSample};
+pub use sample::{sample_surface, sample_surface_weighted, SurfaceSample};
 
 /// An indexed triangle mesh. Coordinates are in the file's own units (scaled to mm by the
 /// scene); triangles are counter-clockwise seen from outside.

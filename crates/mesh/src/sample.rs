@@ -15,8 +15,20 @@ pub type SurfaceSample = ([f64; 3], [f64; 3]);
 /// samples on every machine (ChaCha8). Triangles with a bad index or zero area are never
 /// drawn; a mesh without any usable triangle gives an empty vector.
 pub fn sample_surface(mesh: &TriMesh, n: usize, seed: u64) -> Vec<SurfaceSample> {
+    sample_surface_weighted(mesh, n, seed, &|_| 1.0)
+}
+
+/// Like [`sample_surface`], but triangle `t` is drawn with a density (samples per unit area)
+/// proportional to `density(t)` (a finite value `>= 0`; others count as 0), so some regions
+/// can be sampled more densely than others.
+pub fn sample_surface_weighted(
+    mesh: &TriMesh,
+    n: usize,
+    seed: u64,
+    density: &dyn Fn(usize) -> f64,
+) -> Vec<SurfaceSample> {
     let nv = mesh.vertices.len();
-    // Cumulative areas of the usable triangles.
+    // Cumulative weights of the usable triangles.
     let mut cdf: Vec<f64> = Vec::with_capacity(mesh.triangles.len());
     let mut ids: Vec<usize> = Vec::with_capacity(mesh.triangles.len());
     let mut total = 0.0;
@@ -26,10 +38,11 @@ pub fn sample_surface(mesh: &TriMesh, n: usize, seed: u64) -> Vec<SurfaceSample>
         }
         let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);
         let area = 0.5 * norm(cross(sub3(b, a), sub3(c, a)));
-        if area <= 0.0 || !area.is_finite() {
+        let w = area * density(i);
+        if w <= 0.0 || !w.is_finite() {
             continue;
         }
-        total += area;
+        total += w;
         cdf.push(total);
         ids.push(i);
     }
@@ -105,5 +118,9 @@ mod tests {
         assert_eq!(s, sample_surface(&m, 20000, 7));
         assert_ne!(s, sample_surface(&m, 20000, 8));
         assert!(sample_surface(&TriMesh::default(), 10, 1).is_empty());
+        // Density 4x on the unit square (area 1 vs 4): half the samples land there.
+        let w = sample_surface_weighted(&m, 20000, 7, &|t| if t < 2 { 4.0 } else { 1.0 });
+        let bottom = w.iter().filter(|(p, _)| p[2] < 2.5).count() as f64 / 20000.0;
+        assert!((bottom - 0.5).abs() < 0.02, "bottom fraction {bottom}");
     }
 }

@@ -62,7 +62,9 @@ fn tight_depth3_is_valid_covers_every_level_and_is_deterministic() {
     }
     let leaf = fit.last().unwrap();
     assert_eq!(leaf.count, 512);
-    assert!(leaf.mean < 20.0, "{leaf:?}");
+    // Equal-budget patches of this size cannot match the toolkit's adaptive medial tree at
+    // depth 3 on the worst sphere; the mean is a regression guard.
+    assert!(leaf.mean < 18.0, "{leaf:?}");
 
     let again = build_tree(&mesh, &params, &|_| {}).unwrap();
     assert_eq!(tree, again, "same seed, same tree");
@@ -90,8 +92,10 @@ fn tight_depth4_meets_the_targets() {
         assert!(l.coverage >= 0.999, "level {}: {l:?}", l.level);
     }
     let leaf = fit.last().unwrap();
+    // The targets (toolkit units): worst <= 25, mean <= 5, coverage >= 99.9 %.
     assert!(leaf.mean <= 5.0, "{leaf:?}");
-    assert!(leaf.worst <= 60.0, "{leaf:?}");
+    assert!(leaf.worst <= 25.0, "{leaf:?}");
+    assert!(leaf.coverage >= 0.999, "{leaf:?}");
 }
 
 #[test]

@@ -73,7 +73,8 @@ pub struct BuildParams {
     pub seed: u64,
     /// Tight builder: surface samples per leaf slot used to shape the patches (default 32).
     pub samples_per_leaf: usize,
-    /// Tight builder: surface samples per leaf slot used to check coverage (default 128).
+    /// Tight builder: surface samples per leaf slot used to check coverage (default 128; at
+    /// least 200 000 in all).
     pub check_samples_per_leaf: usize,
     /// Tight builder: weight of the leaf radius in the leaf objective
     /// `protrusion bound + size_weight * radius` (default 0.02): 0 lets leaf spheres grow
@@ -82,6 +83,18 @@ pub struct BuildParams {
     /// Tight builder: every leaf radius is grown by this much beyond its patch (toolkit units,
     /// default 1.0) so the thin slivers between neighbouring caps are covered too.
     pub coverage_margin: f64,
+    /// Tight builder: how strongly thin parts get more, smaller leaves (default 1.0). Surface
+    /// is sampled with density `(1 / local thickness)^adaptivity` (thickness: radius of the
+    /// largest inner ball touching there, clamped to 10..250 toolkit units), and patches hold
+    /// equal numbers of samples; 0 gives equal-area patches.
+    pub adaptivity: f64,
+    /// Tight builder: weight of the sample normals against positions when clustering, as a
+    /// fraction of the node's RMS radius (default 0: position only, so a patch on a thin
+    /// part may take both sides and its sphere sits on the medial axis, which measured
+    /// tighter on the bunny than keeping the sides apart: worst 15.1 vs 16.1 at 0.5).
+    pub normal_weight: f64,
+    /// Tight builder: Lloyd (k-means) iterations after each balanced split (default 4).
+    pub lloyd_iters: usize,
 }
 
 impl Default for BuildParams {
@@ -95,6 +108,9 @@ impl Default for BuildParams {
             check_samples_per_leaf: 128,
             size_weight: 0.02,
             coverage_margin: 1.0,
+            adaptivity: 1.0,
+            normal_weight: 0.0,
+            lloyd_iters: 4,
         }
     }
 }

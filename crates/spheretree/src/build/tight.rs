@@ -19,12 +19,17 @@ use super::enclose::nelder_mead;
 use super::{fill_parents, partition, BuildParams};
 use crate::eval::{dist, dist2, SphereGrid};
 use crate::{Sphere, SphereTree, TreeError};
-use mesh::{sample_surface, MeshQuery, TriMesh};
+use mesh::{sample_surface, sample_surface_weighted, MeshQuery, TriMesh};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Rounds of coverage repair.
 const REPAIR_ROUNDS: usize = 4;
+/// Clamp of the local thickness used for the sampling density (toolkit units).
+const THICK_MIN: f64 = 10.0;
+const THICK_MAX: f64 = 250.0;
+/// Fewest coverage-check samples (twice the default of the fit measure).
+const MIN_CHECK: usize = 200_000;
 /// Largest number of training samples (memory bound for deep trees).
 const MAX_SAMPLES: usize = 4_000_000;
 
@@ -38,14 +43,18 @@ pub(super) fn build(
     let depth = tree.depth();
     let leaf_slots = tree.level_range(depth).len();
     let n_train = (leaf_slots * params.samples_per_leaf.max(1)).clamp(1000, MAX_SAMPLES);
-    let n_check = (leaf_slots * params.check_samples_per_leaf).clamp(1000, MAX_SAMPLES);
+    let n_check = (leaf_slots * params.check_samples_per_leaf).clamp(MIN_CHECK, MAX_SAMPLES);
     let q = MeshQuery::new(m);
     if q.triangle_count() == 0 {
         return Err(TreeError::Build(
             "every triangle of the mesh is degenerate: give a mesh with area".into(),
         ));
     }
-    let train = sample_surface(m, n_train, params.seed);
+    let thickness = triangle_thickness(m, &q);
+    let gamma = params.adaptivity;
+    let train = sample_surface_weighted(m, n_train, params.seed, &|t| {
+        thickness[t].clamp(THICK_MIN, THICK_MAX).powf(-gamma)
+    });
     let pos: Vec<[f64; 3]> = train.iter().map(|s| s.0).collect();
     let nrm: Vec<[f64; 3]> = train.iter().map(|s| s.1).collect();
     progress(0.05);
@@ -56,8 +65,8 @@ pub(super) fn build(
         nodes = nodes
             .par_iter()
             .flat_map_iter(|(slot, idx)| {
-                let w = 0.5 * rms_radius(&pos, idx);
-                let groups = partition::split(&pos, &nrm, idx, b, w, 4);
+                let w = params.normal_weight * rms_radius(&pos, idx);
+                let groups = partition::split(&pos, &nrm, idx, b, w, params.lloyd_iters);
                 let slot = *slot;
                 groups
                     .into_iter()
@@ -105,7 +114,11 @@ pub(super) fn build(
         sample_surface(m, n_check, params.seed.wrapping_add(0x9e37_79b9_7f4a_7c15));
     let check_pts: Vec<[f64; 3]> = check.iter().map(|s| s.0).collect();
     let owner = owner_of_samples(&nodes, pos.len());
-    let near = PointGrid::new(&pos, rms_radius(&pos, &nodes[0].1).max(1e-9) * 2.0);
+    let leaf_normals: Vec<[f64; 3]> = nodes
+        .iter()
+        .map(|(_, idx)| mean_normal(&nrm, idx))
+        .collect();
+    let near = PointGrid::new(&pos, 4.0 * (surface_area(m) / pos.len() as f64).sqrt());
     for round in 0..REPAIR_ROUNDS {
         let grid = SphereGrid::new(&check_pts, &leaves, 64);
         let uncovered: Vec<usize> = (0..check.len())
@@ -126,8 +139,19 @@ pub(super) fn build(
             .par_iter()
             .map(|&i| {
                 let (p, n) = check[i];
-                let k = near.nearest_facing(&pos, &nrm, p, n);
-                (owner[k as usize], p)
+                // The nearby leaf facing the same way that needs the least growth, else the
+                // patch of the nearest same-facing training sample.
+                let near_leaf = grid
+                    .candidates(p)
+                    .iter()
+                    .map(|&j| j as usize)
+                    .filter(|&j| dot(leaf_normals[j], n) > 0.3)
+                    .map(|j| (dist(leaves[j].center, p) - leaves[j].radius, j))
+                    .min_by(|a, b| a.0.total_cmp(&b.0));
+                match near_leaf {
+                    Some((_, j)) => (j, p),
+                    None => (owner[near.nearest_facing(&pos, &nrm, p, n) as usize], p),
+                }
             })
             .collect();
         for (leaf, p) in assigned {
@@ -186,24 +210,83 @@ fn fit_leaf(
         }
     }
     let a = cover(centroid).max(1e-6);
-    let mut starts = vec![
-        inward(centroid, normal, a),
-        inward(centroid, normal, 3.0 * a),
-    ];
-    if let Some(s) = start {
-        starts.push(s.center);
-    }
-    let mut best = centroid;
-    let mut best_f = f(centroid);
-    for s in starts {
-        let c = nelder_mead(&f, s, 0.5 * a, 160, 1e-3);
-        let v = f(c);
-        if v < best_f {
-            best_f = v;
-            best = c;
+    let (x0, step, evals) = match start {
+        // A refit after coverage repair: the patch grew a little, start where it was.
+        Some(s) => (s.center, 0.25 * a, 60),
+        // A first fit: the best depth along the inward normal, then a 3-D polish.
+        None => {
+            let mut x0 = centroid;
+            let mut f0 = f(centroid);
+            for t in [0.5, 1.0, 2.0, 4.0, 8.0] {
+                let x = inward(centroid, normal, t * a);
+                let v = f(x);
+                if v < f0 {
+                    f0 = v;
+                    x0 = x;
+                }
+            }
+            (x0, 0.5 * a, 100)
         }
-    }
+    };
+    let best = nelder_mead(&f, x0, step, evals, 1e-2);
     Sphere::new(best, cover(best) + margin.max(0.0))
+}
+
+/// Per triangle, the radius of the largest ball inside the mesh that touches the triangle's
+/// centroid (shrinking-ball iterations on the closest point; toolkit units).
+fn triangle_thickness(m: &TriMesh, q: &MeshQuery) -> Vec<f64> {
+    let nv = m.vertices.len();
+    m.triangles
+        .par_iter()
+        .map(|t| {
+            if t.iter().any(|&k| k as usize >= nv) {
+                return THICK_MAX;
+            }
+            let [a, b, c] = t.map(|k| m.vertices[k as usize]);
+            let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+            let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+            let cr = [
+                e1[1] * e2[2] - e1[2] * e2[1],
+                e1[2] * e2[0] - e1[0] * e2[2],
+                e1[0] * e2[1] - e1[1] * e2[0],
+            ];
+            let l = dist(cr, [0.0; 3]);
+            if l <= 0.0 || !l.is_finite() {
+                return THICK_MAX;
+            }
+            let n = cr.map(|x| x / l);
+            let p = [0, 1, 2].map(|k| (a[k] + b[k] + c[k]) / 3.0);
+            shrinking_ball(q, p, n, 4.0 * THICK_MAX)
+        })
+        .collect()
+}
+
+/// Radius of the largest ball inside the mesh tangent at surface point `p` (outward normal
+/// `n`), at most `r0`: shrink while the closest surface point to the centre is nearer than
+/// the radius.
+fn shrinking_ball(q: &MeshQuery, p: [f64; 3], n: [f64; 3], r0: f64) -> f64 {
+    let mut r = r0;
+    for _ in 0..32 {
+        let c = inward(p, n, r);
+        let Some(cp) = q.closest_point(c) else {
+            return r;
+        };
+        if cp.distance >= r * (1.0 - 1e-6) {
+            return r;
+        }
+        let d = [p[0] - cp.point[0], p[1] - cp.point[1], p[2] - cp.point[2]];
+        let along = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
+        let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        if along <= 1e-12 || d2 <= 1e-18 {
+            return r.min(cp.distance.max(1e-9));
+        }
+        let next = d2 / (2.0 * along);
+        if next >= r {
+            return r;
+        }
+        r = next;
+    }
+    r
 }
 
 fn inward(c: [f64; 3], n: [f64; 3], t: f64) -> [f64; 3] {
@@ -223,6 +306,29 @@ fn mean_normal(nrm: &[[f64; 3]], idx: &[u32]) -> [f64; 3] {
     } else {
         [0.0; 3]
     }
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn surface_area(m: &TriMesh) -> f64 {
+    let nv = m.vertices.len();
+    m.triangles
+        .iter()
+        .filter(|t| t.iter().all(|&k| (k as usize) < nv))
+        .map(|t| {
+            let [a, b, c] = t.map(|k| m.vertices[k as usize]);
+            let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+            let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+            let cr = [
+                e1[1] * e2[2] - e1[2] * e2[1],
+                e1[2] * e2[0] - e1[0] * e2[2],
+                e1[0] * e2[1] - e1[1] * e2[0],
+            ];
+            0.5 * dist(cr, [0.0; 3])
+        })
+        .sum()
 }
 
 fn rms_radius(pos: &[[f64; 3]], idx: &[u32]) -> f64 {
@@ -255,9 +361,7 @@ struct PointGrid {
 
 impl PointGrid {
     fn new(pos: &[[f64; 3]], h: f64) -> Self {
-        // Cell size: about 4 samples per cell side on average is plenty; use a fraction of
-        // the given scale so look-ups stay local.
-        let h = (h / 16.0).max(1e-9);
+        let h = h.max(1e-9);
         let mut cells: std::collections::HashMap<[i64; 3], Vec<u32>> = Default::default();
         for (i, p) in pos.iter().enumerate() {
             cells.entry(Self::key(h, *p)).or_default().push(i as u32);
