@@ -539,4 +539,53 @@ mod tests {
         assert!(empty.closest_point([0.0; 3]).is_none());
         assert!(!empty.is_inside([0.0; 3]));
     }
+
+    /// Solid-angle winding number of a closed mesh around `p` (1 inside, 0 outside).
+    fn winding(m: &TriMesh, p: [f64; 3]) -> f64 {
+        let mut total = 0.0;
+        for t in &m.triangles {
+            let [a, b, c] = t.map(|k| sub(m.vertices[k as usize], p));
+            let (la, lb, lc) = (norm(a), norm(b), norm(c));
+            let num = dot(a, cross(b, c));
+            let den = la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
+            total += 2.0 * num.atan2(den);
+        }
+        total / (4.0 * std::f64::consts::PI)
+    }
+
+    #[test]
+    fn bunny_sign_and_distance_match_brute_force() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/bunny.obj");
+        let m = crate::load_mesh(&path).unwrap().mesh;
+        let q = MeshQuery::new(&m);
+        assert_eq!(q.skipped(), 0);
+        let (lo, hi) = m.aabb().unwrap();
+        let mut state = 99u64;
+        let mut rnd = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut inside = 0;
+        for _ in 0..300 {
+            let p: [f64; 3] =
+                std::array::from_fn(|k| lo[k] + (hi[k] - lo[k]) * (1.2 * rnd() - 0.1));
+            let w = winding(&m, p);
+            let got = q.signed_distance(p);
+            assert_eq!(got < 0.0, w > 0.5, "{p:?}: sd {got}, winding {w}");
+            inside += usize::from(w > 0.5);
+            // Brute-force unsigned distance.
+            let brute = m
+                .triangles
+                .iter()
+                .map(|t| {
+                    let v = t.map(|k| m.vertices[k as usize]);
+                    norm(sub(p, closest_on_triangle(p, &v).0))
+                })
+                .fold(f64::INFINITY, f64::min);
+            assert!((got.abs() - brute).abs() < 1e-12, "{p:?}: {got} vs {brute}");
+        }
+        assert!(inside > 30, "the sample reaches inside ({inside})");
+    }
 }
