@@ -182,12 +182,12 @@ impl PqpWorkspace {
             .extend(self.rows.iter().map(|v| dot6(v, v).sqrt()));
         self.q.clear();
         self.q.resize(n * n, 0.0);
-        for a in 0..n {
+        // Row by row (sequential writes; the symmetric half is recomputed rather than
+        // written with a stride of N).
+        for (a, qrow) in self.q.chunks_exact_mut(n).enumerate() {
             let ra = self.rows[a];
-            for b in a..n {
-                let v = dot6(&ra, &self.rows[b]);
-                self.q[a * n + b] = v;
-                self.q[b * n + a] = v;
+            for (qv, rb) in qrow.iter_mut().zip(&self.rows) {
+                *qv = dot6(&ra, rb);
             }
         }
         self.r.clear();
@@ -211,20 +211,14 @@ impl PqpWorkspace {
         let status = loop {
             // Q+ y and Q- y in one pass over Q; then F(y) and the stopping tests.
             let (mut yqy, mut dy) = (0.0f64, 0.0f64);
+            // max(q, 0) = (|q| + q) / 2 and max(-q, 0) = (|q| - q) / 2: two branch-free
+            // products per row, (Q y)_a and (|Q| y)_a.
             for a in 0..n {
-                let row = &self.q[a * n..(a + 1) * n];
-                let (mut pos, mut negs) = (0.0f64, 0.0f64);
-                for (&qv, &yv) in row.iter().zip(&self.y) {
-                    if qv > 0.0 {
-                        pos += qv * yv;
-                    } else {
-                        negs -= qv * yv;
-                    }
-                }
+                let (qy, absy) = row_products(&self.q[a * n..(a + 1) * n], &self.y);
                 let ry = self.r[a] * self.y[a];
-                self.qp[a] = pos + ry;
-                self.qm[a] = negs + ry;
-                yqy += self.y[a] * (pos - negs);
+                self.qp[a] = 0.5 * (absy + qy) + ry;
+                self.qm[a] = 0.5 * (absy - qy) + ry;
+                yqy += self.y[a] * qy;
                 dy += d[a] * self.y[a];
             }
             let f = 0.5 * yqy - dy;
@@ -284,4 +278,26 @@ impl PqpWorkspace {
         let dq: [f64; 6] = std::array::from_fn(|i| zsum[i] * isg[i]);
         Solution::finish(p, dq, &self.y, status, iterations)
     }
+}
+
+/// `(sum_j q_j y_j, sum_j |q_j| y_j)` with four independent accumulators each.
+#[inline]
+fn row_products(q: &[f64], y: &[f64]) -> (f64, f64) {
+    let mut s = [0.0f64; 4];
+    let mut a = [0.0f64; 4];
+    let (qc, yc) = (q.chunks_exact(4), y.chunks_exact(4));
+    let (qr, yr) = (qc.remainder(), yc.remainder());
+    for (qq, yy) in qc.zip(yc) {
+        for i in 0..4 {
+            s[i] += qq[i] * yy[i];
+            a[i] += qq[i].abs() * yy[i];
+        }
+    }
+    let mut st = (s[0] + s[1]) + (s[2] + s[3]);
+    let mut at = (a[0] + a[1]) + (a[2] + a[3]);
+    for (&qq, &yy) in qr.iter().zip(yr) {
+        st += qq * yy;
+        at += qq.abs() * yy;
+    }
+    (st, at)
 }

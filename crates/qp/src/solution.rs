@@ -178,3 +178,35 @@ impl Solution {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn certificate_of_a_known_point() {
+        // min 1/2 (x^2 + 4 y^2) s.t. x >= 1, y >= -1: optimum (1, 0) with multipliers (1, 0).
+        let g = [1.0, 4.0, 1.0, 1.0, 1.0, 1.0];
+        let j = [
+            [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0, 0.0, 0.0],
+        ];
+        let d = [1.0, -1.0];
+        let p = Problem::new(g, &j, &d).unwrap();
+        let k = Kkt::compute(&p, &[1.0, 0.0, 0.0, 0.0, 0.0, 0.0], &[1.0, 0.0]).unwrap();
+        assert_eq!(k.max_violation, 0.0);
+        assert_eq!(k.min_multiplier, 0.0);
+        assert_eq!(k.complementarity, 0.0);
+        assert_eq!(k.stationarity, 0.0);
+        assert!(k.duality_gap.abs() < 1e-15);
+        // A wrong point: infeasible, wrong multiplier, not stationary.
+        let k = Kkt::compute(&p, &[0.5, 0.0, 0.0, 0.0, 0.0, 0.0], &[2.0, -1.0]).unwrap();
+        assert_eq!(k.max_violation, 0.5);
+        assert_eq!(k.min_multiplier, -1.0);
+        assert_eq!(k.complementarity, 1.0); // |2 * (0.5 - 1)| = 1, |-1 * (0 + 1)| = 1
+        assert_eq!(k.stationarity, 1.5); // |0.5 - 2| and |0 - (-1)|
+                                         // Dual objective at y+ = (2, 0): 2 - 1/2 * 4 = 0; primal 0.125.
+        assert!((k.duality_gap - 0.125).abs() < 1e-15);
+        assert!(Kkt::compute(&p, &[f64::NAN; 6], &[0.0, 0.0]).is_none());
+    }
+}
