@@ -5,7 +5,7 @@
 //!   (position + normal) into B patches per node; each leaf sphere covers its patch while
 //!   protruding as little as possible out of the mesh (centre optimised inward against an
 //!   upper bound of the protrusion, then checked against a denser sample set so coverage holds);
-//!   parents are the smallest spheres enclosing their children.
+//!   parents contain their children and, among such spheres, protrude least out of the mesh.
 //! - [`BuildMethod::Octree`]: the fast one: cells of an octree on the bounding cube that meet
 //!   the surface, each bounded by its circumscribed sphere (full coverage by construction).
 //!
@@ -183,18 +183,46 @@ pub fn build_tree(
     Ok(tree)
 }
 
-/// Fills every internal used slot bottom-up with the smallest sphere enclosing its used
-/// children (toolkit frame). Slots whose children are all unused stay as they are.
-pub(crate) fn fill_parents(tree: &mut SphereTree) {
+/// Fills every internal used slot bottom-up with a sphere containing its used children
+/// (toolkit frame). Without `q`: the smallest enclosing sphere. With `q` (the mesh's query
+/// structure): among the spheres that contain the children, the one that protrudes least out
+/// of the mesh (same objective as the tight leaves: `R(c) + sd(c) + size_weight · R(c)`,
+/// `R(c) = max_i |c - c_i| + r_i`), started from the smallest one. Containment holds exactly
+/// because the radius is computed from the centre. Slots whose children are all unused stay.
+pub(crate) fn fill_parents(tree: &mut SphereTree, q: Option<(&mesh::MeshQuery, f64)>) {
+    use rayon::prelude::*;
     for level in (0..tree.depth()).rev() {
-        for n in tree.level_range(level) {
-            let kids: Vec<Sphere> = tree
-                .children(n)
-                .map(|c| *tree.sphere(c))
-                .filter(|s| s.is_used())
-                .collect();
-            if !kids.is_empty() {
-                tree.spheres_mut()[n] = enclosing_sphere(&kids);
+        let range = tree.level_range(level);
+        let filled: Vec<Option<Sphere>> = range
+            .clone()
+            .into_par_iter()
+            .map(|n| {
+                let kids: Vec<Sphere> = tree
+                    .children(n)
+                    .map(|c| *tree.sphere(c))
+                    .filter(|s| s.is_used())
+                    .collect();
+                if kids.is_empty() {
+                    return None;
+                }
+                let min = enclosing_sphere(&kids);
+                let Some((q, size_weight)) = q else {
+                    return Some(min);
+                };
+                let reach = |c: [f64; 3]| {
+                    kids.iter()
+                        .map(|k| crate::eval::dist(c, k.center) + k.radius)
+                        .fold(0.0, f64::max)
+                };
+                let f = |c: [f64; 3]| reach(c) * (1.0 + size_weight) + q.signed_distance(c);
+                let c = enclose::nelder_mead(&f, min.center, 0.25 * min.radius, 150, 1e-2);
+                let best = if f(c) < f(min.center) { c } else { min.center };
+                Some(Sphere::new(best, reach(best)))
+            })
+            .collect();
+        for (n, s) in range.zip(filled) {
+            if let Some(s) = s {
+                tree.spheres_mut()[n] = s;
             }
         }
     }

@@ -109,7 +109,7 @@ pub(super) fn build(
                 .collect::<Vec<_>>(),
         );
     }
-    fill_parents(tree);
+    fill_parents(tree, None);
     Ok(())
 }
 

@@ -11,7 +11,8 @@
 //!    so lowering it pushes the centre inward, towards the medial axis, as far as pays.
 //! 4. Check coverage on a second, denser sample set; each uncovered sample joins the patch of
 //!    its nearest same-facing training sample, and those leaves are refitted (a few rounds).
-//! 5. Parents are the smallest spheres enclosing their children.
+//! 5. Parents contain their children; among such spheres, the one protruding least out of the
+//!    mesh (same objective as the leaves, started from the smallest enclosing sphere).
 
 #![allow(clippy::needless_range_loop)] // xyz loops read better indexed
 
@@ -183,7 +184,7 @@ pub(super) fn build(
     if depth == 0 {
         tree.spheres_mut()[0] = leaves[0];
     }
-    fill_parents(tree);
+    fill_parents(tree, Some((&q, params.size_weight)));
     Ok(())
 }
 
