@@ -344,9 +344,20 @@ fn read_stl(bytes: &[u8], path: &Path) -> Result<(MeshFormat, RawPolygons), Mesh
     for (i, tri) in reader.enumerate() {
         let tri = tri.map_err(|e| parse_error(path, &fname, format!("triangle {i}: {e}")))?;
         let base = raw.vertices.len() as i64;
-        for v in tri.vertices {
-            raw.vertices
-                .push([f64::from(v[0]), f64::from(v[1]), f64::from(v[2])]);
+        for (corner, v) in tri.vertices.iter().enumerate() {
+            let p = [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
+            if !p.iter().all(|c| c.is_finite()) {
+                // STL has no vertex numbers: name the triangle instead.
+                return Err(parse_error(
+                    path,
+                    &fname,
+                    format!(
+                        "triangle {i}, corner {corner} has a non-finite coordinate ({}, {}, {}); fix or remove that triangle",
+                        p[0], p[1], p[2]
+                    ),
+                ));
+            }
+            raw.vertices.push(p);
         }
         raw.indices.extend([base, base + 1, base + 2]);
         raw.arities.push(3);

@@ -25,6 +25,22 @@
 //! The writer emits `x y z r 1` per used slot and `0 0 0 -1 1` per unused one, with the
 //! shortest decimal form that reads back to the same `f64`, so a write/read round trip is exact.
 //!
+//! ```
+//! use spheretree::sph::{parse_sph, to_sph_string, translate_tree};
+//!
+//! // A root and two of its eight children, the rest unused, as the toolkit would write it
+//! // (centred on the mesh's bounding-box centre, here (10, 0, 0)).
+//! let text = "2 8\n0 0 0 2 1\n-1 0 0 1 1\n1 0 0 1 1\n".to_string()
+//!     + &"0 0 0 -1 1\n".repeat(6)
+//!     + "Options :\n\tdepth : 1\n";
+//! let mut tree = parse_sph(&text, "example.sph")?;
+//! assert_eq!((tree.levels(), tree.branching(), tree.used_on_level(1)), (2, 8, 2));
+//! translate_tree(&mut tree, [10.0, 0.0, 0.0]); // back to the mesh's own frame
+//! assert_eq!(tree.sphere(1).center, [9.0, 0.0, 0.0]);
+//! assert_eq!(parse_sph(&to_sph_string(&tree)?, "round trip")?, tree);
+//! # Ok::<(), spheretree::sph::SphError>(())
+//! ```
+//!
 //! Files written by the toolkit do **not** keep the bounding rule of this crate (a parent
 //! need not contain its children); call [`SphereTree::enforce_containment`] on a tree read
 //! from such a file before using it for pruning.
