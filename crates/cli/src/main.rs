@@ -2,7 +2,7 @@
 //!
 //! One module per subcommand (`tree.rs`, ...): each exports an argument type (clap derive) and a
 //! `run` function returning `anyhow::Result<()>`. To add a subcommand, add its module, a variant
-//! to [`Command`] and an arm to [`run`]. Errors reach the user as one line (`error: ...`) with a
+//! to [`Command`] and an arm to [`dispatch`]. Errors reach the user as one line (`error: ...`) with a
 //! non-zero exit status; progress bars (see `progress.rs`) only show on a terminal.
 
 mod progress;
@@ -27,7 +27,7 @@ enum Command {
     Tree(tree::TreeCommand),
 }
 
-fn run(cli: Cli) -> anyhow::Result<()> {
+fn dispatch(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Tree(cmd) => tree::run(cmd),
     }
@@ -38,7 +38,7 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(e) => return usage_error(e),
     };
-    match run(cli) {
+    match dispatch(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             // `{:#}` prints the whole context chain on one line: "context: cause: ...".
