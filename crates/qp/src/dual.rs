@@ -58,6 +58,8 @@ pub struct DualWorkspace {
     y: Vec<f64>,
     /// Per row: `1 / |n_k|` (+inf for a zero row, NaN until first needed).
     inv_n: Vec<f64>,
+    /// Per row: `d_k - J_k dq` at the last full scan.
+    r: Vec<f64>,
     hint: [usize; DIM],
     hint_len: usize,
 }
@@ -80,6 +82,7 @@ impl DualWorkspace {
     pub fn reserve(&mut self, n: usize) {
         self.y.reserve(n.saturating_sub(self.y.len()));
         self.inv_n.reserve(n.saturating_sub(self.inv_n.len()));
+        self.r.reserve(n.saturating_sub(self.r.len()));
     }
 
     /// The multipliers `y` (one per row, `>= 0`) of the last solve.
@@ -178,7 +181,9 @@ impl DualWorkspace {
         let ig: [f64; DIM] = std::array::from_fn(|i| isg[i] * isg[i]);
         self.inv_n.clear();
         self.inv_n.resize(n, f64::NAN);
-        let inv_n = &mut self.inv_n[..];
+        self.r.clear();
+        self.r.resize(n, 0.0);
+        let (inv_n, rbuf) = (&mut self.inv_n[..], &mut self.r[..]);
         let b = &mut self.basis;
         let mut z = [0.0f64; DIM];
 
@@ -248,13 +253,25 @@ impl DualWorkspace {
                 n_cand = 0;
                 let mut min_pos = 0;
                 let mut min_w = f64::INFINITY;
-                let mut max_r = f64::NEG_INFINITY;
-                // Stays 0 unless some r is NaN or infinite (f64::max would hide a NaN).
-                let mut poison = 0.0f64;
+                // Pass 1: r_k = d_k - J_k dq for all rows (tight loop; the maximum with four
+                // independent accumulators, NaN flagged without an FP dependency chain).
+                let mut acc = [f64::NEG_INFINITY; 4];
+                let mut nan = false;
+                for ((rows4, d4), out4) in j.chunks(4).zip(d.chunks(4)).zip(rbuf.chunks_mut(4)) {
+                    for (i, ((row, &dk), out)) in rows4.iter().zip(d4).zip(out4).enumerate() {
+                        let r = dk - dot6(row, &dq);
+                        nan |= r.is_nan();
+                        acc[i] = acc[i].max(r);
+                        *out = r;
+                    }
+                }
+                let max_r = acc[0].max(acc[1]).max(acc[2].max(acc[3]));
+                if nan || !(max_r < f64::INFINITY) {
+                    return (Status::NumericalError, z, iterations, f64::NAN);
+                }
+                // Pass 2: the rows with r_k > 0.
                 for (k, (row, &dk)) in j.iter().zip(d).enumerate() {
-                    let r = dk - dot6(row, &dq);
-                    max_r = max_r.max(r);
-                    poison += r * 0.0;
+                    let r = rbuf[k];
                     // Only a row with r > 0 can have w_k > 0; its scale is computed once per
                     // solve, when first needed (NaN marks "not yet"; a zero row gets +inf).
                     if r > 0.0 {
@@ -309,9 +326,6 @@ impl DualWorkspace {
                         }
                     }
                 }
-                if poison != 0.0 {
-                    return (Status::NumericalError, z, iterations, f64::NAN);
-                }
                 last_max_r = max_r;
                 for c in 0..n_cand {
                     if cand_w[c] > best_w {
@@ -320,12 +334,7 @@ impl DualWorkspace {
                     }
                 }
                 if best == usize::MAX {
-                    let status = if max_r.is_finite() {
-                        Status::Solved
-                    } else {
-                        Status::NumericalError
-                    };
-                    return (status, z, iterations, max_r);
+                    return (Status::Solved, z, iterations, max_r);
                 }
             }
             let pidx = best;
