@@ -266,7 +266,7 @@ impl DualWorkspace {
                     }
                 }
                 let max_r = acc[0].max(acc[1]).max(acc[2].max(acc[3]));
-                if nan || !(max_r < f64::INFINITY) {
+                if nan || max_r == f64::INFINITY {
                     return (Status::NumericalError, z, iterations, f64::NAN);
                 }
                 // Pass 2: the rows with r_k > 0.
