@@ -5,7 +5,9 @@
 //! to [`Command`] and an arm to [`dispatch`]. Errors reach the user as one line (`error: ...`) with a
 //! non-zero exit status; progress bars (see `progress.rs`) only show on a terminal.
 
+mod plot;
 mod progress;
+mod run;
 mod tree;
 
 use std::process::ExitCode;
@@ -25,11 +27,14 @@ enum Command {
     /// Sphere-trees: build one from a mesh, or measure how well one fits a mesh.
     #[command(subcommand)]
     Tree(tree::TreeCommand),
+    /// Run the haptic pipeline on a scene and write frames.csv, summary.json and plots.
+    Run(run::RunArgs),
 }
 
 fn dispatch(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Tree(cmd) => tree::run(cmd),
+        Command::Run(args) => run::run(args),
     }
 }
 

@@ -1,1 +1,75 @@
-//! render (in progress).
+//! 6-DoF haptic rendering on top of sphere-trees and small QPs: scenes, the god-object step,
+//! devices, the real-time haptic loop and its safety layer.
+//!
+//! Entry points:
+//! - [`scene::SceneSpec`] / [`scene::Scene`]: the TOML scene file and the loaded scene (trees in
+//!   mm); [`scenes::builtin`] for the built-in `bunny` and `spline` scenes.
+//! - [`cache::TreeCache`]: trees built from meshes, cached on disk by content hash.
+//! - [`device::Device`]: trajectory replay, scripted motion, and a recorder.
+//! - [`step::GodObject`]: one haptic frame (detect, constrain, solve, force).
+//! - [`safety::Safety`]: force/torque clamp, rate limit, NaN guard, soft start.
+//! - [`rt::run_loop`]: the real-time loop on a named thread, with deadline and jitter stats.
+//! - [`trajectory::Trajectory`]: the `t,x,y,z,gamma,beta,alpha` CSV and keyframe scripts.
+#![warn(missing_docs)]
+// Index loops over the 6 coordinates read like the maths they implement.
+#![allow(clippy::needless_range_loop)]
+#![cfg_attr(not(test), warn(clippy::unwrap_used, clippy::expect_used))]
+
+pub mod cache;
+pub mod device;
+pub mod io;
+pub mod report;
+pub mod rt;
+pub mod safety;
+pub mod scene;
+pub mod scenes;
+pub mod stats;
+pub mod step;
+pub mod trajectory;
+
+/// Errors of the render crate. Each message says what to fix.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// A file could not be read or written.
+    #[error("{path}: {msg}")]
+    Io {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        msg: String,
+    },
+    /// A trajectory CSV is malformed.
+    #[error("{file}:{line}: {msg}")]
+    Trajectory {
+        /// The file.
+        file: String,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong and what is expected.
+        msg: String,
+    },
+    /// A scene file is malformed or names something that cannot be loaded.
+    #[error("{file}: {msg}")]
+    Scene {
+        /// The scene file (or built-in scene name).
+        file: String,
+        /// What is wrong and what is expected.
+        msg: String,
+    },
+    /// An unknown built-in scene or solver name.
+    #[error("unknown {what} `{name}`; expected one of: {expected}")]
+    Unknown {
+        /// What kind of name (scene, solver).
+        what: &'static str,
+        /// The name given.
+        name: String,
+        /// The accepted names.
+        expected: String,
+    },
+    /// The start configuration is in collision and no free pose was found nearby.
+    #[error("the start pose is in collision and no free pose was found within {searched_mm} mm; move `start` away from the objects")]
+    NoFreeStart {
+        /// Search radius, mm.
+        searched_mm: f64,
+    },
+}

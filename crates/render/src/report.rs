@@ -1,0 +1,186 @@
+//! What a run writes: `frames.csv` (DESIGN.md columns) and the summary behind `summary.json`.
+
+use std::fmt::Write as _;
+
+use serde::Serialize;
+
+use crate::rt::{FrameRecord, LoopStats};
+use crate::scene::Goal;
+use crate::stats::Summary;
+use crate::step::FrameStatus;
+
+/// The header of `frames.csv`.
+pub const FRAMES_HEADER: &str = "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm";
+
+/// `frames.csv` text: one row per frame; the force/torque columns are the wrench sent to the
+/// device (after the safety layer).
+pub fn frames_csv(frames: &[FrameRecord]) -> String {
+    let mut s = String::with_capacity(256 * (frames.len() + 1));
+    s.push_str(FRAMES_HEADER);
+    s.push('\n');
+    for f in frames {
+        let o = &f.out;
+        let _ = write!(s, "{}", f.t);
+        for v in o.q_h.iter().chain(o.q_g.iter()).chain(f.sent.iter()) {
+            let _ = write!(s, ",{v}");
+        }
+        let _ = writeln!(
+            s,
+            ",{},{:.3},{:.3},{:.3},{},{}",
+            o.pairs, o.cd_us, o.opt_us, o.total_us, o.iterations, o.penetration_mm
+        );
+    }
+    s
+}
+
+/// Outcome of a scene's goal.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct GoalReport {
+    /// What was expected.
+    pub kind: String,
+    /// Target `z` of the tool origin, mm.
+    pub target_z_mm: f64,
+    /// Lowest `z` the graphic tool reached, mm.
+    pub reached_z_mm: f64,
+    /// True when the target was reached (within tolerance).
+    pub success: bool,
+}
+
+/// Force and torque extremes and continuity (raw step output, before the safety layer).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ForceReport {
+    /// Largest force magnitude, N.
+    pub max_force_n: f64,
+    /// Largest torque magnitude, N·mm.
+    pub max_torque_nmm: f64,
+    /// Largest change of the force between consecutive frames, excluding frames where contact
+    /// starts (previous force zero), N.
+    pub max_force_jump_n: f64,
+    /// Time of that largest jump, s.
+    pub max_force_jump_t: f64,
+    /// Largest change including contact onsets, N.
+    pub max_force_jump_any_n: f64,
+    /// Number of contact onsets (force goes from zero to non-zero).
+    pub contact_onsets: usize,
+    /// Frames with a non-finite output (should be 0).
+    pub non_finite_frames: usize,
+}
+
+/// The content of `summary.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunSummary {
+    /// Scene name or file.
+    pub scene: String,
+    /// Solver name.
+    pub solver: String,
+    /// Constraint form.
+    pub form: String,
+    /// Frames run.
+    pub frames: usize,
+    /// Collision detection time per frame, µs.
+    pub cd_us: Summary,
+    /// Optimisation (rows + QP) time per frame, µs.
+    pub opt_us: Summary,
+    /// Whole step per frame, µs.
+    pub total_us: Summary,
+    /// Leaf pairs per frame.
+    pub pairs: Summary,
+    /// Solver iterations per frame (summed over passes).
+    pub iterations: Summary,
+    /// Passes per frame (1 + re-linearisations).
+    pub passes: Summary,
+    /// Measured penetration at `q_g`, mm.
+    pub penetration_mm: Summary,
+    /// Force/torque extremes and continuity.
+    pub force: ForceReport,
+    /// Loop statistics (overruns, period error, safety events).
+    pub loop_stats: LoopStats,
+    /// The scene's goal, if any.
+    pub goal: Option<GoalReport>,
+    /// How the scene was loaded (cache hits, builds) and how long it took, s.
+    pub load: Vec<String>,
+    /// Time to load the scene (trees included), s.
+    pub load_s: f64,
+}
+
+fn norm3(v: &[f64]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// Force extremes and continuity of a run (raw wrench, before safety).
+pub fn force_report(frames: &[FrameRecord]) -> ForceReport {
+    let mut r = ForceReport::default();
+    let mut prev: Option<[f64; 6]> = None;
+    for f in frames {
+        let w = f.out.wrench;
+        if !w.iter().all(|v| v.is_finite()) || !f.out.q_g.iter().all(|v| v.is_finite()) {
+            r.non_finite_frames += 1;
+            continue;
+        }
+        r.max_force_n = r.max_force_n.max(norm3(&w[0..3]));
+        r.max_torque_nmm = r.max_torque_nmm.max(norm3(&w[3..6]));
+        if let Some(p) = prev {
+            let jump = norm3(&[w[0] - p[0], w[1] - p[1], w[2] - p[2]]);
+            r.max_force_jump_any_n = r.max_force_jump_any_n.max(jump);
+            let prev_zero = p.iter().all(|v| *v == 0.0);
+            if prev_zero && w.iter().any(|v| *v != 0.0) {
+                r.contact_onsets += 1;
+            } else if jump > r.max_force_jump_n {
+                r.max_force_jump_n = jump;
+                r.max_force_jump_t = f.t;
+            }
+        }
+        prev = Some(w);
+    }
+    r
+}
+
+/// Summarises a run.
+#[allow(clippy::too_many_arguments)]
+pub fn summarize(
+    scene: &str,
+    solver: &str,
+    form: &str,
+    frames: &[FrameRecord],
+    loop_stats: &LoopStats,
+    goal: Option<Goal>,
+    load: Vec<String>,
+    load_s: f64,
+) -> RunSummary {
+    let goal = goal.map(|g| match g {
+        Goal::InsertZ {
+            target_z_mm,
+            tol_mm,
+        } => {
+            let reached = frames
+                .iter()
+                .filter(|f| f.out.status != FrameStatus::KeptLastSafe)
+                .map(|f| f.out.q_g[2])
+                .fold(f64::INFINITY, f64::min);
+            GoalReport {
+                kind: "insert-z".into(),
+                target_z_mm,
+                reached_z_mm: reached,
+                success: reached <= target_z_mm + tol_mm,
+            }
+        }
+    });
+    RunSummary {
+        scene: scene.into(),
+        solver: solver.into(),
+        form: form.into(),
+        frames: frames.len(),
+        cd_us: Summary::of(frames.iter().map(|f| f.out.cd_us)),
+        opt_us: Summary::of(frames.iter().map(|f| f.out.opt_us)),
+        total_us: Summary::of(frames.iter().map(|f| f.out.total_us)),
+        pairs: Summary::of(frames.iter().map(|f| f64::from(f.out.pairs))),
+        iterations: Summary::of(frames.iter().map(|f| f64::from(f.out.iterations))),
+        passes: Summary::of(frames.iter().map(|f| f64::from(f.out.passes))),
+        penetration_mm: Summary::of(frames.iter().map(|f| f.out.penetration_mm)),
+        force: force_report(frames),
+        loop_stats: loop_stats.clone(),
+        goal,
+        load,
+        load_s,
+    }
+}

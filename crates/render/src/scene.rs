@@ -1,0 +1,637 @@
+//! Scenes: the TOML scene file (DESIGN.md) and the loaded scene (trees in mm, poses, coupling,
+//! solver, safety limits, device motion).
+//!
+//! A scene file names one tool and any number of objects, each by `mesh = "file"` (OBJ, STL,
+//! PLY; a sphere-tree is built and cached, see [`crate::cache`]) or `tree = "file.sph"`
+//! (Bradshaw format). `scale` maps file units to mm (about the file's own origin). Relative
+//! paths are relative to the scene file.
+//!
+//! ```toml
+//! [tool]
+//! mesh = "bunny.obj"
+//! scale = 10.0
+//! depth = 4
+//! start = [0, 0, 120, 0, 0, 0]
+//!
+//! [[object]]
+//! mesh = "bunny.obj"
+//! scale = 10.0
+//! pose = [0, 0, 0, 0, 0, 0]
+//!
+//! [coupling]
+//! kt = 1.0      # N/mm
+//! kr = 1000.0   # N·mm/rad
+//!
+//! [solver]
+//! kind = "dual" # dual | pqp | active-set
+//!
+//! [device]
+//! trajectory = "path.csv"  # optional; else the device holds the start pose
+//! rate_hz = 1000.0
+//! ```
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use collide::{ConstraintForm, Pose};
+use mesh::TriMesh;
+use serde::{Deserialize, Serialize};
+use spheretree::SphereTree;
+
+use crate::cache::{tree_key, CacheOutcome, TreeCache};
+use crate::safety::SafetyParams;
+use crate::trajectory::{Script, Trajectory};
+use crate::RenderError;
+
+/// One body of a scene file: where its geometry comes from and how it is placed.
+#[derive(Clone, Debug, Default, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// Mesh file (OBJ, STL, PLY); a tree is built from it. Exclusive with `tree`.
+    pub mesh: Option<String>,
+    /// Sphere-tree file (`.sph`). Exclusive with `mesh`.
+    pub tree: Option<String>,
+    /// File units to mm (default 1).
+    pub scale: Option<f64>,
+    /// Tree depth when building from a mesh (default 4).
+    pub depth: Option<u32>,
+    /// Tree branching when building from a mesh (default 8).
+    pub branching: Option<u32>,
+    /// Builder (`tight`, the default, or `octree`) when building from a mesh.
+    pub method: Option<String>,
+    /// Tool only: start configuration `[x, y, z, gamma, beta, alpha]` (mm, rad).
+    pub start: Option<[f64; 6]>,
+    /// Objects only: fixed pose `[x, y, z, gamma, beta, alpha]` (mm, rad).
+    pub pose: Option<[f64; 6]>,
+}
+
+/// The virtual coupling between device and graphic tool: `G = diag(kt, kt, kt, kr, kr, kr)`.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Coupling {
+    /// Translational stiffness, N/mm.
+    pub kt: f64,
+    /// Rotational stiffness, N·mm/rad.
+    pub kr: f64,
+}
+
+impl Default for Coupling {
+    fn default() -> Self {
+        Self {
+            kt: 1.0,
+            kr: 1000.0,
+        }
+    }
+}
+
+impl Coupling {
+    /// The diagonal of `G` (N/mm ×3, N·mm/rad ×3).
+    pub fn g(&self) -> [f64; 6] {
+        [self.kt, self.kt, self.kt, self.kr, self.kr, self.kr]
+    }
+}
+
+/// Which QP solver the step uses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SolverKind {
+    /// Goldfarb–Idnani dual active-set (exact, default).
+    #[default]
+    Dual,
+    /// The paper's parallel QP (multiplicative updates; inexact stop).
+    Pqp,
+    /// The paper's baseline primal active-set method (exact).
+    ActiveSet,
+}
+
+impl SolverKind {
+    /// Parses `dual`, `pqp` or `active-set`.
+    pub fn parse(name: &str) -> Result<Self, RenderError> {
+        match name.trim().to_ascii_lowercase().as_str() {
+            "dual" => Ok(Self::Dual),
+            "pqp" => Ok(Self::Pqp),
+            "active-set" | "activeset" | "active_set" => Ok(Self::ActiveSet),
+            _ => Err(RenderError::Unknown {
+                what: "solver",
+                name: name.to_string(),
+                expected: "dual, pqp, active-set".into(),
+            }),
+        }
+    }
+
+    /// The name used on the command line.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Dual => "dual",
+            Self::Pqp => "pqp",
+            Self::ActiveSet => "active-set",
+        }
+    }
+
+    /// True for solvers that return the exact QP optimum (within tolerance).
+    pub fn is_exact(&self) -> bool {
+        !matches!(self, Self::Pqp)
+    }
+}
+
+/// How the god-object step detects, constrains and solves.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SolverSpec {
+    /// The QP solver.
+    pub kind: SolverKind,
+    /// Constraint form: `distance` (default) or `squared` (the paper's).
+    pub form: FormSpec,
+    /// Extra detect + solve passes at the new `q_g` while the measured penetration exceeds
+    /// `penetration_tol_mm` (0 = the paper's single pass).
+    pub relinearize: u32,
+    /// Penetration tolerated before a re-linearisation pass, mm.
+    pub penetration_tol_mm: f64,
+    /// Fixed detection skin added to the motion bound, mm.
+    pub skin_mm: f64,
+}
+
+/// Serialisable constraint form.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FormSpec {
+    /// Signed distance `|c - o| - (r_t + r_o)` (default).
+    #[default]
+    Distance,
+    /// The paper's `|c - o|^2 - (r_t + r_o)^2`.
+    Squared,
+}
+
+impl FormSpec {
+    /// The collide crate's form.
+    pub fn form(&self) -> ConstraintForm {
+        match self {
+            Self::Distance => ConstraintForm::Distance,
+            Self::Squared => ConstraintForm::Squared,
+        }
+    }
+}
+
+impl Default for SolverSpec {
+    fn default() -> Self {
+        Self {
+            kind: SolverKind::Dual,
+            form: FormSpec::Distance,
+            relinearize: 3,
+            penetration_tol_mm: 0.002,
+            skin_mm: 0.05,
+        }
+    }
+}
+
+/// The device section of a scene file.
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DeviceSpec {
+    /// Trajectory CSV to replay (relative to the scene file); none = hold the start pose.
+    pub trajectory: Option<String>,
+    /// Haptic rate, Hz.
+    pub rate_hz: f64,
+}
+
+impl Default for DeviceSpec {
+    fn default() -> Self {
+        Self {
+            trajectory: None,
+            rate_hz: 1000.0,
+        }
+    }
+}
+
+/// A scene file, as parsed.
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneSpec {
+    /// The tool (held by the device).
+    pub tool: BodySpec,
+    /// The static objects.
+    #[serde(default)]
+    pub object: Vec<BodySpec>,
+    /// Coupling stiffness.
+    #[serde(default)]
+    pub coupling: Coupling,
+    /// Solver settings.
+    #[serde(default)]
+    pub solver: SolverSpec,
+    /// Safety limits.
+    #[serde(default)]
+    pub safety: SafetyParams,
+    /// Device input.
+    #[serde(default)]
+    pub device: DeviceSpec,
+}
+
+impl SceneSpec {
+    /// Parses scene TOML; `source` names the file in errors.
+    pub fn parse(text: &str, source: &str) -> Result<Self, RenderError> {
+        let spec: SceneSpec = toml::from_str(text).map_err(|e| RenderError::Scene {
+            file: source.to_string(),
+            msg: one_line(&e.to_string()),
+        })?;
+        let err = |msg: String| RenderError::Scene {
+            file: source.to_string(),
+            msg,
+        };
+        if spec.object.is_empty() {
+            return Err(err(
+                "no [[object]]: add at least one object to collide with".into(),
+            ));
+        }
+        check_body(&spec.tool, "[tool]").map_err(err)?;
+        if spec.tool.pose.is_some() {
+            return Err(err(
+                "[tool] has `pose`; the tool's initial configuration is `start`".into(),
+            ));
+        }
+        for (i, o) in spec.object.iter().enumerate() {
+            let name = format!("[[object]] #{}", i + 1);
+            check_body(o, &name).map_err(err)?;
+            if o.start.is_some() {
+                return Err(err(format!(
+                    "{name} has `start`; objects are placed with `pose`"
+                )));
+            }
+        }
+        let positive = |v: f64| v > 0.0 && v.is_finite();
+        if !(positive(spec.coupling.kt) && positive(spec.coupling.kr)) {
+            return Err(err(
+                "[coupling] kt and kr must be finite and > 0 (e.g. kt = 1.0, kr = 1000.0)".into(),
+            ));
+        }
+        if !(spec.device.rate_hz > 0.0 && spec.device.rate_hz.is_finite()) {
+            return Err(err("[device] rate_hz must be > 0 (e.g. 1000.0)".into()));
+        }
+        Ok(spec)
+    }
+}
+
+fn one_line(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+fn check_body(b: &BodySpec, name: &str) -> Result<(), String> {
+    match (&b.mesh, &b.tree) {
+        (None, None) => {
+            return Err(format!(
+                "{name} needs `mesh = \"file.obj\"` or `tree = \"file.sph\"`"
+            ))
+        }
+        (Some(_), Some(_)) => return Err(format!("{name} has both `mesh` and `tree`; keep one")),
+        _ => {}
+    }
+    if let Some(s) = b.scale {
+        if !(s > 0.0 && s.is_finite()) {
+            return Err(format!("{name} scale = {s}: must be a finite number > 0"));
+        }
+    }
+    if let Some(d) = b.depth {
+        if !(1..=7).contains(&d) {
+            return Err(format!("{name} depth = {d}: use 1..=7 (4 is the paper's)"));
+        }
+    }
+    if let Some(br) = b.branching {
+        if !(2..=16).contains(&br) {
+            return Err(format!(
+                "{name} branching = {br}: use 2..=16 (8 is the default)"
+            ));
+        }
+    }
+    for q in [&b.start, &b.pose].into_iter().flatten() {
+        if q.iter().any(|v| !v.is_finite()) {
+            return Err(format!("{name}: pose numbers must be finite"));
+        }
+    }
+    Ok(())
+}
+
+/// Where a scene's device motion comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Motion {
+    /// A keyframe script (built-in scenes).
+    Script(Script),
+    /// A recorded trajectory.
+    Trajectory(Trajectory),
+    /// No motion given: the device holds the start pose.
+    Hold,
+}
+
+/// What a scene expects to happen (checked by tests and reported by `haptic6d run`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Goal {
+    /// The graphic tool's `z` must reach at most `target_z_mm` (an insertion).
+    InsertZ {
+        /// Target `z` of the tool origin, mm.
+        target_z_mm: f64,
+        /// Tolerance, mm.
+        tol_mm: f64,
+    },
+}
+
+/// Build parameters of a tree built from a mesh.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TreeParams {
+    /// Depth (levels - 1).
+    pub depth: u32,
+    /// Branching factor.
+    pub branching: u32,
+    /// Use the fast octree builder instead of the tight default.
+    pub octree: bool,
+}
+
+/// A loaded scene: everything the step and the loop need, in mm.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Name (built-in name or file path).
+    pub name: String,
+    /// The tool's tree in the tool frame, mm.
+    pub tool: SphereTree,
+    /// The tool mesh in the tool frame, mm (when built from a mesh).
+    pub tool_mesh: Option<TriMesh>,
+    /// Objects: tree in the object frame (mm) and its fixed pose.
+    pub objects: Vec<(SphereTree, Pose)>,
+    /// Object meshes in their object frames, mm (when built from meshes).
+    pub object_meshes: Vec<Option<TriMesh>>,
+    /// Coupling stiffness.
+    pub coupling: Coupling,
+    /// Solver settings.
+    pub solver: SolverSpec,
+    /// Safety limits.
+    pub safety: SafetyParams,
+    /// Tool start configuration.
+    pub start: Pose,
+    /// Haptic rate, Hz.
+    pub rate_hz: f64,
+    /// Device motion.
+    pub motion: Motion,
+    /// Expected outcome, if any.
+    pub goal: Option<Goal>,
+    /// How each tree was obtained (one line each: cache hit, built in N s, read from file).
+    pub load_log: Vec<String>,
+}
+
+impl Scene {
+    /// The device trajectory (the script sampled at the scene rate, the recorded one, or the
+    /// start pose held for one second).
+    pub fn trajectory(&self) -> Trajectory {
+        match &self.motion {
+            Motion::Script(s) => s.to_trajectory(self.rate_hz),
+            Motion::Trajectory(t) => t.clone(),
+            Motion::Hold => Script::starting_at(self.start.to_array())
+                .hold(1.0)
+                .to_trajectory(self.rate_hz),
+        }
+    }
+}
+
+/// Builds (or fetches from `cache`) the tree of `mesh` (mm) with `params`, logging what
+/// happened into `log` under `label`.
+pub fn tree_for_mesh(
+    mesh: &TriMesh,
+    params: TreeParams,
+    cache: &TreeCache,
+    label: &str,
+    log: &mut Vec<String>,
+) -> Result<SphereTree, RenderError> {
+    let method = if params.octree {
+        spheretree::build::BuildMethod::Octree
+    } else {
+        spheretree::build::BuildMethod::Tight
+    };
+    let bp = spheretree::build::BuildParams {
+        depth: params.depth,
+        branching: params.branching,
+        method,
+        ..Default::default()
+    };
+    let key = tree_key(mesh, &format!("{bp:?}"));
+    let t0 = Instant::now();
+    let (tree, outcome) = cache.get_or_build(&key, || {
+        spheretree::build::build_tree(mesh, &bp, &|_| {}).map_err(|e| RenderError::Scene {
+            file: label.to_string(),
+            msg: format!("building the sphere-tree failed: {e}"),
+        })
+    })?;
+    let dt = t0.elapsed().as_secs_f64();
+    log.push(match outcome {
+        CacheOutcome::Hit => format!("{label}: tree from cache ({dt:.3} s)"),
+        CacheOutcome::Built => format!(
+            "{label}: tree built, depth {} branching {} {:?} ({dt:.2} s)",
+            params.depth, params.branching, method
+        ),
+    });
+    Ok(tree)
+}
+
+/// Scales a tree's centres and radii by `s` (file units to mm).
+pub fn scale_tree(tree: &mut SphereTree, s: f64) {
+    for sp in tree.spheres_mut() {
+        if sp.is_used() {
+            sp.center = sp.center.map(|c| c * s);
+            sp.radius *= s;
+        }
+    }
+}
+
+fn resolve(base: &Path, p: &str) -> PathBuf {
+    let p = Path::new(p);
+    if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        base.join(p)
+    }
+}
+
+fn load_body(
+    b: &BodySpec,
+    base: &Path,
+    file: &str,
+    label: &str,
+    cache: &TreeCache,
+    log: &mut Vec<String>,
+) -> Result<(SphereTree, Option<TriMesh>), RenderError> {
+    let scale = b.scale.unwrap_or(1.0);
+    let err = |msg: String| RenderError::Scene {
+        file: file.to_string(),
+        msg,
+    };
+    if let Some(t) = &b.tree {
+        let path = resolve(base, t);
+        let mut tree = spheretree::sph::read_sph(&path)
+            .map_err(|e| err(format!("{label}: cannot read tree {}: {e}", path.display())))?;
+        scale_tree(&mut tree, scale);
+        tree.enforce_containment();
+        log.push(format!("{label}: tree read from {}", path.display()));
+        return Ok((tree, None));
+    }
+    let m = b.mesh.as_deref().unwrap_or_default();
+    let path = resolve(base, m);
+    let raw = crate::scenes::load_mesh_file(&path)
+        .map_err(|e| err(format!("{label}: cannot load mesh {}: {e}", path.display())))?;
+    let mesh = raw.scaled_about([0.0; 3], scale);
+    let octree = match b.method.as_deref().map(str::to_ascii_lowercase).as_deref() {
+        None | Some("tight") => false,
+        Some("octree") => true,
+        Some(other) => {
+            return Err(err(format!(
+                "{label}: unknown method `{other}`; use `tight` or `octree`"
+            )))
+        }
+    };
+    let params = TreeParams {
+        depth: b.depth.unwrap_or(4),
+        branching: b.branching.unwrap_or(8),
+        octree,
+    };
+    let tree = tree_for_mesh(&mesh, params, cache, label, log)?;
+    Ok((tree, Some(mesh)))
+}
+
+/// Loads a scene file: parses it, loads meshes/trees (relative to the file), builds or fetches
+/// trees, reads the trajectory named in `[device]`.
+pub fn load_scene_file(path: &Path, cache: &TreeCache) -> Result<Scene, RenderError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| RenderError::Scene {
+        file: file.clone(),
+        msg: format!("cannot read the scene file: {e}"),
+    })?;
+    let spec = SceneSpec::parse(&text, &file)?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let mut log = Vec::new();
+    let (tool, tool_mesh) = load_body(&spec.tool, base, &file, "tool", cache, &mut log)?;
+    let mut objects = Vec::new();
+    let mut object_meshes = Vec::new();
+    for (i, o) in spec.object.iter().enumerate() {
+        let (tree, m) = load_body(
+            o,
+            base,
+            &file,
+            &format!("object {}", i + 1),
+            cache,
+            &mut log,
+        )?;
+        objects.push((tree, Pose::from_array(o.pose.unwrap_or([0.0; 6]))));
+        object_meshes.push(m);
+    }
+    let motion = match &spec.device.trajectory {
+        Some(t) => Motion::Trajectory(Trajectory::read_csv(&resolve(base, t))?),
+        None => Motion::Hold,
+    };
+    Ok(Scene {
+        name: file,
+        tool,
+        tool_mesh,
+        objects,
+        object_meshes,
+        coupling: spec.coupling,
+        solver: spec.solver,
+        safety: spec.safety,
+        start: Pose::from_array(spec.tool.start.unwrap_or([0.0; 6])),
+        rate_hz: spec.device.rate_hz,
+        motion,
+        goal: None,
+        load_log: log,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"
+[tool]
+mesh = "bunny.obj"
+scale = 10.0
+depth = 4
+start = [0, 0, 120, 0, 0, 0]
+
+[[object]]
+mesh = "bunny.obj"
+scale = 10.0
+depth = 4
+pose = [0, 0, 0, 0, 0, 0]
+
+[coupling]
+kt = 1.0
+kr = 1000.0
+
+[solver]
+kind = "dual"
+"#;
+
+    #[test]
+    fn design_example_parses() {
+        let s = SceneSpec::parse(GOOD, "x.toml").unwrap();
+        assert_eq!(s.tool.start, Some([0.0, 0.0, 120.0, 0.0, 0.0, 0.0]));
+        assert_eq!(s.object.len(), 1);
+        assert_eq!(s.solver.kind, SolverKind::Dual);
+        assert_eq!(s.coupling.g(), [1.0, 1.0, 1.0, 1000.0, 1000.0, 1000.0]);
+    }
+
+    #[test]
+    fn errors_are_one_line_and_name_the_file() {
+        let cases = [
+            (GOOD.replace("kind = \"dual\"", "kind = \"fast\""), "kind"),
+            (
+                GOOD.replace(
+                    "scale = 10.0\ndepth = 4\nstart",
+                    "scale = -1.0\ndepth = 4\nstart",
+                ),
+                "scale",
+            ),
+            (
+                GOOD.replace(
+                    "mesh = \"bunny.obj\"\nscale = 10.0\ndepth = 4\nstart",
+                    "scale = 10.0\ndepth = 4\nstart",
+                ),
+                "needs `mesh",
+            ),
+            (GOOD.replace("[[object]]", "[[objekt]]"), "objekt"),
+            (GOOD.replace("kt = 1.0", "kt = 0.0"), "kt"),
+            (
+                GOOD.replace("depth = 4\nstart", "depth = 40\nstart"),
+                "depth",
+            ),
+            ("[tool]\nmesh = \"a.obj\"\n".to_string(), "no [[object]]"),
+            ("[tool\n".to_string(), ""),
+        ];
+        for (text, needle) in cases {
+            let e = SceneSpec::parse(&text, "scenes/my.toml")
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with("scenes/my.toml: "), "{e}");
+            assert!(!e.contains('\n'), "{e}");
+            assert!(e.contains(needle), "`{needle}` not in: {e}");
+        }
+    }
+
+    #[test]
+    fn missing_mesh_is_reported_with_its_resolved_path() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("s.toml");
+        std::fs::write(&p, GOOD.replace("bunny.obj", "nothere.obj")).unwrap();
+        let e = load_scene_file(&p, &TreeCache::disabled())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("s.toml")
+                && e.contains(&dir.path().join("nothere.obj").display().to_string()),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn solver_names() {
+        for k in [SolverKind::Dual, SolverKind::Pqp, SolverKind::ActiveSet] {
+            assert_eq!(SolverKind::parse(k.name()).unwrap(), k);
+        }
+        assert!(SolverKind::parse("newton")
+            .unwrap_err()
+            .to_string()
+            .contains("dual, pqp, active-set"));
+    }
+}

@@ -1,0 +1,114 @@
+//! Built-in scenes (`bunny`, `spline`) and the mesh loading they share with scene files.
+//!
+//! - [`builtin`]: a built-in scene by name, trees built (or fetched from the cache).
+//! - [`bunny`]: bunny tool against a bunny object, depth 4, ~100 mm.
+//! - [`spline::SplineParams`]: the splined shaft and hub meshes of the `spline` scene.
+
+pub mod bunny;
+pub mod spline;
+
+use std::path::Path;
+
+use collide::{overlap_tree_trees, CollideWorkspace, PackedTree, Pose};
+use mesh::TriMesh;
+
+use crate::cache::TreeCache;
+use crate::scene::Scene;
+use crate::RenderError;
+
+/// Names of the built-in scenes.
+pub const BUILTIN_NAMES: &[&str] = &["bunny", "spline"];
+
+/// A built-in scene by name (`bunny`, `spline`), trees from `cache` or built.
+pub fn builtin(name: &str, cache: &TreeCache) -> Result<Scene, RenderError> {
+    match name {
+        "bunny" => bunny::scene(cache),
+        "spline" => spline_scene::scene(cache, &spline::SplineParams::default(), 5),
+        _ => Err(RenderError::Unknown {
+            what: "scene",
+            name: name.to_string(),
+            expected: format!("{} or a scene file (.toml)", BUILTIN_NAMES.join(", ")),
+        }),
+    }
+}
+
+/// The `spline` scene assembly (meshes from [`spline`], trees, script).
+pub mod spline_scene;
+
+/// Loads a mesh file (OBJ, STL, PLY) through the mesh crate's validated loader.
+pub fn load_mesh_file(path: &Path) -> Result<TriMesh, String> {
+    mesh::load_mesh(path)
+        .map(|m| m.mesh)
+        .map_err(|e| e.to_string())
+}
+
+/// Smallest gap (mm) between the tool at `q` and the objects, with pairs searched up to
+/// `margin` (mm); `+inf` when nothing is within the margin. Offline helper for building
+/// scripts.
+pub fn min_gap(
+    tool: &PackedTree,
+    objects: &[PackedTree],
+    q: &Pose,
+    margin: f64,
+    ws: &mut CollideWorkspace,
+) -> f64 {
+    let mut g = f64::INFINITY;
+    let _ = overlap_tree_trees(tool, q, objects, margin, ws, |p| g = g.min(p.gap));
+    g
+}
+
+/// Distance (mm) the tool can travel from `from` along the unit direction `dir` before it
+/// touches an object (bisection on the leaf-level gap), or `None` if it never does within
+/// `max_mm`.
+pub fn distance_to_contact(
+    scene: &Scene,
+    from: &Pose,
+    dir: [f64; 3],
+    max_mm: f64,
+) -> Result<Option<f64>, RenderError> {
+    let bad = |e: collide::CollideError| RenderError::Scene {
+        file: scene.name.clone(),
+        msg: e.to_string(),
+    };
+    let tool = PackedTree::new(&scene.tool).map_err(bad)?;
+    let objects = scene
+        .objects
+        .iter()
+        .map(|(t, p)| PackedTree::with_pose(t, p))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(bad)?;
+    let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+    let at = |s: f64| {
+        let mut q = *from;
+        for k in 0..3 {
+            q.q[k] += dir[k] * s;
+        }
+        q
+    };
+    let mut lo = 0.0;
+    if min_gap(&tool, &objects, &at(lo), 0.0, &mut ws) <= 0.0 {
+        return Ok(Some(0.0));
+    }
+    // March in steps no larger than the current gap estimate, then bisect.
+    let step = 1.0;
+    let mut hi = None;
+    let mut s = 0.0;
+    while s < max_mm {
+        s = (s + step).min(max_mm);
+        if min_gap(&tool, &objects, &at(s), 0.0, &mut ws) <= 0.0 {
+            hi = Some(s);
+            break;
+        }
+        lo = s;
+    }
+    let Some(mut hi) = hi else { return Ok(None) };
+    for _ in 0..50 {
+        let mid = 0.5 * (lo + hi);
+        if min_gap(&tool, &objects, &at(mid), 0.0, &mut ws) <= 0.0 {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    Ok(Some(lo))
+}
