@@ -8,6 +8,7 @@
 mod plot;
 mod progress;
 mod run;
+mod serve;
 mod tree;
 
 use std::process::ExitCode;
@@ -29,12 +30,15 @@ enum Command {
     Tree(tree::TreeCommand),
     /// Run the haptic pipeline on a scene and write frames.csv, summary.json and plots.
     Run(run::RunArgs),
+    /// Interactive viewer: the haptic loop at 1 kHz, a web page and a UDP device bridge.
+    Serve(serve::ServeArgs),
 }
 
 fn dispatch(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Tree(cmd) => tree::run(cmd),
         Command::Run(args) => run::run(args),
+        Command::Serve(args) => serve::run(args),
     }
 }
 

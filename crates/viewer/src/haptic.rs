@@ -221,6 +221,7 @@ impl Worker {
                 InputSource::None as u8
             };
             s.input_seq = cmd.seq;
+            s.contacts_requested = self.input.contacts_wanted();
             let t0 = Instant::now();
             sim.step(&device, s);
             let frame_us = t0.elapsed().as_secs_f64() * 1e6;

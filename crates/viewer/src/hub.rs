@@ -7,7 +7,7 @@
 //!   haptic thread publishes every frame into a triple buffer without locking; readers share
 //!   the output end behind a mutex.
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
@@ -76,6 +76,7 @@ pub enum Rejected {
 pub struct InputHub {
     writer: Mutex<Writer>,
     resets: AtomicU64,
+    contact_viewers: AtomicUsize,
 }
 
 struct Writer {
@@ -110,6 +111,7 @@ impl InputHub {
                     last: DeviceCommand::default(),
                 }),
                 resets: AtomicU64::new(0),
+                contact_viewers: AtomicUsize::new(0),
             },
             InputReader { output },
         )
@@ -166,6 +168,26 @@ impl InputHub {
     /// Asks the haptic thread to re-seat the god-object and the device at the start pose.
     pub fn request_reset(&self) {
         self.resets.fetch_add(1, Ordering::Release);
+    }
+
+    /// One more viewer wants the contact list (`true`) or one fewer (`false`).
+    pub fn want_contacts(&self, on: bool) {
+        if on {
+            self.contact_viewers.fetch_add(1, Ordering::AcqRel);
+        } else {
+            let _ = self
+                .contact_viewers
+                .fetch_update(Ordering::AcqRel, Ordering::Acquire, |n| n.checked_sub(1));
+        }
+    }
+
+    /// True while at least one viewer wants the contact list.
+    ///
+    /// # Real-time
+    /// One atomic load.
+    #[inline]
+    pub fn contacts_wanted(&self) -> bool {
+        self.contact_viewers.load(Ordering::Acquire) > 0
     }
 
     /// How many resets were requested so far (the haptic thread compares with its own count).

@@ -16,6 +16,7 @@ pub mod haptic;
 pub mod hub;
 pub mod protocol;
 pub mod recorder;
+pub mod render_sim;
 pub mod server;
 pub mod sim;
 
@@ -24,6 +25,7 @@ pub use error::ViewerError;
 pub use haptic::{HapticLoop, LoopParams};
 pub use hub::{DeviceCommand, InputHub, InputSource, Rejected, StateHub};
 pub use recorder::RecordingSummary;
+pub use render_sim::RenderSim;
 pub use sim::{
     ContactPair, FrameState, NamedMesh, SceneGeometry, Simulation, MAX_DISPLAY_CONTACTS,
 };

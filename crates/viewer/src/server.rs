@@ -280,12 +280,24 @@ async fn stream(app: Arc<App>, mut socket: WebSocket) {
     let mut tick = tokio::time::interval(Duration::from_secs_f64(1.0 / hz));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let mut contacts = false;
+    stream_loop(&app, &mut socket, &mut tick, &mut contacts).await;
+    if contacts {
+        app.haptic.input().want_contacts(false);
+    }
+}
+
+async fn stream_loop(
+    app: &App,
+    socket: &mut WebSocket,
+    tick: &mut tokio::time::Interval,
+    contacts: &mut bool,
+) {
     let mut snapshot = FrameState::default();
     loop {
         tokio::select! {
             _ = tick.tick() => {
                 app.haptic.state().with_latest(|s| snapshot.copy_from(s));
-                if !contacts {
+                if !*contacts {
                     snapshot.contacts.clear();
                 }
                 let text = match serde_json::to_string(&StateMsg::new(&snapshot)) {
@@ -300,7 +312,7 @@ async fn stream(app: Arc<App>, mut socket: WebSocket) {
                 let Some(Ok(msg)) = msg else { return };
                 let Message::Text(text) = msg else { continue };
                 let reply = match serde_json::from_str::<PageMsg>(text.as_str()) {
-                    Ok(m) => handle(&app, m, &mut contacts),
+                    Ok(m) => handle(app, m, contacts),
                     Err(e) => Some(notice("error", &format!("bad message: {e}"))),
                 };
                 if let Some(r) = reply {
@@ -333,6 +345,9 @@ fn handle(app: &App, m: PageMsg, contacts: &mut bool) -> Option<Message> {
             None
         }
         PageMsg::Contacts { on } => {
+            if on != *contacts {
+                h.input().want_contacts(on);
+            }
             *contacts = on;
             None
         }

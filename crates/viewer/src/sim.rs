@@ -65,6 +65,9 @@ pub struct FrameState {
     pub input_seq: u64,
     /// True while the device trajectory is being recorded to CSV.
     pub recording: bool,
+    /// Set by the loop before the step: a viewer wants the contact list this frame. A
+    /// simulation may skip listing contacts when false.
+    pub contacts_requested: bool,
     /// Up to [`MAX_DISPLAY_CONTACTS`] active contact pairs.
     pub contacts: Vec<ContactPair>,
 }
@@ -89,6 +92,7 @@ impl Default for FrameState {
             source: 0,
             input_seq: 0,
             recording: false,
+            contacts_requested: false,
             contacts: Vec::with_capacity(MAX_DISPLAY_CONTACTS),
         }
     }
@@ -156,6 +160,7 @@ impl FrameState {
             source: self.source,
             input_seq: self.input_seq,
             recording: self.recording,
+            contacts_requested: self.contacts_requested,
             contacts: Vec::new(),
         }
     }
