@@ -8,7 +8,10 @@ use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use collide::{overlap_tree_tree, CollideWorkspace, PackedTree, Pose};
+use collide::{
+    collect_pairs, fill_constraints, overlap_tree_tree, CollideWorkspace, ConstraintForm,
+    PackedTree, Pose,
+};
 use criterion::{BenchmarkId, Criterion};
 use parry3d_f64::math::{Isometry, Point, Real};
 use parry3d_f64::partitioning::Qbvh;
@@ -276,6 +279,35 @@ fn main() {
         });
     }
     group.finish();
+
+    // Constraint rows for the pairs of each scenario (linearized at a pose 0.1 mm / 1 mrad away).
+    let mut group = c.benchmark_group("constraint_rows");
+    let objects = std::slice::from_ref(&obj);
+    let mut pairs = Vec::with_capacity(8192);
+    let mut rows = vec![[0.0; 6]; 8192];
+    let mut rhs = vec![0.0; 8192];
+    for s in &scenarios {
+        let q_h = pose_at(s.offset);
+        let mut q_lin = q_h;
+        q_lin.q[0] += 0.1;
+        q_lin.q[5] += 1e-3;
+        collect_pairs(&tool, &q_h, objects, 0.0, &mut ws, &mut pairs).expect("pairs");
+        for (name, form) in [
+            ("distance", ConstraintForm::Distance),
+            ("squared", ConstraintForm::Squared),
+        ] {
+            let id = format!("{}pairs", pairs.len());
+            group.bench_with_input(BenchmarkId::new(name, &id), &pairs, |b, pairs| {
+                b.iter(|| {
+                    let n =
+                        fill_constraints(form, black_box(&q_lin), &q_h, pairs, &mut rows, &mut rhs);
+                    black_box((n.ok(), rhs[0]))
+                })
+            });
+        }
+    }
+    group.finish();
+
     let mut group = c.benchmark_group("bunny_vs_bunny_brute");
     group.sample_size(10);
     for s in &scenarios {
@@ -298,8 +330,8 @@ fn main() {
         3000
     };
     println!("\nper-query timings over {runs} queries each (µs): p50 / p99 / max");
-    println!("| pairs | collide p50 | collide p99 | collide max | parry p50 | parry p99 | brute p50 | parry/collide | brute/collide |");
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("| pairs | collide p50 | collide p99 | collide max | parry p50 | parry p99 | brute p50 | parry/collide | brute/collide | rows p50 distance | rows p50 squared |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for s in &scenarios {
         let pose = pose_at(s.offset);
         let time = |f: &mut dyn FnMut() -> usize, n: usize| -> Vec<f64> {
@@ -337,8 +369,26 @@ fn main() {
             },
             brute_n,
         ));
+        let mut q_lin = pose;
+        q_lin.q[0] += 0.1;
+        q_lin.q[5] += 1e-3;
+        collect_pairs(&tool, &pose, objects, 0.0, &mut ws, &mut pairs).expect("pairs");
+        let mut rows_p50 = [0.0; 2];
+        for (k, form) in [ConstraintForm::Distance, ConstraintForm::Squared]
+            .into_iter()
+            .enumerate()
+        {
+            rows_p50[k] = percentiles(time(
+                &mut || {
+                    fill_constraints(form, black_box(&q_lin), &pose, &pairs, &mut rows, &mut rhs)
+                        .unwrap_or(0)
+                },
+                runs,
+            ))
+            .0;
+        }
         println!(
-            "| {} (~{}) | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.0} | {:.1}x | {:.0}x |",
+            "| {} (~{}) | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.0} | {:.1}x | {:.0}x | {:.2} | {:.2} |",
             s.pairs,
             s.target,
             ours.0,
@@ -348,7 +398,9 @@ fn main() {
             theirs.1,
             bf.0,
             theirs.0 / ours.0,
-            bf.0 / ours.0
+            bf.0 / ours.0,
+            rows_p50[0],
+            rows_p50[1]
         );
     }
     c.final_summary();

@@ -22,7 +22,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::{rotation_zyx_partials, CollideError, LeafPair, Pose};
+use crate::{CollideError, LeafPair, Pose};
 
 /// Which constraint function the rows linearize (see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -45,7 +45,8 @@ pub const DEGENERATE_DISTANCE: f64 = 1e-9;
 pub struct Linearization {
     form: ConstraintForm,
     rot: Matrix3<f64>,
-    drot: [Matrix3<f64>; 3],
+    /// World axes of the three Euler rates (gamma, beta, alpha): `dR/dtheta_k = [w_k]x R`.
+    axes: [Vector3<f64>; 3],
     t: Vector3<f64>,
     delta: [f64; 6],
 }
@@ -65,10 +66,20 @@ impl Linearization {
         for (k, d) in delta.iter_mut().enumerate() {
             *d = q_lin.q[k] - q_h.q[k];
         }
+        // R = Rz(alpha) Ry(beta) Rx(gamma): dR/dalpha = [e_z]x R, dR/dbeta = [Rz e_y]x R,
+        // dR/dgamma = [Rz Ry e_x]x R (exact, any angles). So d(R p)/dtheta_k = w_k x (R p) and
+        // g . (w_k x R p) = w_k . (R p x g).
+        let (sb, cb) = q[4].sin_cos();
+        let (sa, ca) = q[5].sin_cos();
+        let axes = [
+            Vector3::new(ca * cb, sa * cb, -sb),
+            Vector3::new(-sa, ca, 0.0),
+            Vector3::new(0.0, 0.0, 1.0),
+        ];
         Ok(Self {
             form,
             rot: q_lin.rotation_matrix(),
-            drot: rotation_zyx_partials(q[3], q[4], q[5]),
+            axes,
             t: q_lin.translation(),
             delta,
         })
@@ -100,7 +111,8 @@ impl Linearization {
     ) -> (f64, [f64; 6]) {
         let p = Vector3::from(*p_in_tool);
         let o = Vector3::from(*o_in_world);
-        let c = self.rot * p + self.t;
+        let rp = self.rot * p;
+        let c = rp + self.t;
         let v = c - o;
         let dist = v.norm();
         let s = r_tool + r_object;
@@ -123,11 +135,18 @@ impl Linearization {
             }
         };
         let g = dir * scale;
-        let mut j = [g.x, g.y, g.z, 0.0, 0.0, 0.0];
-        for k in 0..3 {
-            j[3 + k] = g.dot(&(self.drot[k] * p));
-        }
-        (value, j)
+        let m = rp.cross(&g);
+        (
+            value,
+            [
+                g.x,
+                g.y,
+                g.z,
+                self.axes[0].dot(&m),
+                self.axes[1].dot(&m),
+                self.axes[2].dot(&m),
+            ],
+        )
     }
 
     fn fallback_direction(&self, o: &Vector3<f64>) -> Vector3<f64> {

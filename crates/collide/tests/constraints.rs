@@ -194,3 +194,26 @@ fn short_buffers_are_an_error() {
 fn default_form_is_distance() {
     assert_eq!(ConstraintForm::default(), ConstraintForm::Distance);
 }
+
+/// The rotational part of J equals `g · (dR/dtheta_k) p` with the explicit partial matrices.
+#[test]
+fn rotational_gradient_matches_partial_matrices() {
+    use collide::rotation_zyx_partials;
+    use nalgebra::Vector3;
+    let q = Pose::from_array([3.0, -2.0, 1.0, 1.1, -0.7, 2.9]);
+    let p = [4.0, -1.0, 2.0];
+    let o = [10.0, 3.0, -4.0];
+    let lin = Linearization::new(ConstraintForm::Squared, &q, &q).unwrap();
+    let (_, j) = lin.value_gradient(&p, 1.0, &o, 2.0);
+    let c = Vector3::from(q.transform_point(&p));
+    let g = (c - Vector3::from(o)) * 2.0;
+    let d = rotation_zyx_partials(q.q[3], q.q[4], q.q[5]);
+    for k in 0..3 {
+        let expect = g.dot(&(d[k] * Vector3::from(p)));
+        assert!(
+            (j[3 + k] - expect).abs() < 1e-9 * expect.abs().max(1.0),
+            "{k}: {} vs {expect}",
+            j[3 + k]
+        );
+    }
+}
