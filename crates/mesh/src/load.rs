@@ -189,6 +189,9 @@ fn read_obj(bytes: &[u8], path: &Path) -> Result<RawPolygons, MeshError> {
         parse_error(path, "OBJ", format!("{e}{hint}"))
     })?;
     if models.iter().all(|m| m.mesh.indices.is_empty()) {
+        if let Some(located) = locate_obj_problem(bytes) {
+            return Err(parse_error(path, "OBJ", located));
+        }
         // tobj keeps only the vertices faces use; count the file's own `v` lines.
         let n_v = bytes
             .split(|&b| b == b'\n')
@@ -218,6 +221,17 @@ fn read_obj(bytes: &[u8], path: &Path) -> Result<RawPolygons, MeshError> {
             raw.arities.extend(m.face_arities.iter().copied());
         }
     }
+    // tobj accepts non-finite numbers and drops `f` lines of 1 or 2 corners (as points or
+    // lines): locate those in the text.
+    let n_f = bytes
+        .split(|&b| b == b'\n')
+        .filter(|l| matches!(l.trim_ascii_start(), [b'f', b' ' | b'\t', ..]))
+        .count();
+    if n_f != raw.arities.len() || raw.vertices.iter().flatten().any(|c| !c.is_finite()) {
+        if let Some(located) = locate_obj_problem(bytes) {
+            return Err(parse_error(path, "OBJ", located));
+        }
+    }
     Ok(raw)
 }
 
@@ -232,9 +246,13 @@ fn locate_obj_problem(bytes: &[u8]) -> Option<String> {
         match tokens.next() {
             Some("v") => {
                 let nums: Vec<&str> = tokens.collect();
-                if nums.len() < 3 || nums.iter().any(|t| t.parse::<f64>().is_err()) {
+                if nums.len() < 3
+                    || nums
+                        .iter()
+                        .any(|t| t.parse::<f64>().map_or(true, |v| !v.is_finite()))
+                {
                     return Some(format!(
-                        "line {lineno}: vertex line `{}` needs three numbers `v x y z`",
+                        "line {lineno}: vertex line `{}` needs three numbers `v x y z`, all finite",
                         line.trim()
                     ));
                 }
@@ -372,6 +390,7 @@ fn read_ply(bytes: &[u8], path: &Path) -> Result<(MeshFormat, RawPolygons), Mesh
     use ply_rs::parser::Parser;
     use ply_rs::ply::{DefaultElement, Encoding, Property};
 
+    check_ply_element_counts(bytes, path)?;
     let parser = Parser::<DefaultElement>::new();
     let mut reader = std::io::BufReader::new(Cursor::new(bytes));
     let header = parser
@@ -477,6 +496,48 @@ fn read_ply(bytes: &[u8], path: &Path) -> Result<(MeshFormat, RawPolygons), Mesh
         ));
     }
     Ok((format, raw))
+}
+
+/// Rejects `format` / `element` header lines with a number that does not fit in 64 bits (ply-rs
+/// panics on them) and element counts above the file's size in bytes (ply-rs would loop that
+/// many times on an element without properties).
+fn check_ply_element_counts(bytes: &[u8], path: &Path) -> Result<(), MeshError> {
+    let head = &bytes[..bytes.len().min(64 * 1024)];
+    for (i, line) in head.split(|&b| b == b'\n').enumerate() {
+        let line = String::from_utf8_lossy(line);
+        let first = line.split_whitespace().next();
+        if first == Some("end_header") {
+            break;
+        }
+        if !matches!(first, Some("format" | "element")) {
+            continue;
+        }
+        let bad = |what: String| {
+            parse_error(
+                path,
+                "PLY",
+                format!("header line {}: {what}; the header is corrupt", i + 1),
+            )
+        };
+        for run in line
+            .split(|c: char| !c.is_ascii_digit())
+            .filter(|r| !r.is_empty())
+        {
+            if run.parse::<u64>().is_err() {
+                return Err(bad(format!("number {run} is too large")));
+            }
+        }
+        if first == Some("element") {
+            let count = line.split_whitespace().nth(2).unwrap_or("");
+            if matches!(count.parse::<u64>(), Ok(n) if n > bytes.len() as u64) {
+                return Err(bad(format!(
+                    "element count {count} is larger than the file ({} bytes)",
+                    bytes.len()
+                )));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A numeric PLY scalar as f64.
