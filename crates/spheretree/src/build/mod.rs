@@ -27,6 +27,10 @@ use crate::eval::toolkit_frame;
 use crate::{Sphere, SphereTree, TreeError};
 use mesh::TriMesh;
 
+/// Version of the builders' output: bumped whenever a builder gives a different tree for the
+/// same [`BuildParams`] (fold it into any cache key of built trees).
+pub const BUILDER_VERSION: u32 = 2;
+
 /// Which builder [`build_tree`] runs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum BuildMethod {
@@ -93,6 +97,9 @@ pub struct BuildParams {
     /// part may take both sides and its sphere sits on the medial axis, which measured
     /// tighter on the bunny than keeping the sides apart: worst 15.1 vs 16.1 at 0.5).
     pub normal_weight: f64,
+    /// Tight builder: extra passes that resample each region in proportion to the error of
+    /// the leaf covering it and rebuild, evening the leaf errors out (default 1).
+    pub refine_passes: usize,
     /// Tight builder: Lloyd (k-means) iterations after each balanced split (default 4).
     pub lloyd_iters: usize,
 }
@@ -111,6 +118,7 @@ impl Default for BuildParams {
             adaptivity: 1.0,
             normal_weight: 0.0,
             lloyd_iters: 4,
+            refine_passes: 1,
         }
     }
 }
@@ -215,7 +223,7 @@ pub(crate) fn fill_parents(tree: &mut SphereTree, q: Option<(&mesh::MeshQuery, f
                         .fold(0.0, f64::max)
                 };
                 let f = |c: [f64; 3]| reach(c) * (1.0 + size_weight) + q.signed_distance(c);
-                let c = enclose::nelder_mead(&f, min.center, 0.25 * min.radius, 150, 1e-2);
+                let c = enclose::nelder_mead(&f, min.center, 0.25 * min.radius, 60, 1e-1);
                 let best = if f(c) < f(min.center) { c } else { min.center };
                 Some(Sphere::new(best, reach(best)))
             })

@@ -29,6 +29,8 @@ const REPAIR_ROUNDS: usize = 4;
 /// Clamp of the local thickness used for the sampling density (toolkit units).
 const THICK_MIN: f64 = 10.0;
 const THICK_MAX: f64 = 250.0;
+/// Error floor (toolkit units) of the feedback pass, so error-free regions keep samples.
+const FEEDBACK_FLOOR: f64 = 1.0;
 /// Fewest coverage-check samples (twice the default of the fit measure).
 const MIN_CHECK: usize = 200_000;
 /// Largest number of training samples (memory bound for deep trees).
@@ -53,61 +55,81 @@ pub(super) fn build(
     }
     let thickness = triangle_thickness(m, &q);
     let gamma = params.adaptivity;
-    let train = sample_surface_weighted(m, n_train, params.seed, &|t| {
-        thickness[t].clamp(THICK_MIN, THICK_MAX).powf(-gamma)
-    });
-    let pos: Vec<[f64; 3]> = train.iter().map(|s| s.0).collect();
-    let nrm: Vec<[f64; 3]> = train.iter().map(|s| s.1).collect();
-    progress(0.05);
-
-    // 2. Top-down partition.
-    let mut nodes: Vec<(usize, Vec<u32>)> = vec![(0, (0..pos.len() as u32).collect())];
-    for level in 1..=depth {
-        nodes = nodes
+    let mut density: Vec<f64> = thickness
+        .iter()
+        .map(|t| t.clamp(THICK_MIN, THICK_MAX).powf(-gamma))
+        .collect();
+    let passes = params.refine_passes + 1;
+    let mut pass = 0;
+    let (pos, nrm, nodes, mut leaves) = loop {
+        let span = 0.7 / passes as f64;
+        let lo = span * pass as f64;
+        let report = |f: f64| progress(lo + span * f);
+        // Feedback passes only estimate errors: a line search and a short polish suffice.
+        let polish = if pass + 1 < passes { 16 } else { 100 };
+        let (pos, nrm, nodes, leaves) =
+            patches_and_fits(m, &q, params, b, depth, n_train, &density, polish, &report);
+        pass += 1;
+        if pass >= passes {
+            break (pos, nrm, nodes, leaves);
+        }
+        // Error feedback: sample each triangle more densely in proportion to the protrusion
+        // bound of the leaf that covers it, so leaf errors even out.
+        let err: Vec<f64> = leaves
+            .iter()
+            .map(|s| (s.radius - params.coverage_margin + q.signed_distance(s.center)).max(0.0))
+            .collect();
+        let mean_err = err.iter().sum::<f64>() / err.len().max(1) as f64;
+        let owner = owner_of_samples(&nodes, pos.len());
+        let near = PointGrid::new(&pos, 4.0 * (surface_area(m) / pos.len() as f64).sqrt());
+        let nv = m.vertices.len();
+        let factor: Vec<f64> = m
+            .triangles
             .par_iter()
-            .flat_map_iter(|(slot, idx)| {
-                let w = params.normal_weight * rms_radius(&pos, idx);
-                let groups = partition::split(&pos, &nrm, idx, b, w, params.lloyd_iters);
-                let slot = *slot;
-                groups
-                    .into_iter()
-                    .enumerate()
-                    .map(move |(k, g)| (slot * b + 1 + k, g))
+            .map(|t| {
+                if t.iter().any(|&k| k as usize >= nv) {
+                    return 1.0;
+                }
+                let [a, b, c] = t.map(|k| m.vertices[k as usize]);
+                let centre = [0, 1, 2].map(|k| (a[k] + b[k] + c[k]) / 3.0);
+                let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+                let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+                let n = [
+                    e1[1] * e2[2] - e1[2] * e2[1],
+                    e1[2] * e2[0] - e1[0] * e2[2],
+                    e1[0] * e2[1] - e1[1] * e2[0],
+                ];
+                let k = near.nearest_facing(&pos, &nrm, centre, n);
+                (err[owner[k as usize]] + FEEDBACK_FLOOR) / (mean_err + FEEDBACK_FLOOR)
             })
             .collect();
-        progress(0.05 + 0.15 * level as f64 / depth.max(1) as f64);
-    }
-
-    // 3. Leaf fits.
+        for (d, f) in density.iter_mut().zip(factor) {
+            *d *= f;
+        }
+    };
     let done = AtomicUsize::new(0);
-    let total = nodes.len().max(1);
-    let fit_all =
-        |nodes: &[(usize, Vec<u32>)], extra: &[Vec<[f64; 3]>], start: Option<&[Sphere]>| {
-            nodes
-                .par_iter()
-                .enumerate()
-                .map(|(i, (_, idx))| {
-                    let mut pts: Vec<[f64; 3]> = idx.iter().map(|&k| pos[k as usize]).collect();
-                    pts.extend_from_slice(&extra[i]);
-                    let normal = mean_normal(&nrm, idx);
-                    let s = fit_leaf(
-                        &q,
-                        &pts,
-                        normal,
-                        params.size_weight,
-                        params.coverage_margin,
-                        start.map(|s| s[i]),
-                    );
-                    let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-                    if d.is_multiple_of(64) {
-                        progress(0.2 + 0.5 * (d as f64 / total as f64).min(1.0));
-                    }
-                    s
-                })
-                .collect::<Vec<Sphere>>()
-        };
+    let fit_all = |nodes: &[(usize, Vec<u32>)], extra: &[Vec<[f64; 3]>], start: &[Sphere]| {
+        nodes
+            .par_iter()
+            .enumerate()
+            .map(|(i, (_, idx))| {
+                let mut pts: Vec<[f64; 3]> = idx.iter().map(|&k| pos[k as usize]).collect();
+                pts.extend_from_slice(&extra[i]);
+                let normal = mean_normal(&nrm, idx);
+                done.fetch_add(1, Ordering::Relaxed);
+                fit_leaf(
+                    &q,
+                    &pts,
+                    normal,
+                    params.size_weight,
+                    params.coverage_margin,
+                    Some(start[i]),
+                    0,
+                )
+            })
+            .collect::<Vec<Sphere>>()
+    };
     let mut extra: Vec<Vec<[f64; 3]>> = vec![Vec::new(); nodes.len()];
-    let mut leaves = fit_all(&nodes, &extra, None);
     progress(0.7);
 
     // 4. Coverage repair against a denser sample set.
@@ -163,7 +185,7 @@ pub(super) fn build(
         let sub_nodes: Vec<(usize, Vec<u32>)> = idx.iter().map(|&i| nodes[i].clone()).collect();
         let sub_extra: Vec<Vec<[f64; 3]>> = idx.iter().map(|&i| extra[i].clone()).collect();
         let sub_start: Vec<Sphere> = idx.iter().map(|&i| leaves[i]).collect();
-        let refit = fit_all(&sub_nodes, &sub_extra, Some(&sub_start));
+        let refit = fit_all(&sub_nodes, &sub_extra, &sub_start);
         for (k, &i) in idx.iter().enumerate() {
             leaves[i] = refit[k];
         }
@@ -188,6 +210,71 @@ pub(super) fn build(
     Ok(())
 }
 
+/// Samples, balanced top-down partition and first leaf fits for a per-triangle sampling
+/// `density`: `(positions, normals, leaf (slot, sample indices), leaf spheres)`.
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+fn patches_and_fits(
+    m: &TriMesh,
+    q: &MeshQuery,
+    params: &BuildParams,
+    b: usize,
+    depth: u32,
+    n_train: usize,
+    density: &[f64],
+    polish_evals: usize,
+    progress: &(dyn Fn(f64) + Sync),
+) -> (
+    Vec<[f64; 3]>,
+    Vec<[f64; 3]>,
+    Vec<(usize, Vec<u32>)>,
+    Vec<Sphere>,
+) {
+    let train = sample_surface_weighted(m, n_train, params.seed, &|t| density[t]);
+    let pos: Vec<[f64; 3]> = train.iter().map(|s| s.0).collect();
+    let nrm: Vec<[f64; 3]> = train.iter().map(|s| s.1).collect();
+    progress(0.05);
+    let mut nodes: Vec<(usize, Vec<u32>)> = vec![(0, (0..pos.len() as u32).collect())];
+    for level in 1..=depth {
+        nodes = nodes
+            .par_iter()
+            .flat_map_iter(|(slot, idx)| {
+                let w = params.normal_weight * rms_radius(&pos, idx);
+                let groups = partition::split(&pos, &nrm, idx, b, w, params.lloyd_iters);
+                let slot = *slot;
+                groups
+                    .into_iter()
+                    .enumerate()
+                    .map(move |(k, g)| (slot * b + 1 + k, g))
+            })
+            .collect();
+        progress(0.05 + 0.25 * level as f64 / depth.max(1) as f64);
+    }
+    let done = AtomicUsize::new(0);
+    let total = nodes.len().max(1);
+    let leaves: Vec<Sphere> = nodes
+        .par_iter()
+        .map(|(_, idx)| {
+            let pts: Vec<[f64; 3]> = idx.iter().map(|&k| pos[k as usize]).collect();
+            let normal = mean_normal(&nrm, idx);
+            let s = fit_leaf(
+                q,
+                &pts,
+                normal,
+                params.size_weight,
+                params.coverage_margin,
+                None,
+                polish_evals,
+            );
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if d.is_multiple_of(64) {
+                progress(0.3 + 0.7 * (d as f64 / total as f64).min(1.0));
+            }
+            s
+        })
+        .collect();
+    (pos, nrm, nodes, leaves)
+}
+
 /// The leaf sphere for patch points `pts` with mean outward normal `normal`: see the module
 /// docs (step 3). `start` (a previous fit) seeds the search.
 fn fit_leaf(
@@ -197,6 +284,7 @@ fn fit_leaf(
     size_weight: f64,
     margin: f64,
     start: Option<Sphere>,
+    polish_evals: usize,
 ) -> Sphere {
     let cover = |c: [f64; 3]| pts.iter().map(|p| dist2(*p, c)).fold(0.0, f64::max).sqrt();
     let f = |c: [f64; 3]| {
@@ -226,7 +314,7 @@ fn fit_leaf(
                     x0 = x;
                 }
             }
-            (x0, 0.5 * a, 100)
+            (x0, 0.5 * a, polish_evals)
         }
     };
     let best = nelder_mead(&f, x0, step, evals, 1e-2);
