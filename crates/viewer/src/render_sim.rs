@@ -88,6 +88,13 @@ impl RenderSim {
     }
 }
 
+impl RenderSim {
+    /// The geometry the page draws (meshes in mm; sphere meshes for tree-only bodies).
+    pub fn scene_geometry(&self) -> &SceneGeometry {
+        &self.geometry
+    }
+}
+
 impl Simulation for RenderSim {
     fn scene(&self) -> SceneGeometry {
         self.geometry.clone()

@@ -1,10 +1,14 @@
-//! A test double for the viewer's infrastructure tests: a point tool above the floor `z >= 0`
+//! Test scenes. `small_scene`: a real render scene (trees built here) for the pipeline tests.
+//! `Floor`: a test double for the transport tests: a point tool above the floor `z >= 0`
 //! (the god-object is the device pose with z clamped), so expected wrenches are known exactly.
 //! The shipped `serve` path uses the real render pipeline; this only exercises transport.
 #![allow(dead_code)]
 
 use collide::Pose;
 use mesh::TriMesh;
+use render::safety::SafetyParams;
+use render::scene::{Coupling, Motion, Scene, SolverSpec};
+use spheretree::{Sphere, SphereTree};
 use viewer::{ContactPair, FrameState, NamedMesh, SceneGeometry, Simulation};
 
 /// Translational stiffness of the floor (N/mm).
@@ -82,5 +86,41 @@ impl Simulation for Floor {
 
     fn reset(&mut self, pose: &Pose) {
         self.graphic = *pose;
+    }
+}
+
+/// Tool: root r = 9 at the origin, leaves r = 3 at x = ±5 (levels 2, branching 2).
+/// Floor: root r = 45 at z = -20, four leaves r = 20 at (±15, ±15, -20) (levels 2, branching 4);
+/// the floor's top is z = 0.
+pub fn small_scene() -> Scene {
+    let tool = SphereTree::from_slots(
+        2,
+        2,
+        vec![
+            Sphere::new([0.0, 0.0, 0.0], 9.0),
+            Sphere::new([-5.0, 0.0, 0.0], 3.0),
+            Sphere::new([5.0, 0.0, 0.0], 3.0),
+        ],
+    )
+    .unwrap();
+    let mut slots = vec![Sphere::new([0.0, 0.0, -20.0], 45.0)];
+    for (x, y) in [(-15.0, -15.0), (15.0, -15.0), (-15.0, 15.0), (15.0, 15.0)] {
+        slots.push(Sphere::new([x, y, -20.0], 20.0));
+    }
+    let floor = SphereTree::from_slots(2, 4, slots).unwrap();
+    Scene {
+        name: "two-spheres-over-floor".into(),
+        tool,
+        tool_mesh: None,
+        objects: vec![(floor, Pose::identity())],
+        object_meshes: vec![None],
+        coupling: Coupling::default(),
+        solver: SolverSpec::default(),
+        safety: SafetyParams::default(),
+        start: Pose::from_array([0.0, 0.0, 30.0, 0.0, 0.0, 0.0]),
+        rate_hz: 1000.0,
+        motion: Motion::Hold,
+        goal: None,
+        load_log: Vec::new(),
     }
 }
