@@ -246,13 +246,18 @@ fn locate_obj_problem(bytes: &[u8]) -> Option<String> {
         match tokens.next() {
             Some("v") => {
                 let nums: Vec<&str> = tokens.collect();
-                if nums.len() < 3
-                    || nums
-                        .iter()
-                        .any(|t| t.parse::<f64>().map_or(true, |v| !v.is_finite()))
+                if nums.len() < 3 || nums.iter().any(|t| t.parse::<f64>().is_err()) {
+                    return Some(format!(
+                        "line {lineno}: vertex line `{}` needs three numbers `v x y z`",
+                        line.trim()
+                    ));
+                }
+                if nums
+                    .iter()
+                    .any(|t| t.parse::<f64>().is_ok_and(|v| !v.is_finite()))
                 {
                     return Some(format!(
-                        "line {lineno}: vertex line `{}` needs three numbers `v x y z`, all finite",
+                        "line {lineno}: vertex line `{}` has a non-finite coordinate; fix or remove that vertex",
                         line.trim()
                     ));
                 }
