@@ -190,14 +190,25 @@ impl Parry {
         }
     }
 
-    fn query(&mut self, pose: &Pose, mut visit: impl FnMut(u32, u32, f64)) -> usize {
+    fn query(&mut self, pose: &Pose, visit: impl FnMut(u32, u32, f64)) -> usize {
+        self.query_counting(pose, visit).0
+    }
+
+    /// Pairs found, and leaf pairs whose AABBs overlapped (the exact tests run).
+    fn query_counting(
+        &mut self,
+        pose: &Pose,
+        mut visit: impl FnMut(u32, u32, f64),
+    ) -> (usize, usize) {
         let world_from_tool: Isometry<Real> = pose.to_isometry();
         let (tb, ob) = (&self.tool_balls, &self.obj_balls);
         let mut n = 0;
+        let mut candidates = 0;
         // Left: the object (world); right: the tool, AABBs mapped by world_from_tool.
         let mut visitor = BoundingVolumeIntersectionsSimultaneousVisitor::with_relative_pos(
             world_from_tool,
             |&o: &u32, &t: &u32| {
+                candidates += 1;
                 let a = tb[t as usize];
                 let c = world_from_tool * Point::new(a[0], a[1], a[2]);
                 let b = ob[o as usize];
@@ -212,7 +223,7 @@ impl Parry {
         );
         let q_obj: &Qbvh<u32> = self.obj.qbvh();
         q_obj.traverse_bvtt_with_stack(self.tool.qbvh(), &mut visitor, &mut self.stack);
-        n
+        (n, candidates)
     }
 }
 
@@ -251,9 +262,19 @@ fn main() {
             let pose = pose_at(offset);
             // All three methods must agree on the pair count.
             let b = brute.query(&pose, |_, _, _| {});
-            let p = parry.query(&pose, |_, _, _| {});
+            let (p, candidates) = parry.query_counting(&pose, |_, _, _| {});
+            overlap_tree_tree(&tool, &pose, &obj, 0.0, &mut ws, |_| {}).expect("query");
+
+            let st = ws.stats();
             assert_eq!((b, p), (pairs, pairs), "brute force / parry disagree at offset {offset}");
-            println!("target ~{target}: offset {offset:.4} mm -> {pairs} leaf pairs (brute force and parry agree)");
+            println!(
+                "target ~{target}: offset {offset:.4} mm -> {pairs} leaf pairs (brute force and parry agree); \
+                 collide: {} node pairs split, {} sphere tests, {} tool nodes posed; \
+                 parry: {candidates} exact ball tests after its AABB tests",
+                st.node_pairs_split,
+                st.sphere_tests,
+                st.tool_nodes_posed
+            );
             Scenario { target, offset, pairs }
         })
         .collect();

@@ -44,8 +44,18 @@ pub struct CollideWorkspace {
     epoch: u32,
     rot: [[f64; 3]; 3],
     t: [f64; 3],
-    /// Packed tool nodes posed during the last query (a work measure for benches).
-    posed_count: usize,
+    stats: TraversalStats,
+}
+
+/// Work done by the last query (counters, for benches and frame logs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TraversalStats {
+    /// Node pairs taken off the descent stack and split.
+    pub node_pairs_split: usize,
+    /// Sphere–sphere overlap tests run (root tests included).
+    pub sphere_tests: usize,
+    /// Tool nodes whose world centre was computed.
+    pub tool_nodes_posed: usize,
 }
 
 impl CollideWorkspace {
@@ -67,9 +77,9 @@ impl CollideWorkspace {
         ws
     }
 
-    /// Number of tool nodes whose world centre was computed by the last query.
-    pub fn posed_count(&self) -> usize {
-        self.posed_count
+    /// Work counters of the last query.
+    pub fn stats(&self) -> TraversalStats {
+        self.stats
     }
 
     /// Bound on the stack depth of a depth-first descent that splits one node per step: each
@@ -114,7 +124,10 @@ impl CollideWorkspace {
             self.epoch = 1;
         }
         self.pose_range(tool, 0, 1);
-        self.posed_count = 1;
+        self.stats = TraversalStats {
+            tool_nodes_posed: 1,
+            ..TraversalStats::default()
+        };
     }
 
     #[inline(always)]
@@ -144,7 +157,7 @@ impl CollideWorkspace {
             let f = tool.first_child[n] as usize;
             let e = f + tool.child_count[n] as usize;
             self.pose_range(tool, f, e);
-            self.posed_count += e - f;
+            self.stats.tool_nodes_posed += e - f;
         }
     }
 }
@@ -269,6 +282,7 @@ fn descend<F: FnMut(&LeafPair)>(
         visit(&pair);
     };
 
+    ws.stats.sphere_tests += 1;
     {
         let dx = ws.wx[0] - obj.x[0];
         let dy = ws.wy[0] - obj.y[0];
@@ -289,6 +303,7 @@ fn descend<F: FnMut(&LeafPair)>(
         let (t, o) = (t as usize, o as usize);
         let tc = tool.child_count[t] as usize;
         let oc = obj.child_count[o] as usize;
+        ws.stats.node_pairs_split += 1;
         if tc != 0 && (oc == 0 || tool.r[t] >= obj.r[o]) {
             // Split the tool node.
             ws.pose_children(tool, t);
@@ -298,6 +313,7 @@ fn descend<F: FnMut(&LeafPair)>(
             let e = f + tc;
             let (wx, wy, wz) = (&ws.wx[f..e], &ws.wy[f..e], &ws.wz[f..e]);
             let (rr, cc) = (&tool.r[f..e], &tool.child_count[f..e]);
+            ws.stats.sphere_tests += tc;
             for i in 0..tc {
                 let dx = wx[i] - ox;
                 let dy = wy[i] - oy;
@@ -321,6 +337,7 @@ fn descend<F: FnMut(&LeafPair)>(
             let e = f + oc;
             let (ox, oy, oz) = (&obj.x[f..e], &obj.y[f..e], &obj.z[f..e]);
             let (rr, cc) = (&obj.r[f..e], &obj.child_count[f..e]);
+            ws.stats.sphere_tests += oc;
             for i in 0..oc {
                 let dx = tx - ox[i];
                 let dy = ty - oy[i];
