@@ -218,13 +218,14 @@ pub fn infeasible(n: usize, r: &mut impl Rng) -> Instance {
 /// with its default tolerances (1e-8). `Err(status)` if both fail.
 pub fn clarabel(inst: &Instance) -> Result<([f64; 6], f64, bool), SolverStatus> {
     match clarabel_with(inst, true) {
-        Ok((x, f)) => Ok((x, f, true)),
-        Err(_) => clarabel_with(inst, false).map(|(x, f)| (x, f, false)),
+        Ok((x, f, _)) => Ok((x, f, true)),
+        Err(_) => clarabel_with(inst, false).map(|(x, f, _)| (x, f, false)),
     }
 }
 
-/// Clarabel with tight tolerances (`tight`, the oracle) or its defaults (the bench).
-pub fn clarabel_with(inst: &Instance, tight: bool) -> Result<([f64; 6], f64), SolverStatus> {
+/// Clarabel with tight tolerances (`tight`, the oracle) or its defaults (the bench):
+/// `(dq, objective, iterations)` if it reports Solved.
+pub fn clarabel_with(inst: &Instance, tight: bool) -> Result<([f64; 6], f64, u32), SolverStatus> {
     let n = inst.j.len();
     // P = G (upper triangle, diagonal), q = 0; J x >= d  <=>  -J x + s = -d, s >= 0.
     let p = CscMatrix::new(6, 6, (0..=6).collect(), (0..6).collect(), inst.g.to_vec());
@@ -260,7 +261,7 @@ pub fn clarabel_with(inst: &Instance, tight: bool) -> Result<([f64; 6], f64), So
         SolverStatus::Solved => {
             let x: [f64; 6] = std::array::from_fn(|i| s.solution.x[i]);
             let obj = 0.5 * (0..6).map(|i| inst.g[i] * x[i] * x[i]).sum::<f64>();
-            Ok((x, obj))
+            Ok((x, obj, s.solution.iterations))
         }
         st => Err(st),
     }
