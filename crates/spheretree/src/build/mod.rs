@@ -2,12 +2,14 @@
 //!
 //! Entry point: [`build_tree`]`(mesh, &`[`BuildParams`]`, progress)` with a [`BuildMethod`]:
 //! - [`BuildMethod::Tight`] (default): recursive balanced clustering of dense surface samples
-//!   (position + normal) into B patches per node; each leaf sphere covers its patch while
-//!   protruding as little as possible out of the mesh (centre optimised inward against an
-//!   upper bound of the protrusion, then checked against a denser sample set so coverage holds);
-//!   parents contain their children and, among such spheres, protrude least out of the mesh.
+//!   (denser where the mesh is thin, then where the first leaves erred) into B patches per
+//!   node; each leaf sphere covers its patch while protruding as little as possible out of
+//!   the mesh (centre optimised inward against an upper bound of the protrusion, then checked
+//!   against a denser sample set so coverage holds); parents contain their children and,
+//!   among such spheres, protrude least out of the mesh.
 //! - [`BuildMethod::Octree`]: the fast one: cells of an octree on the bounding cube that meet
-//!   the surface, each bounded by its circumscribed sphere (full coverage by construction).
+//!   the surface, each leaf bounding the surface clipped to its cell (full coverage by
+//!   construction), parents the smallest spheres enclosing their children.
 //!
 //! Rule kept by every builder: each used parent sphere **contains** each used child sphere
 //! (checked by [`SphereTree::validate`]). All builders work in the toolkit frame (mesh scaled

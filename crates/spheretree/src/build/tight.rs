@@ -1,17 +1,21 @@
 //! The tight builder (default): patches of dense surface samples, one optimised sphere each.
 //!
-//! 1. Draw `B^depth * samples_per_leaf` seeded surface samples with normals.
-//! 2. Top-down, split each node's samples into B balanced, compact groups on
-//!    `(position, w · normal)` ([`partition::split`]); the groups at the last level are the
-//!    leaf patches.
+//! 1. Per triangle, the local thickness (shrinking ball); draw `B^depth * samples_per_leaf`
+//!    seeded surface samples with density `thickness^-adaptivity`, so thin parts get more,
+//!    smaller patches.
+//! 2. Top-down, split each node's samples into B equal-count, compact groups on
+//!    `(position, w · normal)` (`w = 0` by default; [`partition::split`]); the groups at the
+//!    last level are the leaf patches.
 //! 3. Fit each leaf (in parallel): the centre `c` minimises
 //!    `r(c) + sd(c) + size_weight · r(c)`, where `r(c)` is the radius that covers the patch
 //!    and `sd` the signed distance to the mesh (negative inside). `r + sd` bounds the
 //!    protrusion of the ball out of the mesh from above (the ball `B(c, -sd)` lies inside),
 //!    so lowering it pushes the centre inward, towards the medial axis, as far as pays.
-//! 4. Check coverage on a second, denser sample set; each uncovered sample joins the patch of
-//!    its nearest same-facing training sample, and those leaves are refitted (a few rounds).
-//! 5. Parents contain their children; among such spheres, the one protruding least out of the
+//! 4. Error feedback (`refine_passes`): multiply each triangle's density by its leaf's
+//!    protrusion bound over the mean and redo steps 1–3, evening the errors out.
+//! 5. Check coverage on a second, denser sample set; each uncovered sample joins the nearby
+//!    same-facing leaf that needs the least growth, and those leaves are refitted.
+//! 6. Parents contain their children; among such spheres, the one protruding least out of the
 //!    mesh (same objective as the leaves, started from the smallest enclosing sphere).
 
 #![allow(clippy::needless_range_loop)] // xyz loops read better indexed
