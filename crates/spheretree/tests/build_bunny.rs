@@ -66,7 +66,12 @@ fn tight_depth3_is_valid_covers_every_level_and_is_deterministic() {
     // depth 3 on the worst sphere; the mean is a regression guard.
     assert!(leaf.mean < 18.0, "{leaf:?}");
 
-    let again = build_tree(&mesh, &params, &|_| {}).unwrap();
+    // Same seed, same tree, whatever the number of threads.
+    let again = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| build_tree(&mesh, &params, &|_| {}).unwrap());
     assert_eq!(tree, again, "same seed, same tree");
     let other = build_tree(
         &mesh,
@@ -129,6 +134,23 @@ fn bad_inputs_are_refused_with_a_reason() {
     .unwrap();
     t.validate(0.0).unwrap();
     assert_eq!(t.used_on_level(2), 16);
+    // Depth 0: a single sphere around the whole mesh, for both builders.
+    for method in [BuildMethod::Tight, BuildMethod::Octree] {
+        let one = build_tree(
+            &mesh,
+            &BuildParams {
+                depth: 0,
+                method,
+                ..BuildParams::default()
+            },
+            &|_| {},
+        )
+        .unwrap();
+        one.validate(0.0).unwrap();
+        assert_eq!(one.len(), 1);
+        let fit = evaluate_fit(&one, &mesh, &FitParams::default());
+        assert_eq!(fit[0].coverage, 1.0, "{method:?}: {:?}", fit[0]);
+    }
     assert!("medial".parse::<BuildMethod>().is_err());
     assert_eq!(
         "octree".parse::<BuildMethod>().unwrap(),
