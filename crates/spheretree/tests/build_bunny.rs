@@ -157,3 +157,42 @@ fn bad_inputs_are_refused_with_a_reason() {
         BuildMethod::Octree
     );
 }
+
+#[test]
+fn builds_are_frame_and_scale_invariant() {
+    // The same bunny in millimetres and moved far away: the tree moves and scales with it, and
+    // the fit (in toolkit units) is the same.
+    let mesh = build_util::bunny();
+    let moved = TriMesh {
+        vertices: mesh
+            .vertices
+            .iter()
+            .map(|v| [v[0] * 25.4 + 1e4, v[1] * 25.4 - 3e3, v[2] * 25.4 + 7.0])
+            .collect(),
+        triangles: mesh.triangles.clone(),
+    };
+    for method in [BuildMethod::Tight, BuildMethod::Octree] {
+        let params = BuildParams {
+            depth: 2,
+            method,
+            ..BuildParams::default()
+        };
+        let a = build_tree(&mesh, &params, &|_| {}).unwrap();
+        let b = build_tree(&moved, &params, &|_| {}).unwrap();
+        b.validate(0.0).unwrap();
+        let fa = evaluate_fit(&a, &mesh, &FitParams::default());
+        let fb = evaluate_fit(&b, &moved, &FitParams::default());
+        for (x, y) in fa.iter().zip(&fb) {
+            assert_eq!(x.count, y.count, "{method:?}");
+            assert!(
+                (x.mean - y.mean).abs() <= 0.02 * x.mean.max(1.0),
+                "{x:?} vs {y:?}"
+            );
+            assert!((x.coverage - y.coverage).abs() <= 0.001, "{x:?} vs {y:?}");
+        }
+        // The root sphere maps with the mesh.
+        let (ra, rb) = (a.sphere(0), b.sphere(0));
+        assert!((rb.radius - 25.4 * ra.radius).abs() <= 0.02 * rb.radius);
+        assert!((rb.center[0] - (25.4 * ra.center[0] + 1e4)).abs() <= 0.05 * rb.radius);
+    }
+}
