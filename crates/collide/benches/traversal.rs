@@ -233,6 +233,29 @@ struct Scenario {
     pairs: usize,
 }
 
+/// CPU time of this thread (µs): unlike wall time it does not count the time the thread was
+/// preempted, so it stays meaningful on a loaded machine.
+fn thread_cpu_us() -> f64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime writes into the timespec we own; CLOCK_THREAD_CPUTIME_ID is valid
+    // on Linux.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    assert_eq!(rc, 0, "clock_gettime(CLOCK_THREAD_CPUTIME_ID) failed");
+    ts.tv_sec as f64 * 1e6 + ts.tv_nsec as f64 * 1e-3
+}
+
+/// Mean thread CPU time per call of `f` (µs) over `n` calls.
+fn cpu_mean(f: &mut dyn FnMut() -> usize, n: usize) -> f64 {
+    let t0 = thread_cpu_us();
+    for _ in 0..n {
+        black_box(f());
+    }
+    (thread_cpu_us() - t0) / n as f64
+}
+
 fn percentiles(mut v: Vec<f64>) -> (f64, f64, f64) {
     v.sort_by(|a, b| a.total_cmp(b));
     let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
@@ -351,8 +374,8 @@ fn main() {
         3000
     };
     println!("\nper-query timings over {runs} queries each (µs): p50 / p99 / max");
-    println!("| pairs | collide p50 | collide p99 | collide max | parry p50 | parry p99 | brute p50 | parry/collide | brute/collide | rows p50 distance | rows p50 squared |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| pairs | collide p50 | collide p99 | collide max | collide CPU mean | parry p50 | parry p99 | parry CPU mean | brute CPU mean | parry/collide (CPU) | brute/collide (CPU) | rows p50 distance | rows p50 squared |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for s in &scenarios {
         let pose = pose_at(s.offset);
         let time = |f: &mut dyn FnMut() -> usize, n: usize| -> Vec<f64> {
@@ -382,14 +405,31 @@ fn main() {
             runs,
         ));
         let brute_n = (runs / 100).max(5);
-        let bf = percentiles(time(
+        let ours_cpu = cpu_mean(
+            &mut || {
+                overlap_tree_tree(&tool, black_box(&pose), &obj, 0.0, &mut ws, |p| {
+                    black_box(p);
+                })
+                .unwrap_or(0)
+            },
+            runs,
+        );
+        let theirs_cpu = cpu_mean(
+            &mut || {
+                parry.query(black_box(&pose), |_, _, d2| {
+                    black_box(d2);
+                })
+            },
+            runs / 10,
+        );
+        let brute_cpu = cpu_mean(
             &mut || {
                 brute.query(black_box(&pose), |_, _, d2| {
                     black_box(d2);
                 })
             },
             brute_n,
-        ));
+        );
         let mut q_lin = pose;
         q_lin.q[0] += 0.1;
         q_lin.q[5] += 1e-3;
@@ -409,17 +449,19 @@ fn main() {
             .0;
         }
         println!(
-            "| {} (~{}) | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.0} | {:.1}x | {:.0}x | {:.2} | {:.2} |",
+            "| {} (~{}) | {:.2} | {:.2} | {:.0} | {:.2} | {:.1} | {:.1} | {:.1} | {:.0} | {:.1}x | {:.0}x | {:.2} | {:.2} |",
             s.pairs,
             s.target,
             ours.0,
             ours.1,
             ours.2,
+            ours_cpu,
             theirs.0,
             theirs.1,
-            bf.0,
-            theirs.0 / ours.0,
-            bf.0 / ours.0,
+            theirs_cpu,
+            brute_cpu,
+            theirs_cpu / ours_cpu,
+            brute_cpu / ours_cpu,
             rows_p50[0],
             rows_p50[1]
         );
