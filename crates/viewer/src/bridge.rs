@@ -187,6 +187,10 @@ impl Server {
 
     fn on_pose(&mut self, p: PoseMsg, from: SocketAddr) {
         let now = Instant::now();
+        if p.header.flags & flags::PROBE != 0 {
+            self.reply(&p, from, flags::RELEASED, false);
+            return;
+        }
         match &mut self.owner {
             Some(o) if o.addr != from => {
                 self.stats.busy.fetch_add(1, Ordering::Relaxed);
@@ -299,11 +303,21 @@ impl BridgeClient {
 
     /// Sends the device pose `q` (mm, rad); returns its sequence number.
     pub fn send_pose(&mut self, q: [f64; 6]) -> io::Result<u32> {
+        self.send(q, 0)
+    }
+
+    /// Asks for the current state without driving the tool (a PROBE); the answer arrives
+    /// through [`Self::poll`] as a WRENCH with `RELEASED` set and the graphic pose.
+    pub fn probe(&mut self) -> io::Result<u32> {
+        self.send([0.0; 6], flags::PROBE)
+    }
+
+    fn send(&mut self, q: [f64; 6], fl: u16) -> io::Result<u32> {
         self.seq = self.seq.wrapping_add(1);
         let msg = PoseMsg {
             header: Header {
                 kind: Kind::Pose,
-                flags: 0,
+                flags: fl,
                 seq: self.seq,
                 ack: 0,
                 time_us: self.epoch.elapsed().as_micros() as u64,

@@ -40,6 +40,9 @@ pub mod flags {
     pub const CONTACT: u16 = 1 << 1;
     /// WRENCH: the last POSE was not applied because another client owns the bridge.
     pub const BUSY: u16 = 1 << 2;
+    /// POSE: a probe — do not apply the pose, only answer with the current state (graphic pose,
+    /// RELEASED set). Lets a device program learn where the tool is before it engages.
+    pub const PROBE: u16 = 1 << 8;
 }
 
 /// Datagram kind (header byte 5).

@@ -198,3 +198,34 @@ fn a_second_client_is_refused_while_the_first_is_live_and_bye_frees_the_bridge()
     let w = drive_until_wrench(&mut second, [0.0, 0.0, -9.0, 0.0, 0.0, 0.0]);
     assert!((w.force[2] - 9.0).abs() < 1e-12);
 }
+
+#[test]
+fn a_probe_reports_the_graphic_pose_without_driving_the_tool() {
+    let (haptic, bridge) = start(200);
+    let mut client =
+        BridgeClient::connect(bridge.local_addr(), Duration::from_millis(200)).unwrap();
+    let seq = client.probe().unwrap();
+    let end = Instant::now() + Duration::from_secs(2);
+    let w = loop {
+        if let Some(w) = client.poll().unwrap() {
+            break w;
+        }
+        assert!(Instant::now() < end, "no answer to the probe");
+        std::thread::sleep(Duration::from_millis(1));
+    };
+    assert_eq!(w.header.ack, seq);
+    assert!(w.header.flags & flags::RELEASED != 0);
+    assert_eq!(
+        w.graphic,
+        [0.0, 0.0, 10.0, 0.0, 0.0, 0.0],
+        "the Floor's start pose"
+    );
+    assert_eq!(w.force, [0.0; 3]);
+    std::thread::sleep(Duration::from_millis(20));
+    let s = haptic.state().latest();
+    assert!(
+        s.released && s.source == 0,
+        "a probe must not drive the tool: {s:?}"
+    );
+    assert_eq!(bridge.stats().accepted.load(Ordering::Relaxed), 0);
+}
