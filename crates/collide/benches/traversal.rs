@@ -2,11 +2,16 @@
 //! against parry3d-f64's QBVH simultaneous traversal of two compounds of balls, at poses giving
 //! ~50, ~200, ~1000 and ~5000 leaf pairs; then p50/p99 of individually timed queries.
 //!
-//! Run: `cargo bench -p collide --bench traversal` (add `-- --quick` for a short run).
+//! Criterion's figures are thread CPU time (`iter_custom` + `CLOCK_THREAD_CPUTIME_ID`), so they
+//! hold on a shared, loaded machine; the table at the end adds wall-clock p50/p99/max of
+//! individually timed queries.
+//!
+//! Run: `cargo bench -p collide --bench traversal` (add `-- --quick` for a short run; set
+//! `COLLIDE_BENCH_TREE=hubbard` for the Bradshaw toolkit's hubbard tree).
 
 use std::hint::black_box;
 use std::path::PathBuf;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use collide::{
     collect_pairs, fill_constraints, overlap_tree_tree, CollideWorkspace, ConstraintForm,
@@ -247,6 +252,16 @@ fn thread_cpu_us() -> f64 {
     ts.tv_sec as f64 * 1e6 + ts.tv_nsec as f64 * 1e-3
 }
 
+/// Thread CPU time of `iters` calls of `f`, for criterion's `iter_custom`: criterion's
+/// statistics then describe CPU time, not wall time inflated by preemption on a shared machine.
+fn cpu_time<R>(iters: u64, mut f: impl FnMut() -> R) -> Duration {
+    let t0 = thread_cpu_us();
+    for _ in 0..iters {
+        black_box(f());
+    }
+    Duration::from_secs_f64((thread_cpu_us() - t0).max(0.0) * 1e-6)
+}
+
 /// Mean thread CPU time per call of `f` (µs) over `n` calls.
 fn cpu_mean(f: &mut dyn FnMut() -> usize, n: usize) -> f64 {
     let t0 = thread_cpu_us();
@@ -307,18 +322,23 @@ fn main() {
         let pose = pose_at(s.offset);
         let id = format!("{}pairs", s.pairs);
         group.bench_with_input(BenchmarkId::new("collide", &id), &pose, |b, pose| {
-            b.iter(|| {
-                let mut acc = 0.0;
-                let n =
-                    overlap_tree_tree(&tool, black_box(pose), &obj, 0.0, &mut ws, |p| acc += p.gap);
-                black_box((n, acc))
+            b.iter_custom(|iters| {
+                cpu_time(iters, || {
+                    let mut acc = 0.0;
+                    let n = overlap_tree_tree(&tool, black_box(pose), &obj, 0.0, &mut ws, |p| {
+                        acc += p.gap
+                    });
+                    black_box((n, acc))
+                })
             })
         });
         group.bench_with_input(BenchmarkId::new("parry_qbvh", &id), &pose, |b, pose| {
-            b.iter(|| {
-                let mut acc = 0.0;
-                let n = parry.query(black_box(pose), |_, _, d2| acc += d2);
-                black_box((n, acc))
+            b.iter_custom(|iters| {
+                cpu_time(iters, || {
+                    let mut acc = 0.0;
+                    let n = parry.query(black_box(pose), |_, _, d2| acc += d2);
+                    black_box((n, acc))
+                })
             })
         });
     }
@@ -342,10 +362,18 @@ fn main() {
         ] {
             let id = format!("{}pairs", pairs.len());
             group.bench_with_input(BenchmarkId::new(name, &id), &pairs, |b, pairs| {
-                b.iter(|| {
-                    let n =
-                        fill_constraints(form, black_box(&q_lin), &q_h, pairs, &mut rows, &mut rhs);
-                    black_box((n.ok(), rhs[0]))
+                b.iter_custom(|iters| {
+                    cpu_time(iters, || {
+                        let n = fill_constraints(
+                            form,
+                            black_box(&q_lin),
+                            &q_h,
+                            pairs,
+                            &mut rows,
+                            &mut rhs,
+                        );
+                        black_box((n.ok(), rhs[0]))
+                    })
                 })
             });
         }
@@ -358,10 +386,12 @@ fn main() {
         let pose = pose_at(s.offset);
         let id = format!("{}pairs", s.pairs);
         group.bench_with_input(BenchmarkId::new("brute_force", &id), &pose, |b, pose| {
-            b.iter(|| {
-                let mut acc = 0.0;
-                let n = brute.query(black_box(pose), |_, _, d2| acc += d2);
-                black_box((n, acc))
+            b.iter_custom(|iters| {
+                cpu_time(iters, || {
+                    let mut acc = 0.0;
+                    let n = brute.query(black_box(pose), |_, _, d2| acc += d2);
+                    black_box((n, acc))
+                })
             })
         });
     }
