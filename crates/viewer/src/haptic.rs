@@ -49,7 +49,24 @@ pub struct HapticLoop {
 impl HapticLoop {
     /// Starts the haptic thread (named `haptic6d-haptic`) stepping `sim`. The device starts
     /// released at the simulation's start pose.
-    pub fn spawn<S: Simulation>(mut sim: S, params: &LoopParams) -> Result<Self, ViewerError> {
+    pub fn spawn<S: Simulation>(sim: S, params: &LoopParams) -> Result<Self, ViewerError> {
+        let (mut handle, frames) = Self::manual(sim, params)?;
+        let stop = handle.stop.clone();
+        let spin = Duration::from_micros(params.spin_us);
+        let thread = std::thread::Builder::new()
+            .name("haptic6d-haptic".into())
+            .spawn(move || frames.run(&stop, spin))
+            .map_err(ViewerError::Thread)?;
+        handle.thread = Some(thread);
+        Ok(handle)
+    }
+
+    /// The loop without its thread: the handle (hubs, recorder) and a [`ManualFrames`] that runs
+    /// one frame per call on the caller's thread, unpaced. For tests and offline drivers.
+    pub fn manual<S: Simulation>(
+        mut sim: S,
+        params: &LoopParams,
+    ) -> Result<(Self, ManualFrames<S>), ViewerError> {
         if !(params.rate_hz.is_finite() && params.rate_hz > 0.0 && params.rate_hz <= 100_000.0) {
             return Err(ViewerError::Params(format!(
                 "rate {} Hz is outside (0, 100000]",
@@ -71,31 +88,33 @@ impl HapticLoop {
         let (state, publisher) = StateHub::new(&initial);
         let (recorder, record_tx) = Recorder::new(period.as_secs_f64())?;
         let stop = Arc::new(AtomicBool::new(false));
-        let worker = Worker {
+        let frames = ManualFrames {
+            sim,
             reader,
             publisher,
             record_tx,
             input: input.clone(),
-            stop: stop.clone(),
             period,
-            spin: Duration::from_micros(params.spin_us),
             start,
             state: initial,
+            resets_seen: input.reset_count(),
+            frame: 0,
+            window_max: 0.0,
+            window: (1.0 / period.as_secs_f64()).round().max(1.0) as u64,
         };
-        let thread = std::thread::Builder::new()
-            .name("haptic6d-haptic".into())
-            .spawn(move || worker.run(sim))
-            .map_err(ViewerError::Thread)?;
-        Ok(Self {
-            input,
-            state: Arc::new(state),
-            recorder,
-            scene,
-            start,
-            stop,
-            thread: Some(thread),
-            period,
-        })
+        Ok((
+            Self {
+                input,
+                state: Arc::new(state),
+                recorder,
+                scene,
+                start,
+                stop,
+                thread: None,
+                period,
+            },
+            frames,
+        ))
     }
 
     /// Where device poses go in.
@@ -173,88 +192,102 @@ impl Drop for HapticLoop {
     }
 }
 
-struct Worker {
+/// The haptic frame body without pacing: read the latest command, step the simulation,
+/// publish the state, record. [`HapticLoop::spawn`] runs it on the haptic thread; tests run it
+/// directly (e.g. under an allocation counter).
+pub struct ManualFrames<S: Simulation> {
+    sim: S,
     reader: InputReader,
     publisher: StatePublisher,
     record_tx: RecordTx,
     input: Arc<InputHub>,
-    stop: Arc<AtomicBool>,
     period: Duration,
-    spin: Duration,
     start: Pose,
     state: FrameState,
+    resets_seen: u64,
+    frame: u64,
+    window_max: f64,
+    window: u64,
 }
 
-impl Worker {
-    fn run<S: Simulation>(mut self, mut sim: S) {
-        let mut resets_seen = self.input.reset_count();
-        let mut next = Instant::now();
-        let mut window_max = 0.0f64;
-        let window = (1.0 / self.period.as_secs_f64()).round().max(1.0) as u64;
-        let dt = self.period.as_secs_f64();
-        let mut frame: u64 = 0;
-        while !self.stop.load(Ordering::Acquire) {
-            let resets = self.input.reset_count();
-            if resets != resets_seen {
-                resets_seen = resets;
-                sim.reset(&self.start);
-                self.state.graphic = self.start.to_array();
-            }
-            let cmd = self.reader.latest();
-            let now = Instant::now();
-            let live = cmd.is_live(now);
-            // Released: hold the device at the graphic pose, so the spring (and force) is zero.
-            let device = if live {
-                cmd.pose
-            } else {
-                Pose::from_array(self.state.graphic)
-            };
-            let s = &mut self.state;
-            s.frame = frame;
-            s.t = frame as f64 * dt;
-            s.device = device.to_array();
-            s.contacts.clear();
-            s.released = !live;
-            s.source = if live {
-                cmd.source as u8
-            } else {
-                InputSource::None as u8
-            };
-            s.input_seq = cmd.seq;
-            s.contacts_requested = self.input.contacts_wanted();
-            let t0 = Instant::now();
-            sim.step(&device, s);
-            let frame_us = t0.elapsed().as_secs_f64() * 1e6;
-            if !live {
-                s.force = [0.0; 3];
-                s.torque = [0.0; 3];
-            }
-            s.frame_us = frame_us;
-            window_max = window_max.max(frame_us);
-            if frame.is_multiple_of(window) {
-                s.frame_us_max = window_max;
-                window_max = 0.0;
-            }
-            s.recording = self.record_tx.record(frame, s.device);
-            self.publisher.publish(s);
-            frame += 1;
+impl<S: Simulation> ManualFrames<S> {
+    /// Runs one haptic frame and returns the state it published.
+    ///
+    /// # Real-time
+    /// No allocation, lock or IO of its own (wait-free hand-overs; the contact list is
+    /// pre-sized); bounded by the simulation's step. No panic.
+    pub fn step(&mut self) -> &FrameState {
+        let resets = self.input.reset_count();
+        if resets != self.resets_seen {
+            self.resets_seen = resets;
+            self.sim.reset(&self.start);
+            self.state.graphic = self.start.to_array();
+        }
+        let cmd = self.reader.latest();
+        let live = cmd.is_live(Instant::now());
+        // Released: hold the device at the graphic pose, so the spring (and force) is zero.
+        let device = if live {
+            cmd.pose
+        } else {
+            Pose::from_array(self.state.graphic)
+        };
+        let frame = self.frame;
+        let s = &mut self.state;
+        s.frame = frame;
+        s.t = frame as f64 * self.period.as_secs_f64();
+        s.device = device.to_array();
+        s.contacts.clear();
+        s.released = !live;
+        s.source = if live {
+            cmd.source as u8
+        } else {
+            InputSource::None as u8
+        };
+        s.input_seq = cmd.seq;
+        s.contacts_requested = self.input.contacts_wanted();
+        let t0 = Instant::now();
+        self.sim.step(&device, s);
+        let frame_us = t0.elapsed().as_secs_f64() * 1e6;
+        if !live {
+            s.force = [0.0; 3];
+            s.torque = [0.0; 3];
+        }
+        s.frame_us = frame_us;
+        self.window_max = self.window_max.max(frame_us);
+        if frame.is_multiple_of(self.window) {
+            s.frame_us_max = self.window_max;
+            self.window_max = 0.0;
+        }
+        s.recording = self.record_tx.record(frame, s.device);
+        self.publisher.publish(s);
+        self.frame += 1;
+        &self.state
+    }
 
-            // Pace: sleep until shortly before the next deadline, then spin.
+    /// The simulation.
+    pub fn sim(&self) -> &S {
+        &self.sim
+    }
+
+    /// Runs frames paced at the period until `stop` is set: sleep until `spin` before each
+    /// deadline, then yield; a frame more than one period late re-anchors the schedule.
+    fn run(mut self, stop: &AtomicBool, spin: Duration) {
+        let mut next = Instant::now();
+        while !stop.load(Ordering::Acquire) {
+            self.step();
             next += self.period;
             let now = Instant::now();
-            if now > next + self.period {
-                // More than a whole period late: count it and re-anchor instead of bursting.
-                self.state.overruns += 1;
-                next = now;
-                continue;
-            }
             if now > next {
                 self.state.overruns += 1;
+                if now > next + self.period {
+                    // More than a whole period late: re-anchor instead of bursting.
+                    next = now;
+                }
                 continue;
             }
             let left = next - now;
-            if left > self.spin {
-                std::thread::sleep(left - self.spin);
+            if left > spin {
+                std::thread::sleep(left - spin);
             }
             while Instant::now() < next {
                 std::thread::yield_now();

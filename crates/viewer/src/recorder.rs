@@ -257,25 +257,32 @@ fn writer_loop(
     shared: Arc<Shared>,
 ) {
     let mut open: Option<Open> = None;
-    let drain = |consumer: &mut rtrb::Consumer<Sample>, open: &mut Option<Open>| {
+    // Samples of a session whose Start message has not been received yet (the haptic thread
+    // may push before this thread sees the message); written when it arrives.
+    let mut early: Vec<Sample> = Vec::new();
+    let drain = |consumer: &mut rtrb::Consumer<Sample>,
+                 open: &mut Option<Open>,
+                 early: &mut Vec<Sample>| {
         while let Ok(s) = consumer.pop() {
-            if let Some(o) = open.as_mut() {
-                if o.session == s.session {
-                    o.write(&s, dt);
+            match open.as_mut() {
+                Some(o) if o.session == s.session => o.write(&s, dt),
+                _ => {
+                    if early.len() < 4 * RING {
+                        early.push(s);
+                    }
                 }
             }
         }
     };
     loop {
-        drain(&mut consumer, &mut open);
+        drain(&mut consumer, &mut open, &mut early);
         match control.recv_timeout(Duration::from_millis(20)) {
             Ok(Control::Start {
                 session,
                 path,
                 file,
             }) => {
-                drain(&mut consumer, &mut open);
-                open = Some(Open {
+                let mut o = Open {
                     session,
                     path,
                     file,
@@ -283,13 +290,18 @@ fn writer_loop(
                     rows: 0,
                     dropped_at_start: shared.dropped.load(Ordering::Relaxed),
                     error: None,
-                });
+                };
+                for s in early.drain(..).filter(|s| s.session == session) {
+                    o.write(&s, dt);
+                }
+                open = Some(o);
             }
             Ok(Control::Stop { reply }) => {
                 // The haptic thread may be inside the frame that saw the flag still set; give it
                 // one period to push that sample before the final drain.
                 std::thread::sleep(Duration::from_millis(3));
-                drain(&mut consumer, &mut open);
+                drain(&mut consumer, &mut open, &mut early);
+                early.clear();
                 let result = match open.take() {
                     Some(o) => o.finish(shared.dropped.load(Ordering::Relaxed)),
                     None => Err(ViewerError::NotRecording),
@@ -297,7 +309,7 @@ fn writer_loop(
                 let _ = reply.send(result);
             }
             Ok(Control::Quit) | Err(mpsc::RecvTimeoutError::Disconnected) => {
-                drain(&mut consumer, &mut open);
+                drain(&mut consumer, &mut open, &mut early);
                 if let Some(o) = open.take() {
                     let _ = o.finish(shared.dropped.load(Ordering::Relaxed));
                 }

@@ -27,13 +27,19 @@ fn start(timeout_ms: u64) -> (HapticLoop, UdpBridge) {
 /// Sends `q` every millisecond until a WRENCH acknowledging a pose that the loop has applied
 /// (not released) arrives, or 3 s pass.
 fn drive_until_wrench(client: &mut BridgeClient, q: [f64; 6]) -> protocol::WrenchMsg {
+    drive(client, q).0
+}
+
+/// As [`drive_until_wrench`], also returning the instant just before the last POSE was sent.
+fn drive(client: &mut BridgeClient, q: [f64; 6]) -> (protocol::WrenchMsg, Instant) {
     let end = Instant::now() + Duration::from_secs(3);
     while Instant::now() < end {
+        let sent = Instant::now();
         client.send_pose(q).unwrap();
         std::thread::sleep(Duration::from_millis(1));
         if let Some(w) = client.poll().unwrap() {
             if w.header.flags & flags::RELEASED == 0 && w.force[2] != 0.0 {
-                return w;
+                return (w, sent);
             }
         }
     }
@@ -72,8 +78,7 @@ fn client_that_stops_sending_gets_zero_force_after_the_timeout() {
     let (haptic, bridge) = start(100);
     let mut client =
         BridgeClient::connect(bridge.local_addr(), Duration::from_millis(100)).unwrap();
-    drive_until_wrench(&mut client, [0.0, 0.0, -8.0, 0.0, 0.0, 0.0]);
-    let last_send = Instant::now();
+    let (_, last_send) = drive(&mut client, [0.0, 0.0, -8.0, 0.0, 0.0, 0.0]);
     let s = haptic.state().latest();
     assert!(s.force[2] > 7.9, "force while the client sends: {s:?}");
     assert!(!s.released);

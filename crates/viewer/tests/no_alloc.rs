@@ -1,0 +1,103 @@
+//! The viewer's haptic frame allocates nothing: thousands of frames of the real pipeline
+//! (contact, contacts listed for display, recording on, state published) under a counting global
+//! allocator armed only on this thread and only inside `ManualFrames::step`.
+
+mod common;
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use collide::Pose;
+use viewer::{HapticLoop, InputSource, LoopParams, RenderSim};
+
+struct CountingAllocator;
+
+static COUNT: AtomicUsize = AtomicUsize::new(0);
+
+thread_local! {
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+}
+
+fn count() {
+    if COUNTING.try_with(Cell::get).unwrap_or(false) {
+        COUNT.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+// SAFETY: forwards every call unchanged to the system allocator; only counts.
+unsafe impl GlobalAlloc for CountingAllocator {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        count();
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        count();
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        count();
+        unsafe { System.alloc_zeroed(layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        count();
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: CountingAllocator = CountingAllocator;
+
+/// Device pose of frame `k` of a 1000-frame cycle: down from 20 mm to 15 mm into the floor and
+/// back up, with a little sideways motion and twist.
+fn pose(k: usize) -> Pose {
+    let s = (k % 1000) as f64 / 1000.0;
+    let depth = 35.0 * (std::f64::consts::PI * s).sin();
+    Pose::from_array([2.0 * s, -s, 20.0 - depth, 0.02 * s, 0.0, 0.1 * s])
+}
+
+#[test]
+fn a_warmed_up_frame_allocates_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = RenderSim::new(&common::small_scene()).unwrap();
+    let (handle, mut frames) = HapticLoop::manual(sim, &LoopParams::default()).unwrap();
+    handle.input().want_contacts(true);
+    handle.start_recording(&dir.path().join("rec.csv")).unwrap();
+    let mut max_pairs = 0;
+    let mut listed = 0;
+    // Warm-up: one full cycle grows every buffer to its working size.
+    for k in 0..1000 {
+        handle
+            .input()
+            .submit(InputSource::Script, pose(k), None)
+            .unwrap();
+        frames.step();
+    }
+    let before = COUNT.load(Ordering::Relaxed);
+    for k in 0..3000 {
+        handle
+            .input()
+            .submit(InputSource::Script, pose(k), None)
+            .unwrap();
+        COUNTING.with(|c| c.set(true));
+        let s = frames.step();
+        COUNTING.with(|c| c.set(false));
+        max_pairs = max_pairs.max(s.pairs);
+        listed = listed.max(s.contacts.len());
+        assert!(s.recording && !s.released);
+    }
+    let allocations = COUNT.load(Ordering::Relaxed) - before;
+    assert_eq!(
+        allocations, 0,
+        "the haptic frame allocated {allocations} times"
+    );
+    // The frames did exercise contact, the contact list and the recorder.
+    assert!(
+        max_pairs > 0 && listed > 0,
+        "pairs {max_pairs}, listed {listed}"
+    );
+    let summary = handle.stop_recording().unwrap();
+    assert_eq!(summary.rows + summary.dropped, 4000);
+    // Reading the state from another thread meanwhile did not disturb it.
+    assert_eq!(handle.state().latest().frame, 3999);
+}
