@@ -227,6 +227,8 @@ function drawContacts(list) {
   objSpheres.instanceMatrix.needsUpdate = true;
 }
 
+// Scrolling line plot of the last HIST samples. The vertical scale follows the 99th percentile
+// (×1.25) so one descheduled frame does not flatten the rest; taller samples are clipped.
 function plot(canvas, hist, color, labelId, unit) {
   const ctx = canvas.getContext('2d');
   const w = canvas.width;
@@ -234,8 +236,10 @@ function plot(canvas, hist, color, labelId, unit) {
   ctx.fillStyle = '#111318';
   ctx.fillRect(0, 0, w, h);
   const n = Math.min(histN, HIST);
-  let max = 1e-6;
-  for (let i = 0; i < n; i++) max = Math.max(max, hist[i]);
+  const sorted = Array.from(hist.subarray(0, n)).sort((a, b) => a - b);
+  const max = n > 0 ? sorted[n - 1] : 0;
+  const p99 = n > 0 ? sorted[Math.floor((n - 1) * 0.99)] : 0;
+  const top = Math.max(p99 * 1.25, 1e-6);
   ctx.strokeStyle = '#2a2f3a';
   ctx.beginPath();
   for (let k = 1; k < 4; k++) { ctx.moveTo(0, (h * k) / 4); ctx.lineTo(w, (h * k) / 4); }
@@ -244,13 +248,13 @@ function plot(canvas, hist, color, labelId, unit) {
   ctx.lineWidth = 1.5;
   ctx.beginPath();
   for (let i = 0; i < n; i++) {
-    const v = hist[(histN - n + i) % HIST];
+    const v = Math.min(hist[(histN - n + i) % HIST], top);
     const x = (i / (HIST - 1)) * w;
-    const y = h - 2 - (v / max) * (h - 6);
+    const y = h - 2 - (v / top) * (h - 6);
     if (i === 0) ctx.moveTo(x, y); else ctx.lineTo(x, y);
   }
   ctx.stroke();
-  $(labelId).textContent = `max ${max.toFixed(unit)} over the last ${(n / 60).toFixed(0)} s`;
+  $(labelId).textContent = `p99 ${p99.toFixed(unit)}, max ${max.toFixed(unit)} (last ${(n / 60).toFixed(0)} s)`;
 }
 
 // ---------------------------------------------------------------------------------------------
