@@ -7,6 +7,9 @@
 //!
 //! 1. Scan all rows (O(6N)); pick the most violated one, by distance in the scaled space,
 //!    `p = argmax (d_k - n_k·z) / |n_k|`. None violated beyond the tolerance: optimal.
+//!    A scan also keeps the 8 most violated rows of distinct directions (cosine < 0.98) as
+//!    candidates; the next step 1 re-checks those first (O(48)) and rescans only when none is
+//!    still violated, so optimality is always confirmed by a full scan.
 //! 2. Step direction: `w = (I - Q Q^T) n_p` (the part of `n_p` not spanned by `A`) moves `z`;
 //!    `r = R^{-1} Q^T n_p` is how the active multipliers change. Full step
 //!    `t2 = (d_p - n_p·z) / |w|^2`, partial step `t1 = min_{r_j > 0} u_j / r_j`.
