@@ -182,6 +182,38 @@ fn warm_start_gives_the_cold_answer_with_less_work() {
     assert!((w.objective - c.objective).abs() <= 1e-10 * c.objective);
 }
 
+/// The render crate re-orders rows between frames and maps the last active rows onto the new
+/// order with `set_warm_start`: same answer, no more work than cold.
+#[test]
+fn warm_start_hint_survives_a_row_permutation() {
+    let seq = common::haptic_sequence(300, 8, 77);
+    let mut warm = DualWorkspace::new();
+    let mut cold = DualWorkspace::new();
+    let (mut it_warm, mut it_cold) = (0, 0);
+    let mut prev_active: Vec<usize> = Vec::new(); // indices into the unpermuted rows
+    for (f, inst) in seq.iter().enumerate() {
+        // Reverse-rotate the rows by a frame-dependent shift.
+        let n = inst.j.len();
+        let shift = 37 * f % n;
+        let perm: Vec<usize> = (0..n).map(|k| (k + shift) % n).collect();
+        let j: Vec<[f64; 6]> = perm.iter().map(|&k| inst.j[k]).collect();
+        let d: Vec<f64> = perm.iter().map(|&k| inst.d[k]).collect();
+        let p = Problem::new(inst.g, &j, &d).unwrap();
+        let hint: Vec<usize> = prev_active.iter().map(|&k| (k + n - shift) % n).collect();
+        warm.set_warm_start(&hint);
+        let w = warm.solve(&p, true);
+        let c = cold.solve(&p, false);
+        assert_eq!(w.status, Status::Solved);
+        assert!((w.objective - c.objective).abs() <= 1e-10 * c.objective.max(1e-12));
+        if f > 0 {
+            it_warm += w.iterations;
+            it_cold += c.iterations;
+        }
+        prev_active = warm.active_set().iter().map(|&k| perm[k]).collect();
+    }
+    assert!(it_warm * 2 < it_cold, "warm {it_warm} vs cold {it_cold}");
+}
+
 #[test]
 fn pqp_tight_stop_converges_to_the_optimum() {
     for seed in 0..10u64 {
