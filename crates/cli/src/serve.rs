@@ -55,6 +55,9 @@ pub struct ServeArgs {
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long)]
     pub duration: Option<f64>,
+    /// Print a machine-readable summary (JSON) on stdout when the server stops.
+    #[arg(long)]
+    pub json: bool,
 }
 
 fn load_scene(name: &str, cache: &TreeCache) -> Result<Scene> {
@@ -126,22 +129,31 @@ pub fn run(args: ServeArgs) -> Result<()> {
         record_dir: args.record_dir.clone(),
     };
     let duration = args.duration;
+    let json = args.json;
+    // With --json, stdout carries only the final summary; the startup lines go to stderr.
+    let say = move |line: String| {
+        if json {
+            eprintln!("{line}");
+        } else {
+            println!("{line}");
+        }
+    };
     runtime.block_on(async {
         let listener = server::bind(SocketAddr::new(args.bind, args.port)).await?;
         let local = listener
             .local_addr()
             .context("cannot read the bound address")?;
-        println!(
+        say(format!(
             "haptic6d serve: scene {} at {:.0} Hz; open http://{local}/",
             scene.name, args.rate
-        );
+        ));
         if let Some(b) = &bridge {
-            println!(
+            say(format!(
                 "UDP device bridge on {} (protocol v{}, timeout {} ms)",
                 b.local_addr(),
                 viewer::protocol::VERSION,
                 args.udp_timeout_ms
-            );
+            ));
         }
         let router = server::router(haptic.clone(), params);
         let shutdown = async move {
@@ -158,23 +170,44 @@ pub fn run(args: ServeArgs) -> Result<()> {
     if let Some(b) = bridge {
         b.shutdown();
     }
-    if haptic.recording_path().is_some() {
+    let recording = if haptic.recording_path().is_some() {
         let s = haptic.stop_recording()?;
+        if !args.json {
+            println!(
+                "recorded {} frames to {} ({} dropped); replay: haptic6d run {} --trajectory {}",
+                s.rows,
+                s.path.display(),
+                s.dropped,
+                args.scene,
+                s.path.display()
+            );
+        }
+        Some(s)
+    } else {
+        None
+    };
+    let last = haptic.state().latest();
+    if args.json {
+        let summary = serde_json::json!({
+            "scene": scene.name,
+            "rate_hz": args.rate,
+            "frames": last.frame + 1,
+            "overruns": last.overruns,
+            "worst_step_last_second_us": last.frame_us_max,
+            "recording": recording.map(|r| serde_json::json!({
+                "path": r.path.display().to_string(),
+                "rows": r.rows,
+                "dropped": r.dropped,
+            })),
+        });
+        println!("{summary}");
+    } else {
         println!(
-            "recorded {} frames to {} ({} dropped); replay: haptic6d run {} --trajectory {}",
-            s.rows,
-            s.path.display(),
-            s.dropped,
-            args.scene,
-            s.path.display()
+            "stopped after {} frames ({} overruns, worst step in the last second {:.0} µs)",
+            last.frame + 1,
+            last.overruns,
+            last.frame_us_max
         );
     }
-    let last = haptic.state().latest();
-    println!(
-        "stopped after {} frames ({} overruns, worst step in the last second {:.0} µs)",
-        last.frame + 1,
-        last.overruns,
-        last.frame_us_max
-    );
     Ok(())
 }

@@ -6,6 +6,9 @@
 //! - [`HapticLoop::spawn`]: steps a simulation at 1 kHz on the named thread
 //!   `haptic6d-haptic`; device poses go in through [`InputHub`], states come out through
 //!   [`StateHub`], both lock-free on the haptic side; it records trajectories to CSV.
+//!   [`HapticLoop::manual`] gives the same frame body ([`ManualFrames`]) without the thread.
+//! - [`RenderSim`]: the real pipeline (render's god-object step + safety filter) as a
+//!   [`Simulation`].
 //! - [`server::router`]: the axum app (page, scene, WebSocket state stream at display rate).
 //! - [`UdpBridge`] / [`BridgeClient`]: the UDP device bridge ([`protocol`], version 1).
 #![warn(missing_docs)]
@@ -22,7 +25,7 @@ pub mod sim;
 
 pub use bridge::{BridgeClient, BridgeParams, BridgeStats, UdpBridge};
 pub use error::ViewerError;
-pub use haptic::{HapticLoop, LoopParams};
+pub use haptic::{HapticLoop, LoopParams, ManualFrames};
 pub use hub::{DeviceCommand, InputHub, InputSource, Rejected, StateHub};
 pub use recorder::RecordingSummary;
 pub use render_sim::RenderSim;
