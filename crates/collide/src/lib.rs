@@ -8,7 +8,9 @@
 //!   fixed pose applied).
 //! - [`overlap_tree_tree`], [`overlap_tree_trees`], [`collect_pairs`]: every leaf pair whose
 //!   gap is at most a margin (mm), through a visit closure or a reusable buffer, with a
-//!   caller-owned [`CollideWorkspace`]; [`LeafPair`] carries the geometry of the pair.
+//!   caller-owned [`CollideWorkspace`]; [`LeafPair`] carries the geometry of the pair;
+//!   [`TraversalStats`] counts the work; [`PackedTree::sweep_margin`] gives the anti-tunnelling
+//!   margin for the motion from `q_g_prev` to `q_h`.
 //! - [`ConstraintForm`], [`Linearization`], [`fill_constraints`]: rows `J dq >= d`.
 //!
 //! ```
