@@ -284,6 +284,8 @@ async fn stream(app: Arc<App>, mut socket: WebSocket) {
     if contacts {
         app.haptic.input().want_contacts(false);
     }
+    // A closed page lets go of the tool (no-op if another source drives it).
+    app.haptic.input().release(InputSource::Page);
 }
 
 async fn stream_loop(

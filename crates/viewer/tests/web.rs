@@ -218,8 +218,23 @@ async fn websocket_streams_state_takes_poses_and_records() {
         tokio::time::sleep(Duration::from_millis(5)).await;
     }
     assert_eq!(haptic.state().latest().force, [0.0; 3]);
-    // Closing the socket withdraws its contacts request.
+    // Drive again, then close the socket: the page lets go and withdraws its contacts request.
+    let q = serde_json::json!({"type": "pose", "q": [0.0, 0.0, -5.0, 0.0, 0.0, 0.0]});
+    ws.send(Message::Text(q.to_string().into())).await.unwrap();
+    let end = std::time::Instant::now() + Duration::from_secs(5);
+    while haptic.state().latest().source != 1 {
+        assert!(std::time::Instant::now() < end, "page pose not applied");
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
     drop(ws);
+    let end = std::time::Instant::now() + Duration::from_secs(5);
+    while !haptic.state().latest().released {
+        assert!(
+            std::time::Instant::now() < end,
+            "closing the page did not release the tool"
+        );
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
     let end = std::time::Instant::now() + Duration::from_secs(5);
     while haptic.input().contacts_wanted() {
         assert!(
