@@ -12,7 +12,7 @@ use render::rt::FrameRecord;
 static FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
 
-fn register_font() {
+pub(crate) fn register_font() {
     REGISTER.call_once(|| {
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
     });
@@ -22,10 +22,10 @@ const W: u32 = 1200;
 const H: u32 = 480;
 
 /// One series: label, colour, values.
-struct Series<'a> {
-    label: &'a str,
-    color: RGBColor,
-    values: Vec<(f64, f64)>,
+pub(crate) struct Series<'a> {
+    pub(crate) label: &'a str,
+    pub(crate) color: RGBColor,
+    pub(crate) values: Vec<(f64, f64)>,
 }
 
 fn range(series: &[Series<'_>]) -> (f64, f64, f64, f64) {
@@ -57,7 +57,7 @@ fn range(series: &[Series<'_>]) -> (f64, f64, f64, f64) {
 }
 
 /// Draws a line chart into `area`.
-fn chart<DB: DrawingBackend>(
+pub(crate) fn chart<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     title: &str,
     x_label: &str,
@@ -100,7 +100,7 @@ where
 }
 
 /// Renders to a temporary file next to `path` and renames it into place.
-fn render_png(
+pub(crate) fn render_png(
     path: &Path,
     height: u32,
     draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> Result<()>,

@@ -48,6 +48,15 @@ pub struct RunArgs {
     /// Maximum re-linearisation passes per frame (0 = the paper's single pass).
     #[arg(long)]
     pub relinearize: Option<u32>,
+    /// Detection skin added to the motion bound, mm.
+    #[arg(long)]
+    pub skin: Option<f64>,
+    /// Trust region per translation axis per frame, mm (when the hand is far from the tool).
+    #[arg(long)]
+    pub trust_mm: Option<f64>,
+    /// Trust region per Euler angle per frame, rad.
+    #[arg(long)]
+    pub trust_rad: Option<f64>,
     /// Skip the PNG plots.
     #[arg(long)]
     pub no_plots: bool,
@@ -140,6 +149,26 @@ pub fn run(args: RunArgs) -> Result<()> {
     }
     if let Some(r) = args.rate {
         scene.rate_hz = r;
+    }
+    for (v, name) in [
+        (args.skin, "--skin"),
+        (args.trust_mm, "--trust-mm"),
+        (args.trust_rad, "--trust-rad"),
+    ] {
+        if let Some(v) = v {
+            if !(v > 0.0 && v.is_finite()) {
+                bail!("{name} {v}: must be a positive number");
+            }
+        }
+    }
+    if let Some(v) = args.skin {
+        scene.solver.skin_mm = v;
+    }
+    if let Some(v) = args.trust_mm {
+        scene.solver.trust_mm = v;
+    }
+    if let Some(v) = args.trust_rad {
+        scene.solver.trust_rad = v;
     }
     if let Some(t) = trajectory {
         scene.motion = Motion::Trajectory(t);

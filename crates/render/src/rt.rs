@@ -34,6 +34,9 @@ pub struct LoopParams {
     pub spin_us: f64,
     /// Most frames to run (storage is reserved for this many, or for the device's length).
     pub max_frames: usize,
+    /// In real-time mode, ask for a real-time scheduling priority (`SCHED_FIFO`) for the
+    /// haptic thread (best effort: needs the privilege; reported in [`LoopStats`]).
+    pub rt_priority: Option<i32>,
 }
 
 impl Default for LoopParams {
@@ -43,6 +46,7 @@ impl Default for LoopParams {
             realtime: false,
             spin_us: 400.0,
             max_frames: 10_000_000,
+            rt_priority: Some(50),
         }
     }
 }
@@ -75,6 +79,8 @@ pub struct LoopStats {
     pub realtime: bool,
     /// Nominal rate, Hz.
     pub rate_hz: f64,
+    /// The haptic thread ran with a real-time scheduling priority.
+    pub rt_priority: bool,
     /// Frames that ended after the next deadline (real-time mode only).
     pub overruns: u64,
     /// `|period - 1/rate|` over frames 1.., µs (real-time mode only).
@@ -100,6 +106,24 @@ pub struct LoopReport {
     pub frames: Vec<FrameRecord>,
     /// Statistics.
     pub stats: LoopStats,
+}
+
+/// Asks for `SCHED_FIFO` at `priority` for the calling thread; true on success.
+#[cfg(target_os = "linux")]
+pub fn set_realtime_priority(priority: i32) -> bool {
+    // SAFETY: plain FFI calls on the current thread with a fully initialised parameter.
+    unsafe {
+        let param = libc::sched_param {
+            sched_priority: priority,
+        };
+        libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) == 0
+    }
+}
+
+/// Real-time priority is only implemented on Linux.
+#[cfg(not(target_os = "linux"))]
+pub fn set_realtime_priority(_priority: i32) -> bool {
+    false
 }
 
 fn wait_until(deadline: Instant, spin: Duration) {
@@ -189,6 +213,7 @@ pub fn run_loop<D: Device>(
     safety: &mut Safety,
     params: &LoopParams,
 ) -> Result<LoopReport, RenderError> {
+    let mut rt_priority = false;
     let cap = device
         .frames()
         .unwrap_or(params.max_frames)
@@ -198,7 +223,14 @@ pub fn run_loop<D: Device>(
     std::thread::scope(|s| {
         std::thread::Builder::new()
             .name("haptic6d-rt".into())
-            .spawn_scoped(s, || run_frames(god, device, safety, params, &mut records))
+            .spawn_scoped(s, || {
+                if params.realtime {
+                    if let Some(p) = params.rt_priority {
+                        rt_priority = set_realtime_priority(p);
+                    }
+                }
+                run_frames(god, device, safety, params, &mut records)
+            })
             .map_err(|e| RenderError::Io {
                 path: "<thread haptic6d-rt>".into(),
                 msg: format!("cannot start the haptic thread: {e}"),
@@ -214,6 +246,7 @@ pub fn run_loop<D: Device>(
     let stats = LoopStats {
         frames: records.len(),
         realtime: params.realtime,
+        rt_priority,
         rate_hz: params.rate_hz,
         overruns: records.iter().filter(|r| r.overrun).count() as u64,
         period_error_us: if params.realtime {

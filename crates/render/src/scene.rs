@@ -149,6 +149,11 @@ pub struct SolverSpec {
     pub penetration_tol_mm: f64,
     /// Fixed detection skin added to the motion bound, mm.
     pub skin_mm: f64,
+    /// Trust region per translation axis per frame when the hand is far from the graphic tool,
+    /// mm (bounds the detection margin; see [`crate::step`]).
+    pub trust_mm: f64,
+    /// Trust region per Euler angle per frame, rad.
+    pub trust_rad: f64,
 }
 
 /// Serialisable constraint form.
@@ -179,7 +184,9 @@ impl Default for SolverSpec {
             form: FormSpec::Distance,
             relinearize: 3,
             penetration_tol_mm: 0.002,
-            skin_mm: 0.05,
+            skin_mm: 0.02,
+            trust_mm: 0.1,
+            trust_rad: 0.001,
         }
     }
 }
@@ -518,7 +525,12 @@ pub fn load_scene_file(path: &Path, cache: &TreeCache) -> Result<Scene, RenderEr
         object_meshes.push(m);
     }
     let motion = match &spec.device.trajectory {
-        Some(t) => Motion::Trajectory(Trajectory::read_csv(&resolve(base, t))?),
+        Some(t) => Motion::Trajectory(Trajectory::read_csv(&resolve(base, t)).map_err(|e| {
+            RenderError::Scene {
+                file: file.clone(),
+                msg: format!("[device] trajectory: {e}"),
+            }
+        })?),
         None => Motion::Hold,
     };
     Ok(Scene {

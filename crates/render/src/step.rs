@@ -69,8 +69,8 @@ impl StepParams {
             relinearize: scene.solver.relinearize,
             penetration_tol_mm: scene.solver.penetration_tol_mm,
             skin_mm: scene.solver.skin_mm,
-            trust_mm: 0.1,
-            trust_rad: 0.001,
+            trust_mm: scene.solver.trust_mm,
+            trust_rad: scene.solver.trust_rad,
             max_pairs: 16_384,
         }
     }
@@ -311,6 +311,10 @@ impl GodObject {
                 break;
             }
             let n = self.fill_rows(&q, start, false, 0.0);
+            // Aim for a gap of `tol` rather than 0 so the projection ends strictly outside.
+            for d in &mut self.rhs[..n] {
+                *d += tol;
+            }
             let dq0 = delta(&q, start);
             let Some((dq, _, _, _)) = self.solve(n, &dq0) else {
                 break;
@@ -321,7 +325,7 @@ impl GodObject {
             }
             // Step at least a little beyond to escape flat minima of the linearization.
             searched = searched.max((next.translation() - start.translation()).norm());
-            if !next.is_finite() || next == q {
+            if !next.is_finite() {
                 break;
             }
             q = next;

@@ -301,10 +301,7 @@ mod tests {
         let e = Trajectory::parse_csv("t,x,y,z\n", "a.csv")
             .unwrap_err()
             .to_string();
-        assert!(
-            e.starts_with("a.csv:1: ") && e.contains("header"),
-            "{e}"
-        );
+        assert!(e.starts_with("a.csv:1: ") && e.contains("header"), "{e}");
         let text = format!("{TRAJECTORY_HEADER}\n0,0,0,0,0,0,0\n0.001,1,2,x,0,0,0\n");
         let e = Trajectory::parse_csv(&text, "b.csv")
             .unwrap_err()

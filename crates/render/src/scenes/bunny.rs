@@ -2,9 +2,12 @@
 //! both scaled to ~100 mm (factor 10 on the Stanford bunny shipped in `assets/bunny.obj`,
 //! public domain), centred on their bounding boxes; `+y` is up.
 //!
-//! Scripted device motion (1 kHz): approach from above, touch, slide on the object's back with
-//! a light press (a small contact), come back, push deep into the object (a large contact: the
-//! graphic tool is held at the surface while the hand goes ~15 mm in), withdraw.
+//! Scripted device motion (1 kHz, ~9 s): the tool approaches from above, touches the object's
+//! back and slides on it with a light press ([`SLIDE_PRESS_MM`]: a small contact, < 50 pairs);
+//! it withdraws, goes round through free space to below the object while turning upside down,
+//! approaches from below and pushes [`PUSH_MM`] past the first contact: flat base on flat base,
+//! a large contact (> 100 pairs, ~10 N; the graphic tool stays on the surface while the hand
+//! goes in); then it withdraws.
 
 use collide::Pose;
 use mesh::TriMesh;
@@ -17,6 +20,21 @@ use crate::RenderError;
 
 /// The bundled bunny (OBJ text, mesh units ~ cm).
 pub const BUNNY_OBJ: &str = include_str!("../../assets/bunny.obj");
+
+/// How far the hand presses past the first contact while sliding on top, mm.
+pub const SLIDE_PRESS_MM: f64 = 1.0;
+
+/// Lateral offset of the way round the object (free space), mm.
+pub const AROUND_MM: f64 = 160.0;
+
+/// Start and end of the slide phase in the script, s.
+pub const SLIDE_PHASE_S: (f64, f64) = (0.8, 3.4);
+
+/// Start and end of the held deep push in the script, s (the last 0.2 s of the push + hold).
+pub const PUSH_PHASE_S: (f64, f64) = (7.3, 7.8);
+
+/// How far the hand goes past the first contact in the push, mm.
+pub const PUSH_MM: f64 = 12.8;
 
 /// Scale from the bundled file's units to mm.
 pub const BUNNY_SCALE: f64 = 10.0;
@@ -51,7 +69,11 @@ pub fn scene(cache: &TreeCache) -> Result<Scene, RenderError> {
         octree: false,
     };
     let tree = crate::scene::tree_for_mesh(&mesh, params, cache, "bunny", &mut log)?;
+    // Slide on top: the tool upright above the object. Push from below: the tool upside down
+    // (gamma = pi) under the object, flat base against flat base.
+    let level = std::f64::consts::PI;
     let start = Pose::from_array([0.0, 140.0, 0.0, 0.0, 0.0, 0.0]);
+    let below = Pose::from_array([0.0, -140.0, 0.0, level, 0.0, 0.0]);
     let mut scene = Scene {
         name: "bunny".into(),
         tool: tree.clone(),
@@ -67,22 +89,40 @@ pub fn scene(cache: &TreeCache) -> Result<Scene, RenderError> {
         goal: None,
         load_log: log,
     };
-    let d = crate::scenes::distance_to_contact(&scene, &start, [0.0, -1.0, 0.0], 200.0)?
-        .ok_or_else(|| RenderError::Scene {
-            file: "bunny".into(),
-            msg: "the tool never reaches the object on the way down".into(),
-        })?;
-    let yc = start.q[1] - d;
+    let contact = |from: &Pose, dir: [f64; 3]| {
+        crate::scenes::distance_to_contact(&scene, from, dir, 200.0)?.ok_or_else(|| {
+            RenderError::Scene {
+                file: "bunny".into(),
+                msg: "the tool never reaches the object".into(),
+            }
+        })
+    };
+    let y_top = start.q[1] - contact(&start, [0.0, -1.0, 0.0])?;
+    let y_bottom = below.q[1] + contact(&below, [0.0, 1.0, 0.0])?;
     let at = |x: f64, y: f64, z: f64, g: f64| [x, y, z, g, 0.0, 0.0];
     let script = Script::starting_at(start.to_array())
-        .then(0.5, at(0.0, yc + 0.5, 0.0, 0.0), Ease::Smooth)
-        .then(0.3, at(0.0, yc - 1.0, 0.0, 0.0), Ease::Smooth)
-        .then(1.0, at(12.0, yc - 1.0, 0.0, 0.0), Ease::Smooth)
-        .then(1.0, at(-12.0, yc - 1.0, 4.0, 0.0), Ease::Smooth)
-        .then(0.6, at(0.0, yc - 1.0, 0.0, 0.0), Ease::Smooth)
-        .then(0.8, at(0.0, yc - 12.0, 0.0, 0.15), Ease::Smooth)
+        // Approach from above to 0.5 mm short of contact, press 1 mm in.
+        .then(0.5, at(0.0, y_top + 0.5, 0.0, 0.0), Ease::Smooth)
+        .then(0.3, at(0.0, y_top - SLIDE_PRESS_MM, 0.0, 0.0), Ease::Smooth)
+        // Slide on the object's back (small contact).
+        .then(1.0, at(8.0, y_top - SLIDE_PRESS_MM, 2.0, 0.0), Ease::Smooth)
+        .then(
+            1.0,
+            at(-8.0, y_top - SLIDE_PRESS_MM, -2.0, 0.0),
+            Ease::Smooth,
+        )
+        .then(0.6, at(0.0, y_top - SLIDE_PRESS_MM, 0.0, 0.0), Ease::Smooth)
+        // Withdraw and go round (free space) to below the object, turning the tool over.
+        .then(0.5, start.to_array(), Ease::Smooth)
+        .then(0.5, at(AROUND_MM, start.q[1], 0.0, 0.0), Ease::Smooth)
+        .then(1.0, at(AROUND_MM, below.q[1], 0.0, level), Ease::Smooth)
+        .then(0.5, below.to_array(), Ease::Smooth)
+        // Approach from below, then push PUSH_MM past the first contact: base on base.
+        .then(0.8, at(0.0, y_bottom - 0.5, 0.0, level), Ease::Smooth)
+        .then(0.8, at(0.0, y_bottom + PUSH_MM, 0.0, level), Ease::Smooth)
         .hold(0.3)
-        .then(0.8, start.to_array(), Ease::Smooth);
+        // Withdraw.
+        .then(0.8, below.to_array(), Ease::Smooth);
     scene.motion = Motion::Script(script);
     Ok(scene)
 }

@@ -1,0 +1,145 @@
+//! No allocation in the haptic frame: 10 000 frames of the bunny scene (contact included) under
+//! a counting global allocator, after one warm-up pass over the same motion.
+//!
+//! Our own allocator rather than `assert_no_alloc`'s: that crate's default `disable_release`
+//! feature turns its check into a no-op in release builds (CI tests in release), and features
+//! unify across the workspace.
+
+mod common;
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use collide::Pose;
+use render::device::ReplayDevice;
+use render::rt::{run_frames, FrameRecord, LoopParams};
+use render::safety::Safety;
+use render::scene::SolverKind;
+use render::step::{GodObject, StepParams};
+use render::trajectory::Trajectory;
+
+/// Counts (de)allocations made by a thread while it is armed.
+struct Counting;
+
+static EVENTS: AtomicUsize = AtomicUsize::new(0);
+
+thread_local! {
+    static ARMED: Cell<bool> = const { Cell::new(false) };
+}
+
+fn note() {
+    if ARMED.try_with(|a| a.get()).unwrap_or(false) {
+        EVENTS.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+// SAFETY: every call is forwarded unchanged to the system allocator.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        note();
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        note();
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        note();
+        unsafe { System.alloc_zeroed(layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        note();
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static A: Counting = Counting;
+
+/// Runs `f` with this thread armed; returns its result and the number of (de)allocations.
+fn count_allocations<T>(f: impl FnOnce() -> T) -> (T, usize) {
+    let before = EVENTS.load(Ordering::Relaxed);
+    ARMED.with(|a| a.set(true));
+    let out = f();
+    ARMED.with(|a| a.set(false));
+    (out, EVENTS.load(Ordering::Relaxed) - before)
+}
+
+#[test]
+fn the_counter_sees_an_allocation() {
+    let (v, n) = count_allocations(|| std::hint::black_box(vec![1u8; 64]));
+    drop(v);
+    assert!(n >= 1);
+}
+
+#[test]
+fn ten_thousand_frames_do_not_allocate() {
+    let scene = render::scenes::builtin("bunny", &common::test_cache()).unwrap();
+    let one = scene.trajectory();
+    // 10 000 frames: the scripted motion, then again backwards (continuous), as needed.
+    let mut traj = Trajectory::default();
+    let mut forward = true;
+    while traj.len() < 10_000 {
+        let pass: Vec<_> = if forward {
+            one.samples.clone()
+        } else {
+            one.samples.iter().rev().cloned().collect()
+        };
+        traj.samples.extend(pass);
+        forward = !forward;
+    }
+    traj.samples.truncate(10_000);
+    for (i, s) in traj.samples.iter_mut().enumerate() {
+        s.t = i as f64 * 1e-3;
+    }
+    // PQP costs O(N^2) per iteration and hundreds of iterations (the paper's method), so it is
+    // checked on 800 frames from the approach into the large contact, single pass.
+    let push_start = (render::scenes::bunny::PUSH_PHASE_S.0 * 1000.0) as usize - 800;
+    let pqp_traj = Trajectory {
+        samples: one.samples[push_start..push_start + 800].to_vec(),
+    };
+    for kind in [SolverKind::Dual, SolverKind::ActiveSet, SolverKind::Pqp] {
+        let traj = if kind == SolverKind::Pqp {
+            &pqp_traj
+        } else {
+            &traj
+        };
+        let frames = traj.len();
+        let mut scene = scene.clone();
+        scene.solver.kind = kind;
+        if kind == SolverKind::Pqp {
+            scene.solver.relinearize = 0;
+        }
+        let mut god = GodObject::new(&scene, StepParams::from_scene(&scene)).unwrap();
+        let mut safety = Safety::new(scene.safety);
+        let params = LoopParams::default();
+        // Warm-up: workspaces grow to the largest problem of this motion.
+        god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+        let mut records: Vec<FrameRecord> = Vec::with_capacity(traj.len());
+        run_frames(
+            &mut god,
+            &mut ReplayDevice::new(traj.clone()),
+            &mut safety,
+            &params,
+            &mut records,
+        );
+        assert_eq!(records.len(), frames);
+        // Measured pass.
+        god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+        let mut device = ReplayDevice::new(traj.clone());
+        records.clear();
+        let (n, allocs) = count_allocations(|| {
+            run_frames(&mut god, &mut device, &mut safety, &params, &mut records)
+        });
+        assert_eq!(n, frames, "{kind:?}");
+        assert_eq!(
+            allocs, 0,
+            "{kind:?}: {allocs} (de)allocations in {frames} frames"
+        );
+        assert!(
+            records.iter().any(|r| r.out.pairs > 100),
+            "{kind:?}: no large contact"
+        );
+    }
+}

@@ -1,0 +1,173 @@
+//! The whole pipeline on the built-in scenes: penetration bound, no NaN, force continuity,
+//! contact sizes, insertion with every exact solver, the NaN guard and start-up.
+
+mod common;
+
+use collide::Pose;
+use render::device::ReplayDevice;
+use render::report::{force_report, summarize};
+use render::rt::{run_loop, FrameRecord, LoopParams};
+use render::safety::Safety;
+use render::scene::{Goal, Scene, SolverKind};
+use render::step::{FrameStatus, GodObject, StepParams};
+use render::trajectory::Trajectory;
+
+fn run(scene: &Scene, kind: SolverKind, traj: &Trajectory) -> Vec<FrameRecord> {
+    let mut scene = scene.clone();
+    scene.solver.kind = kind;
+    let mut god = GodObject::new(&scene, StepParams::from_scene(&scene)).unwrap();
+    god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+    let mut safety = Safety::new(scene.safety);
+    let mut dev = ReplayDevice::new(traj.clone());
+    run_loop(&mut god, &mut dev, &mut safety, &LoopParams::default())
+        .unwrap()
+        .frames
+}
+
+fn max_pairs_between(frames: &[FrameRecord], t0: f64, t1: f64) -> (u32, u32) {
+    let sel = frames
+        .iter()
+        .filter(|f| f.t >= t0 && f.t <= t1)
+        .map(|f| f.out.pairs);
+    let v: Vec<u32> = sel.collect();
+    (
+        v.iter().copied().min().unwrap_or(0),
+        v.iter().copied().max().unwrap_or(0),
+    )
+}
+
+#[test]
+fn bunny_dual_meets_penetration_continuity_and_contact_targets() {
+    let scene = render::scenes::builtin("bunny", &common::test_cache()).unwrap();
+    let traj = scene.trajectory();
+    let frames = run(&scene, SolverKind::Dual, &traj);
+    assert_eq!(frames.len(), traj.len());
+    let f = force_report(&frames);
+    assert_eq!(f.non_finite_frames, 0);
+    assert!(
+        f.max_force_jump_n <= 0.5,
+        "force jump {} N at t = {}",
+        f.max_force_jump_n,
+        f.max_force_jump_t
+    );
+    let pen = frames
+        .iter()
+        .map(|r| r.out.penetration_mm)
+        .fold(0.0, f64::max);
+    assert!(pen <= 0.01, "penetration {pen} mm");
+    assert!(
+        frames.iter().all(|r| r.out.status == FrameStatus::Ok),
+        "a frame was not solved"
+    );
+    // The script's phases: slide (small contact), then push (large contact) with ~10 N.
+    use render::scenes::bunny::{PUSH_PHASE_S, SLIDE_PHASE_S};
+    let (_, slide_max) = max_pairs_between(&frames, SLIDE_PHASE_S.0, SLIDE_PHASE_S.1);
+    let (push_min, _) = max_pairs_between(&frames, PUSH_PHASE_S.0, PUSH_PHASE_S.1);
+    assert!(
+        slide_max > 0 && slide_max < 50,
+        "slide pairs up to {slide_max}"
+    );
+    assert!(push_min > 100, "push pairs down to {push_min}");
+    assert!(f.max_force_n > 5.0, "max force {} N", f.max_force_n);
+    // The graphic tool ends where the hand is (free space again).
+    let last = frames.last().unwrap();
+    for k in 0..6 {
+        assert!((last.out.q_g[k] - last.out.q_h[k]).abs() < 1e-9);
+    }
+}
+
+fn axial_force_at(frames: &[FrameRecord], t: f64) -> f64 {
+    frames
+        .iter()
+        .min_by(|a, b| (a.t - t).abs().total_cmp(&(b.t - t).abs()))
+        .map(|f| f.out.wrench[2])
+        .unwrap()
+}
+
+#[test]
+fn spline_insertion_succeeds_with_every_exact_solver() {
+    let cache = common::test_cache();
+    let scene = render::scenes::builtin("spline", &cache).unwrap();
+    let traj = scene.trajectory();
+    for kind in [SolverKind::Dual, SolverKind::ActiveSet] {
+        let frames = run(&scene, kind, &traj);
+        let s = summarize(
+            "spline",
+            kind.name(),
+            "distance",
+            &frames,
+            &Default::default(),
+            scene.goal,
+            vec![],
+            0.0,
+        );
+        let goal = s.goal.clone().unwrap();
+        assert!(goal.success, "{kind:?}: reached z {} mm", goal.reached_z_mm);
+        assert!(
+            s.penetration_mm.max <= 0.01,
+            "{kind:?}: penetration {} mm",
+            s.penetration_mm.max
+        );
+        assert_eq!(s.force.non_finite_frames, 0);
+        // Resting on the face (keys misaligned) the hand presses ~2 N down; once the keys align
+        // the shaft drops in and the axial force vanishes.
+        let resting = axial_force_at(&frames, 0.65);
+        let aligned = axial_force_at(&frames, 2.0);
+        assert!(
+            resting > 1.5,
+            "{kind:?}: axial force while resting {resting} N"
+        );
+        assert!(
+            aligned.abs() < 0.2,
+            "{kind:?}: axial force after alignment {aligned} N"
+        );
+        if let Some(Goal::InsertZ { target_z_mm, .. }) = scene.goal {
+            assert!(target_z_mm < -10.0);
+        }
+    }
+}
+
+#[test]
+fn a_nan_device_frame_keeps_the_last_safe_pose() {
+    let scene = render::scenes::builtin("bunny", &common::test_cache()).unwrap();
+    let mut traj = scene.trajectory();
+    let i = traj.len() / 2;
+    traj.samples[i].q[1] = f64::NAN;
+    let frames = run(&scene, SolverKind::Dual, &traj);
+    let bad = &frames[i];
+    assert_eq!(bad.out.status, FrameStatus::KeptLastSafe);
+    assert_eq!(bad.out.q_g, frames[i - 1].out.q_g);
+    assert!(bad.sent.iter().all(|v| v.is_finite()));
+    assert!(frames[i + 1].out.status == FrameStatus::Ok);
+}
+
+#[test]
+fn start_in_collision_moves_to_a_nearby_free_pose() {
+    let scene = render::scenes::builtin("bunny", &common::test_cache()).unwrap();
+    let mut god = GodObject::new(&scene, StepParams::from_scene(&scene)).unwrap();
+    // The tool exactly on the object: deep overlap.
+    let inside = Pose::from_array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    assert!(god.penetration_at(&inside) > 1.0);
+    // Start just inside the object (the first hand pose of the push that is > 0.5 mm in): the
+    // reset finds a free pose nearby.
+    let scene_traj = scene.trajectory();
+    let shallow = scene_traj
+        .samples
+        .iter()
+        .filter(|s| s.t >= 5.9)
+        .map(|s| Pose::from_array(s.q))
+        .find(|q| god.penetration_at(q) > 0.5)
+        .unwrap();
+    let free = god.reset(&shallow).unwrap();
+    assert!(god.penetration_at(&free) <= 0.01);
+    let moved = (free.translation() - shallow.translation()).norm();
+    assert!(moved < 3.0, "moved {moved} mm");
+    // From the exact overlap of tool and object there is no nearby free pose: a clear error.
+    match god.reset(&inside) {
+        Ok(free) => assert!(god.penetration_at(&free) <= 0.01),
+        Err(e) => assert!(e.to_string().contains("no free pose"), "{e}"),
+    }
+    // Free start: q_g = q_h exactly.
+    let free = Pose::from_array([0.0, -200.0, 0.0, 0.0, 0.0, 0.0]);
+    assert_eq!(god.reset(&free).unwrap(), free);
+}

@@ -1,0 +1,406 @@
+//! Reliability of the god-object step and the haptic loop on a programmatic scene: a thin
+//! plate (thinner than its leaf spheres' radius) and a small tool.
+//!
+//! - Anti-tunnelling: device motions straight through the plate in one or a few frames; the
+//!   graphic tool stays on the near side in every frame.
+//! - Device faults: a NaN row, a 100 mm jump in one frame, a stall: the loop runs every frame,
+//!   the wrench sent is finite, bounded by the device limits and rate-limited, and the summary
+//!   counts what happened.
+//! - Solver faults: absurd stiffness (wrench overflows to infinity) and a QP capped at one
+//!   iteration never reach the device as non-finite or unsafe output.
+
+use collide::Pose;
+use mesh::TriMesh;
+use render::device::ReplayDevice;
+use render::report::summarize;
+use render::rt::{run_loop, FrameRecord, LoopParams, LoopStats};
+use render::safety::{Safety, SafetyParams};
+use render::scene::{Coupling, Motion, Scene, SolverKind, SolverSpec};
+use render::step::{FrameStatus, GodObject, StepParams};
+use render::trajectory::{TrajSample, Trajectory};
+use spheretree::build::{build_tree, BuildParams};
+use spheretree::{Sphere, SphereTree};
+
+/// Plate half-size in x and y, mm.
+const HALF: f64 = 60.0;
+
+/// A closed box mesh `[-hx, hx] x [-hy, hy] x [-hz, hz]`, triangles counter-clockwise from
+/// outside.
+fn box_mesh(hx: f64, hy: f64, hz: f64) -> TriMesh {
+    let vertices = (0..8)
+        .map(|i| {
+            [
+                if i & 1 == 0 { -hx } else { hx },
+                if i & 2 == 0 { -hy } else { hy },
+                if i & 4 == 0 { -hz } else { hz },
+            ]
+        })
+        .collect();
+    let quads: [[u32; 4]; 6] = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let triangles = quads
+        .iter()
+        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+        .collect();
+    TriMesh {
+        vertices,
+        triangles,
+    }
+}
+
+/// The plate's sphere-tree (octree builder, depth 3) and the smallest leaf radius, mm.
+fn plate_tree(thickness: f64) -> (SphereTree, f64) {
+    let mesh = box_mesh(HALF, HALF, 0.5 * thickness);
+    let tree = build_tree(&mesh, &BuildParams::fastest_build(3), &|_| {}).unwrap();
+    let min_leaf = tree
+        .leaves()
+        .map(|n| tree.sphere(n))
+        .filter(|s| s.is_used())
+        .map(|s| s.radius)
+        .fold(f64::INFINITY, f64::min);
+    (tree, min_leaf)
+}
+
+/// A small tool: a root of radius 3 mm around two leaves of radius 2 mm at x = ±1 mm.
+fn tool_tree() -> SphereTree {
+    let mut spheres = vec![Sphere::new([0.0; 3], 3.0)];
+    spheres.push(Sphere::new([-1.0, 0.0, 0.0], 2.0));
+    spheres.push(Sphere::new([1.0, 0.0, 0.0], 2.0));
+    SphereTree::from_slots(2, 2, spheres).unwrap()
+}
+
+fn scene(object: SphereTree, solver: SolverSpec, coupling: Coupling) -> Scene {
+    Scene {
+        name: "reliability plate".into(),
+        tool: tool_tree(),
+        tool_mesh: None,
+        objects: vec![(object, Pose::identity())],
+        object_meshes: vec![None],
+        coupling,
+        solver,
+        safety: SafetyParams::default(),
+        start: Pose::from_array([0.0, 0.0, 40.0, 0.0, 0.0, 0.0]),
+        rate_hz: 1000.0,
+        motion: Motion::Hold,
+        goal: None,
+        load_log: Vec::new(),
+    }
+}
+
+/// The top of the plate's sphere layer (largest `z + r` over its leaves), mm.
+fn sphere_top(tree: &SphereTree) -> f64 {
+    tree.leaves()
+        .map(|n| tree.sphere(n))
+        .filter(|s| s.is_used())
+        .map(|s| s.center[2] + s.radius)
+        .fold(f64::NEG_INFINITY, f64::max)
+}
+
+/// A trajectory from `keys` (frame index, configuration), linear between keys, 1 kHz.
+fn keyed(keys: &[(usize, [f64; 6])]) -> Trajectory {
+    let mut samples = Vec::new();
+    for w in keys.windows(2) {
+        let ((i0, a), (i1, b)) = (w[0], w[1]);
+        for i in i0..i1 {
+            let s = (i - i0) as f64 / (i1 - i0) as f64;
+            let mut q = [0.0; 6];
+            for k in 0..6 {
+                q[k] = a[k] + (b[k] - a[k]) * s;
+            }
+            samples.push(TrajSample {
+                t: i as f64 * 1e-3,
+                q,
+            });
+        }
+    }
+    let (il, ql) = *keys.last().unwrap();
+    samples.push(TrajSample {
+        t: il as f64 * 1e-3,
+        q: ql,
+    });
+    Trajectory { samples }
+}
+
+fn run(scene: &Scene, traj: &Trajectory) -> (Vec<FrameRecord>, LoopStats) {
+    let mut god = GodObject::new(scene, StepParams::from_scene(scene)).unwrap();
+    god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+    let mut safety = Safety::new(scene.safety);
+    let mut dev = ReplayDevice::new(traj.clone());
+    let r = run_loop(&mut god, &mut dev, &mut safety, &LoopParams::default()).unwrap();
+    (r.frames, r.stats)
+}
+
+fn norm3(v: &[f64]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// The sent wrench is finite, within the device limits, and changes by at most the rate limit
+/// per frame (N, N·mm; small slack for rounding).
+#[track_caller]
+fn assert_safe_output(frames: &[FrameRecord], p: &SafetyParams) {
+    let mut prev = [0.0; 6];
+    for (i, f) in frames.iter().enumerate() {
+        assert!(
+            f.sent.iter().all(|v| v.is_finite()),
+            "frame {i}: {:?}",
+            f.sent
+        );
+        assert!(norm3(&f.sent[0..3]) <= p.max_force_n + 1e-9, "frame {i}");
+        assert!(norm3(&f.sent[3..6]) <= p.max_torque_nmm + 1e-6, "frame {i}");
+        let df = norm3(&[
+            f.sent[0] - prev[0],
+            f.sent[1] - prev[1],
+            f.sent[2] - prev[2],
+        ]);
+        let dt = norm3(&[
+            f.sent[3] - prev[3],
+            f.sent[4] - prev[4],
+            f.sent[5] - prev[5],
+        ]);
+        assert!(
+            df <= p.max_force_step_n + 1e-9,
+            "frame {i}: force step {df} N"
+        );
+        assert!(
+            dt <= p.max_torque_step_nmm + 1e-6,
+            "frame {i}: torque step {dt} N·mm"
+        );
+        prev = f.sent;
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Anti-tunnelling.
+
+#[test]
+fn thin_plate_is_thinner_than_its_leaf_spheres() {
+    let (tree, min_leaf) = plate_tree(0.5);
+    tree.validate(1e-9).unwrap();
+    assert!(
+        min_leaf > 0.5,
+        "the test needs leaves larger than the plate: {min_leaf}"
+    );
+}
+
+#[test]
+fn fast_motion_through_a_thin_plate_never_tunnels() {
+    let (plate, min_leaf) = plate_tree(0.5);
+    let top = sphere_top(&plate);
+    assert!(min_leaf > 0.5 && top < 40.0, "top {top}");
+    let above = [5.0, -3.0, 40.0, 0.0, 0.0, 0.0];
+    let below = [5.0, -3.0, -40.0, 0.0, 0.0, 0.0];
+    let tilted = [-8.0, 12.0, -45.0, 0.4, -0.3, 0.8];
+    let motions: Vec<(&str, Trajectory)> = vec![
+        // 80 mm in one frame (80 m/s), then held below for 50 frames.
+        (
+            "one frame",
+            keyed(&[(0, above), (5, above), (6, below), (56, below)]),
+        ),
+        // Through in three frames, then back up.
+        (
+            "three frames",
+            keyed(&[
+                (0, above),
+                (3, above),
+                (6, below),
+                (40, below),
+                (43, above),
+                (50, above),
+            ]),
+        ),
+        // Through with a rotation, in two frames.
+        (
+            "rotating",
+            keyed(&[(0, above), (2, above), (4, tilted), (40, tilted)]),
+        ),
+        // Grazing: along the plate inside its sphere layer, 10 mm per frame.
+        (
+            "grazing",
+            keyed(&[
+                (0, [-50.0, 0.0, 40.0, 0.0, 0.0, 0.0]),
+                (4, [-50.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                (14, [50.0, 0.0, -1.0, 0.0, 0.0, 0.0]),
+                (30, [50.0, 0.0, -1.0, 0.0, 0.0, 0.0]),
+            ]),
+        ),
+    ];
+    for relinearize in [0, 3] {
+        for kind in [SolverKind::Dual, SolverKind::ActiveSet] {
+            let spec = SolverSpec {
+                kind,
+                relinearize,
+                ..SolverSpec::default()
+            };
+            let sc = scene(plate.clone(), spec, Coupling::default());
+            for (name, traj) in &motions {
+                let (frames, _) = run(&sc, traj);
+                assert_eq!(frames.len(), traj.len(), "{name}");
+                for (i, f) in frames.iter().enumerate() {
+                    // The tool's leaves (radius 2) must stay on the near side of the plate's
+                    // mid-plane: the origin above z = 2 mm at least (it rests on the sphere
+                    // layer, which is far above).
+                    let zg = f.out.q_g[2];
+                    assert!(
+                        zg > 2.0,
+                        "{name} ({kind:?}, relinearize {relinearize}) frame {i}: tool at z = {zg} tunnelled (device z = {})",
+                        f.out.q_h[2]
+                    );
+                    assert!(
+                        f.out.penetration_mm <= 0.01,
+                        "{name} ({kind:?}, relinearize {relinearize}) frame {i}: penetration {} mm",
+                        f.out.penetration_mm
+                    );
+                }
+                // Pushed below the plate, the tool rests on top of it: pressed, not free.
+                let last = frames.last().unwrap();
+                if last.out.q_h[2] < 0.0 {
+                    assert!(
+                        last.out.q_g[2] > top - 0.5,
+                        "{name}: rests at {}",
+                        last.out.q_g[2]
+                    );
+                    assert!(last.out.wrench[2] > 1.0, "{name}: no push-back");
+                }
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Device faults.
+
+/// Above the plate, then pressing 5 mm into it, held: frames 0..400.
+fn press_trajectory(top: f64) -> Trajectory {
+    keyed(&[
+        (0, [0.0, 0.0, top + 10.0, 0.0, 0.0, 0.0]),
+        (100, [0.0, 0.0, top + 10.0, 0.0, 0.0, 0.0]),
+        (200, [0.0, 0.0, top - 3.0, 0.0, 0.0, 0.0]),
+        (400, [0.0, 0.0, top - 3.0, 0.0, 0.0, 0.0]),
+    ])
+}
+
+#[test]
+fn nan_device_row_keeps_the_loop_running_with_safe_output() {
+    let (plate, _) = plate_tree(0.5);
+    let top = sphere_top(&plate);
+    let sc = scene(plate, SolverSpec::default(), Coupling::default());
+    let mut traj = press_trajectory(top);
+    // A NaN row and an infinite row while pressing.
+    traj.samples[300].q[2] = f64::NAN;
+    traj.samples[301].q = [f64::INFINITY; 6];
+    let (frames, stats) = run(&sc, &traj);
+    assert_eq!(frames.len(), traj.len());
+    assert_safe_output(&frames, &sc.safety);
+    for i in [300, 301] {
+        assert_eq!(frames[i].out.status, FrameStatus::KeptLastSafe, "frame {i}");
+        assert_eq!(frames[i].out.q_g, frames[299].out.q_g, "frame {i}");
+    }
+    assert_eq!(frames[302].out.status, FrameStatus::Ok);
+    assert_eq!(stats.kept_last_safe, 2);
+    let s = summarize(
+        "plate",
+        "dual",
+        "distance",
+        &frames,
+        &stats,
+        None,
+        vec![],
+        0.0,
+    );
+    assert_eq!(
+        s.loop_stats.kept_last_safe, 2,
+        "the summary reports the bad frames"
+    );
+    assert_eq!(s.force.non_finite_frames, 0);
+    let json = serde_json_like(&s.loop_stats);
+    assert!(json.contains("kept_last_safe"), "{json}");
+}
+
+/// The loop statistics as the summary prints them (Debug form: field names and counts).
+fn serde_json_like(stats: &LoopStats) -> String {
+    format!("{stats:?}")
+}
+
+#[test]
+fn jump_of_100_mm_in_one_frame_is_clamped_and_rate_limited() {
+    let (plate, _) = plate_tree(0.5);
+    let top = sphere_top(&plate);
+    let sc = scene(plate, SolverSpec::default(), Coupling::default());
+    let z0 = top + 10.0;
+    // Rest above the plate, then the device reading jumps 100 mm down (through the plate) for
+    // 100 frames, then back.
+    let traj = keyed(&[
+        (0, [0.0, 0.0, z0, 0.0, 0.0, 0.0]),
+        (100, [0.0, 0.0, z0, 0.0, 0.0, 0.0]),
+        (101, [0.0, 0.0, z0 - 100.0, 0.0, 0.0, 0.0]),
+        (200, [0.0, 0.0, z0 - 100.0, 0.0, 0.0, 0.0]),
+        (201, [0.0, 0.0, z0, 0.0, 0.0, 0.0]),
+        (300, [0.0, 0.0, z0, 0.0, 0.0, 0.0]),
+    ]);
+    let (frames, stats) = run(&sc, &traj);
+    assert_eq!(frames.len(), traj.len());
+    assert_safe_output(&frames, &sc.safety);
+    // The raw spring force is ~ (100 - 10) N, beyond the 40 N limit: clamped and ramped.
+    assert!(frames[150].out.wrench[2] > sc.safety.max_force_n);
+    assert!((frames[150].sent[2] - sc.safety.max_force_n).abs() < 1e-6);
+    assert!(stats.safety.force_clamps > 0 && stats.safety.rate_limits > 0);
+    for f in &frames {
+        assert!(f.out.q_g[2] > top - 0.5, "tunnelled: {:?}", f.out.q_g);
+    }
+    // Released: the output returns to zero (through the rate limit) and stays there.
+    assert!(
+        frames[299].sent.iter().all(|v| v.abs() < 1e-9),
+        "{:?}",
+        frames[299].sent
+    );
+}
+
+#[test]
+fn stalled_device_keeps_a_steady_force() {
+    let (plate, _) = plate_tree(0.5);
+    let top = sphere_top(&plate);
+    let sc = scene(plate, SolverSpec::default(), Coupling::default());
+    // Pressing, then the device repeats its last reading (same time stamp too) for 2000
+    // frames: the loop keeps running and the force holds steady.
+    let mut traj = press_trajectory(top);
+    let last = *traj.samples.last().unwrap();
+    traj.samples.extend(std::iter::repeat_n(last, 2000));
+    let (frames, stats) = run(&sc, &traj);
+    assert_eq!(frames.len(), traj.len());
+    assert_safe_output(&frames, &sc.safety);
+    let f0 = frames[450].sent;
+    for f in &frames[450..] {
+        for k in 0..6 {
+            assert!((f.sent[k] - f0[k]).abs() < 1e-6, "{:?} vs {f0:?}", f.sent);
+        }
+    }
+    assert!(f0[2] > 1.0, "pressing must push back: {f0:?}");
+    assert_eq!(stats.kept_last_safe, 0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Solver faults.
+
+#[test]
+fn absurd_stiffness_never_sends_non_finite_output() {
+    let (plate, _) = plate_tree(0.5);
+    let top = sphere_top(&plate);
+    for (kt, kr) in [(1e300, 1e300), (1e-300, 1e-300), (1e300, 1e-300)] {
+        let sc = scene(plate.clone(), SolverSpec::default(), Coupling { kt, kr });
+        let (frames, _) = run(&sc, &press_trajectory(top));
+        assert_safe_output(&frames, &sc.safety);
+        for f in &frames {
+            assert!(
+                f.out.q_g.iter().all(|v| v.is_finite()),
+                "kt {kt}: {:?}",
+                f.out.q_g
+            );
+        }
+    }
+}
