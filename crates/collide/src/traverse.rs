@@ -357,3 +357,53 @@ fn descend<F: FnMut(&LeafPair)>(
     }
     count
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use spheretree::{Sphere, SphereTree};
+
+    fn small_tree() -> SphereTree {
+        let mut t = SphereTree::new_unused(3, 2).unwrap();
+        let s = t.spheres_mut();
+        s[0] = Sphere::new([0.0; 3], 4.0);
+        s[1] = Sphere::new([-2.0, 0.0, 0.0], 2.0);
+        s[2] = Sphere::new([2.0, 0.0, 0.0], 2.0);
+        s[3] = Sphere::new([-3.0, 0.0, 0.0], 1.0);
+        s[4] = Sphere::new([-1.0, 0.0, 0.0], 1.0);
+        s[5] = Sphere::new([1.0, 0.0, 0.0], 1.0);
+        s[6] = Sphere::new([3.0, 0.0, 0.0], 1.0);
+        t
+    }
+
+    /// The posed-centre cache stays correct when the query epoch wraps around: stamps left by
+    /// queries before the wrap must not be taken as current after it.
+    #[test]
+    fn epoch_wrap_keeps_the_cache_correct() {
+        let tree = PackedTree::new(&small_tree()).unwrap();
+        let a = Pose::from_array([5.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let far = Pose::from_array([100.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let c = Pose::from_array([-5.5, 0.5, 0.0, 0.0, 0.0, 0.3]);
+        let run = |ws: &mut CollideWorkspace, q: &Pose| {
+            let mut v = Vec::new();
+            overlap_tree_tree(&tree, q, &tree, 0.0, ws, |p| {
+                v.push((p.tool_slot, p.object_slot))
+            })
+            .unwrap();
+            v.sort();
+            v
+        };
+        let expected_c = run(&mut CollideWorkspace::new(), &c);
+        assert!(!expected_c.is_empty());
+        let mut ws = CollideWorkspace::for_trees(&tree, std::slice::from_ref(&tree));
+        assert_eq!(ws.epoch, 0);
+        // Epoch 1: pose `a` stamps the root's children as posed at epoch 1.
+        assert!(!run(&mut ws, &a).is_empty());
+        // Jump to the wrap; the query at u32::MAX touches nothing but the root.
+        ws.epoch = u32::MAX - 1;
+        assert!(run(&mut ws, &far).is_empty());
+        // The next query runs at epoch 1 again: it must not reuse `a`'s posed centres.
+        assert_eq!(run(&mut ws, &c), expected_c, "epoch {}", ws.epoch);
+        assert_eq!(ws.epoch, 1);
+    }
+}
