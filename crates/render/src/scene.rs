@@ -480,6 +480,12 @@ fn load_body(
     let raw = crate::scenes::load_mesh_file(&path)
         .map_err(|e| err(format!("{label}: cannot load mesh {}: {e}", path.display())))?;
     let mesh = raw.scaled_about([0.0; 3], scale);
+    if !mesh.vertices.iter().flatten().all(|c| c.is_finite()) {
+        return Err(err(format!(
+            "{label}: scale = {scale} makes the mesh {} overflow (non-finite vertices); check `scale` (file units to mm)",
+            path.display()
+        )));
+    }
     let octree = match b.method.as_deref().map(str::to_ascii_lowercase).as_deref() {
         None | Some("tight") => false,
         Some("octree") => true,
