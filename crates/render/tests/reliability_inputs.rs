@@ -237,7 +237,7 @@ fn scene_file_errors_name_the_scene_and_the_bad_file_and_line() {
 }
 
 #[test]
-fn huge_scale_on_huge_tree_does_not_produce_non_finite_spheres() {
+fn scene_scale_overflow_is_an_error_naming_the_scene() {
     // The tree's numbers are finite (1e300) and the scale is finite (1e10), but together they
     // overflow: the scene must refuse to load, not hand infinite spheres to the haptic loop.
     let d = Dir::new("huge");
@@ -247,18 +247,31 @@ fn huge_scale_on_huge_tree_does_not_produce_non_finite_spheres() {
         "h.toml",
         scene("").replace("tree = \"object.sph\"", "tree = \"huge.sph\"\nscale = 1e10"),
     );
-    match load_scene_file(&p, &TreeCache::disabled()) {
-        Err(e) => {
-            let e = e.to_string();
-            assert!(!e.contains('\n') && e.contains("h.toml"), "{e}");
-        }
-        Ok(scene) => {
-            for (tree, _) in &scene.objects {
-                for s in tree.spheres().iter().filter(|s| s.is_used()) {
-                    assert!(
-                        s.radius.is_finite() && s.center.iter().all(|c| c.is_finite()),
-                        "non-finite sphere after scaling: {s:?}"
-                    );
+    let mesh_case = d.write(
+        "m.toml",
+        scene("").replace(
+            "tree = \"object.sph\"",
+            "mesh = \"huge.obj\"\nscale = 1e200\ndepth = 2\nmethod = \"octree\"",
+        ),
+    );
+    d.write(
+        "huge.obj",
+        "v 0 0 0\nv 1e150 0 0\nv 0 1e150 0\nv 0 0 1e150\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+    );
+    for p in [p, mesh_case] {
+        match load_scene_file(&p, &TreeCache::disabled()) {
+            Err(e) => {
+                let e = e.to_string();
+                assert!(!e.contains('\n') && e.contains(".toml"), "{e}");
+            }
+            Ok(scene) => {
+                for (tree, _) in &scene.objects {
+                    for s in tree.spheres().iter().filter(|s| s.is_used()) {
+                        assert!(
+                            s.radius.is_finite() && s.center.iter().all(|c| c.is_finite()),
+                            "non-finite sphere after scaling: {s:?}"
+                        );
+                    }
                 }
             }
         }
