@@ -97,9 +97,9 @@ fn octree(mesh: &TriMesh, depth: u32) -> SphereTree {
 /// Tool: a 30 x 6 x 6 mm bar (so rotations move its ends); objects: a 0.5 mm plate at z = 0
 /// and a 40 mm block beside it.
 fn scene() -> Scene {
-    let tool = octree(&box_mesh([0.0; 3], [15.0, 3.0, 3.0]), 2);
-    let plate = octree(&box_mesh([0.0; 3], [60.0, 60.0, 0.25]), 3);
-    let block = octree(&box_mesh([90.0, 0.0, 20.0], [20.0, 20.0, 20.0]), 3);
+    let tool = octree(&box_mesh([0.0; 3], [15.0, 3.0, 3.0]), 3);
+    let plate = octree(&box_mesh([0.0; 3], [60.0, 60.0, 0.25]), 4);
+    let block = octree(&box_mesh([90.0, 0.0, 20.0], [20.0, 20.0, 20.0]), 4);
     Scene {
         name: "reliability long run".into(),
         tool,
