@@ -57,6 +57,10 @@ pub struct RunArgs {
     /// Trust region per Euler angle per frame, rad.
     #[arg(long)]
     pub trust_rad: Option<f64>,
+    /// Keep the haptic thread at normal priority (by default it asks for SCHED_FIFO, which
+    /// needs the privilege, so that timings are not inflated by preemption).
+    #[arg(long)]
+    pub no_rt_priority: bool,
     /// Skip the PNG plots.
     #[arg(long)]
     pub no_plots: bool,
@@ -187,6 +191,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     let params = LoopParams {
         rate_hz: scene.rate_hz,
         realtime: args.realtime,
+        rt_priority: if args.no_rt_priority { None } else { Some(50) },
         ..LoopParams::default()
     };
     let report = run_loop(&mut god, &mut device, &mut safety, &params)?;
@@ -248,6 +253,14 @@ fn print_human(s: &RunSummary, out: &Path) {
         s.force.max_force_n, s.force.max_torque_nmm, s.force.max_force_jump_n, s.force.contact_onsets
     );
     let l = &s.loop_stats;
+    println!(
+        "  haptic thread: {}",
+        if l.rt_priority {
+            "SCHED_FIFO"
+        } else {
+            "normal priority"
+        }
+    );
     if l.realtime {
         println!(
             "  loop {:.0} Hz: period error p50 {:.1} p99 {:.1} max {:.1} µs, {} overruns",

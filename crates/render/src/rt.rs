@@ -34,8 +34,9 @@ pub struct LoopParams {
     pub spin_us: f64,
     /// Most frames to run (storage is reserved for this many, or for the device's length).
     pub max_frames: usize,
-    /// In real-time mode, ask for a real-time scheduling priority (`SCHED_FIFO`) for the
-    /// haptic thread (best effort: needs the privilege; reported in [`LoopStats`]).
+    /// Ask for a real-time scheduling priority (`SCHED_FIFO`) for the haptic thread (best
+    /// effort: needs the privilege; reported in [`LoopStats`]). `None` (the default) keeps the
+    /// normal priority.
     pub rt_priority: Option<i32>,
 }
 
@@ -46,7 +47,7 @@ impl Default for LoopParams {
             realtime: false,
             spin_us: 400.0,
             max_frames: 10_000_000,
-            rt_priority: Some(50),
+            rt_priority: None,
         }
     }
 }
@@ -224,10 +225,8 @@ pub fn run_loop<D: Device>(
         std::thread::Builder::new()
             .name("haptic6d-rt".into())
             .spawn_scoped(s, || {
-                if params.realtime {
-                    if let Some(p) = params.rt_priority {
-                        rt_priority = set_realtime_priority(p);
-                    }
+                if let Some(p) = params.rt_priority {
+                    rt_priority = set_realtime_priority(p);
                 }
                 run_frames(god, device, safety, params, &mut records)
             })

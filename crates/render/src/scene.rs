@@ -471,6 +471,16 @@ fn load_body(
         let mut tree = spheretree::sph::read_sph(&path)
             .map_err(|e| err(format!("{label}: cannot read tree {}: {e}", path.display())))?;
         scale_tree(&mut tree, scale);
+        let finite = tree
+            .spheres()
+            .iter()
+            .all(|s| s.radius.is_finite() && s.center.iter().all(|c| c.is_finite()));
+        if !finite {
+            return Err(err(format!(
+                "{label}: scale = {scale} makes the tree {} overflow (non-finite spheres); check `scale` (file units to mm)",
+                path.display()
+            )));
+        }
         tree.enforce_containment();
         log.push(format!("{label}: tree read from {}", path.display()));
         return Ok((tree, None));
@@ -500,7 +510,10 @@ fn load_body(
         branching: b.branching.unwrap_or(8),
         octree,
     };
-    let tree = tree_for_mesh(&mesh, params, cache, label, log)?;
+    let tree = tree_for_mesh(&mesh, params, cache, label, log).map_err(|e| match e {
+        RenderError::Scene { msg, .. } => err(format!("{label}: {msg}")),
+        other => other,
+    })?;
     Ok((tree, Some(mesh)))
 }
 

@@ -212,6 +212,12 @@ impl GodObject {
         &self.params
     }
 
+    /// The QP solver and its workspaces, e.g. to change iteration caps or tolerances
+    /// (`solver_mut().dual.params.max_iterations`) between frames.
+    pub fn solver_mut(&mut self) -> &mut Solver {
+        &mut self.solver
+    }
+
     /// The current graphic configuration.
     pub fn q_g(&self) -> Pose {
         self.q_g

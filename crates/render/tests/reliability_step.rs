@@ -407,3 +407,56 @@ fn absurd_stiffness_never_sends_non_finite_output() {
         }
     }
 }
+
+/// Runs `traj` with every solver's iteration cap set to `cap`.
+fn run_capped(scene: &Scene, traj: &Trajectory, cap: u32) -> (Vec<FrameRecord>, LoopStats) {
+    let mut god = GodObject::new(scene, StepParams::from_scene(scene)).unwrap();
+    god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+    let s = god.solver_mut();
+    s.dual.params.max_iterations = cap;
+    s.active_set.params.max_iterations = cap;
+    s.pqp.params.max_iterations = cap;
+    let mut safety = Safety::new(scene.safety);
+    let mut dev = ReplayDevice::new(traj.clone());
+    let r = run_loop(&mut god, &mut dev, &mut safety, &LoopParams::default()).unwrap();
+    (r.frames, r.stats)
+}
+
+#[test]
+fn qp_iteration_cap_never_reaches_the_device() {
+    // A tilted tool pressed into the plate edge-on activates several constraints at once; with
+    // the solver capped at one iteration the QP stops early. The capped answer must not be
+    // sent: the frame keeps its last safe pose (no penetration) and the output stays safe.
+    let (plate, _) = plate_tree(0.5);
+    let top = sphere_top(&plate);
+    for kind in [SolverKind::Dual, SolverKind::ActiveSet, SolverKind::Pqp] {
+        let spec = SolverSpec {
+            kind,
+            ..SolverSpec::default()
+        };
+        let sc = scene(plate.clone(), spec, Coupling::default());
+        let traj = keyed(&[
+            (0, [0.0, 0.0, top + 10.0, 0.0, 0.0, 0.0]),
+            (50, [0.0, 0.0, top + 10.0, 0.0, 0.0, 0.0]),
+            (150, [3.0, -2.0, top - 4.0, 0.3, 0.5, 0.2]),
+            (250, [-3.0, 2.0, top - 6.0, -0.3, 0.4, -0.2]),
+        ]);
+        let (frames, stats) = run_capped(&sc, &traj, 1);
+        assert_eq!(frames.len(), traj.len());
+        assert_safe_output(&frames, &sc.safety);
+        for (i, f) in frames.iter().enumerate() {
+            assert!(
+                f.out.penetration_mm <= 0.01 || f.out.status == FrameStatus::KeptLastSafe,
+                "{kind:?} frame {i}: a capped solve reached the device with {} mm penetration",
+                f.out.penetration_mm
+            );
+            assert!(f.out.q_g[2] > 2.0, "{kind:?} frame {i}: tunnelled");
+        }
+        eprintln!(
+            "{kind:?}: capped at 1 iteration: {} kept-last-safe, {} inexact of {} frames",
+            stats.kept_last_safe,
+            stats.inexact,
+            frames.len()
+        );
+    }
+}
