@@ -82,7 +82,8 @@ pub enum FrameStatus {
     /// Solved.
     #[default]
     Ok,
-    /// The QP stopped early (iteration cap) or reported infeasible; its `q_g` was used.
+    /// The QP stopped with a status other than solved, capped or infeasible (those keep the
+    /// last safe pose); its `q_g` was used.
     Inexact,
     /// More pairs than `max_pairs`: some were dropped.
     PairOverflow,
@@ -494,8 +495,9 @@ impl GodObject {
             self.remember_active(n_pairs);
             out.iterations += iters;
             out.qp_violation = viol;
-            if status == Status::Infeasible {
-                // Only possible when q_lin itself penetrates: do not trust the step.
+            if matches!(status, Status::Infeasible | Status::MaxIterations) {
+                // Infeasible only when q_lin itself penetrates; a capped solve is no answer
+                // (it may penetrate): neither reaches the device, keep the last safe pose.
                 return self.keep_last_safe(out, q_h, t_start);
             }
             if status != Status::Solved && out.status == FrameStatus::Ok {
