@@ -11,6 +11,7 @@
 //! memory of the test itself does not grow with the run length.
 
 use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
 use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
 
 use collide::Pose;
@@ -23,31 +24,48 @@ use render::step::{FrameStatus, GodObject, StepParams};
 use spheretree::build::{build_tree, BuildParams};
 use spheretree::SphereTree;
 
-/// Counts allocations and live heap bytes (all threads).
+/// Counts allocations and live heap bytes made by a thread while it is armed (the test
+/// harness's own threads, e.g. its "running for over 60 seconds" notice, are not counted).
 struct Counting;
 
 static ALLOCS: AtomicU64 = AtomicU64::new(0);
 static LIVE: AtomicI64 = AtomicI64::new(0);
 
+thread_local! {
+    static ARMED: Cell<bool> = const { Cell::new(false) };
+}
+
+fn armed() -> bool {
+    ARMED.try_with(Cell::get).unwrap_or(false)
+}
+
 // SAFETY: every call is forwarded unchanged to the system allocator.
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::Relaxed);
-        LIVE.fetch_add(layout.size() as i64, Ordering::Relaxed);
+        if armed() {
+            ALLOCS.fetch_add(1, Ordering::Relaxed);
+            LIVE.fetch_add(layout.size() as i64, Ordering::Relaxed);
+        }
         unsafe { System.alloc(layout) }
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        LIVE.fetch_sub(layout.size() as i64, Ordering::Relaxed);
+        if armed() {
+            LIVE.fetch_sub(layout.size() as i64, Ordering::Relaxed);
+        }
         unsafe { System.dealloc(ptr, layout) }
     }
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::Relaxed);
-        LIVE.fetch_add(layout.size() as i64, Ordering::Relaxed);
+        if armed() {
+            ALLOCS.fetch_add(1, Ordering::Relaxed);
+            LIVE.fetch_add(layout.size() as i64, Ordering::Relaxed);
+        }
         unsafe { System.alloc_zeroed(layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::Relaxed);
-        LIVE.fetch_add(new_size as i64 - layout.size() as i64, Ordering::Relaxed);
+        if armed() {
+            ALLOCS.fetch_add(1, Ordering::Relaxed);
+            LIVE.fetch_add(new_size as i64 - layout.size() as i64, Ordering::Relaxed);
+        }
         unsafe { System.realloc(ptr, layout, new_size) }
     }
 }
@@ -252,7 +270,9 @@ fn long_run(frames: usize, seed: u64) -> LongRun {
             ALLOCS.store(0, Ordering::Relaxed);
             LIVE.store(0, Ordering::Relaxed);
         }
+        ARMED.with(|a| a.set(chunk >= 1));
         let n = run_frames(&mut god, &mut dev, &mut safety, &params, &mut records);
+        ARMED.with(|a| a.set(false));
         if chunk >= 1 {
             r.allocs_in_loop = ALLOCS.load(Ordering::Relaxed);
         }

@@ -444,9 +444,12 @@ fn qp_iteration_cap_never_reaches_the_device() {
         let (frames, stats) = run_capped(&sc, &traj, 1);
         assert_eq!(frames.len(), traj.len());
         assert_safe_output(&frames, &sc.safety);
+        // PQP's own stopping rule leaves up to ~0.3 mm of violation (DESIGN.md); the exact
+        // solvers must hold the 0.01 mm bound.
+        let bound = if kind == SolverKind::Pqp { 0.3 } else { 0.01 };
         for (i, f) in frames.iter().enumerate() {
             assert!(
-                f.out.penetration_mm <= 0.01 || f.out.status == FrameStatus::KeptLastSafe,
+                f.out.penetration_mm <= bound,
                 "{kind:?} frame {i}: a capped solve reached the device with {} mm penetration",
                 f.out.penetration_mm
             );
