@@ -49,6 +49,11 @@ pub struct ServeArgs {
     /// Haptic rate, Hz.
     #[arg(long, default_value_t = 1000.0)]
     pub rate: f64,
+    /// Run the haptic thread with real-time priority (`SCHED_FIFO` at this priority, 1-99;
+    /// best effort: needs the privilege, and a step that overruns then competes hard with the
+    /// page and the server on a small machine).
+    #[arg(long, value_name = "PRIORITY")]
+    pub rt_priority: Option<i32>,
     /// State stream rate to the page, Hz.
     #[arg(long, default_value_t = 60.0)]
     pub display_hz: f64,
@@ -99,6 +104,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
         sim,
         &LoopParams {
             rate_hz: args.rate,
+            rt_priority: args.rt_priority,
             ..LoopParams::default()
         },
     )?;
@@ -155,6 +161,15 @@ pub fn run(args: ServeArgs) -> Result<()> {
                 args.udp_timeout_ms
             ));
         }
+        if let Some(p) = args.rt_priority {
+            // The thread sets its priority as it starts; give it a moment before reporting.
+            tokio::time::sleep(Duration::from_millis(50)).await;
+            say(if haptic.realtime() {
+                format!("haptic thread: SCHED_FIFO priority {p}")
+            } else {
+                format!("haptic thread: SCHED_FIFO priority {p} refused (no privilege?); normal priority")
+            });
+        }
         let router = server::router(haptic.clone(), params);
         let shutdown = async move {
             match duration {
@@ -193,6 +208,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
             "rate_hz": args.rate,
             "frames": last.frame + 1,
             "overruns": last.overruns,
+            "realtime_priority": haptic.realtime(),
             "worst_step_last_second_us": last.frame_us_max,
             "recording": recording.map(|r| serde_json::json!({
                 "path": r.path.display().to_string(),

@@ -23,6 +23,9 @@ pub struct LoopParams {
     /// How long before a deadline the thread stops sleeping and spins (µs); trades CPU for
     /// timing precision. 150 by default.
     pub spin_us: u64,
+    /// Ask for `SCHED_FIFO` at this priority for the haptic thread (best effort, needs the
+    /// privilege; see [`HapticLoop::realtime`]). `None` (the default) keeps the normal priority.
+    pub rt_priority: Option<i32>,
 }
 
 impl Default for LoopParams {
@@ -30,6 +33,7 @@ impl Default for LoopParams {
         Self {
             rate_hz: 1000.0,
             spin_us: 150,
+            rt_priority: None,
         }
     }
 }
@@ -44,6 +48,7 @@ pub struct HapticLoop {
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
     period: Duration,
+    realtime: Arc<AtomicBool>,
 }
 
 impl HapticLoop {
@@ -53,9 +58,16 @@ impl HapticLoop {
         let (mut handle, frames) = Self::manual(sim, params)?;
         let stop = handle.stop.clone();
         let spin = Duration::from_micros(params.spin_us);
+        let priority = params.rt_priority;
+        let realtime = handle.realtime.clone();
         let thread = std::thread::Builder::new()
             .name("haptic6d-haptic".into())
-            .spawn(move || frames.run(&stop, spin))
+            .spawn(move || {
+                if let Some(p) = priority {
+                    realtime.store(render::rt::set_realtime_priority(p), Ordering::Release);
+                }
+                frames.run(&stop, spin)
+            })
             .map_err(ViewerError::Thread)?;
         handle.thread = Some(thread);
         Ok(handle)
@@ -112,9 +124,16 @@ impl HapticLoop {
                 stop,
                 thread: None,
                 period,
+                realtime: Arc::new(AtomicBool::new(false)),
             },
             frames,
         ))
+    }
+
+    /// True when the haptic thread obtained the real-time priority it asked for
+    /// ([`LoopParams::rt_priority`]); set once the thread has started.
+    pub fn realtime(&self) -> bool {
+        self.realtime.load(Ordering::Acquire)
     }
 
     /// Where device poses go in.

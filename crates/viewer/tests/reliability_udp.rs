@@ -97,8 +97,7 @@ fn garbage_flood_is_counted_and_never_applied() {
 
     let mut r = Rng(0xF100D);
     let mut sent_bad = 0u64;
-    let mut seq = 2u32;
-    for round in 0..20 {
+    for (round, seq) in (0..20).zip(2u32..) {
         for _ in 0..50 {
             sock.send_to(&bad_datagram(&mut r, seq + 1000), server)
                 .unwrap();
@@ -116,7 +115,6 @@ fn garbage_flood_is_counted_and_never_applied() {
         let q = haptic.input().last().pose.q;
         assert!(q.iter().all(|v| v.is_finite()), "{q:?}");
         assert!(q[2] > -10.0, "a bad pose was applied: {q:?}");
-        seq += 1;
     }
     let malformed = bridge.stats().malformed.load(Ordering::Relaxed);
     // Every bad datagram that arrived was counted; loopback may drop a few under load.
