@@ -1,0 +1,219 @@
+//! `haptic6d run` end to end: outputs and their formats, replay of the recorded input into
+//! another solver on identical input, a user scene file with relative paths, and refusal to
+//! write over foreign files.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn haptic6d(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_haptic6d"))
+        .args(args)
+        .env("HAPTIC6D_CACHE", cache_dir())
+        .output()
+        .expect("the haptic6d binary runs")
+}
+
+/// Trees shared by the tests of this checkout, so the bunny is built once.
+fn cache_dir() -> PathBuf {
+    std::env::var_os("HAPTIC6D_CACHE")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/haptic6d-test-cache")
+        })
+}
+
+fn temp_dir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("haptic6d-run-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn csv_rows(path: &Path) -> (String, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().to_string();
+    let rows = lines
+        .map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap()).collect())
+        .collect();
+    (header, rows)
+}
+
+#[test]
+fn bunny_run_writes_frames_summary_plots_and_replays_identically() {
+    let d = temp_dir("bunny");
+    let out = d.join("dual");
+    let o = haptic6d(&["run", "bunny", "--out", out.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let on_disk: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary, on_disk);
+    let (header, rows) = csv_rows(&out.join("frames.csv"));
+    assert_eq!(
+        header,
+        "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm"
+    );
+    assert_eq!(rows.len() as u64, summary["frames"].as_u64().unwrap());
+    assert!(rows
+        .iter()
+        .all(|r| r.len() == 25 && r.iter().all(|v| v.is_finite())));
+    for key in [
+        "cd_us",
+        "opt_us",
+        "total_us",
+        "pairs",
+        "iterations",
+        "penetration_mm",
+    ] {
+        for stat in ["p50", "p99", "max"] {
+            assert!(summary[key][stat].is_number(), "{key}.{stat}");
+        }
+    }
+    assert!(summary["penetration_mm"]["max"].as_f64().unwrap() <= 0.01);
+    assert!(summary["pairs"]["max"].as_f64().unwrap() > 100.0);
+    assert!(summary["loop_stats"]["safety"]["nan_frames"].as_u64() == Some(0));
+    for png in ["pairs.png", "timing.png", "force.png"] {
+        let bytes = std::fs::read(out.join(png)).unwrap();
+        assert!(
+            bytes.starts_with(b"\x89PNG\r\n\x1a\n") && bytes.len() > 10_000,
+            "{png}"
+        );
+    }
+
+    // Replay the recorded device input into another solver: identical q_h, every frame.
+    let traj = out.join("trajectory.csv");
+    let out2 = d.join("active-set");
+    let o = haptic6d(&[
+        "run",
+        "bunny",
+        "--trajectory",
+        traj.to_str().unwrap(),
+        "--solver",
+        "active-set",
+        "--out",
+        out2.to_str().unwrap(),
+        "--no-plots",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (_, rows2) = csv_rows(&out2.join("frames.csv"));
+    assert_eq!(rows.len(), rows2.len());
+    let mut max_dq: f64 = 0.0;
+    for (a, b) in rows.iter().zip(&rows2) {
+        assert_eq!(a[0..7], b[0..7], "device input differs at t = {}", a[0]);
+        for k in 7..13 {
+            max_dq = max_dq.max((a[k] - b[k]).abs());
+        }
+    }
+    // Two exact solvers on identical input agree on the graphic tool.
+    assert!(max_dq < 1e-3, "dual and active-set differ by {max_dq}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A closed axis-aligned box as OBJ text (mm), CCW from outside.
+fn box_obj(h: f64) -> String {
+    let mut s = String::new();
+    for i in 0..8 {
+        let x = if i & 1 == 0 { -h } else { h };
+        let y = if i & 2 == 0 { -h } else { h };
+        let z = if i & 4 == 0 { -h } else { h };
+        s += &format!("v {x} {y} {z}\n");
+    }
+    for f in [
+        [1, 3, 4, 2],
+        [5, 6, 8, 7],
+        [1, 2, 6, 5],
+        [3, 7, 8, 4],
+        [1, 5, 7, 3],
+        [2, 4, 8, 6],
+    ] {
+        s += &format!(
+            "f {} {} {}\nf {} {} {}\n",
+            f[0], f[1], f[2], f[0], f[2], f[3]
+        );
+    }
+    s
+}
+
+#[test]
+fn a_scene_file_with_relative_paths_runs_and_stops_the_tool_on_the_box() {
+    let d = temp_dir("scene");
+    std::fs::create_dir_all(d.join("meshes")).unwrap();
+    std::fs::write(d.join("meshes/box.obj"), box_obj(10.0)).unwrap();
+    // Tool box (20 mm) above an object box (20 mm); the hand goes 5 mm into the object.
+    let mut traj = String::from("t,x,y,z,gamma,beta,alpha\n");
+    for i in 0..=400 {
+        let t = i as f64 * 1e-3;
+        let z = 25.0 - 10.0 * (i as f64 / 400.0);
+        traj += &format!("{t},0,0,{z},0,0,0\n");
+    }
+    std::fs::write(d.join("down.csv"), traj).unwrap();
+    std::fs::write(
+        d.join("scene.toml"),
+        "[tool]\nmesh = \"meshes/box.obj\"\ndepth = 2\nstart = [0, 0, 25, 0, 0, 0]\n\n\
+         [[object]]\nmesh = \"meshes/box.obj\"\ndepth = 2\n\n\
+         [device]\ntrajectory = \"down.csv\"\n",
+    )
+    .unwrap();
+    let out = d.join("out");
+    let o = haptic6d(&[
+        "run",
+        d.join("scene.toml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--no-plots",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (_, rows) = csv_rows(&out.join("frames.csv"));
+    assert_eq!(rows.len(), 401);
+    let last = rows.last().unwrap();
+    // The hand ends at z = 15 (5 mm into the object); the graphic tool stays above: its
+    // sphere-tree rests on the object's, at or above the mesh contact height z = 20.
+    assert!((last[3] - 15.0).abs() < 1e-9);
+    assert!(last[9] >= 20.0 - 1e-6, "graphic z {}", last[9]);
+    // Spring force pushes the hand up: fz = kt (zg - zh) > 0.
+    assert!(last[15] > 4.0, "fz {}", last[15]);
+    assert!(rows.iter().all(|r| r[24] <= 0.01), "penetration");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn run_refuses_foreign_files_and_unknown_names() {
+    let d = temp_dir("refuse");
+    std::fs::write(d.join("notes.txt"), "mine").unwrap();
+    let o = haptic6d(&["run", "bunny", "--out", d.to_str().unwrap(), "--no-plots"]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("notes.txt") && err.contains("--force"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(d.join("notes.txt")).unwrap(),
+        "mine"
+    );
+
+    let o = haptic6d(&["run", "teapot", "--out", d.join("x").to_str().unwrap()]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("teapot") && err.contains("bunny, spline"),
+        "{err}"
+    );
+
+    let o = haptic6d(&[
+        "run",
+        "bunny",
+        "--solver",
+        "newton",
+        "--out",
+        d.join("x").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("newton") && err.contains("dual, pqp, active-set"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
