@@ -221,8 +221,8 @@ impl Device for RandomDevice {
         let s = (self.frame - self.seg_start) as f64 / self.seg_len as f64;
         let s = s * s * (3.0 - 2.0 * s);
         let mut q = [0.0; 6];
-        for k in 0..6 {
-            q[k] = self.from[k] + (self.to[k] - self.from[k]) * s;
+        for (k, v) in q.iter_mut().enumerate() {
+            *v = self.from[k] + (self.to[k] - self.from[k]) * s;
         }
         let t = self.frame as f64 * 1e-3;
         self.frame += 1;
