@@ -182,6 +182,10 @@ fn assert_safe_output(frames: &[FrameRecord], p: &SafetyParams) {
 fn thin_plate_is_thinner_than_its_leaf_spheres() {
     let (tree, min_leaf) = plate_tree(0.5);
     tree.validate(1e-9).unwrap();
+    eprintln!(
+        "plate 0.5 mm thick: smallest leaf radius {min_leaf:.3} mm, sphere layer top z = {:.3} mm",
+        sphere_top(&tree)
+    );
     assert!(
         min_leaf > 0.5,
         "the test needs leaves larger than the plate: {min_leaf}"
