@@ -4,6 +4,7 @@
 //! the plots `DIR/pairs.png`, `DIR/timing.png`, `DIR/force.png`.
 
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
@@ -16,6 +17,8 @@ use render::safety::Safety;
 use render::scene::{load_scene_file, FormSpec, Motion, Scene, SolverKind};
 use render::step::{GodObject, StepParams};
 use render::trajectory::Trajectory;
+
+use crate::progress::Progress;
 
 /// Arguments of `haptic6d run`.
 #[derive(Args, Debug)]
@@ -138,10 +141,28 @@ pub fn run(args: RunArgs) -> Result<()> {
         .transpose()?;
     check_out_dir(&args.out, args.force)?;
 
-    let cache = TreeCache::from_env();
+    // One progress bar per tree build (terminal only), replaced when the next tree starts.
+    let bar: Arc<Mutex<Option<(String, Progress)>>> = Arc::new(Mutex::new(None));
+    let bar_cb = Arc::clone(&bar);
+    let cache = TreeCache::from_env().with_progress(Arc::new(move |label: &str, f: f64| {
+        if let Ok(mut slot) = bar_cb.lock() {
+            if slot.as_ref().is_none_or(|(l, _)| l != label) {
+                if let Some((_, old)) = slot.take() {
+                    old.finish();
+                }
+                *slot = Some((label.to_string(), Progress::fraction(label)));
+            }
+            if let Some((_, p)) = slot.as_ref() {
+                p.set_fraction(f);
+            }
+        }
+    }));
     let t0 = Instant::now();
     let mut scene = load_scene(&args.scene, &cache)?;
     let load_s = t0.elapsed().as_secs_f64();
+    if let Some((_, p)) = bar.lock().ok().and_then(|mut s| s.take()) {
+        p.finish();
+    }
     if let Some(k) = solver {
         scene.solver.kind = k;
     }

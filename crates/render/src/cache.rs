@@ -65,10 +65,23 @@ pub fn tree_key(mesh: &TriMesh, params: &str) -> String {
     format!("{:016x}{:016x}", a.finish(), b.finish())
 }
 
-/// A directory of cached trees.
-#[derive(Clone, Debug)]
+/// Called with a label (which tree) and the completed fraction `0..=1` of a tree build.
+pub type BuildProgress = std::sync::Arc<dyn Fn(&str, f64) + Send + Sync>;
+
+/// A directory of cached trees (and an optional progress report for the builds it runs).
+#[derive(Clone)]
 pub struct TreeCache {
     dir: Option<PathBuf>,
+    progress: Option<BuildProgress>,
+}
+
+impl std::fmt::Debug for TreeCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TreeCache")
+            .field("dir", &self.dir)
+            .field("progress", &self.progress.is_some())
+            .finish()
+    }
 }
 
 /// Whether a tree came from the cache or was built.
@@ -91,19 +104,39 @@ impl TreeCache {
             .or_else(|| {
                 std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache").join("haptic6d"))
             });
-        Self { dir }
+        Self {
+            dir,
+            progress: None,
+        }
+    }
+
+    /// The same cache, reporting tree-build progress to `progress`.
+    pub fn with_progress(mut self, progress: BuildProgress) -> Self {
+        self.progress = Some(progress);
+        self
+    }
+
+    /// Reports the progress of the build of `label` (no-op without a reporter).
+    pub fn report(&self, label: &str, fraction: f64) {
+        if let Some(p) = &self.progress {
+            p(label, fraction);
+        }
     }
 
     /// A cache in `dir`.
     pub fn at(dir: impl Into<PathBuf>) -> Self {
         Self {
             dir: Some(dir.into()),
+            progress: None,
         }
     }
 
     /// A cache that never stores anything.
     pub fn disabled() -> Self {
-        Self { dir: None }
+        Self {
+            dir: None,
+            progress: None,
+        }
     }
 
     /// The cache directory, if any.

@@ -418,9 +418,11 @@ pub fn tree_for_mesh(
     let key = tree_key(mesh, &format!("{bp:?}"));
     let t0 = Instant::now();
     let (tree, outcome) = cache.get_or_build(&key, || {
-        spheretree::build::build_tree(mesh, &bp, &|_| {}).map_err(|e| RenderError::Scene {
-            file: label.to_string(),
-            msg: format!("building the sphere-tree failed: {e}"),
+        spheretree::build::build_tree(mesh, &bp, &|f| cache.report(label, f)).map_err(|e| {
+            RenderError::Scene {
+                file: label.to_string(),
+                msg: format!("building the sphere-tree failed: {e}"),
+            }
         })
     })?;
     let dt = t0.elapsed().as_secs_f64();
