@@ -53,6 +53,10 @@ pub struct SphereTree {
 /// (`sum_{l < levels} B^l`), or `None` on overflow.
 pub fn slot_count(levels: u32, branching: u32) -> Option<usize> {
     let b = branching as usize;
+    if b < 2 {
+        // Closed form: the loop below would run `levels` (up to 2^32) times without overflowing.
+        return Some(if b == 0 { levels.min(1) } else { levels } as usize);
+    }
     let mut total: usize = 0;
     let mut width: usize = 1;
     for _ in 0..levels {

@@ -209,3 +209,17 @@ fn write_into_a_missing_directory_fails_cleanly() {
     assert!(!e.contains('\n') && e.contains("out.sph"), "{e}");
     assert!(d.entries().is_empty());
 }
+
+#[test]
+fn slot_count_of_a_degenerate_branching_is_instant() {
+    // `slot_count` is called on untrusted headers (the render cache); with branching 0 or 1
+    // it looped `levels` (up to 2^32) times: about a second per call, so these 100 calls took
+    // minutes before the fix (a closed form now).
+    for _ in 0..100 {
+        assert_eq!(spheretree::slot_count(u32::MAX, 1), Some(u32::MAX as usize));
+        assert_eq!(spheretree::slot_count(u32::MAX, 0), Some(1));
+    }
+    assert_eq!(spheretree::slot_count(0, 0), Some(0));
+    assert_eq!(spheretree::slot_count(3, 1), Some(3));
+    assert_eq!(spheretree::slot_count(3, 2), Some(7));
+}
