@@ -192,6 +192,10 @@ pub fn decode(bytes: &[u8]) -> Option<SphereTree> {
         return None;
     }
     let f = |i: usize| f64::from_le_bytes(body[i * 8..i * 8 + 8].try_into().unwrap_or([0; 8]));
+    // A corrupt entry must be rebuilt, never trusted: no NaN or infinite number.
+    if !(0..4 * n).all(|i| f(i).is_finite()) {
+        return None;
+    }
     let spheres = (0..n)
         .map(|k| Sphere::new([f(4 * k), f(4 * k + 1), f(4 * k + 2)], f(4 * k + 3)))
         .collect();
