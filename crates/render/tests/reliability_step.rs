@@ -467,3 +467,77 @@ fn qp_iteration_cap_never_reaches_the_device() {
         );
     }
 }
+
+#[test]
+fn fast_rotation_swings_a_long_tool_through_the_plate_never_tunnels() {
+    // Rotation alone: an 80 mm bar pivoting about its middle swings its end 35 mm down in one
+    // frame, from above the plate's sphere layer to below it (the margin must include
+    // angle × reach, not only the translation).
+    let (plate, _) = plate_tree(0.5);
+    let top = sphere_top(&plate);
+    let bar = build_tree(
+        &box_mesh(40.0, 2.0, 2.0),
+        &BuildParams::fastest_build(3),
+        &|_| {},
+    )
+    .unwrap();
+    let leaves: Vec<([f64; 3], f64)> = bar
+        .leaves()
+        .map(|n| bar.sphere(n))
+        .filter(|s| s.is_used())
+        .map(|s| (s.center, s.radius))
+        .collect();
+    let lowest = |q: &[f64; 6]| {
+        let pose = Pose::from_array(*q);
+        leaves
+            .iter()
+            .map(|(c, r)| pose.transform_point(c)[2] - r)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let mut sc = scene(plate, SolverSpec::default(), Coupling::default());
+    sc.tool = bar;
+    // Level, its lowest point 3 mm above the sphere layer; then pitched by 1.2 rad (beta, about
+    // y) in one frame, held, and back.
+    let z0 = top + 3.0 - lowest(&[0.0; 6]);
+    let level = [0.0, 0.0, z0, 0.0, 0.0, 0.0];
+    let pitched = [0.0, 0.0, z0, 0.0, 1.2, 0.0];
+    assert!(
+        lowest(&pitched) < -top,
+        "the motion must cross the whole sphere layer"
+    );
+    for relinearize in [0, 3] {
+        let spec = SolverSpec {
+            relinearize,
+            ..SolverSpec::default()
+        };
+        sc.solver = spec;
+        let traj = keyed(&[
+            (0, level),
+            (5, level),
+            (6, pitched),
+            (60, pitched),
+            (61, level),
+            (80, level),
+        ]);
+        let (frames, _) = run(&sc, &traj);
+        assert_eq!(frames.len(), traj.len());
+        assert_safe_output(&frames, &sc.safety);
+        for (i, f) in frames.iter().enumerate() {
+            // Near side: every leaf of the bar above the plate's mid-plane, and not inside it.
+            let low = lowest(&f.out.q_g);
+            assert!(
+                low > 0.0,
+                "relinearize {relinearize} frame {i}: the bar reached z = {low} (tunnelled)"
+            );
+            assert!(
+                f.out.penetration_mm <= 0.01,
+                "relinearize {relinearize} frame {i}: penetration {}",
+                f.out.penetration_mm
+            );
+        }
+        // Held pitched: the bar rests on the plate with a restoring torque.
+        let held = &frames[59];
+        assert!(held.out.q_g[4] < 1.2 - 0.05, "{:?}", held.out.q_g);
+        assert!(held.out.wrench[4].abs() > 1.0, "{:?}", held.out.wrench);
+    }
+}
