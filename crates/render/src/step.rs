@@ -450,7 +450,9 @@ impl GodObject {
             self.started = true;
         }
         let q_prev = self.q_g;
-        if !q_h.is_finite() {
+        // A non-finite or absurd reading (beyond 1e6 mm or rad: `q - q_h` then keeps too few
+        // digits for the constraints) is a device fault: keep the last safe pose.
+        if !q_h.is_finite() || q_h.q.iter().any(|v| v.abs() > 1e6) {
             return self.keep_last_safe(out, q_h, t_start);
         }
         let mut q_lin = q_prev;
