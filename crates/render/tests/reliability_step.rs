@@ -541,3 +541,50 @@ fn fast_rotation_swings_a_long_tool_through_the_plate_never_tunnels() {
         assert!(held.out.wrench[4].abs() > 1.0, "{:?}", held.out.wrench);
     }
 }
+
+#[test]
+fn huge_device_readings_keep_the_output_safe() {
+    // Finite but absurd readings (a corrupt encoder count): 1e15 mm (0.075 mm of penetration
+    // before readings beyond 1e6 were refused: `q - q_h` kept too few digits), 1e300 mm, 1e6 rad. The
+    // frame must not produce NaN (e.g. inf - inf in the spring), the tool must not jump through
+    // the plate, and the output stays within the limits.
+    let (plate, _) = plate_tree(0.5);
+    let top = sphere_top(&plate);
+    let sc = scene(plate, SolverSpec::default(), Coupling::default());
+    let mut traj = press_trajectory(top);
+    traj.samples[250].q[2] = -1e15;
+    traj.samples[260].q = [1e300, -1e300, -1e300, 0.0, 0.0, 0.0];
+    traj.samples[270].q[4] = 1e6;
+    traj.samples[280].q[0] = f64::MAX;
+    // Up to the 1e6 plausibility bound: processed normally, still safe; beyond: refused.
+    traj.samples[290].q[2] = -1e6;
+    traj.samples[300].q = [5e5, -5e5, 1e5, 3e5, -1e5, 9e5];
+    traj.samples[310].q = [5e8, -5e8, 1e8, 3e8, -1e8, 9e8];
+    traj.samples[320].q[5] = 9e8;
+    traj.samples[330].q = [50.0, -50.0, 10.0, 3.0, -1.0, 2.5];
+    traj.samples[340].q[3] = 3.0;
+    traj.samples[340].q[4] = -1.0;
+    traj.samples[340].q[5] = 2.5;
+    let (frames, _) = run(&sc, &traj);
+    assert_eq!(frames.len(), traj.len());
+    assert_safe_output(&frames, &sc.safety);
+    for (i, f) in frames.iter().enumerate() {
+        assert!(
+            f.out.q_g.iter().all(|v| v.is_finite()),
+            "frame {i}: {:?}",
+            f.out.q_g
+        );
+        assert!(
+            f.out.q_g[2] > 2.0,
+            "frame {i}: tunnelled to {:?}",
+            f.out.q_g
+        );
+        assert!(
+            f.out.penetration_mm <= 0.01,
+            "frame {i}: {}",
+            f.out.penetration_mm
+        );
+    }
+    // Back to normal readings: normal contact again.
+    assert_eq!(frames[traj.len() - 1].out.status, FrameStatus::Ok);
+}
