@@ -5,6 +5,8 @@
 //! to [`Command`] and an arm to [`dispatch`]. Errors reach the user as one line (`error: ...`) with a
 //! non-zero exit status; progress bars (see `progress.rs`) only show on a terminal.
 
+mod bench;
+mod bench_plot;
 mod plot;
 mod progress;
 mod run;
@@ -30,6 +32,8 @@ enum Command {
     Tree(tree::TreeCommand),
     /// Run the haptic pipeline on a scene and write frames.csv, summary.json and plots.
     Run(run::RunArgs),
+    /// The paper's experiments: every solver on identical recorded input, plus scaling studies.
+    Bench(bench::BenchArgs),
     /// Interactive viewer: the haptic loop at 1 kHz, a web page and a UDP device bridge.
     Serve(serve::ServeArgs),
 }
@@ -38,6 +42,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Tree(cmd) => tree::run(cmd),
         Command::Run(args) => run::run(args),
+        Command::Bench(args) => bench::run(args),
         Command::Serve(args) => serve::run(args),
     }
 }

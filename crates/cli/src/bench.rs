@@ -1,0 +1,565 @@
+//! `haptic6d bench [--quick] [--out DIR]`: the paper's experiments, every solver on identical
+//! input, plus two scaling studies.
+//!
+//! 1. **Replay.** For each scene (`bunny`, `spline`) the scene's device trajectory is recorded
+//!    once and replayed into a fresh god-object per solver (`pqp` as in the paper, the
+//!    `active-set` baseline, the default `dual`). Per solver: mean / p50 / p99 of collision
+//!    detection, optimisation and total frame time, iterations (mean, max), pairs per frame,
+//!    deepest penetration, and the force difference from the exact (`dual`) run frame by frame.
+//! 2. **Pairs.** Total frame time against the number of contact pairs (10 … 5000): the bunny
+//!    replay's frame with the most pairs, its detection skin grown until the QP holds the
+//!    target number of rows, then timed cold (fresh warm start) many times per solver.
+//! 3. **Depth.** The bunny trajectory replayed with trees of depth 3 … 6.
+//!
+//! Output: a table on stdout, `DIR/bench.json`, `DIR/bench.md`, and the plots
+//! `DIR/bench_pairs_<scene>.png`, `DIR/bench_time_<scene>.png`, `DIR/bench_cost.png`,
+//! `DIR/bench_scaling_pairs.png`, `DIR/bench_scaling_depth.png`.
+//!
+//! Timings are the engine's own per-stage counters (`FrameOutput`), one thread, frames computed
+//! back to back (no pacing), so they measure the work of a frame, not the loop.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use collide::Pose;
+use render::cache::TreeCache;
+use render::scene::{Motion, Scene, SolverKind, TreeParams};
+use render::stats::Summary;
+use render::step::{FrameOutput, FrameStatus, GodObject, StepParams};
+use serde::Serialize;
+
+/// Arguments of `haptic6d bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// A smoke-test run (< 1 minute): the first 1500 frames of each trajectory, fewer
+    /// repetitions, pair targets up to 1000 and depths 3–4 only.
+    #[arg(long)]
+    pub quick: bool,
+    /// Output directory for bench.json, bench.md and the plots (created if missing; only the
+    /// bench's own files are replaced).
+    #[arg(long, short, default_value = "bench-out")]
+    pub out: PathBuf,
+    /// Scenes to replay (comma-separated built-in names).
+    #[arg(long, value_delimiter = ',', default_value = "bunny,spline")]
+    pub scenes: Vec<String>,
+    /// Skip the scaling studies (pairs and depth).
+    #[arg(long)]
+    pub no_scaling: bool,
+    /// Skip the PNG plots.
+    #[arg(long)]
+    pub no_plots: bool,
+    /// Print the whole result as JSON on stdout instead of the tables.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The solvers compared, in table order.
+const SOLVERS: [SolverKind; 3] = [SolverKind::Pqp, SolverKind::ActiveSet, SolverKind::Dual];
+
+/// Frames replayed per scene in `--quick` mode.
+const QUICK_FRAMES: usize = 1500;
+
+/// A scene's name and each solver's frames.
+pub type SceneReplays = (String, Vec<(SolverKind, Vec<FrameOutput>)>);
+
+/// One solver's replay of one scene.
+#[derive(Serialize, Clone, Debug)]
+pub struct ReplayRow {
+    /// Scene name.
+    pub scene: String,
+    /// Solver name.
+    pub solver: String,
+    /// Frames replayed.
+    pub frames: usize,
+    /// Frames in the trajectory (more than `frames` when the replay hit its time budget).
+    pub planned_frames: usize,
+    /// Collision detection time per frame, µs.
+    pub cd_us: Summary,
+    /// Constraint building + QP time per frame, µs.
+    pub opt_us: Summary,
+    /// Whole frame, µs.
+    pub total_us: Summary,
+    /// Solver iterations per frame (summed over passes).
+    pub iterations: Summary,
+    /// Contact pairs per frame.
+    pub pairs: Summary,
+    /// Deepest leaf–leaf overlap over the run, mm.
+    pub max_penetration_mm: f64,
+    /// |F - F_dual| per frame, N (0 for dual itself).
+    pub force_diff_n: Summary,
+    /// |T - T_dual| per frame, N·mm.
+    pub torque_diff_nmm: Summary,
+    /// Frames whose QP stopped early or reported infeasible.
+    pub inexact_frames: usize,
+    /// Frames that kept the last safe pose.
+    pub failed_frames: usize,
+    /// Wall time of the whole replay, s.
+    pub wall_s: f64,
+}
+
+/// One point of the pairs study.
+#[derive(Serialize, Clone, Debug)]
+pub struct PairsPoint {
+    /// Target pair count.
+    pub target: usize,
+    /// Pairs actually found.
+    pub pairs: u32,
+    /// Solver name.
+    pub solver: String,
+    /// Whole frame, µs (cold warm start).
+    pub total_us: Summary,
+    /// Optimisation part, µs.
+    pub opt_us: Summary,
+    /// Iterations.
+    pub iterations: Summary,
+}
+
+/// One point of the depth study.
+#[derive(Serialize, Clone, Debug)]
+pub struct DepthPoint {
+    /// Tree depth (levels - 1).
+    pub depth: u32,
+    /// Leaves per tree.
+    pub leaves: usize,
+    /// Solver name.
+    pub solver: String,
+    /// Contact pairs per frame.
+    pub pairs: Summary,
+    /// Whole frame, µs.
+    pub total_us: Summary,
+    /// Deepest overlap over the run, mm.
+    pub max_penetration_mm: f64,
+}
+
+/// Everything the bench measured.
+#[derive(Serialize, Debug, Default)]
+pub struct BenchReport {
+    /// `quick` or `full`.
+    pub mode: String,
+    /// Machine description (cores, CPU model).
+    pub machine: String,
+    /// Replays, per scene and solver.
+    pub replay: Vec<ReplayRow>,
+    /// Frame time against pair count.
+    pub scaling_pairs: Vec<PairsPoint>,
+    /// Frame time against tree depth.
+    pub scaling_depth: Vec<DepthPoint>,
+    /// Wall time of the bench, s.
+    pub wall_s: f64,
+}
+
+/// Runs `haptic6d bench`.
+pub fn run(args: BenchArgs) -> Result<()> {
+    let t0 = Instant::now();
+    for name in &args.scenes {
+        if !render::scenes::BUILTIN_NAMES.contains(&name.as_str()) {
+            bail!(
+                "--scenes: no built-in scene `{name}` (built-in: {})",
+                render::scenes::BUILTIN_NAMES.join(", ")
+            );
+        }
+    }
+    prepare_out_dir(&args.out)?;
+    let cache = TreeCache::from_env();
+    // Quick mode keeps the device's real speed (every frame) and shortens the run instead:
+    // striding frames would make the hand ten times faster and change what is measured.
+    let window = if args.quick { QUICK_FRAMES } else { usize::MAX };
+    let budget = if args.quick { 8.0 } else { 180.0 };
+    let mut report = BenchReport {
+        mode: if args.quick { "quick" } else { "full" }.into(),
+        machine: machine_description(),
+        ..Default::default()
+    };
+
+    let mut bunny: Option<(Scene, Vec<FrameOutput>)> = None;
+    let mut replays: Vec<SceneReplays> = Vec::new();
+    for name in &args.scenes {
+        let scene = render::scenes::builtin(name, &cache)
+            .with_context(|| format!("loading the built-in scene `{name}`"))?;
+        let traj = recorded_trajectory(&scene, window);
+        eprintln!(
+            "bench: {name}: {} frames x {} solvers",
+            traj.len(),
+            SOLVERS.len()
+        );
+        let planned = traj.len();
+        let mut runs = Vec::new();
+        for kind in SOLVERS {
+            let t = Instant::now();
+            let frames = replay(&scene, kind, &traj, budget)?;
+            let wall = t.elapsed().as_secs_f64();
+            eprintln!("bench: {name} / {}: {wall:.1} s", kind.name());
+            runs.push((kind, frames, wall));
+        }
+        let dual = runs
+            .iter()
+            .find(|(k, _, _)| *k == SolverKind::Dual)
+            .map(|(_, f, _)| f.clone())
+            .unwrap_or_default();
+        for (kind, frames, wall) in &runs {
+            let mut row = replay_row(name, *kind, frames, &dual, *wall);
+            row.planned_frames = planned;
+            report.replay.push(row);
+        }
+        if name == "bunny" {
+            bunny = Some((scene.clone(), dual.clone()));
+        }
+        replays.push((
+            name.clone(),
+            runs.into_iter().map(|(k, f, _)| (k, f)).collect(),
+        ));
+    }
+
+    if !args.no_scaling {
+        let (scene, dual_frames) = match bunny {
+            Some(b) => b,
+            None => {
+                let scene = render::scenes::builtin("bunny", &cache)?;
+                let traj = recorded_trajectory(&scene, window);
+                let frames = replay(&scene, SolverKind::Dual, &traj, f64::INFINITY)?;
+                (scene, frames)
+            }
+        };
+        let targets: &[usize] = if args.quick {
+            &[10, 50, 200, 1000]
+        } else {
+            &[10, 50, 200, 1000, 2000, 5000]
+        };
+        let reps = if args.quick { 20 } else { 200 };
+        eprintln!("bench: pairs study, targets {targets:?}, {reps} repetitions");
+        report.scaling_pairs = pairs_study(&scene, &dual_frames, targets, reps)?;
+        let depths: &[u32] = if args.quick { &[3, 4] } else { &[3, 4, 5, 6] };
+        eprintln!("bench: depth study, depths {depths:?}");
+        report.scaling_depth = depth_study(&scene, depths, window, budget, &cache)?;
+    }
+    report.wall_s = t0.elapsed().as_secs_f64();
+
+    let md = markdown(&report);
+    let json = serde_json::to_string_pretty(&report)?;
+    render::io::write_atomic(&args.out.join("bench.json"), json.as_bytes())?;
+    render::io::write_atomic(&args.out.join("bench.md"), md.as_bytes())?;
+    if !args.no_plots {
+        crate::bench_plot::write_bench_plots(&args.out, &replays, &report)?;
+    }
+    if args.json {
+        println!("{json}");
+    } else {
+        print!("{md}");
+        println!(
+            "\nwrote {}/bench.json, bench.md and plots",
+            args.out.display()
+        );
+    }
+    Ok(())
+}
+
+/// Creates `dir` if missing; refuses a path that exists and is not a directory.
+fn prepare_out_dir(dir: &Path) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        bail!("--out {} exists and is not a directory", dir.display());
+    }
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))
+}
+
+/// The scene's device trajectory as poses, its first `window` frames (identical input for all
+/// solvers).
+fn recorded_trajectory(scene: &Scene, window: usize) -> Vec<Pose> {
+    scene
+        .trajectory()
+        .samples
+        .iter()
+        .take(window)
+        .map(|s| Pose::from_array(s.q))
+        .collect()
+}
+
+/// Replays `traj` into a fresh god-object with solver `kind`, stopping early (a partial run,
+/// reported as such) once `budget_s` of wall time is spent: PQP's O(N^2) frames at thousands
+/// of pairs would otherwise take hours.
+fn replay(
+    scene: &Scene,
+    kind: SolverKind,
+    traj: &[Pose],
+    budget_s: f64,
+) -> Result<Vec<FrameOutput>> {
+    let mut params = StepParams::from_scene(scene);
+    params.solver = kind;
+    let mut god = GodObject::new(scene, params)?;
+    let Some(first) = traj.first() else {
+        return Ok(Vec::new());
+    };
+    god.reset(first)?;
+    let t0 = Instant::now();
+    let mut frames = Vec::with_capacity(traj.len());
+    for q in traj {
+        frames.push(god.step(q));
+        if t0.elapsed().as_secs_f64() > budget_s {
+            break;
+        }
+    }
+    Ok(frames)
+}
+
+fn norm3(a: &[f64]) -> f64 {
+    a.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+fn replay_row(
+    scene: &str,
+    kind: SolverKind,
+    frames: &[FrameOutput],
+    dual: &[FrameOutput],
+    wall_s: f64,
+) -> ReplayRow {
+    let diff = |range: std::ops::Range<usize>| {
+        Summary::of(frames.iter().zip(dual).map(|(f, d)| {
+            let e: Vec<f64> = range.clone().map(|k| f.wrench[k] - d.wrench[k]).collect();
+            norm3(&e)
+        }))
+    };
+    ReplayRow {
+        scene: scene.into(),
+        solver: kind.name().into(),
+        frames: frames.len(),
+        planned_frames: frames.len(),
+        cd_us: Summary::of(frames.iter().map(|f| f.cd_us)),
+        opt_us: Summary::of(frames.iter().map(|f| f.opt_us)),
+        total_us: Summary::of(frames.iter().map(|f| f.total_us)),
+        iterations: Summary::of(frames.iter().map(|f| f64::from(f.iterations))),
+        pairs: Summary::of(frames.iter().map(|f| f64::from(f.pairs))),
+        max_penetration_mm: frames.iter().map(|f| f.penetration_mm).fold(0.0, f64::max),
+        force_diff_n: diff(0..3),
+        torque_diff_nmm: diff(3..6),
+        inexact_frames: frames
+            .iter()
+            .filter(|f| matches!(f.status, FrameStatus::Inexact))
+            .count(),
+        failed_frames: frames
+            .iter()
+            .filter(|f| matches!(f.status, FrameStatus::KeptLastSafe))
+            .count(),
+        wall_s,
+    }
+}
+
+/// The frame of the dual run with the most pairs: its previous graphic pose and device pose.
+fn deepest_frame(frames: &[FrameOutput]) -> Option<(Pose, Pose)> {
+    let k = (1..frames.len()).max_by_key(|&k| frames[k].pairs)?;
+    Some((
+        Pose::from_array(frames[k - 1].q_g),
+        Pose::from_array(frames[k].q_h),
+    ))
+}
+
+/// Frame time against pair count: see the module docs.
+fn pairs_study(
+    scene: &Scene,
+    dual_frames: &[FrameOutput],
+    targets: &[usize],
+    reps: usize,
+) -> Result<Vec<PairsPoint>> {
+    let (base, q_h) =
+        deepest_frame(dual_frames).context("the bunny replay has no frame to scale")?;
+    // The frame is fixed; the detection skin grows until the QP holds `target` rows (pairs
+    // within the skin are real, inactive constraints: what a larger contact patch adds).
+    let pairs_with_skin = |skin: f64| -> Result<u32> {
+        let mut params = StepParams::from_scene(scene);
+        params.skin_mm = skin;
+        let mut probe = GodObject::new(scene, params)?;
+        probe.reset(&base)?;
+        Ok(probe.step(&q_h).pairs)
+    };
+    let mut out = Vec::new();
+    for &target in targets {
+        let (mut lo, mut hi) = (0.0, 1.0);
+        while (pairs_with_skin(hi)? as usize) < target && hi < 64.0 {
+            lo = hi;
+            hi *= 2.0;
+        }
+        for _ in 0..16 {
+            let mid = 0.5 * (lo + hi);
+            if (pairs_with_skin(mid)? as usize) < target {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        for kind in SOLVERS {
+            let mut params = StepParams::from_scene(scene);
+            params.solver = kind;
+            params.skin_mm = hi;
+            let mut god = GodObject::new(scene, params)?;
+            // PQP is O(N^2) per iteration: cap its repetitions at large N so the bench ends.
+            let n = if kind == SolverKind::Pqp && target > 1000 {
+                reps.min(5)
+            } else {
+                reps
+            };
+            let mut frames = Vec::with_capacity(n);
+            for _ in 0..n {
+                god.reset(&base)?;
+                frames.push(god.step(&q_h));
+            }
+            out.push(PairsPoint {
+                target,
+                pairs: frames.first().map_or(0, |f| f.pairs),
+                solver: kind.name().into(),
+                total_us: Summary::of(frames.iter().map(|f| f.total_us)),
+                opt_us: Summary::of(frames.iter().map(|f| f.opt_us)),
+                iterations: Summary::of(frames.iter().map(|f| f64::from(f.iterations))),
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The bunny trajectory replayed with trees of each depth.
+fn depth_study(
+    bunny: &Scene,
+    depths: &[u32],
+    window: usize,
+    budget: f64,
+    cache: &TreeCache,
+) -> Result<Vec<DepthPoint>> {
+    let mesh = render::scenes::bunny::bunny_mesh_mm()?;
+    let traj = recorded_trajectory(bunny, window);
+    let mut out = Vec::new();
+    for &depth in depths {
+        let mut log = Vec::new();
+        let params = TreeParams {
+            depth,
+            branching: 8,
+            octree: false,
+        };
+        let tree = render::scene::tree_for_mesh(&mesh, params, cache, "bunny", &mut log)?;
+        for line in &log {
+            eprintln!("bench: depth {depth}: {line}");
+        }
+        let mut scene = bunny.clone();
+        scene.motion = Motion::Hold;
+        scene.tool = tree.clone();
+        for (t, _) in scene.objects.iter_mut() {
+            *t = tree.clone();
+        }
+        let leaves = tree.leaves().count();
+        for kind in SOLVERS {
+            let frames = replay(&scene, kind, &traj, budget)?;
+            out.push(DepthPoint {
+                depth,
+                leaves,
+                solver: kind.name().into(),
+                pairs: Summary::of(frames.iter().map(|f| f64::from(f.pairs))),
+                total_us: Summary::of(frames.iter().map(|f| f.total_us)),
+                max_penetration_mm: frames.iter().map(|f| f.penetration_mm).fold(0.0, f64::max),
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// CPU model and core count, for the record.
+fn machine_description() -> String {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into());
+    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    format!("{cpu}, {cores} cores")
+}
+
+/// The report as Markdown tables.
+pub fn markdown(r: &BenchReport) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# haptic6d bench ({}), {}\n", r.mode, r.machine);
+    let _ = writeln!(
+        s,
+        "| scene | solver | frames | cd µs mean / p99 | opt µs mean / p50 / p99 | total µs mean / p99 / max | iters mean / max | pairs mean / max | max pen. mm | ΔF vs dual N mean / max | inexact |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
+    for row in &r.replay {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.1} / {:.0} | {:.0} / {:.0} | {:.4} | {:.3} / {:.3} | {} |",
+            row.scene,
+            row.solver,
+            if row.frames < row.planned_frames {
+                format!("{} of {} (time budget)", row.frames, row.planned_frames)
+            } else {
+                row.frames.to_string()
+            },
+            row.cd_us.mean,
+            row.cd_us.p99,
+            row.opt_us.mean,
+            row.opt_us.p50,
+            row.opt_us.p99,
+            row.total_us.mean,
+            row.total_us.p99,
+            row.total_us.max,
+            row.iterations.mean,
+            row.iterations.max,
+            row.pairs.mean,
+            row.pairs.max,
+            row.max_penetration_mm,
+            row.force_diff_n.mean,
+            row.force_diff_n.max,
+            row.inexact_frames,
+        );
+    }
+    if !r.scaling_pairs.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n## Frame time against contact pairs (bunny, cold frames)\n"
+        );
+        let _ = writeln!(
+            s,
+            "| target | pairs | solver | total µs p50 / p99 | opt µs p50 | iters p50 / max |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|---|---|");
+        for p in &r.scaling_pairs {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {:.1} / {:.1} | {:.1} | {:.0} / {:.0} |",
+                p.target,
+                p.pairs,
+                p.solver,
+                p.total_us.p50,
+                p.total_us.p99,
+                p.opt_us.p50,
+                p.iterations.p50,
+                p.iterations.max
+            );
+        }
+    }
+    if !r.scaling_depth.is_empty() {
+        let _ = writeln!(s, "\n## Frame time against tree depth (bunny trajectory)\n");
+        let _ = writeln!(
+            s,
+            "| depth | leaves | solver | pairs mean / max | total µs mean / p99 | max pen. mm |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|---|---|");
+        for p in &r.scaling_depth {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {:.0} / {:.0} | {:.1} / {:.1} | {:.4} |",
+                p.depth,
+                p.leaves,
+                p.solver,
+                p.pairs.mean,
+                p.pairs.max,
+                p.total_us.mean,
+                p.total_us.p99,
+                p.max_penetration_mm
+            );
+        }
+    }
+    let _ = writeln!(s, "\nbench wall time: {:.1} s", r.wall_s);
+    s
+}

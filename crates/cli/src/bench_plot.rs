@@ -1,0 +1,177 @@
+//! Plots of `haptic6d bench`, after the paper's figures 5 and 6: pairs per frame and time per
+//! frame per solver for each scene, the average cost per solver as bars, and the two scaling
+//! studies (log–log time against pairs, time against depth).
+
+use std::path::Path;
+
+use anyhow::{anyhow, Result};
+use plotters::prelude::*;
+use render::scene::SolverKind;
+
+use crate::bench::{BenchReport, SceneReplays};
+use crate::plot::{chart, register_font, render_png, Series};
+
+/// Colour of a solver in every bench plot.
+fn solver_color(name: &str) -> RGBColor {
+    match name {
+        "pqp" => RGBColor(214, 39, 40),
+        "active-set" => RGBColor(31, 119, 180),
+        _ => RGBColor(44, 160, 44),
+    }
+}
+
+/// Writes every bench plot into `dir`.
+pub fn write_bench_plots(dir: &Path, replays: &[SceneReplays], report: &BenchReport) -> Result<()> {
+    register_font();
+    for (scene, runs) in replays {
+        if let Some((_, dual)) = runs.iter().find(|(k, _)| *k == SolverKind::Dual) {
+            let pairs = Series {
+                label: "pairs",
+                color: RGBColor(0, 0, 0),
+                values: dual
+                    .iter()
+                    .enumerate()
+                    .map(|(i, f)| (i as f64, f64::from(f.pairs)))
+                    .collect(),
+            };
+            render_png(&dir.join(format!("bench_pairs_{scene}.png")), 400, |root| {
+                chart(
+                    root,
+                    &format!("{scene}: contact pairs per frame"),
+                    "frame",
+                    "pairs",
+                    &[pairs],
+                )
+            })?;
+        }
+        let series: Vec<Series<'_>> = runs
+            .iter()
+            .map(|(k, frames)| Series {
+                label: k.name(),
+                color: solver_color(k.name()),
+                values: frames
+                    .iter()
+                    .enumerate()
+                    .map(|(i, f)| (i as f64, f.total_us.max(0.01).log10()))
+                    .collect(),
+            })
+            .collect();
+        render_png(&dir.join(format!("bench_time_{scene}.png")), 480, |root| {
+            chart(
+                root,
+                &format!("{scene}: frame time per solver (log10 µs)"),
+                "frame",
+                "log10(total µs)",
+                &series,
+            )
+        })?;
+    }
+    render_png(&dir.join("bench_cost.png"), 480, |root| {
+        cost_bars(root, report)
+    })?;
+    if !report.scaling_pairs.is_empty() {
+        let series: Vec<Series<'_>> = ["pqp", "active-set", "dual"]
+            .iter()
+            .map(|&name| Series {
+                label: name,
+                color: solver_color(name),
+                values: report
+                    .scaling_pairs
+                    .iter()
+                    .filter(|p| p.solver == name && p.pairs > 0)
+                    .map(|p| (f64::from(p.pairs).log10(), p.total_us.p50.max(0.01).log10()))
+                    .collect(),
+            })
+            .collect();
+        render_png(&dir.join("bench_scaling_pairs.png"), 480, |root| {
+            chart(
+                root,
+                "frame time against contact pairs (bunny, cold frames, p50)",
+                "log10(pairs)",
+                "log10(total µs)",
+                &series,
+            )
+        })?;
+    }
+    if !report.scaling_depth.is_empty() {
+        let series: Vec<Series<'_>> = ["pqp", "active-set", "dual"]
+            .iter()
+            .map(|&name| Series {
+                label: name,
+                color: solver_color(name),
+                values: report
+                    .scaling_depth
+                    .iter()
+                    .filter(|p| p.solver == name)
+                    .map(|p| (f64::from(p.depth), p.total_us.mean.max(0.01).log10()))
+                    .collect(),
+            })
+            .collect();
+        render_png(&dir.join("bench_scaling_depth.png"), 480, |root| {
+            chart(
+                root,
+                "mean frame time against tree depth (bunny trajectory)",
+                "depth",
+                "log10(mean total µs)",
+                &series,
+            )
+        })?;
+    }
+    Ok(())
+}
+
+/// Average cost per frame, stacked detection + optimisation, one bar per scene and solver.
+fn cost_bars<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    report: &BenchReport,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let rows = &report.replay;
+    let top = rows
+        .iter()
+        .map(|r| r.cd_us.mean + r.opt_us.mean)
+        .fold(1.0, f64::max)
+        * 1.15;
+    let n = rows.len().max(1);
+    let mut ch = ChartBuilder::on(root)
+        .caption(
+            "average cost per frame (µs): detection + optimisation",
+            ("sans-serif", 20),
+        )
+        .margin(10)
+        .x_label_area_size(50)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..n as f64, 0.0..top)
+        .map_err(|e| anyhow!("{e:?}"))?;
+    ch.configure_mesh()
+        .disable_x_mesh()
+        .x_labels(n)
+        .x_label_formatter(&|x| {
+            let i = x.floor() as usize;
+            rows.get(i)
+                .map(|r| format!("{}/{}", r.scene, r.solver))
+                .unwrap_or_default()
+        })
+        .y_desc("µs")
+        .label_style(("sans-serif", 13))
+        .draw()
+        .map_err(|e| anyhow!("{e:?}"))?;
+    for (i, r) in rows.iter().enumerate() {
+        let x0 = i as f64 + 0.15;
+        let x1 = i as f64 + 0.85;
+        let color = solver_color(&r.solver);
+        ch.draw_series(std::iter::once(Rectangle::new(
+            [(x0, 0.0), (x1, r.cd_us.mean)],
+            RGBColor(150, 150, 150).filled(),
+        )))
+        .map_err(|e| anyhow!("{e:?}"))?;
+        ch.draw_series(std::iter::once(Rectangle::new(
+            [(x0, r.cd_us.mean), (x1, r.cd_us.mean + r.opt_us.mean)],
+            color.filled(),
+        )))
+        .map_err(|e| anyhow!("{e:?}"))?;
+    }
+    Ok(())
+}
