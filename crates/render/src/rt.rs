@@ -96,6 +96,8 @@ pub struct LoopStats {
     pub pair_overflows: u64,
     /// Frames whose QP stopped inexact.
     pub inexact: u64,
+    /// Frames whose device reading (time and pose) repeated the previous one: a stalled device.
+    pub stalled_frames: u64,
     /// Wall time of the whole loop, s.
     pub wall_s: f64,
 }
@@ -271,6 +273,10 @@ pub fn run_loop<D: Device>(
         inexact: records
             .iter()
             .filter(|r| r.out.status == FrameStatus::Inexact)
+            .count() as u64,
+        stalled_frames: records
+            .windows(2)
+            .filter(|w| w[1].t == w[0].t && w[1].out.q_h == w[0].out.q_h)
             .count() as u64,
         wall_s,
     };
