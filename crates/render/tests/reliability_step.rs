@@ -389,6 +389,8 @@ fn stalled_device_keeps_a_steady_force() {
     // ~0.17 mm past the contact: the spring pushes back with ~0.17 N.
     assert!(f0[2] > 0.1, "pressing must push back: {f0:?}");
     assert_eq!(stats.kept_last_safe, 0);
+    // The summary says what happened: the 2000 repeated readings are counted as stalled.
+    assert_eq!(stats.stalled_frames, 2000, "{stats:?}");
 }
 
 // ---------------------------------------------------------------------------------------------
