@@ -48,8 +48,8 @@ pub use constraint::{
 pub use packed::PackedTree;
 pub use pose::{rotation_zyx, rotation_zyx_partials, Pose};
 pub use traverse::{
-    collect_pairs, overlap_tree_tree, overlap_tree_trees, CollideWorkspace, LeafPair,
-    TraversalStats,
+    any_pair_within, collect_pairs, overlap_tree_tree, overlap_tree_trees, CollideWorkspace,
+    LeafPair, TraversalStats,
 };
 
 /// Errors of this crate.

@@ -192,7 +192,10 @@ pub fn overlap_tree_tree<F: FnMut(&LeafPair)>(
         0,
         clean_margin(margin),
         ws,
-        &mut visit,
+        &mut |p: &LeafPair| {
+            visit(p);
+            true
+        },
     ))
 }
 
@@ -219,9 +222,42 @@ pub fn overlap_tree_trees<F: FnMut(&LeafPair)>(
     let m = clean_margin(margin);
     let mut total = 0;
     for (i, o) in objects.iter().enumerate() {
-        total += descend(tool, o, i as u32, m, ws, &mut visit);
+        total += descend(tool, o, i as u32, m, ws, &mut |p: &LeafPair| {
+            visit(p);
+            true
+        });
     }
     Ok(total)
+}
+
+/// True when some leaf pair of `tool` (posed by `world_from_tool`) and `objects` has a gap of
+/// at most `margin` (mm). Stops at the first such pair, so it stays cheap for a large margin
+/// where [`overlap_tree_trees`] would enumerate thousands of pairs (a fast hand far from the
+/// graphic tool).
+///
+/// # Real-time
+/// As [`overlap_tree_tree`]; usually far fewer node pairs are visited.
+pub fn any_pair_within(
+    tool: &PackedTree,
+    world_from_tool: &Pose,
+    objects: &[PackedTree],
+    margin: f64,
+    ws: &mut CollideWorkspace,
+) -> Result<bool, CollideError> {
+    if !world_from_tool.is_finite() {
+        return Err(CollideError::NonFinitePose);
+    }
+    for o in objects {
+        ws.reserve(tool, o);
+    }
+    ws.begin(tool, world_from_tool);
+    let m = clean_margin(margin);
+    for (i, o) in objects.iter().enumerate() {
+        if descend(tool, o, i as u32, m, ws, &mut |_: &LeafPair| false) > 0 {
+            return Ok(true);
+        }
+    }
+    Ok(false)
 }
 
 /// [`overlap_tree_trees`] collecting into `pairs` (cleared first).
@@ -256,7 +292,7 @@ fn clean_margin(margin: f64) -> f64 {
 /// internal node; the larger internal sphere is split, its children are tested against the
 /// other sphere, and leaf–leaf hits are reported at once instead of being pushed.
 #[inline(never)]
-fn descend<F: FnMut(&LeafPair)>(
+fn descend<F: FnMut(&LeafPair) -> bool>(
     tool: &PackedTree,
     obj: &PackedTree,
     obj_id: u32,
@@ -279,7 +315,7 @@ fn descend<F: FnMut(&LeafPair)>(
             r_object: obj.r[o],
             gap: d2.sqrt() - (tool.r[t] + obj.r[o]),
         };
-        visit(&pair);
+        visit(&pair)
     };
 
     ws.stats.sphere_tests += 1;
@@ -322,8 +358,10 @@ fn descend<F: FnMut(&LeafPair)>(
                 let s = rr[i] + ro;
                 if d2 <= s * s {
                     if cc[i] == 0 && oc == 0 {
-                        report(f + i, o, d2, visit);
                         count += 1;
+                        if !report(f + i, o, d2, visit) {
+                            return count;
+                        }
                     } else {
                         ws.stack.push(((f + i) as u32, o as u32));
                     }
@@ -346,8 +384,10 @@ fn descend<F: FnMut(&LeafPair)>(
                 let s = rr[i] + rt;
                 if d2 <= s * s {
                     if cc[i] == 0 && tc == 0 {
-                        report(t, f + i, d2, visit);
                         count += 1;
+                        if !report(t, f + i, d2, visit) {
+                            return count;
+                        }
                     } else {
                         ws.stack.push((t as u32, (f + i) as u32));
                     }
@@ -374,6 +414,25 @@ mod tests {
         s[5] = Sphere::new([1.0, 0.0, 0.0], 1.0);
         s[6] = Sphere::new([3.0, 0.0, 0.0], 1.0);
         t
+    }
+
+    /// `any_pair_within` agrees with the full enumeration, including for margins that reach
+    /// every leaf pair.
+    #[test]
+    fn any_pair_within_matches_enumeration() {
+        let tree = PackedTree::new(&small_tree()).unwrap();
+        let objects = std::slice::from_ref(&tree);
+        let mut ws = CollideWorkspace::for_trees(&tree, objects);
+        for k in 0..60 {
+            let x = -12.0 + 0.4 * f64::from(k);
+            let q = Pose::from_array([x, 0.3, -0.2, 0.1, 0.2, 0.05 * f64::from(k)]);
+            for margin in [0.0, 0.5, 3.0, 50.0] {
+                let mut n = 0;
+                overlap_tree_trees(&tree, &q, objects, margin, &mut ws, |_| n += 1).unwrap();
+                let any = any_pair_within(&tree, &q, objects, margin, &mut ws).unwrap();
+                assert_eq!(any, n > 0, "x {x}, margin {margin}");
+            }
+        }
     }
 
     /// The posed-centre cache stays correct when the query epoch wraps around: stamps left by

@@ -262,14 +262,10 @@ impl GodObject {
         deepest
     }
 
-    /// Smallest gap (mm) of any leaf pair within `margin` of touching at `q` (+inf if none);
-    /// stores no pair.
-    fn nearest_gap(&mut self, q: &Pose, margin: f64) -> Result<f64, collide::CollideError> {
-        let mut min_gap = f64::INFINITY;
-        overlap_tree_trees(&self.tool, q, &self.objects, margin, &mut self.ws, |p| {
-            min_gap = min_gap.min(p.gap);
-        })?;
-        Ok(min_gap)
+    /// True when some leaf pair is within `margin` (mm) of touching at `q`; stops at the first
+    /// one, so a large margin (a fast hand) stays cheap. Stores no pair.
+    fn any_within(&mut self, q: &Pose, margin: f64) -> Result<bool, collide::CollideError> {
+        collide::any_pair_within(&self.tool, q, &self.objects, margin, &mut self.ws)
     }
 
     /// The largest motion (mm) of any tool leaf centre inside the trust region: `sqrt(3)`
@@ -471,8 +467,9 @@ impl GodObject {
                 // Nothing within the capped margin: if nothing is within the full motion bound
                 // either, the way to q_h is free and no trust region is needed (no lag in free
                 // space). The check only tracks the smallest gap; it stores no pair.
-                detected = self.nearest_gap(&q_lin, bound + self.params.skin_mm);
-                trust = matches!(detected, Ok(g) if g.is_finite());
+                let near = self.any_within(&q_lin, bound + self.params.skin_mm);
+                trust = matches!(near, Ok(true));
+                detected = near.map(|_| f64::INFINITY);
             }
             cd += t0.elapsed().as_secs_f64();
             if detected.is_err() {
