@@ -72,7 +72,8 @@ pub struct RunArgs {
     pub force: bool,
 }
 
-fn load_scene(name: &str, cache: &TreeCache) -> Result<Scene> {
+/// A built-in scene by name, or a scene file (TOML) by path; shared by `run` and `serve`.
+pub(crate) fn load_scene(name: &str, cache: &TreeCache) -> Result<Scene> {
     if render::scenes::BUILTIN_NAMES.contains(&name) {
         return Ok(render::scenes::builtin(name, cache)?);
     }

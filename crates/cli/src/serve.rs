@@ -3,14 +3,14 @@
 //! takes the device pose from the page (mouse, keys, gamepad) or from the UDP device bridge.
 
 use std::net::{IpAddr, SocketAddr};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
+use crate::run::load_scene;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use render::cache::TreeCache;
-use render::scene::{load_scene_file, Scene};
 use viewer::server::{self, WebParams};
 use viewer::{BridgeParams, HapticLoop, LoopParams, RenderSim, UdpBridge};
 
@@ -63,20 +63,6 @@ pub struct ServeArgs {
     /// Print a machine-readable summary (JSON) on stdout when the server stops.
     #[arg(long)]
     pub json: bool,
-}
-
-fn load_scene(name: &str, cache: &TreeCache) -> Result<Scene> {
-    if render::scenes::BUILTIN_NAMES.contains(&name) {
-        return Ok(render::scenes::builtin(name, cache)?);
-    }
-    let path = Path::new(name);
-    if !path.exists() {
-        bail!(
-            "no built-in scene or scene file named `{name}` (built-in: {}; files end in .toml)",
-            render::scenes::BUILTIN_NAMES.join(", ")
-        );
-    }
-    Ok(load_scene_file(path, cache)?)
 }
 
 /// Runs `haptic6d serve`.
