@@ -45,6 +45,14 @@ pub struct BenchArgs {
     /// Scenes to replay (comma-separated built-in names).
     #[arg(long, value_delimiter = ',', default_value = "bunny,spline")]
     pub scenes: Vec<String>,
+    /// Tree depths of the depth study (default 3,4,5; 3,4 with --quick). Each new depth builds
+    /// (then caches) a bunny tree: depth 6 takes minutes.
+    #[arg(long, value_delimiter = ',')]
+    pub depths: Option<Vec<u32>>,
+    /// Wall-time budget of one solver's replay, s (a replay past it stops and is reported as
+    /// partial). Default 120, or 8 with --quick.
+    #[arg(long)]
+    pub budget: Option<f64>,
     /// Skip the scaling studies (pairs and depth).
     #[arg(long)]
     pub no_scaling: bool,
@@ -167,7 +175,18 @@ pub fn run(args: BenchArgs) -> Result<()> {
     // Quick mode keeps the device's real speed (every frame) and shortens the run instead:
     // striding frames would make the hand ten times faster and change what is measured.
     let window = if args.quick { QUICK_FRAMES } else { usize::MAX };
-    let budget = if args.quick { 8.0 } else { 180.0 };
+    let budget = args.budget.unwrap_or(if args.quick { 8.0 } else { 120.0 });
+    if budget.is_nan() || budget <= 0.0 {
+        bail!("--budget {budget}: must be a positive number of seconds");
+    }
+    if let Some(d) = args
+        .depths
+        .iter()
+        .flatten()
+        .find(|&&d| !(1..=7).contains(&d))
+    {
+        bail!("--depths: depth {d} is out of range (1 to 7)");
+    }
     let mut report = BenchReport {
         mode: if args.quick { "quick" } else { "full" }.into(),
         machine: machine_description(),
@@ -231,7 +250,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
         let reps = if args.quick { 20 } else { 200 };
         eprintln!("bench: pairs study, targets {targets:?}, {reps} repetitions");
         report.scaling_pairs = pairs_study(&scene, &dual_frames, targets, reps)?;
-        let depths: &[u32] = if args.quick { &[3, 4] } else { &[3, 4, 5, 6] };
+        let default_depths: &[u32] = if args.quick { &[3, 4] } else { &[3, 4, 5] };
+        let depths = args.depths.as_deref().unwrap_or(default_depths);
         eprintln!("bench: depth study, depths {depths:?}");
         report.scaling_depth = depth_study(&scene, depths, window, budget, &cache)?;
     }
