@@ -54,12 +54,15 @@ pub struct RunArgs {
     /// Detection skin added to the motion bound, mm.
     #[arg(long)]
     pub skin: Option<f64>,
-    /// Trust region per translation axis per frame, mm (when the hand is far from the tool).
+    /// Largest motion of any tool sphere per pass, mm (caps the detection margin).
     #[arg(long)]
-    pub trust_mm: Option<f64>,
-    /// Trust region per Euler angle per frame, rad.
+    pub max_margin: Option<f64>,
+    /// Time budget of one frame's step, µs (no pass starts that would end past it).
     #[arg(long)]
-    pub trust_rad: Option<f64>,
+    pub budget_us: Option<f64>,
+    /// Rotation coordinates: rotation-vector (default) or euler (the paper's).
+    #[arg(long)]
+    pub rotation: Option<String>,
     /// Keep the haptic thread at normal priority (by default it asks for SCHED_FIFO, which
     /// needs the privilege, so that timings are not inflated by preemption).
     #[arg(long)]
@@ -178,8 +181,8 @@ pub fn run(args: RunArgs) -> Result<()> {
     }
     for (v, name) in [
         (args.skin, "--skin"),
-        (args.trust_mm, "--trust-mm"),
-        (args.trust_rad, "--trust-rad"),
+        (args.max_margin, "--max-margin"),
+        (args.budget_us, "--budget-us"),
     ] {
         if let Some(v) = v {
             if !(v > 0.0 && v.is_finite()) {
@@ -190,11 +193,14 @@ pub fn run(args: RunArgs) -> Result<()> {
     if let Some(v) = args.skin {
         scene.solver.skin_mm = v;
     }
-    if let Some(v) = args.trust_mm {
-        scene.solver.trust_mm = v;
+    if let Some(v) = args.max_margin {
+        scene.solver.max_margin_mm = v;
     }
-    if let Some(v) = args.trust_rad {
-        scene.solver.trust_rad = v;
+    if let Some(v) = args.budget_us {
+        scene.solver.budget_us = v;
+    }
+    if let Some(r) = &args.rotation {
+        scene.coupling.rotation = render::scene::RotationSpec::parse(r)?;
     }
     if let Some(t) = trajectory {
         scene.motion = Motion::Trajectory(t);

@@ -17,8 +17,15 @@
 //! contact normal) instead of a scale of `2D` mm, which keeps the QP's dual well scaled across
 //! sphere sizes. Far from contact the squared form's half-space is looser.
 //!
-//! Angles: `q_lin - q_h` is taken component-wise, so the caller keeps Euler angles continuous
-//! (unwrapped) between frames.
+//! Rotation coordinates ([`RotationCoordinates`]):
+//! - `Euler` (the paper's): the QP variable is `dq = q - q_h` in `(x, y, z, gamma, beta, alpha)`;
+//!   `q_lin - q_h` is taken component-wise, so the caller keeps the angles continuous between
+//!   frames, and the metric is singular at `beta = ±pi/2`.
+//! - `RotationVector` (default of the step): the rotation is a local increment `w` about the
+//!   linearisation pose, `R = exp([w]x) R_lin`, and the variable is
+//!   `dq = (t - t_h, w - w_h)` with `w_h = log(R_h R_lin^T)`. Its partials are
+//!   `d(R p)/dw_k = e_k x (R p)`: the world axes, the same at every orientation, so the QP
+//!   has no singularity and any representation of `R_h` gives the same rows.
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -34,6 +41,16 @@ pub enum ConstraintForm {
     Distance,
 }
 
+/// The coordinates of the rotational part of the QP variable (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum RotationCoordinates {
+    /// Euler angle differences `(gamma, beta, alpha) - (gamma_h, beta_h, alpha_h)` (the paper's).
+    Euler,
+    /// A rotation vector about the linearisation pose, in world axes (rad).
+    #[default]
+    RotationVector,
+}
+
 /// Below this centre distance (mm) the direction `c - o` is undefined; see
 /// [`Linearization::value_gradient`].
 pub const DEGENERATE_DISTANCE: f64 = 1e-9;
@@ -44,10 +61,14 @@ pub const DEGENERATE_DISTANCE: f64 = 1e-9;
 #[derive(Clone, Copy, Debug)]
 pub struct Linearization {
     form: ConstraintForm,
+    coords: RotationCoordinates,
     rot: Matrix3<f64>,
-    /// World axes of the three Euler rates (gamma, beta, alpha): `dR/dtheta_k = [w_k]x R`.
+    /// World axes of the three rotational coordinates (Euler rates, or `e_x, e_y, e_z` for a
+    /// rotation vector) (gamma, beta, alpha): `dR/dtheta_k = [w_k]x R`.
     axes: [Vector3<f64>; 3],
     t: Vector3<f64>,
+    /// The Euler angles of `q_lin` (rad), to map an Euler-coordinate answer back.
+    euler_lin: [f64; 3],
     delta: [f64; 6],
 }
 
@@ -58,6 +79,20 @@ impl Linearization {
     /// # Real-time
     /// No allocation, no panic, constant time.
     pub fn new(form: ConstraintForm, q_lin: &Pose, q_h: &Pose) -> Result<Self, CollideError> {
+        Self::with_coordinates(form, RotationCoordinates::Euler, q_lin, q_h)
+    }
+
+    /// Linearization of `form` at `q_lin` (mm, rad) in the given rotation coordinates (see the
+    /// module docs). Errors on a non-finite pose.
+    ///
+    /// # Real-time
+    /// No allocation, no panic, constant time.
+    pub fn with_coordinates(
+        form: ConstraintForm,
+        coords: RotationCoordinates,
+        q_lin: &Pose,
+        q_h: &Pose,
+    ) -> Result<Self, CollideError> {
         if !q_lin.is_finite() || !q_h.is_finite() {
             return Err(CollideError::NonFinitePose);
         }
@@ -71,16 +106,29 @@ impl Linearization {
         // g . (w_k x R p) = w_k . (R p x g).
         let (sb, cb) = q[4].sin_cos();
         let (sa, ca) = q[5].sin_cos();
-        let axes = [
-            Vector3::new(ca * cb, sa * cb, -sb),
-            Vector3::new(-sa, ca, 0.0),
-            Vector3::new(0.0, 0.0, 1.0),
-        ];
+        let rot = q_lin.rotation_matrix();
+        let axes = match coords {
+            RotationCoordinates::Euler => [
+                Vector3::new(ca * cb, sa * cb, -sb),
+                Vector3::new(-sa, ca, 0.0),
+                Vector3::new(0.0, 0.0, 1.0),
+            ],
+            RotationCoordinates::RotationVector => {
+                // w = 0 at q_lin, so the rotational part of q_lin - q_h is -w_h.
+                let w_h = crate::pose::rotation_log(&(q_h.rotation_matrix() * rot.transpose()));
+                delta[3] = -w_h.x;
+                delta[4] = -w_h.y;
+                delta[5] = -w_h.z;
+                [Vector3::x(), Vector3::y(), Vector3::z()]
+            }
+        };
         Ok(Self {
             form,
-            rot: q_lin.rotation_matrix(),
+            coords,
+            rot,
             axes,
             t: q_lin.translation(),
+            euler_lin: [q[3], q[4], q[5]],
             delta,
         })
     }
@@ -88,6 +136,51 @@ impl Linearization {
     /// The form being linearized.
     pub fn form(&self) -> ConstraintForm {
         self.form
+    }
+
+    /// The rotation coordinates of the variable.
+    pub fn coordinates(&self) -> RotationCoordinates {
+        self.coords
+    }
+
+    /// `q_lin - q_h` in this linearization's coordinates (mm, rad): the value of the QP
+    /// variable at the linearisation pose.
+    pub fn delta(&self) -> [f64; 6] {
+        self.delta
+    }
+
+    /// The configuration whose QP variable is `dq` (mm, rad): `q_h + dq` in Euler coordinates;
+    /// `t_h + dq_t` and `exp([dq_w + w_h]x) R_lin` for a rotation vector.
+    ///
+    /// # Real-time
+    /// No allocation, no panic, constant time.
+    pub fn configuration(&self, dq: &[f64; 6]) -> Pose {
+        // Both coordinates give the translation t_lin + (dq_t - delta_t).
+        let t = self.t
+            + Vector3::new(
+                dq[0] - self.delta[0],
+                dq[1] - self.delta[1],
+                dq[2] - self.delta[2],
+            );
+        match self.coords {
+            RotationCoordinates::Euler => {
+                let mut q = [0.0; 6];
+                q[..3].copy_from_slice(t.as_slice());
+                for k in 3..6 {
+                    q[k] = self.euler_lin[k - 3] + dq[k] - self.delta[k];
+                }
+                Pose::from_array(q)
+            }
+            RotationCoordinates::RotationVector => {
+                let w = Vector3::new(
+                    dq[3] - self.delta[3],
+                    dq[4] - self.delta[4],
+                    dq[5] - self.delta[5],
+                );
+                let rot = crate::pose::rotation_exp(&w) * self.rot;
+                Pose::from_translation_rotation(&t, &rot)
+            }
+        }
     }
 
     /// `C(q_lin)` and `J = dC/dq (q_lin)` for a tool sphere (`p_in_tool`, `r_tool`; mm) and an

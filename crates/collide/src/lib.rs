@@ -43,10 +43,11 @@ mod pose;
 mod traverse;
 
 pub use constraint::{
-    constraint_value, fill_constraints, ConstraintForm, Linearization, DEGENERATE_DISTANCE,
+    constraint_value, fill_constraints, ConstraintForm, Linearization, RotationCoordinates,
+    DEGENERATE_DISTANCE,
 };
 pub use packed::PackedTree;
-pub use pose::{rotation_zyx, rotation_zyx_partials, Pose};
+pub use pose::{rotation_exp, rotation_log, rotation_zyx, rotation_zyx_partials, Pose};
 pub use traverse::{
     any_pair_within, collect_pairs, overlap_tree_tree, overlap_tree_trees, CollideWorkspace,
     LeafPair, TraversalStats,

@@ -63,11 +63,51 @@ impl Pose {
         }
     }
 
+    /// The configuration of a translation (mm) and a rotation matrix, with Euler angles as in
+    /// [`Pose::from_isometry`] (`beta` in `[-pi/2, pi/2]`; at `beta = ±pi/2` one of the many
+    /// equivalent `(gamma, alpha)` pairs). `rotation_matrix()` of the result reproduces `rot`
+    /// (to rounding) for every proper rotation, so no orientation is lost.
+    pub fn from_translation_rotation(t: &Vector3<f64>, rot: &Matrix3<f64>) -> Self {
+        let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*rot));
+        let (gamma, beta, alpha) = q.euler_angles();
+        Self {
+            q: Vector6::new(t.x, t.y, t.z, gamma, beta, alpha),
+        }
+    }
+
     /// True when all six numbers are finite.
     #[inline]
     pub fn is_finite(&self) -> bool {
         self.q.iter().all(|v| v.is_finite())
     }
+}
+
+/// The rotation vector (axis times angle, rad, angle in `[0, pi]`) of a rotation matrix: the
+/// inverse of [`rotation_exp`]. Accurate at every angle: through the unit quaternion and
+/// `atan2`, so neither tiny angles (where `acos` loses digits) nor angles near `pi` degrade.
+#[inline]
+pub fn rotation_log(rot: &Matrix3<f64>) -> Vector3<f64> {
+    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*rot));
+    let (mut w, mut v) = (q.w, q.imag());
+    if w < 0.0 {
+        // q and -q are the same rotation; this one has the angle in [0, pi].
+        w = -w;
+        v = -v;
+    }
+    let n = v.norm();
+    // angle = 2 atan2(n, w); scale = angle / n, with its limit 2 / w as n -> 0.
+    let scale = if n > 1e-8 {
+        2.0 * n.atan2(w) / n
+    } else {
+        2.0 / w * (1.0 - n * n / (3.0 * w * w))
+    };
+    v * scale
+}
+
+/// The rotation matrix `exp([w]x)` of a rotation vector `w` (axis times angle, rad).
+#[inline]
+pub fn rotation_exp(w: &Vector3<f64>) -> Matrix3<f64> {
+    *Rotation3::from_scaled_axis(*w).matrix()
 }
 
 /// `Rz(alpha) · Ry(beta) · Rx(gamma)` (rad).
@@ -151,5 +191,23 @@ mod tests {
         let p = Pose::from_array([1.0, -2.0, 3.0, 0.4, -0.2, 2.5]);
         let back = Pose::from_isometry(&p.to_isometry());
         assert!((back.q - p.q).norm() < 1e-12, "{back:?}");
+    }
+
+    /// `rotation_log` inverts `rotation_exp` from tiny angles to just below pi, and
+    /// `from_translation_rotation` keeps the orientation at the Euler singularity.
+    #[test]
+    fn log_exp_round_trip_and_gimbal_lock() {
+        for (k, angle) in [1e-12, 1e-7, 1e-3, 0.5, 2.0, 3.0, 3.14159].into_iter().enumerate() {
+            let axis = Vector3::new(0.3 + k as f64, -0.8, 0.5).normalize();
+            let w = axis * angle;
+            let back = rotation_log(&rotation_exp(&w));
+            assert!((back - w).norm() <= 1e-12 * angle.max(1.0), "{angle}: {back:?} vs {w:?}");
+        }
+        for beta in [std::f64::consts::FRAC_PI_2, -std::f64::consts::FRAC_PI_2, 0.3] {
+            let r = rotation_zyx(0.7, beta, -1.2);
+            let p = Pose::from_translation_rotation(&Vector3::new(1.0, 2.0, 3.0), &r);
+            assert!((p.rotation_matrix() - r).norm() < 1e-9, "beta {beta}");
+            assert_eq!(p.translation(), Vector3::new(1.0, 2.0, 3.0));
+        }
     }
 }

@@ -2,7 +2,10 @@
 //! is the linearization `d = J (q_lin - q_h) - C(q_lin)`, and the two forms agree to first order
 //! at contact.
 
-use collide::{constraint_value, fill_constraints, ConstraintForm, LeafPair, Linearization, Pose};
+use collide::{
+    constraint_value, fill_constraints, ConstraintForm, LeafPair, Linearization, Pose,
+    RotationCoordinates,
+};
 use proptest::prelude::*;
 
 fn pose_strategy() -> impl Strategy<Value = Pose> {
@@ -215,5 +218,105 @@ fn rotational_gradient_matches_partial_matrices() {
             "{k}: {} vs {expect}",
             j[3 + k]
         );
+    }
+}
+
+/// `C` with the tool rotated by `exp([w]x)` about the world axes and shifted by `dt`.
+fn rotated_value(pose: &Pose, dt: [f64; 3], w: [f64; 3], p: &[f64; 3], rt: f64, o: &[f64; 3], ro: f64) -> f64 {
+    // Straight from the matrix: a round trip through Euler angles near beta = ±pi/2 would
+    // lose more digits than the finite difference has.
+    let rot = collide::rotation_exp(&nalgebra::Vector3::from(w)) * pose.rotation_matrix();
+    let t = pose.translation() + nalgebra::Vector3::from(dt);
+    let c = rot * nalgebra::Vector3::from(*p) + t;
+    (c - nalgebra::Vector3::from(*o)).norm() - (rt + ro)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    /// Rotation-vector rows: `J` equals central differences of `C` under world-axis translations
+    /// and rotations, at any orientation, including `beta = ±pi/2` exactly (where the Euler
+    /// partials are singular).
+    #[test]
+    fn rotation_vector_gradient_equals_central_differences(
+        pose in pose_strategy(),
+        lock in 0u8..3,
+        p in point(),
+        o in point(),
+        rt in 0.1f64..10.0,
+        ro in 0.1f64..10.0,
+    ) {
+        let mut pose = pose;
+        match lock {
+            1 => pose.q[4] = std::f64::consts::FRAC_PI_2,
+            2 => pose.q[4] = -std::f64::consts::FRAC_PI_2,
+            _ => {}
+        }
+        let lin = Linearization::with_coordinates(
+            ConstraintForm::Distance, RotationCoordinates::RotationVector, &pose, &pose,
+        ).unwrap();
+        let (c, j) = lin.value_gradient(&p, rt, &o, ro);
+        let c_world = pose.transform_point(&p);
+        let dist = ((c_world[0] - o[0]).powi(2) + (c_world[1] - o[1]).powi(2) + (c_world[2] - o[2]).powi(2)).sqrt();
+        prop_assume!(dist > 1.0);
+        prop_assert!((c - constraint_value(ConstraintForm::Distance, &pose, &p, rt, &o, ro)).abs() <= 1e-9 * c.abs().max(1.0));
+        let h = 1e-6;
+        let norm = j.iter().map(|v| v * v).sum::<f64>().sqrt();
+        for k in 0..6 {
+            let (mut dt, mut w) = ([0.0; 3], [0.0; 3]);
+            if k < 3 { dt[k] = h } else { w[k - 3] = h }
+            let plus = rotated_value(&pose, dt, w, &p, rt, &o, ro);
+            let (mut dt, mut w) = ([0.0; 3], [0.0; 3]);
+            if k < 3 { dt[k] = -h } else { w[k - 3] = -h }
+            let minus = rotated_value(&pose, dt, w, &p, rt, &o, ro);
+            let fd = (plus - minus) / (2.0 * h);
+            prop_assert!((j[k] - fd).abs() <= 1e-5 * norm.max(1.0), "component {}: J {} vs FD {}", k, j[k], fd);
+        }
+    }
+
+    /// The variable's value at `q_lin` is `delta()`, `configuration(delta())` gives `q_lin` back,
+    /// and `configuration(0)` is the device pose `q_h` (any orientation, both coordinates).
+    #[test]
+    fn configuration_inverts_the_variable(q_lin in pose_strategy(), q_h in pose_strategy(), euler in any::<bool>()) {
+        let coords = if euler { RotationCoordinates::Euler } else { RotationCoordinates::RotationVector };
+        let lin = Linearization::with_coordinates(ConstraintForm::Distance, coords, &q_lin, &q_h).unwrap();
+        let at_lin = lin.configuration(&lin.delta());
+        prop_assert!((at_lin.translation() - q_lin.translation()).norm() < 1e-9);
+        prop_assert!((at_lin.rotation_matrix() - q_lin.rotation_matrix()).norm() < 1e-9);
+        let at_h = lin.configuration(&[0.0; 6]);
+        prop_assert!((at_h.translation() - q_h.translation()).norm() < 1e-9);
+        // Rotation vectors reach q_h's orientation up to the angle-pi ambiguity of the log.
+        let r = at_h.rotation_matrix() * q_h.rotation_matrix().transpose();
+        let angle = collide::rotation_log(&r).norm();
+        prop_assert!(angle < 1e-7, "off by {} rad", angle);
+    }
+}
+
+/// The same orientation in another Euler representation (gamma + 2 pi, or the gimbal-lock
+/// twin) gives the same rotation-vector rows.
+#[test]
+fn rotation_vector_rows_ignore_the_euler_representation() {
+    use std::f64::consts::PI;
+    let q_lin = Pose::from_array([1.0, 2.0, 3.0, 0.2, -0.3, 0.4]);
+    let q_h = Pose::from_array([1.5, 2.0, 2.0, 0.3, -0.2, 0.5]);
+    let mut q_h_wrapped = q_h;
+    q_h_wrapped.q[3] += 2.0 * PI;
+    q_h_wrapped.q[5] -= 2.0 * PI;
+    // (gamma, beta, alpha) and (gamma + pi, pi - beta, alpha + pi) are the same rotation.
+    let twin = Pose::from_array([1.5, 2.0, 2.0, 0.3 + PI, PI + 0.2, 0.5 + PI]);
+    assert!((twin.rotation_matrix() - q_h.rotation_matrix()).norm() < 1e-12);
+    let pr = pair([5.0, 0.0, -1.0], 1.0, [6.0, 2.0, 0.5], 2.0);
+    let rows = |h: &Pose| {
+        Linearization::with_coordinates(ConstraintForm::Distance, RotationCoordinates::RotationVector, &q_lin, h)
+            .unwrap()
+            .row(&pr)
+    };
+    let (j0, d0) = rows(&q_h);
+    for other in [q_h_wrapped, twin] {
+        let (j, d) = rows(&other);
+        assert!((d - d0).abs() < 1e-9, "{d} vs {d0}");
+        for k in 0..6 {
+            assert!((j[k] - j0[k]).abs() < 1e-12);
+        }
     }
 }

@@ -10,7 +10,7 @@ use crate::stats::Summary;
 use crate::step::FrameStatus;
 
 /// The header of `frames.csv`.
-pub const FRAMES_HEADER: &str = "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm";
+pub const FRAMES_HEADER: &str = "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status";
 
 /// `frames.csv` text: one row per frame; the force/torque columns are the wrench sent to the
 /// device (after the safety layer).
@@ -26,8 +26,15 @@ pub fn frames_csv(frames: &[FrameRecord]) -> String {
         }
         let _ = writeln!(
             s,
-            ",{},{:.3},{:.3},{:.3},{},{}",
-            o.pairs, o.cd_us, o.opt_us, o.total_us, o.iterations, o.penetration_mm
+            ",{},{:.3},{:.3},{:.3},{},{},{},{}",
+            o.pairs,
+            o.cd_us,
+            o.opt_us,
+            o.total_us,
+            o.iterations,
+            o.penetration_mm,
+            o.passes,
+            o.status.name()
         );
     }
     s

@@ -96,6 +96,9 @@ pub struct LoopStats {
     pub pair_overflows: u64,
     /// Frames whose QP stopped inexact.
     pub inexact: u64,
+    /// Frames that ended short of the constrained optimum (passes or budget ran out; the pose
+    /// is safe, the tool lags the hand).
+    pub lagging: u64,
     /// Frames whose device reading (time and pose) repeated the previous one: a stalled device.
     pub stalled_frames: u64,
     /// Wall time of the whole loop, s.
@@ -273,6 +276,10 @@ pub fn run_loop<D: Device>(
         inexact: records
             .iter()
             .filter(|r| r.out.status == FrameStatus::Inexact)
+            .count() as u64,
+        lagging: records
+            .iter()
+            .filter(|r| r.out.status == FrameStatus::Lagging)
             .count() as u64,
         stalled_frames: records
             .windows(2)

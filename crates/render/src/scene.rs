@@ -33,7 +33,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use collide::{ConstraintForm, Pose};
+use collide::{ConstraintForm, Pose, RotationCoordinates};
 use mesh::TriMesh;
 use serde::{Deserialize, Serialize};
 use spheretree::SphereTree;
@@ -73,6 +73,9 @@ pub struct Coupling {
     pub kt: f64,
     /// Rotational stiffness, N·mm/rad.
     pub kr: f64,
+    /// Rotation coordinates of the QP and the spring torque: `rotation-vector` (default; the
+    /// physical torque `kr log(R_g R_h^T)`) or `euler` (the paper's angle differences).
+    pub rotation: RotationSpec,
 }
 
 impl Default for Coupling {
@@ -80,6 +83,49 @@ impl Default for Coupling {
         Self {
             kt: 1.0,
             kr: 1000.0,
+            rotation: RotationSpec::RotationVector,
+        }
+    }
+}
+
+/// Serialisable rotation coordinates (`[coupling] rotation`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RotationSpec {
+    /// A local rotation vector about the linearisation pose, world axes (default).
+    #[default]
+    RotationVector,
+    /// Euler angle differences, as in the paper (singular at `beta = ±pi/2`).
+    Euler,
+}
+
+impl RotationSpec {
+    /// The collide crate's coordinates.
+    pub fn coordinates(&self) -> RotationCoordinates {
+        match self {
+            Self::RotationVector => RotationCoordinates::RotationVector,
+            Self::Euler => RotationCoordinates::Euler,
+        }
+    }
+
+    /// Parses `rotation-vector` or `euler`.
+    pub fn parse(name: &str) -> Result<Self, RenderError> {
+        match name.trim().to_ascii_lowercase().as_str() {
+            "rotation-vector" | "rotvec" => Ok(Self::RotationVector),
+            "euler" => Ok(Self::Euler),
+            _ => Err(RenderError::Unknown {
+                what: "rotation coordinates",
+                name: name.to_string(),
+                expected: "rotation-vector, euler".into(),
+            }),
+        }
+    }
+
+    /// The name used in scene files and on the command line.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::RotationVector => "rotation-vector",
+            Self::Euler => "euler",
         }
     }
 }
@@ -142,18 +188,19 @@ pub struct SolverSpec {
     pub kind: SolverKind,
     /// Constraint form: `distance` (default) or `squared` (the paper's).
     pub form: FormSpec,
-    /// Extra detect + solve passes at the new `q_g` while the measured penetration exceeds
-    /// `penetration_tol_mm` (0 = the paper's single pass).
+    /// Extra detect + solve passes per frame: from the new `q_g` while the measured penetration
+    /// exceeds `penetration_tol_mm`, or while the per-pass motion cap keeps the tool short of
+    /// the optimum (0 = the paper's single pass).
     pub relinearize: u32,
     /// Penetration tolerated before a re-linearisation pass, mm.
     pub penetration_tol_mm: f64,
     /// Fixed detection skin added to the motion bound, mm.
     pub skin_mm: f64,
-    /// Trust region per translation axis per frame when the hand is far from the graphic tool,
-    /// mm (bounds the detection margin; see [`crate::step`]).
-    pub trust_mm: f64,
-    /// Trust region per Euler angle per frame, rad.
-    pub trust_rad: f64,
+    /// Largest motion of any tool sphere in one pass, mm: caps the detection margin (and so
+    /// the pair count) when the hand is far from the graphic tool; see [`crate::step`].
+    pub max_margin_mm: f64,
+    /// Time budget of one frame's step, µs: no pass starts that would end past it.
+    pub budget_us: f64,
 }
 
 /// Serialisable constraint form.
@@ -182,11 +229,11 @@ impl Default for SolverSpec {
         Self {
             kind: SolverKind::Dual,
             form: FormSpec::Distance,
-            relinearize: 3,
+            relinearize: 5,
             penetration_tol_mm: 0.002,
             skin_mm: 0.02,
-            trust_mm: 0.1,
-            trust_rad: 0.001,
+            max_margin_mm: 2.0,
+            budget_us: 1000.0,
         }
     }
 }

@@ -1,33 +1,42 @@
-//! The god-object step: one haptic frame (DESIGN.md steps 1–5).
+//! The god-object step: one haptic frame (docs/DESIGN.md, "The frame step").
 //!
-//! Given the device configuration `q_h` and the last graphic configuration `q_g_prev`:
+//! Given the device configuration `q_h` and the last graphic configuration `q_g_prev`, a frame
+//! makes one or more **passes**, each from a linearisation pose `q_lin` (first `q_g_prev`):
 //!
-//! 1. **Detect** at `q_g_prev` every leaf pair whose gap is at most a margin `m` that bounds how
-//!    far any tool sphere can move toward `q_h`. With `Δt = t_h - t_g` and `θ` the angle of
-//!    `R_h R_g^T`, a tool point `p` (tool frame) moves by
-//!    `|R_h p + t_h - R_g p - t_g| <= |Δt| + |(R_h R_g^T - I) R_g p| <= |Δt| + 2 sin(θ/2) |p|
-//!    <= |Δt| + θ |p|`, and a sphere's gap to a static sphere changes by at most its centre's
-//!    displacement; so `m = |Δt| + θ · reach + skin` (`reach` = largest `|p|` over tool leaf
-//!    centres) finds every pair that can touch anywhere on the way to `q_h`. `m` is capped
-//!    (`max_margin_mm`); when the cap binds, a per-axis trust region around `q_g_prev` is added
-//!    to the QP (12 rows, half-widths chosen so the capped margin still bounds the motion), so
-//!    `q_g` cannot leave the region whose pairs were found: no tunnelling through thin parts.
-//! 2. **Constrain**: rows `J dq >= d` linearized at `q_g_prev` (collide's
-//!    [`collide::Linearization`]), distance form by default.
-//! 3. **Solve** `min 1/2 dq^T G dq` with the chosen solver, warm-started from the last frame's
-//!    active pairs; `q_g = q_h + dq*`.
-//! 4. **Measure** the deepest leaf–leaf overlap at `q_g`; while it exceeds the tolerance and
-//!    passes remain, **re-linearize** at the new `q_g` (detect + solve again).
-//! 5. **Force** `[F; T] = G (q_g - q_h)`: the spring pulls the hand toward the graphic tool,
-//!    out of the object.
+//! 1. **Detect** at `q_lin` every leaf pair whose gap is at most a margin `m` that bounds how
+//!    far any tool sphere may move in this pass. A tool point `p` (tool frame) moving from
+//!    `(R_a, t_a)` to `(R_b, t_b)` moves by at most `|t_b - t_a| + θ |p|` (`θ` the angle of
+//!    `R_b R_a^T`), so with `reach` = the largest `|p|` over tool leaf centres the motion bound
+//!    is `|Δt| + θ · reach`. The pass may move by `need` = the bound from `q_lin` to `q_h`,
+//!    capped at `max_margin_mm`; `m` adds a skin.
+//! 2. **Constrain**: rows `J dq >= d` linearized at `q_lin` ([`collide::Linearization`]), in
+//!    rotation-vector coordinates by default (a local rotation increment about `q_lin`, world
+//!    axes: no Euler singularity, any representation of `R_h` gives the same frame) or the
+//!    paper's Euler coordinates. When `need` exceeds the cap, a **trust box** around `q_lin`
+//!    (12 rows) keeps the motion of the pass within the capped margin.
+//! 3. **Solve** `min 1/2 dq^T G dq` with the chosen solver, warm-started from the last active
+//!    pairs; map the answer back to a configuration `q_new`.
+//! 4. **Verify**: if `q_new` moved farther from `q_lin` than the margin covers, the pair list
+//!    is not proven complete for that motion: the pass is redone with a margin that covers it.
+//!    Otherwise the deepest overlap at `q_new` is measured exactly on the listed pairs (they
+//!    hold every pair that can touch on the way).
+//! 5. **Advance**: if `q_new` penetrates more than `penetration_tol_mm`, re-linearise there;
+//!    if the trust box bound, `q_new` is a safe step toward the optimum: start the next pass
+//!    from it. Otherwise the frame has reached the constrained optimum.
+//! 6. **Force** from the spring between `q_g` and `q_h`: `F = kt (t_g - t_h)` (N) and
+//!    `T = kr log(R_g R_h^T)` (N·mm, world axes; the exact gradient of the spring energy
+//!    `kr/2 |log(R_g R_h^T)|^2`), or the paper's `kr (euler_g - euler_h)` in Euler coordinates.
 //!
-//! A frame that fails (non-finite input, solver breakdown) keeps the last safe `q_g` and says
-//! so in [`FrameOutput::status`].
+//! Passes stop at `1 + relinearize` or when the next one would overrun `budget_us`. A frame that
+//! stops before the optimum is **lagging**: it returns the last pose known to be free (never a
+//! penetrating one) and says so in [`FrameOutput::status`]. A frame that fails (non-finite input,
+//! solver breakdown, a traversal over its work limit) keeps the last safe `q_g`.
 
 use std::time::Instant;
 
 use collide::{
-    overlap_tree_trees, CollideWorkspace, ConstraintForm, LeafPair, Linearization, PackedTree, Pose,
+    overlap_tree_trees, rotation_log, CollideWorkspace, ConstraintForm, LeafPair, Linearization,
+    PackedTree, Pose, RotationCoordinates,
 };
 use nalgebra::Matrix3;
 use qp::{Problem, Solver, Status};
@@ -42,18 +51,22 @@ pub struct StepParams {
     pub g: [f64; 6],
     /// Constraint form.
     pub form: ConstraintForm,
+    /// Rotation coordinates of the QP variable and of the spring torque.
+    pub rotation: RotationCoordinates,
     /// QP solver.
     pub solver: SolverKind,
-    /// Maximum extra detect + solve passes per frame.
+    /// Maximum extra passes per frame (advancing through the trust box, or re-linearising).
     pub relinearize: u32,
     /// Penetration (mm) above which another pass is made.
     pub penetration_tol_mm: f64,
     /// Skin added to the detection margin, mm.
     pub skin_mm: f64,
-    /// Trust-region half-width per translation axis when the margin is capped, mm.
-    pub trust_mm: f64,
-    /// Trust-region half-width per Euler angle when the margin is capped, rad.
-    pub trust_rad: f64,
+    /// Largest motion of any tool sphere in one pass, mm (bounds the detection margin and so
+    /// the pair count; a faster hand takes more passes).
+    pub max_margin_mm: f64,
+    /// Time budget of the step, µs: no pass starts that would end past it (by the longest pass
+    /// of the frame so far).
+    pub budget_us: f64,
     /// Largest number of leaf pairs per pass (storage reserved up front; more are dropped and
     /// counted, never allocated).
     pub max_pairs: usize,
@@ -65,12 +78,13 @@ impl StepParams {
         Self {
             g: scene.coupling.g(),
             form: scene.solver.form.form(),
+            rotation: scene.coupling.rotation.coordinates(),
             solver: scene.solver.kind,
             relinearize: scene.solver.relinearize,
             penetration_tol_mm: scene.solver.penetration_tol_mm,
             skin_mm: scene.solver.skin_mm,
-            trust_mm: scene.solver.trust_mm,
-            trust_rad: scene.solver.trust_rad,
+            max_margin_mm: scene.solver.max_margin_mm,
+            budget_us: scene.solver.budget_us,
             max_pairs: 16_384,
         }
     }
@@ -79,16 +93,33 @@ impl StepParams {
 /// How a frame ended.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum FrameStatus {
-    /// Solved.
+    /// Solved: the constrained optimum (within the penetration tolerance).
     #[default]
     Ok,
-    /// The QP stopped with a status other than solved, capped or infeasible (those keep the
-    /// last safe pose); its `q_g` was used.
+    /// The QP answer violates its linearized constraints beyond the solver tolerance (its KKT
+    /// certificate), e.g. PQP stopped early; its `q_g` was used.
     Inexact,
     /// More pairs than `max_pairs`: some were dropped.
     PairOverflow,
+    /// Passes or budget ran out before the optimum: `q_g` is the last pose proven free on the
+    /// way to it (the tool lags the hand this frame, it never penetrates).
+    Lagging,
     /// The frame failed (non-finite input or numerical breakdown): the last safe `q_g` kept.
     KeptLastSafe,
+}
+
+impl FrameStatus {
+    /// The name written in `frames.csv`: `ok`, `inexact`, `pair-overflow`, `lagging`,
+    /// `kept-last-safe`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Ok => "ok",
+            Self::Inexact => "inexact",
+            Self::PairOverflow => "pair-overflow",
+            Self::Lagging => "lagging",
+            Self::KeptLastSafe => "kept-last-safe",
+        }
+    }
 }
 
 /// The result of one frame.
@@ -98,13 +129,13 @@ pub struct FrameOutput {
     pub q_h: [f64; 6],
     /// Graphic tool configuration after the frame (mm, rad).
     pub q_g: [f64; 6],
-    /// `[F; T] = G (q_g - q_h)`: N and N·mm, before the safety layer.
+    /// Spring wrench on the hand `[F; T]`: N and N·mm (world axes), before the safety layer.
     pub wrench: [f64; 6],
     /// Leaf pairs in the first pass's QP.
     pub pairs: u32,
     /// Solver iterations, summed over passes.
     pub iterations: u32,
-    /// Passes made (1 + re-linearisations).
+    /// Passes made (detect + solve).
     pub passes: u32,
     /// Time in collision detection (all traversals), µs.
     pub cd_us: f64,
@@ -144,18 +175,38 @@ pub struct GodObject {
     started: bool,
 }
 
-fn delta(a: &Pose, b: &Pose) -> [f64; 6] {
-    let mut d = [0.0; 6];
-    for (k, v) in d.iter_mut().enumerate() {
-        *v = a.q[k] - b.q[k];
-    }
-    d
+/// Angle (rad, in `[0, pi]`) of `a b^T`.
+fn rotation_angle(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
+    rotation_log(&(a * b.transpose())).norm()
 }
 
-fn rotation_angle(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
-    let r = a * b.transpose();
-    let c = ((r.trace() - 1.0) * 0.5).clamp(-1.0, 1.0);
-    c.acos()
+/// The spring wrench on the hand `[F; T]` (N, N·mm) pulling it from `q_h` toward `q_g`:
+/// `F = kt (t_g - t_h)`; `T = kr log(R_g R_h^T)` (world axes) for rotation vectors, the
+/// paper's `kr (euler_g - euler_h)` for Euler coordinates.
+pub fn spring_wrench(
+    g: &[f64; 6],
+    rotation: RotationCoordinates,
+    q_g: &Pose,
+    q_h: &Pose,
+) -> [f64; 6] {
+    let mut w = [0.0; 6];
+    for k in 0..3 {
+        w[k] = g[k] * (q_g.q[k] - q_h.q[k]);
+    }
+    match rotation {
+        RotationCoordinates::Euler => {
+            for k in 3..6 {
+                w[k] = g[k] * (q_g.q[k] - q_h.q[k]);
+            }
+        }
+        RotationCoordinates::RotationVector => {
+            let v = rotation_log(&(q_g.rotation_matrix() * q_h.rotation_matrix().transpose()));
+            for k in 3..6 {
+                w[k] = g[k] * v[k - 3];
+            }
+        }
+    }
+    w
 }
 
 impl GodObject {
@@ -268,13 +319,6 @@ impl GodObject {
         collide::any_pair_within(&self.tool, q, &self.objects, margin, &mut self.ws)
     }
 
-    /// The largest motion (mm) of any tool leaf centre inside the trust region: `sqrt(3)`
-    /// times the per-axis translation plus the rotation angle bound (sum of the three Euler
-    /// steps) times the reach.
-    fn trust_bound(&self) -> f64 {
-        3f64.sqrt() * self.params.trust_mm + 3.0 * self.params.trust_rad * self.reach
-    }
-
     /// Deepest overlap (mm, >= 0) of the tool at `q`, using `self.pairs` as scratch.
     pub fn penetration_at(&mut self, q: &Pose) -> f64 {
         match self.detect(q, 0.0) {
@@ -284,11 +328,17 @@ impl GodObject {
         }
     }
 
-    /// The motion bound (mm) of any tool leaf centre between `a` and `b`.
+    /// The motion bound (mm) of any tool leaf centre between `a` and `b`:
+    /// `|t_b - t_a| + angle(R_b R_a^T) · reach`.
     fn motion_bound(&self, a: &Pose, b: &Pose) -> f64 {
         let dt = (b.translation() - a.translation()).norm();
         let th = rotation_angle(&b.rotation_matrix(), &a.rotation_matrix());
         dt + th * self.reach
+    }
+
+    /// The linearization of the current pair list at `q_lin` for the device pose `q_h`.
+    fn linearization(&self, q_lin: &Pose, q_h: &Pose) -> Option<Linearization> {
+        Linearization::with_coordinates(self.params.form, self.params.rotation, q_lin, q_h).ok()
     }
 
     /// Resets the graphic tool for a new run at the device pose `start`: `q_g = start` if it is
@@ -313,20 +363,18 @@ impl GodObject {
             if self.detect(&q, margin).is_err() {
                 break;
             }
-            let n = self.fill_rows(&q, start, false, 0.0);
+            let Some(lin) = self.linearization(&q, start) else {
+                break;
+            };
+            let n = self.fill_rows(&lin, None);
             // Aim for a gap of `tol` rather than 0 so the projection ends strictly outside.
             for d in &mut self.rhs[..n] {
                 *d += tol;
             }
-            let dq0 = delta(&q, start);
-            let Some((dq, _, _, _)) = self.solve(n, &dq0) else {
+            let Some((dq, _, _, _)) = self.solve(n, &lin.delta()) else {
                 break;
             };
-            let mut next = *start;
-            for k in 0..6 {
-                next.q[k] += dq[k];
-            }
-            // Step at least a little beyond to escape flat minima of the linearization.
+            let next = lin.configuration(&dq);
             searched = searched.max((next.translation() - start.translation()).norm());
             if !next.is_finite() {
                 break;
@@ -338,12 +386,10 @@ impl GodObject {
         })
     }
 
-    /// Fills rows for `self.pairs` linearized at `q_lin` toward `q_h`, plus the trust-region box
-    /// around `q_lin` when `trust` is set. Returns the row count.
-    fn fill_rows(&mut self, q_lin: &Pose, q_h: &Pose, trust: bool, _margin: f64) -> usize {
-        let Ok(lin) = Linearization::new(self.params.form, q_lin, q_h) else {
-            return 0;
-        };
+    /// Fills rows for `self.pairs` from `lin`, plus the trust box when given: half-widths
+    /// `(translation mm, rotation rad)` per coordinate around the linearisation pose. Returns
+    /// the row count.
+    fn fill_rows(&mut self, lin: &Linearization, trust: Option<(f64, f64)>) -> usize {
         let mut n = 0;
         for (pair, (row, d)) in self
             .pairs
@@ -355,26 +401,44 @@ impl GodObject {
             *d = rhs;
             n += 1;
         }
-        if trust {
+        if let Some((w_t, w_r)) = trust {
+            let base = lin.delta();
             for k in 0..6 {
-                let w = if k < 3 {
-                    self.params.trust_mm
-                } else {
-                    self.params.trust_rad
-                };
-                let base = q_lin.q[k] - q_h.q[k];
-                // dq_k >= base - w  and  -dq_k >= -(base + w).
+                let w = if k < 3 { w_t } else { w_r };
+                // The variable is base_k at q_lin: dq_k >= base_k - w and -dq_k >= -(base_k + w).
                 let mut e = [0.0; 6];
                 e[k] = 1.0;
                 self.rows[n] = e;
-                self.rhs[n] = base - w;
+                self.rhs[n] = base[k] - w;
                 e[k] = -1.0;
                 self.rows[n + 1] = e;
-                self.rhs[n + 1] = -(base + w);
+                self.rhs[n + 1] = -(base[k] + w);
                 n += 2;
             }
         }
         n
+    }
+
+    /// The trust box for a pass that may move any tool sphere by at most `allowed` mm from
+    /// `q_lin`, when reaching `q_h` needs `need_t` mm of translation and `need_r` mm of rotation
+    /// (angle times reach). The budget is shared in proportion to the need (each part keeps at
+    /// least a fifth, so the constraints can still push the tool out): translation half-width
+    /// `a` per axis moves a point by at most `sqrt(3) a`; rotation half-width `b` per coordinate
+    /// by at most `sqrt(3) b reach` (rotation vector) or `3 b reach` (Euler increments).
+    fn trust_box(&self, allowed: f64, need_t: f64, need_r: f64) -> (f64, f64) {
+        let need = need_t + need_r;
+        let share_t = if need > 0.0 {
+            (need_t / need).clamp(0.2, 0.8)
+        } else {
+            0.5
+        };
+        let a = allowed * share_t / 3f64.sqrt();
+        let per_axis = match self.params.rotation {
+            RotationCoordinates::RotationVector => 3f64.sqrt(),
+            RotationCoordinates::Euler => 3.0,
+        };
+        let b = (allowed * (1.0 - share_t) / (per_axis * self.reach.max(1e-9))).min(0.5);
+        (a, b)
     }
 
     /// Solves the QP on the first `n` rows; `dq0` is the (feasible when free) start
@@ -434,7 +498,8 @@ impl GodObject {
     ///
     /// # Real-time
     /// No allocation (all buffers reserved in [`GodObject::new`]), no panic. Bounded: at most
-    /// `1 + relinearize` passes of two traversals and one QP solve (the solver's iteration cap).
+    /// `1 + relinearize` passes (fewer when `budget_us` would be overrun), each of one or two
+    /// traversals and one QP solve (the solver's iteration cap).
     pub fn step(&mut self, q_h: &Pose) -> FrameOutput {
         let t_start = Instant::now();
         let mut out = FrameOutput {
@@ -445,30 +510,48 @@ impl GodObject {
             self.q_g = *q_h;
             self.started = true;
         }
-        let q_prev = self.q_g;
         // A non-finite or absurd reading (beyond 1e6 mm or rad: `q - q_h` then keeps too few
         // digits for the constraints) is a device fault: keep the last safe pose.
         if !q_h.is_finite() || q_h.q.iter().any(|v| v.abs() > 1e6) {
             return self.keep_last_safe(out, q_h, t_start);
         }
-        let mut q_lin = q_prev;
-        let mut cd = 0.0;
-        let mut opt = 0.0;
-        let mut q_new = q_prev;
-        let max_passes = 1 + self.params.relinearize;
+        let skin = self.params.skin_mm.max(0.0);
+        let cap = self.params.max_margin_mm.max(1e-3);
+        let tol = self.params.penetration_tol_mm;
+        // The last pose proven free on the way (q_g_prev is: it was accepted last frame).
+        let mut q_safe = self.q_g;
+        let mut pen_safe = 0.0;
+        let mut q_lin = self.q_g;
+        // A pass whose answer left its margin is redone with at least this motion allowance.
+        let mut widen = 0.0f64;
+        let mut reached = false;
+        let (mut cd, mut opt, mut longest_pass) = (0.0, 0.0, 0.0f64);
+        let max_passes = self.params.relinearize.saturating_add(1);
         for pass in 0..max_passes {
+            let t_pass = Instant::now();
+            if pass > 0
+                && (t_pass - t_start).as_secs_f64() * 1e6 + longest_pass > self.params.budget_us
+            {
+                break;
+            }
+            out.passes = pass + 1;
             let t0 = Instant::now();
-            let bound = self.motion_bound(&q_lin, q_h);
-            let cap = self.trust_bound();
-            let mut trust = bound > cap;
-            let margin = bound.min(cap) + self.params.skin_mm;
-            let mut detected = self.detect(&q_lin, margin);
+            let need_t = (q_h.translation() - q_lin.translation()).norm();
+            let need_r =
+                rotation_angle(&q_h.rotation_matrix(), &q_lin.rotation_matrix()) * self.reach;
+            let need = (need_t + need_r).max(widen);
+            let mut allowed = need.min(cap);
+            let mut trust = need > cap;
+            let mut detected = self.detect(&q_lin, allowed + skin);
             if trust && self.pairs.is_empty() && detected.is_ok() {
-                // Nothing within the capped margin: if nothing is within the full motion bound
-                // either, the way to q_h is free and no trust region is needed (no lag in free
-                // space). The check only tracks the smallest gap; it stores no pair.
-                let near = self.any_within(&q_lin, bound + self.params.skin_mm);
+                // Nothing within the capped margin: if nothing is within the whole way to q_h
+                // either, the path is free and no trust box is needed (no lag in free space).
+                // The check stops at the first pair; it stores none.
+                let near = self.any_within(&q_lin, need + skin);
                 trust = matches!(near, Ok(true));
+                if !trust {
+                    allowed = need;
+                }
                 detected = near.map(|_| f64::INFINITY);
             }
             cd += t0.elapsed().as_secs_f64();
@@ -482,11 +565,15 @@ impl GodObject {
             let n_pairs = self.pairs.len();
             if pass == 0 {
                 out.pairs = n_pairs as u32;
-                out.margin_mm = margin;
+                out.margin_mm = allowed + skin;
             }
+            let Some(lin) = self.linearization(&q_lin, q_h) else {
+                return self.keep_last_safe(out, q_h, t_start);
+            };
             self.map_warm_start();
-            let n = self.fill_rows(&q_lin, q_h, trust, margin);
-            let solved = self.solve(n, &delta(&q_lin, q_h));
+            let boxed = trust.then(|| self.trust_box(allowed, need_t, need_r));
+            let n = self.fill_rows(&lin, boxed);
+            let solved = self.solve(n, &lin.delta());
             opt += t1.elapsed().as_secs_f64();
             let Some((dq, iters, status, viol)) = solved else {
                 return self.keep_last_safe(out, q_h, t_start);
@@ -502,35 +589,51 @@ impl GodObject {
             if status != Status::Solved && out.status == FrameStatus::Ok {
                 out.status = FrameStatus::Inexact;
             }
-            for k in 0..6 {
-                q_new.q[k] = q_h.q[k] + dq[k];
-            }
+            let q_new = lin.configuration(&dq);
             if !q_new.is_finite() {
                 return self.keep_last_safe(out, q_h, t_start);
             }
-            out.passes = pass + 1;
-            // Measure the penetration at the new configuration.
             let t2 = Instant::now();
-            // The pair list is complete for q_new when no tool sphere moved farther than the
-            // margin since q_lin: then the exact gaps of the listed pairs give the deepest
-            // overlap without another traversal.
-            let pen = if self.motion_bound(&q_lin, &q_new) <= margin && self.dropped == 0 {
-                self.penetration_of_pairs(&q_new)
-            } else {
-                self.penetration_at(&q_new)
-            };
+            let moved = self.motion_bound(&q_lin, &q_new);
+            if moved > allowed + skin || self.dropped > 0 {
+                // Pairs that can touch on the way to q_new may be missing: not proven. Redo the
+                // pass with a margin covering the motion (a trust box if it is over the cap).
+                widen = moved * 1.25;
+                cd += t2.elapsed().as_secs_f64();
+                longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
+                continue;
+            }
+            widen = 0.0;
+            // Every pair that can touch between q_lin and q_new is listed: their exact gaps at
+            // q_new give the deepest overlap without another traversal.
+            let pen = self.penetration_of_pairs(&q_new);
             cd += t2.elapsed().as_secs_f64();
-            out.penetration_mm = pen;
-            if pen <= self.params.penetration_tol_mm {
+            if pen <= tol {
+                q_safe = q_new;
+                pen_safe = pen;
+            }
+            let box_binds = boxed.is_some_and(|(a, b)| {
+                let base = lin.delta();
+                (0..6).any(|k| {
+                    let w = if k < 3 { a } else { b };
+                    (dq[k] - base[k]).abs() >= 0.999 * w
+                })
+            });
+            longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
+            if pen <= tol && !box_binds {
+                reached = true;
                 break;
             }
+            // Penetrating: re-linearise at q_new; box bound: advance from the safe step.
             q_lin = q_new;
         }
-        self.q_g = q_new;
-        out.q_g = q_new.to_array();
-        for k in 0..6 {
-            out.wrench[k] = self.params.g[k] * (q_new.q[k] - q_h.q[k]);
+        if !reached && out.status == FrameStatus::Ok {
+            out.status = FrameStatus::Lagging;
         }
+        self.q_g = q_safe;
+        out.penetration_mm = pen_safe;
+        out.q_g = q_safe.to_array();
+        out.wrench = spring_wrench(&self.params.g, self.params.rotation, &q_safe, q_h);
         out.cd_us = cd * 1e6;
         out.opt_us = opt * 1e6;
         out.total_us = t_start.elapsed().as_secs_f64() * 1e6;
@@ -541,9 +644,13 @@ impl GodObject {
         out.status = FrameStatus::KeptLastSafe;
         out.q_g = self.q_g.to_array();
         self.warm_len = 0;
+        let w = if q_h.is_finite() {
+            spring_wrench(&self.params.g, self.params.rotation, &self.q_g, q_h)
+        } else {
+            [0.0; 6]
+        };
         for k in 0..6 {
-            let w = self.params.g[k] * (self.q_g.q[k] - q_h.q[k]);
-            out.wrench[k] = if w.is_finite() { w } else { 0.0 };
+            out.wrench[k] = if w[k].is_finite() { w[k] } else { 0.0 };
         }
         out.total_us = t0.elapsed().as_secs_f64() * 1e6;
         out
