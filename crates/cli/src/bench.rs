@@ -56,6 +56,9 @@ pub struct BenchArgs {
     /// Skip the scaling studies (pairs and depth).
     #[arg(long)]
     pub no_scaling: bool,
+    /// Studies to run (comma-separated): replay, scaling, speed.
+    #[arg(long, value_delimiter = ',', default_value = "replay,scaling,speed")]
+    pub studies: Vec<String>,
     /// Skip the PNG plots.
     #[arg(long)]
     pub no_plots: bool,
@@ -155,6 +158,8 @@ pub struct BenchReport {
     pub scaling_pairs: Vec<PairsPoint>,
     /// Frame time against tree depth.
     pub scaling_depth: Vec<DepthPoint>,
+    /// Drag, lag and frame time against hand speed on the plate.
+    pub speed: Vec<crate::bench_speed::SpeedRow>,
     /// Wall time of the bench, s.
     pub wall_s: f64,
 }
@@ -170,6 +175,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
             );
         }
     }
+    for study in &args.studies {
+        if !["replay", "scaling", "speed"].contains(&study.as_str()) {
+            bail!("--studies: no study `{study}` (studies: replay, scaling, speed)");
+        }
+    }
+    let wants = |name: &str| args.studies.iter().any(|s| s == name);
+    let scenes: &[String] = if wants("replay") { &args.scenes } else { &[] };
     prepare_out_dir(&args.out)?;
     let cache = TreeCache::from_env();
     // Quick mode keeps the device's real speed (every frame) and shortens the run instead:
@@ -195,7 +207,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
 
     let mut bunny: Option<(Scene, Vec<FrameOutput>)> = None;
     let mut replays: Vec<SceneReplays> = Vec::new();
-    for name in &args.scenes {
+    for name in scenes {
         let scene = render::scenes::builtin(name, &cache)
             .with_context(|| format!("loading the built-in scene `{name}`"))?;
         let traj = recorded_trajectory(&scene, window);
@@ -232,7 +244,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         ));
     }
 
-    if !args.no_scaling {
+    if !args.no_scaling && wants("scaling") {
         let (scene, dual_frames) = match bunny {
             Some(b) => b,
             None => {
@@ -254,6 +266,15 @@ pub fn run(args: BenchArgs) -> Result<()> {
         let depths = args.depths.as_deref().unwrap_or(default_depths);
         eprintln!("bench: depth study, depths {depths:?}");
         report.scaling_depth = depth_study(&scene, depths, window, budget, &cache)?;
+    }
+    if wants("speed") {
+        let solvers: &[SolverKind] = if args.quick {
+            &[SolverKind::Dual]
+        } else {
+            &[SolverKind::Dual, SolverKind::ActiveSet]
+        };
+        eprintln!("bench: speed study (plate scene)");
+        report.speed = crate::bench_speed::speed_study(&cache, args.quick, solvers)?;
     }
     report.wall_s = t0.elapsed().as_secs_f64();
 
@@ -579,6 +600,13 @@ pub fn markdown(r: &BenchReport) -> String {
                 p.max_penetration_mm
             );
         }
+    }
+    if !r.speed.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n## Hand speed on a frictionless plate (1 mm press, exact solvers)\n"
+        );
+        s.push_str(&crate::bench_speed::speed_markdown(&r.speed));
     }
     let _ = writeln!(s, "\nbench wall time: {:.1} s", r.wall_s);
     s

@@ -117,6 +117,59 @@ pub fn write_bench_plots(dir: &Path, replays: &[SceneReplays], report: &BenchRep
             )
         })?;
     }
+    if !report.speed.is_empty() {
+        // Drag against speed: slides (N against mm/s) and turns (N·mm against rad/s), one
+        // panel each, a line per tool and solver.
+        let lines = |motion: &str| -> Vec<(String, RGBColor, Vec<(f64, f64)>)> {
+            let mut keys: Vec<(String, String)> = Vec::new();
+            for r in report.speed.iter().filter(|r| r.motion == motion) {
+                let k = (r.tool.clone(), r.solver.clone());
+                if !keys.contains(&k) {
+                    keys.push(k);
+                }
+            }
+            keys.into_iter()
+                .map(|(tool, solver)| {
+                    let values = report
+                        .speed
+                        .iter()
+                        .filter(|r| r.motion == motion && r.tool == tool && r.solver == solver)
+                        .map(|r| (r.speed, r.drag))
+                        .collect();
+                    let color = solver_color(&solver);
+                    (format!("{tool}, {solver}"), color, values)
+                })
+                .collect()
+        };
+        let slides = lines("slide");
+        let turns = lines("turn");
+        fn as_series(v: &[(String, RGBColor, Vec<(f64, f64)>)]) -> Vec<Series<'_>> {
+            v.iter()
+                .map(|(label, color, values)| Series {
+                    label,
+                    color: *color,
+                    values: values.clone(),
+                })
+                .collect()
+        }
+        render_png(&dir.join("bench_speed_drag.png"), 480, |root| {
+            let (left, right) = root.split_horizontally(600);
+            chart(
+                &left,
+                "drag sliding on a frictionless plate",
+                "hand speed, mm/s",
+                "mean force against the motion, N",
+                &as_series(&slides),
+            )?;
+            chart(
+                &right,
+                "drag turning on a frictionless plate",
+                "hand speed, rad/s",
+                "mean torque against the motion, N·mm",
+                &as_series(&turns),
+            )
+        })?;
+    }
     Ok(())
 }
 

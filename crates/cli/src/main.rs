@@ -7,6 +7,7 @@
 
 mod bench;
 mod bench_plot;
+mod bench_speed;
 mod plot;
 mod progress;
 mod run;

@@ -149,6 +149,33 @@ impl Linearization {
         self.delta
     }
 
+    /// The QP variable's value (mm, rad) at the configuration `q`, the inverse of
+    /// [`Linearization::configuration`] (rotation vectors: `log(R_q R_lin^T) - w_h`, exact for
+    /// angles below pi).
+    ///
+    /// # Real-time
+    /// No allocation, no panic, constant time.
+    pub fn variable(&self, q: &Pose) -> [f64; 6] {
+        let mut v = [0.0; 6];
+        for k in 0..3 {
+            v[k] = q.q[k] - self.t[k] + self.delta[k];
+        }
+        match self.coords {
+            RotationCoordinates::Euler => {
+                for k in 3..6 {
+                    v[k] = q.q[k] - self.euler_lin[k - 3] + self.delta[k];
+                }
+            }
+            RotationCoordinates::RotationVector => {
+                let w = crate::pose::rotation_log(&(q.rotation_matrix() * self.rot.transpose()));
+                for k in 3..6 {
+                    v[k] = w[k - 3] + self.delta[k];
+                }
+            }
+        }
+        v
+    }
+
     /// The configuration whose QP variable is `dq` (mm, rad): `q_h + dq` in Euler coordinates;
     /// `t_h + dq_t` and `exp([dq_w + w_h]x) R_lin` for a rotation vector.
     ///

@@ -29,6 +29,11 @@ pub struct PackedTree {
     pub(crate) first_child: Vec<u32>,
     pub(crate) child_count: Vec<u32>,
     pub(crate) slot: Vec<u32>,
+    /// Axis-aligned box (packing frame) of every leaf sphere under a node: centre and
+    /// half-extents, mm. Much tighter than the node's sphere on flat parts, where a sphere
+    /// bulges far beyond the face it covers; the traversal uses it to prune node pairs.
+    pub(crate) box_center: Vec<[f64; 3]>,
+    pub(crate) box_half: Vec<[f64; 3]>,
     pub(crate) leaf_count: usize,
     pub(crate) max_children: usize,
     pub(crate) levels: u32,
@@ -67,6 +72,8 @@ impl PackedTree {
             first_child: Vec::with_capacity(n_used),
             child_count: Vec::with_capacity(n_used),
             slot: Vec::with_capacity(n_used),
+            box_center: Vec::new(),
+            box_half: Vec::new(),
             leaf_count: 0,
             max_children: 0,
             levels: tree.levels(),
@@ -92,7 +99,45 @@ impl PackedTree {
             }
             head += 1;
         }
+        packed.compute_boxes();
         Ok(packed)
+    }
+
+    /// Fills the leaf-sphere boxes bottom-up (children come after their parent in the packed
+    /// order, so a reverse sweep sees every child before its parent).
+    fn compute_boxes(&mut self) {
+        let n = self.len();
+        let mut lo = vec![[f64::INFINITY; 3]; n];
+        let mut hi = vec![[f64::NEG_INFINITY; 3]; n];
+        for i in (0..n).rev() {
+            if self.child_count[i] == 0 {
+                let c = [self.x[i], self.y[i], self.z[i]];
+                for k in 0..3 {
+                    lo[i][k] = c[k] - self.r[i];
+                    hi[i][k] = c[k] + self.r[i];
+                }
+            } else {
+                for ch in self.children(i) {
+                    for k in 0..3 {
+                        lo[i][k] = lo[i][k].min(lo[ch][k]);
+                        hi[i][k] = hi[i][k].max(hi[ch][k]);
+                    }
+                }
+            }
+        }
+        self.box_center = (0..n)
+            .map(|i| std::array::from_fn(|k| 0.5 * (lo[i][k] + hi[i][k])))
+            .collect();
+        self.box_half = (0..n)
+            .map(|i| std::array::from_fn(|k| 0.5 * (hi[i][k] - lo[i][k])))
+            .collect();
+    }
+
+    /// The axis-aligned box (packing frame) of all leaf spheres under node `n`: centre and
+    /// half-extents, mm.
+    #[inline]
+    pub fn leaf_box(&self, n: usize) -> ([f64; 3], [f64; 3]) {
+        (self.box_center[n], self.box_half[n])
     }
 
     fn push_slot(

@@ -43,6 +43,8 @@ pub struct CollideWorkspace {
     children_posed: Vec<u32>,
     epoch: u32,
     rot: [[f64; 3]; 3],
+    /// `|R|` element-wise, for box projections.
+    abs_rot: [[f64; 3]; 3],
     t: [f64; 3],
     stats: TraversalStats,
 }
@@ -56,6 +58,8 @@ pub struct TraversalStats {
     pub sphere_tests: usize,
     /// Tool nodes whose world centre was computed.
     pub tool_nodes_posed: usize,
+    /// Node pairs whose spheres overlap but whose leaf boxes do not (pruned without a split).
+    pub box_pruned: usize,
 }
 
 impl CollideWorkspace {
@@ -107,9 +111,10 @@ impl CollideWorkspace {
     /// Starts a query: sets the pose, invalidates the cache, poses the root.
     fn begin(&mut self, tool: &PackedTree, world_from_tool: &Pose) {
         let m = world_from_tool.rotation_matrix();
-        for (i, row) in self.rot.iter_mut().enumerate() {
-            for (j, v) in row.iter_mut().enumerate() {
-                *v = m[(i, j)];
+        for i in 0..3 {
+            for j in 0..3 {
+                self.rot[i][j] = m[(i, j)];
+                self.abs_rot[i][j] = m[(i, j)].abs();
             }
         }
         self.t = [
@@ -279,6 +284,38 @@ pub fn collect_pairs(
     })
 }
 
+/// False when the leaf boxes of tool node `t` (an oriented box in the world) and object node
+/// `o` (axis-aligned), each grown by `m`, are separated along one of the six face axes: no
+/// leaf pair under them can be within `m`. Conservative (the nine edge axes are not tested).
+#[inline(always)]
+fn boxes_may_touch(ws: &CollideWorkspace, tool: &PackedTree, t: usize, obj: &PackedTree, o: usize, m: f64) -> bool {
+    let (ct, et) = (&tool.box_center[t], &tool.box_half[t]);
+    let (co, eo) = (&obj.box_center[o], &obj.box_half[o]);
+    let r = &ws.rot;
+    let a = &ws.abs_rot;
+    // Tool box centre in the world, and the offset to the object box.
+    let mut d = [0.0; 3];
+    for i in 0..3 {
+        d[i] = r[i][0] * ct[0] + r[i][1] * ct[1] + r[i][2] * ct[2] + ws.t[i] - co[i];
+    }
+    // World axes: the tool box projects to sum_j |R_ij| e_j.
+    for i in 0..3 {
+        let rt = a[i][0] * et[0] + a[i][1] * et[1] + a[i][2] * et[2];
+        if d[i].abs() > eo[i] + m + rt {
+            return false;
+        }
+    }
+    // Tool axes: the offset projects to (R^T d)_j, the object box to sum_i |R_ij| (e_i + m).
+    for j in 0..3 {
+        let p = r[0][j] * d[0] + r[1][j] * d[1] + r[2][j] * d[2];
+        let ro = a[0][j] * (eo[0] + m) + a[1][j] * (eo[1] + m) + a[2][j] * (eo[2] + m);
+        if p.abs() > et[j] + ro {
+            return false;
+        }
+    }
+    true
+}
+
 #[inline]
 fn clean_margin(margin: f64) -> f64 {
     if margin > 0.0 && margin.is_finite() {
@@ -362,8 +399,10 @@ fn descend<F: FnMut(&LeafPair) -> bool>(
                         if !report(f + i, o, d2, visit) {
                             return count;
                         }
-                    } else {
+                    } else if boxes_may_touch(ws, tool, f + i, obj, o, m) {
                         ws.stack.push(((f + i) as u32, o as u32));
+                    } else {
+                        ws.stats.box_pruned += 1;
                     }
                 }
             }
@@ -388,8 +427,10 @@ fn descend<F: FnMut(&LeafPair) -> bool>(
                         if !report(t, f + i, d2, visit) {
                             return count;
                         }
-                    } else {
+                    } else if boxes_may_touch(ws, tool, t, obj, f + i, m) {
                         ws.stack.push((t as u32, (f + i) as u32));
+                    } else {
+                        ws.stats.box_pruned += 1;
                     }
                 }
             }

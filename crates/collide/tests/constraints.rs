@@ -283,6 +283,12 @@ proptest! {
         let at_lin = lin.configuration(&lin.delta());
         prop_assert!((at_lin.translation() - q_lin.translation()).norm() < 1e-9);
         prop_assert!((at_lin.rotation_matrix() - q_lin.rotation_matrix()).norm() < 1e-9);
+        // `variable` inverts `configuration`.
+        let dq = [0.4, -0.3, 0.2, 0.05, -0.02, 0.03];
+        let back = lin.variable(&lin.configuration(&dq));
+        for k in 0..6 {
+            prop_assert!((back[k] - dq[k]).abs() < 1e-8, "{}: {} vs {}", k, back[k], dq[k]);
+        }
         let at_h = lin.configuration(&[0.0; 6]);
         prop_assert!((at_h.translation() - q_h.translation()).norm() < 1e-9);
         // Rotation vectors reach q_h's orientation up to the angle-pi ambiguity of the log.

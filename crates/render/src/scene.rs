@@ -229,7 +229,7 @@ impl Default for SolverSpec {
         Self {
             kind: SolverKind::Dual,
             form: FormSpec::Distance,
-            relinearize: 5,
+            relinearize: 7,
             penetration_tol_mm: 0.002,
             skin_mm: 0.02,
             max_margin_mm: 2.0,

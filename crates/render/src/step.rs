@@ -99,7 +99,8 @@ pub enum FrameStatus {
     /// The QP answer violates its linearized constraints beyond the solver tolerance (its KKT
     /// certificate), e.g. PQP stopped early; its `q_g` was used.
     Inexact,
-    /// More pairs than `max_pairs`: some were dropped.
+    /// More pairs than `max_pairs` even in the smallest region: no answer was proven, the last
+    /// pose proven free is kept (the tool lags, it never penetrates).
     PairOverflow,
     /// Passes or budget ran out before the optimum: `q_g` is the last pose proven free on the
     /// way to it (the tool lags the hand this frame, it never penetrates).
@@ -153,6 +154,23 @@ pub struct FrameOutput {
     pub status: FrameStatus,
 }
 
+/// A row whose linearized gap at the answer is below this (mm) holds the tool.
+const TIGHT_MM: f64 = 1e-6;
+
+/// The frame has reached the optimum when no holding row is open by more than this in truth
+/// (mm): a further pass would move the tool by about this much.
+const CONVERGED_MM: f64 = 0.005;
+
+/// Leaf pairs a detected region aims at: a dense contact takes smaller regions (more passes)
+/// rather than one region of tens of thousands of rows.
+const PAIR_TARGET: f64 = 1500.0;
+
+/// Smallest motion allowance of a detected region, mm.
+const MIN_ALLOW_MM: f64 = 0.1;
+
+/// Below this allowance (mm) an overflowing pair list ends the frame (lagging, safe).
+const MIN_OVERFLOW_ALLOW_MM: f64 = 0.005;
+
 /// Warm-start identity of a pair: (object, tool slot, object slot).
 type PairId = (u32, u32, u32);
 
@@ -172,6 +190,10 @@ pub struct GodObject {
     warm_idx: [usize; 6],
     reach: f64,
     q_g: Pose,
+    /// Motion bound of the graphic tool over the last frame, mm.
+    last_motion: f64,
+    /// Leaf pairs per mm of detection margin near the tool, as last seen (for sizing regions).
+    pairs_per_mm: f64,
     started: bool,
 }
 
@@ -255,6 +277,8 @@ impl GodObject {
             warm_idx: [0; 6],
             reach,
             q_g: Pose::identity(),
+            last_motion: 0.0,
+            pairs_per_mm: 0.0,
             started: false,
         })
     }
@@ -299,20 +323,6 @@ impl GodObject {
         Ok(min_gap)
     }
 
-    /// Deepest overlap (mm, >= 0) among the stored pairs with the tool at `q`.
-    fn penetration_of_pairs(&self, q: &Pose) -> f64 {
-        let rot = q.rotation_matrix();
-        let t = q.translation();
-        let mut deepest: f64 = 0.0;
-        for p in &self.pairs {
-            let c = rot * nalgebra::Vector3::from(p.p_in_tool) + t;
-            let o = nalgebra::Vector3::from(p.o_in_world);
-            let gap = (c - o).norm() - (p.r_tool + p.r_object);
-            deepest = deepest.max(-gap);
-        }
-        deepest
-    }
-
     /// True when some leaf pair is within `margin` (mm) of touching at `q`; stops at the first
     /// one, so a large margin (a fast hand) stays cheap. Stores no pair.
     fn any_within(&mut self, q: &Pose, margin: f64) -> Result<bool, collide::CollideError> {
@@ -349,6 +359,7 @@ impl GodObject {
             return Err(RenderError::NoFreeStart { searched_mm: 0.0 });
         }
         self.warm_len = 0;
+        self.last_motion = 0.0;
         let mut q = *start;
         let tol = self.params.penetration_tol_mm.max(1e-6);
         let mut searched = 0.0f64;
@@ -387,9 +398,13 @@ impl GodObject {
     }
 
     /// Fills rows for `self.pairs` from `lin`, plus the trust box when given: half-widths
-    /// `(translation mm, rotation rad)` per coordinate around the linearisation pose. Returns
-    /// the row count.
-    fn fill_rows(&mut self, lin: &Linearization, trust: Option<(f64, f64)>) -> usize {
+    /// `(translation mm, rotation rad)` per coordinate around the variable's value `base` at
+    /// the box's centre. Returns the row count.
+    fn fill_rows(
+        &mut self,
+        lin: &Linearization,
+        trust: Option<((f64, f64), [f64; 6])>,
+    ) -> usize {
         let mut n = 0;
         for (pair, (row, d)) in self
             .pairs
@@ -401,11 +416,10 @@ impl GodObject {
             *d = rhs;
             n += 1;
         }
-        if let Some((w_t, w_r)) = trust {
-            let base = lin.delta();
+        if let Some(((w_t, w_r), base)) = trust {
             for k in 0..6 {
                 let w = if k < 3 { w_t } else { w_r };
-                // The variable is base_k at q_lin: dq_k >= base_k - w and -dq_k >= -(base_k + w).
+                // dq_k >= base_k - w and -dq_k >= -(base_k + w).
                 let mut e = [0.0; 6];
                 e[k] = 1.0;
                 self.rows[n] = e;
@@ -498,7 +512,7 @@ impl GodObject {
     ///
     /// # Real-time
     /// No allocation (all buffers reserved in [`GodObject::new`]), no panic. Bounded: at most
-    /// `1 + relinearize` passes (fewer when `budget_us` would be overrun), each of one or two
+    /// `1 + relinearize` passes (fewer when `budget_us` would be overrun), each of at most two
     /// traversals and one QP solve (the solver's iteration cap).
     pub fn step(&mut self, q_h: &Pose) -> FrameOutput {
         let t_start = Instant::now();
@@ -522,11 +536,27 @@ impl GodObject {
         let mut q_safe = self.q_g;
         let mut pen_safe = 0.0;
         let mut q_lin = self.q_g;
-        // A pass whose answer left its margin is redone with at least this motion allowance.
-        let mut widen = 0.0f64;
+        // The detected region: every pair that can touch while no tool sphere moves more than
+        // `radius` from `center` is in `self.pairs`; `boxed` keeps the iterates inside it.
+        let mut center = q_lin;
+        let mut radius = 0.0;
+        let mut boxed: Option<(f64, f64)> = None;
+        let mut detect_now = true;
+        // Motion allowance of the next detected region, mm: twice the last frame's motion (a
+        // hand in steady motion stays inside it), never below MIN_ALLOW_MM. A region whose
+        // box binds grows it; an answer that left its region widens it; an overflowing pair
+        // list shrinks it.
+        let max_passes = self.params.relinearize.saturating_add(1);
+        // A single pass (the paper's step) has no second chance: its region covers the whole
+        // way to the hand, up to the cap.
+        let mut allow = if max_passes == 1 {
+            cap
+        } else {
+            (1.5 * self.last_motion + MIN_ALLOW_MM).min(cap)
+        };
+        let mut overflowed = false;
         let mut reached = false;
         let (mut cd, mut opt, mut longest_pass) = (0.0, 0.0, 0.0f64);
-        let max_passes = self.params.relinearize.saturating_add(1);
         for pass in 0..max_passes {
             let t_pass = Instant::now();
             if pass > 0
@@ -535,44 +565,69 @@ impl GodObject {
                 break;
             }
             out.passes = pass + 1;
-            let t0 = Instant::now();
-            let need_t = (q_h.translation() - q_lin.translation()).norm();
-            let need_r =
-                rotation_angle(&q_h.rotation_matrix(), &q_lin.rotation_matrix()) * self.reach;
-            let need = (need_t + need_r).max(widen);
-            let mut allowed = need.min(cap);
-            let mut trust = need > cap;
-            let mut detected = self.detect(&q_lin, allowed + skin);
-            if trust && self.pairs.is_empty() && detected.is_ok() {
-                // Nothing within the capped margin: if nothing is within the whole way to q_h
-                // either, the path is free and no trust box is needed (no lag in free space).
-                // The check stops at the first pair; it stores none.
-                let near = self.any_within(&q_lin, need + skin);
-                trust = matches!(near, Ok(true));
-                if !trust {
-                    allowed = need;
+            if detect_now {
+                let t0 = Instant::now();
+                let need_t = (q_h.translation() - q_lin.translation()).norm();
+                let need_r =
+                    rotation_angle(&q_h.rotation_matrix(), &q_lin.rotation_matrix()) * self.reach;
+                let need = need_t + need_r;
+                // Dense contacts (flat on flat) hold many pairs per mm of margin: keep the
+                // expected count near PAIR_TARGET by taking smaller regions (more passes).
+                let dense_cap = PAIR_TARGET / self.pairs_per_mm.max(1e-9) - skin;
+                let mut allowed = need.min(allow).min(cap).min(dense_cap.max(MIN_ALLOW_MM));
+                let mut trust = need > allowed;
+                let mut detected = self.detect(&q_lin, allowed + skin);
+                if trust && self.pairs.is_empty() && detected.is_ok() {
+                    // Nothing within the allowance: if nothing is within the whole way to q_h
+                    // either, the path is free and no trust box is needed (no lag in free
+                    // space). The check stops at the first pair; it stores none.
+                    let near = self.any_within(&q_lin, need + skin);
+                    trust = matches!(near, Ok(true));
+                    if !trust {
+                        allowed = need;
+                    }
+                    detected = near.map(|_| f64::INFINITY);
                 }
-                detected = near.map(|_| f64::INFINITY);
-            }
-            cd += t0.elapsed().as_secs_f64();
-            if detected.is_err() {
-                return self.keep_last_safe(out, q_h, t_start);
-            }
-            if self.dropped > 0 {
-                out.status = FrameStatus::PairOverflow;
+                cd += t0.elapsed().as_secs_f64();
+                if detected.is_err() {
+                    return self.keep_last_safe(out, q_h, t_start);
+                }
+                if pass == 0 {
+                    out.pairs = self.pairs.len() as u32;
+                    out.margin_mm = allowed + skin;
+                }
+                if !self.pairs.is_empty() {
+                    // Pairs per mm of margin, remembered (slowly forgotten) for the next choice.
+                    let density = (self.pairs.len() + self.dropped) as f64 / (allowed + skin);
+                    self.pairs_per_mm = density.max(0.9 * self.pairs_per_mm);
+                } else {
+                    self.pairs_per_mm *= 0.9;
+                }
+                if self.dropped > 0 {
+                    // More pairs than the storage holds: the list is not complete, so no answer
+                    // from it is proven. Try a smaller region (fewer pairs) next pass.
+                    overflowed = true;
+                    allow = 0.25 * allowed;
+                    longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
+                    if allow < MIN_OVERFLOW_ALLOW_MM {
+                        break;
+                    }
+                    continue;
+                }
+                center = q_lin;
+                radius = allowed;
+                boxed = trust.then(|| self.trust_box(allowed, need_t, need_r));
+                detect_now = false;
+                self.map_warm_start();
             }
             let t1 = Instant::now();
             let n_pairs = self.pairs.len();
-            if pass == 0 {
-                out.pairs = n_pairs as u32;
-                out.margin_mm = allowed + skin;
-            }
             let Some(lin) = self.linearization(&q_lin, q_h) else {
                 return self.keep_last_safe(out, q_h, t_start);
             };
-            self.map_warm_start();
-            let boxed = trust.then(|| self.trust_box(allowed, need_t, need_r));
-            let n = self.fill_rows(&lin, boxed);
+            // The box is about the region's centre, in this pass's coordinates.
+            let box_base = boxed.map(|_| lin.variable(&center));
+            let n = self.fill_rows(&lin, boxed.zip(box_base));
             let solved = self.solve(n, &lin.delta());
             opt += t1.elapsed().as_secs_f64();
             let Some((dq, iters, status, viol)) = solved else {
@@ -594,42 +649,52 @@ impl GodObject {
                 return self.keep_last_safe(out, q_h, t_start);
             }
             let t2 = Instant::now();
-            let moved = self.motion_bound(&q_lin, &q_new);
-            if moved > allowed + skin || self.dropped > 0 {
-                // Pairs that can touch on the way to q_new may be missing: not proven. Redo the
-                // pass with a margin covering the motion (a trust box if it is over the cap).
-                widen = moved * 1.25;
+            let moved = self.motion_bound(&center, &q_new);
+            if moved > radius + skin {
+                // Pairs that can touch on the way to q_new may be missing: not proven. Detect
+                // again from q_lin with a margin covering the motion (a box if over the cap).
+                allow = (self.motion_bound(&q_lin, &q_new) * 1.25).min(cap);
+                detect_now = true;
                 cd += t2.elapsed().as_secs_f64();
                 longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
                 continue;
             }
-            widen = 0.0;
-            // Every pair that can touch between q_lin and q_new is listed: their exact gaps at
-            // q_new give the deepest overlap without another traversal.
-            let pen = self.penetration_of_pairs(&q_new);
+            // Every pair that can touch between the region's centre and q_new is listed: their
+            // exact gaps at q_new give the deepest overlap, and how far the linearization
+            // undershot (an active row whose true gap is open: another pass moves further).
+            let (pen, slack) = self.gaps_at(&q_new, &dq, n_pairs);
             cd += t2.elapsed().as_secs_f64();
             if pen <= tol {
                 q_safe = q_new;
                 pen_safe = pen;
             }
-            let box_binds = boxed.is_some_and(|(a, b)| {
-                let base = lin.delta();
+            let box_binds = boxed.zip(box_base).is_some_and(|((a, b), base)| {
                 (0..6).any(|k| {
                     let w = if k < 3 { a } else { b };
                     (dq[k] - base[k]).abs() >= 0.999 * w
                 })
             });
             longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
-            if pen <= tol && !box_binds {
-                reached = true;
-                break;
+            if pen <= tol && slack <= CONVERGED_MM {
+                if !box_binds {
+                    reached = true;
+                    break;
+                }
+                // Safe and as far as this region allows: a larger region from here.
+                allow = (2.0 * radius).max(MIN_ALLOW_MM).min(cap);
+                detect_now = true;
             }
-            // Penetrating: re-linearise at q_new; box bound: advance from the safe step.
+            // Penetrating or undershooting: re-linearise at q_new (same pairs).
             q_lin = q_new;
         }
         if !reached && out.status == FrameStatus::Ok {
-            out.status = FrameStatus::Lagging;
+            out.status = if overflowed {
+                FrameStatus::PairOverflow
+            } else {
+                FrameStatus::Lagging
+            };
         }
+        self.last_motion = self.motion_bound(&self.q_g, &q_safe);
         self.q_g = q_safe;
         out.penetration_mm = pen_safe;
         out.q_g = q_safe.to_array();
@@ -638,6 +703,28 @@ impl GodObject {
         out.opt_us = opt * 1e6;
         out.total_us = t_start.elapsed().as_secs_f64() * 1e6;
         out
+    }
+
+    /// At `q` (the answer `dq` of the last solve over the first `n_pairs` rows): the deepest
+    /// overlap among the listed pairs (mm, >= 0), and the largest amount by which a row that
+    /// the answer holds tight (linearized gap ~0) is in truth still open (mm): the
+    /// linearization's undershoot, zero at a converged pose.
+    fn gaps_at(&self, q: &Pose, dq: &[f64; 6], n_pairs: usize) -> (f64, f64) {
+        let rot = q.rotation_matrix();
+        let t = q.translation();
+        let (mut deepest, mut slack) = (0.0f64, 0.0f64);
+        for (i, p) in self.pairs.iter().enumerate().take(n_pairs) {
+            let c = rot * nalgebra::Vector3::from(p.p_in_tool) + t;
+            let o = nalgebra::Vector3::from(p.o_in_world);
+            let gap = (c - o).norm() - (p.r_tool + p.r_object);
+            deepest = deepest.max(-gap);
+            let row = &self.rows[i];
+            let lin_gap: f64 = (0..6).map(|k| row[k] * dq[k]).sum::<f64>() - self.rhs[i];
+            if lin_gap <= TIGHT_MM {
+                slack = slack.max(gap - lin_gap);
+            }
+        }
+        (deepest, slack)
     }
 
     fn keep_last_safe(&mut self, mut out: FrameOutput, q_h: &Pose, t0: Instant) -> FrameOutput {

@@ -55,9 +55,22 @@ fn bunny_dual_meets_penetration_continuity_and_contact_targets() {
         .map(|r| r.out.penetration_mm)
         .fold(0.0, f64::max);
     assert!(pen <= 0.01, "penetration {pen} mm");
+    // Every frame solved, or (at most 0.1 % of frames, the degraded-frame budget) safely short
+    // of the optimum when its passes ran out.
+    let failed: Vec<(f64, FrameStatus, u32)> = frames
+        .iter()
+        .filter(|r| !matches!(r.out.status, FrameStatus::Ok | FrameStatus::Lagging))
+        .map(|r| (r.t, r.out.status, r.out.passes))
+        .collect();
+    assert!(failed.is_empty(), "frames not solved: {failed:?}");
+    let lagging = frames
+        .iter()
+        .filter(|r| r.out.status == FrameStatus::Lagging)
+        .count();
     assert!(
-        frames.iter().all(|r| r.out.status == FrameStatus::Ok),
-        "a frame was not solved"
+        lagging * 1000 <= frames.len(),
+        "{lagging} of {} frames lagging",
+        frames.len()
     );
     // The script's phases: slide (small contact), then push (large contact) with ~10 N.
     use render::scenes::bunny::{PUSH_PHASE_S, SLIDE_PHASE_S};

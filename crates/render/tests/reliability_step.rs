@@ -401,7 +401,7 @@ fn absurd_stiffness_never_sends_non_finite_output() {
     let (plate, _) = plate_tree(0.5);
     let top = sphere_top(&plate);
     for (kt, kr) in [(1e300, 1e300), (1e-300, 1e-300), (1e300, 1e-300)] {
-        let sc = scene(plate.clone(), SolverSpec::default(), Coupling { kt, kr });
+        let sc = scene(plate.clone(), SolverSpec::default(), Coupling { kt, kr, ..Coupling::default() });
         let (frames, _) = run(&sc, &press_trajectory(top));
         assert_safe_output(&frames, &sc.safety);
         for f in &frames {

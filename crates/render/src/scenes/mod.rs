@@ -1,10 +1,12 @@
-//! Built-in scenes (`bunny`, `spline`) and the mesh loading they share with scene files.
+//! Built-in scenes (`bunny`, `spline`, `plate`) and the mesh loading they share with scene files.
 //!
 //! - [`builtin`]: a built-in scene by name, trees built (or fetched from the cache).
 //! - [`bunny`]: bunny tool against a bunny object, depth 4, ~100 mm.
 //! - [`spline::SplineParams`]: the splined shaft and hub meshes of the `spline` scene.
+//! - [`plate`]: a puck or ball pressed onto a flat plate and slid or turned at hand speeds.
 
 pub mod bunny;
+pub mod plate;
 pub mod spline;
 
 use std::path::Path;
@@ -17,13 +19,14 @@ use crate::scene::Scene;
 use crate::RenderError;
 
 /// Names of the built-in scenes.
-pub const BUILTIN_NAMES: &[&str] = &["bunny", "spline"];
+pub const BUILTIN_NAMES: &[&str] = &["bunny", "spline", "plate"];
 
 /// A built-in scene by name (`bunny`, `spline`), trees from `cache` or built.
 pub fn builtin(name: &str, cache: &TreeCache) -> Result<Scene, RenderError> {
     match name {
         "bunny" => bunny::scene(cache),
         "spline" => spline_scene::scene(cache, &spline::SplineParams::default(), 5),
+        "plate" => plate::builtin(cache),
         _ => Err(RenderError::Unknown {
             what: "scene",
             name: name.to_string(),

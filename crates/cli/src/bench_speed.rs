@@ -1,0 +1,214 @@
+//! The `speed` study of `haptic6d bench`: how the step follows a fast hand on a frictionless
+//! plate (the built-in plate scene, [`render::scenes::plate`]).
+//!
+//! Each row presses a tool 1 mm into the plate, then slides it along `x` or turns it about the
+//! vertical axis at a constant speed, back and forth. On a frictionless surface the hand should
+//! feel no force along the motion and the graphic tool should not lag; per row (exact solvers
+//! only, one thread, frames back to back):
+//! - **drag**: mean force (N) or torque (N·mm) opposing the motion, over the frames at constant
+//!   speed (a few frames after each reversal are left out);
+//! - **lag**: mean and largest tangential offset of the graphic tool from the hand (mm), or
+//!   their rotation angle (rad), over the same frames;
+//! - penetration (all frames), the largest force change between consecutive frames in contact
+//!   (contact onsets excluded), frame time p50 / p99 / max, and the frames that ended lagging
+//!   or kept the last safe pose.
+
+use anyhow::Result;
+use collide::{rotation_log, Pose};
+use render::cache::TreeCache;
+use render::scene::SolverKind;
+use render::scenes::plate::{self, PlateTool, SpeedMotion};
+use render::stats::Summary;
+use render::step::{FrameStatus, GodObject, StepParams};
+use serde::Serialize;
+
+/// One row of the speed study.
+#[derive(Serialize, Clone, Debug)]
+pub struct SpeedRow {
+    /// `puck` or `ball`.
+    pub tool: String,
+    /// `slide` or `turn`.
+    pub motion: String,
+    /// Hand speed: mm/s (slide) or rad/s (turn).
+    pub speed: f64,
+    /// Solver name.
+    pub solver: String,
+    /// Frames stepped.
+    pub frames: usize,
+    /// Frames at constant speed (where drag and lag are measured).
+    pub steady_frames: usize,
+    /// Mean force (N, slide) or torque (N·mm, turn) opposing the motion at constant speed.
+    pub drag: f64,
+    /// Mean tangential lag at constant speed: mm (slide) or rad (turn).
+    pub lag_mean: f64,
+    /// Largest tangential lag at constant speed: mm (slide) or rad (turn).
+    pub lag_max: f64,
+    /// Deepest overlap over the run, mm.
+    pub max_penetration_mm: f64,
+    /// Largest force change between consecutive frames in contact (onsets excluded), N.
+    pub max_force_jump_n: f64,
+    /// Whole step per frame, µs.
+    pub total_us: Summary,
+    /// Passes per frame.
+    pub passes: Summary,
+    /// Frames that ended short of the optimum (safe, lagging).
+    pub lagging_frames: usize,
+    /// Frames that kept the last safe pose.
+    pub kept_last_safe: usize,
+}
+
+/// The ladder of motions: slides at 50–1000 mm/s, turns at 1–10 rad/s (`quick`: 200 and
+/// 1000 mm/s, 10 rad/s).
+pub fn motions(quick: bool) -> Vec<SpeedMotion> {
+    let (slides, turns): (&[f64], &[f64]) = if quick {
+        (&[200.0, 1000.0], &[10.0])
+    } else {
+        (&[50.0, 200.0, 500.0, 1000.0], &[1.0, 3.0, 10.0])
+    };
+    slides
+        .iter()
+        .map(|&v| SpeedMotion::Slide(v))
+        .chain(turns.iter().map(|&w| SpeedMotion::Turn(w)))
+        .collect()
+}
+
+/// Runs the study: every motion of [`motions`] with the puck (and slides with the ball too),
+/// for each solver in `solvers`.
+pub fn speed_study(cache: &TreeCache, quick: bool, solvers: &[SolverKind]) -> Result<Vec<SpeedRow>> {
+    let min_steady = if quick { 0.15 } else { 0.5 };
+    let mut rows = Vec::new();
+    for tool in [PlateTool::Puck, PlateTool::Ball] {
+        for motion in motions(quick) {
+            if tool == PlateTool::Ball && matches!(motion, SpeedMotion::Turn(_)) {
+                // A ball turning about its contact normal feels no torque whatever the step.
+                continue;
+            }
+            let run = plate::speed_script(tool, motion, 1000.0, min_steady);
+            let scene = plate::scene(cache, tool, run.script.clone())?;
+            for &kind in solvers {
+                rows.push(speed_row(&scene, tool, motion, &run, kind)?);
+            }
+        }
+    }
+    Ok(rows)
+}
+
+fn speed_row(
+    scene: &render::scene::Scene,
+    tool: PlateTool,
+    motion: SpeedMotion,
+    run: &plate::SpeedRun,
+    kind: SolverKind,
+) -> Result<SpeedRow> {
+    let traj = scene.trajectory();
+    let mut params = StepParams::from_scene(scene);
+    params.solver = kind;
+    let mut god = GodObject::new(scene, params)?;
+    let first = traj
+        .samples
+        .first()
+        .map(|s| Pose::from_array(s.q))
+        .unwrap_or_default();
+    god.reset(&first)?;
+    let mut drag = Vec::new();
+    let mut lag = Vec::new();
+    let mut pen: f64 = 0.0;
+    let mut jump: f64 = 0.0;
+    let mut prev_force: Option<[f64; 3]> = None;
+    let mut times = Vec::with_capacity(traj.samples.len());
+    let mut passes = Vec::with_capacity(traj.samples.len());
+    let (mut lagging, mut kept) = (0, 0);
+    for s in &traj.samples {
+        let q_h = Pose::from_array(s.q);
+        let out = god.step(&q_h);
+        times.push(out.total_us);
+        passes.push(f64::from(out.passes));
+        lagging += usize::from(out.status == FrameStatus::Lagging);
+        kept += usize::from(out.status == FrameStatus::KeptLastSafe);
+        pen = pen.max(out.penetration_mm);
+        let f = [out.wrench[0], out.wrench[1], out.wrench[2]];
+        let fm = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
+        if let Some(p) = prev_force {
+            let pm = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+            if pm > 0.0 && fm > 0.0 {
+                let d = ((f[0] - p[0]).powi(2) + (f[1] - p[1]).powi(2) + (f[2] - p[2]).powi(2)).sqrt();
+                jump = jump.max(d);
+            }
+        }
+        prev_force = Some(f);
+        let Some(i) = run.steady.iter().position(|&(a, b)| s.t >= a && s.t < b) else {
+            continue;
+        };
+        let dir = run.direction[i];
+        let q_g = Pose::from_array(out.q_g);
+        match motion {
+            SpeedMotion::Slide(_) => {
+                drag.push(-out.wrench[0] * dir);
+                lag.push((q_g.q[0] - q_h.q[0]).hypot(q_g.q[1] - q_h.q[1]));
+            }
+            SpeedMotion::Turn(_) => {
+                drag.push(-out.wrench[5] * dir);
+                let r = q_g.rotation_matrix() * q_h.rotation_matrix().transpose();
+                lag.push(rotation_log(&r).norm());
+            }
+        }
+    }
+    let (name, speed) = match motion {
+        SpeedMotion::Slide(v) => ("slide", v),
+        SpeedMotion::Turn(w) => ("turn", w),
+    };
+    let lag_summary = Summary::of(lag.iter().copied());
+    Ok(SpeedRow {
+        tool: tool.name().into(),
+        motion: name.into(),
+        speed,
+        solver: kind.name().into(),
+        frames: traj.samples.len(),
+        steady_frames: drag.len(),
+        drag: Summary::of(drag).mean,
+        lag_mean: lag_summary.mean,
+        lag_max: lag_summary.max,
+        max_penetration_mm: pen,
+        max_force_jump_n: jump,
+        total_us: Summary::of(times),
+        passes: Summary::of(passes),
+        lagging_frames: lagging,
+        kept_last_safe: kept,
+    })
+}
+
+/// The study as a markdown table.
+pub fn speed_markdown(rows: &[SpeedRow]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| tool | motion | speed | solver | frames | drag (N or N·mm) | lag mean / max (mm or rad) | max pen. mm | max ΔF N | total µs p50 / p99 / max | passes mean / max | lagging | kept last safe |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for r in rows {
+        let unit = if r.motion == "slide" { "mm/s" } else { "rad/s" };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} {unit} | {} | {} | {:.4} | {:.4} / {:.4} | {:.4} | {:.3} | {:.1} / {:.1} / {:.1} | {:.2} / {:.0} | {} | {} |",
+            r.tool,
+            r.motion,
+            r.speed,
+            r.solver,
+            r.frames,
+            r.drag,
+            r.lag_mean,
+            r.lag_max,
+            r.max_penetration_mm,
+            r.max_force_jump_n,
+            r.total_us.p50,
+            r.total_us.p99,
+            r.total_us.max,
+            r.passes.mean,
+            r.passes.max,
+            r.lagging_frames,
+            r.kept_last_safe,
+        );
+    }
+    s
+}
