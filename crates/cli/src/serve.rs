@@ -54,8 +54,8 @@ pub struct ServeArgs {
     pub record_dir: PathBuf,
     /// Another origin (`http(s)://host[:port]`) whose pages may use the server, e.g. when it
     /// is reached through a host name or a proxy; repeatable. The served address itself
-    /// (127.0.0.1, localhost, [::1] with the port) is always allowed; every other Host or
-    /// Origin is refused (403).
+    /// (127.0.0.1, localhost and the IPv6 loopback, with the port) is always allowed; any
+    /// other Host or Origin is refused (403).
     #[arg(long, value_name = "URL")]
     pub allow_origin: Vec<String>,
     /// Directory of the page's npm install (holding node_modules/three); defaults to the
