@@ -32,21 +32,37 @@ pub struct ServeArgs {
     /// Do not start the UDP device bridge.
     #[arg(long)]
     pub no_udp: bool,
-    /// A UDP device silent this long is released (zero force), ms.
+    /// A UDP device silent this long is released (zero force) and its session ends, ms
+    /// (10 to 10000).
     #[arg(long, default_value_t = viewer::protocol::DEFAULT_TIMEOUT_MS)]
     pub udp_timeout_ms: u64,
     /// Record the device trajectory of the whole session to this CSV
     /// (`t,x,y,z,gamma,beta,alpha`; replay with `haptic6d run SCENE --trajectory FILE`).
+    /// Written to a temporary file beside it and moved into place when the server stops
+    /// (Ctrl-C, SIGTERM, --duration); an existing FILE is refused unless --force.
     #[arg(long, value_name = "FILE.csv")]
     pub record: Option<PathBuf>,
-    /// Directory for recordings started from the page.
+    /// Let --record replace an existing file (when the recording ends, not before).
+    #[arg(long)]
+    pub force: bool,
+    /// Let the page start and stop recordings (off by default: the record button is hidden
+    /// and the server ignores the page's record commands).
+    #[arg(long)]
+    pub allow_page_recording: bool,
+    /// Directory for recordings started from the page (with --allow-page-recording).
     #[arg(long, default_value = ".")]
     pub record_dir: PathBuf,
+    /// Another origin (`http(s)://host[:port]`) whose pages may use the server, e.g. when it
+    /// is reached through a host name or a proxy; repeatable. The served address itself
+    /// (127.0.0.1, localhost and the IPv6 loopback, with the port) is always allowed; any
+    /// other Host or Origin is refused (403).
+    #[arg(long, value_name = "URL")]
+    pub allow_origin: Vec<String>,
     /// Directory of the page's npm install (holding node_modules/three); defaults to the
     /// source tree's crates/viewer/web.
     #[arg(long)]
     pub web_dir: Option<PathBuf>,
-    /// Haptic rate, Hz.
+    /// Haptic rate, Hz (100 to 10000).
     #[arg(long, default_value_t = 1000.0)]
     pub rate: f64,
     /// Run the haptic thread with real-time priority (`SCHED_FIFO` at this priority, 1-99;
@@ -54,10 +70,10 @@ pub struct ServeArgs {
     /// page and the server on a small machine).
     #[arg(long, value_name = "PRIORITY")]
     pub rt_priority: Option<i32>,
-    /// State stream rate to the page, Hz.
+    /// State stream rate to the page, Hz (1 to 240).
     #[arg(long, default_value_t = 60.0)]
     pub display_hz: f64,
-    /// Stop after this many seconds (default: run until Ctrl-C).
+    /// Stop after this many seconds (at most 30 days; default: run until Ctrl-C or SIGTERM).
     #[arg(long)]
     pub duration: Option<f64>,
     /// Print a machine-readable summary (JSON) on stdout when the server stops.
@@ -65,13 +81,107 @@ pub struct ServeArgs {
     pub json: bool,
 }
 
-/// Runs `haptic6d serve`.
-pub fn run(args: ServeArgs) -> Result<()> {
-    if let Some(d) = args.duration {
-        if !(d.is_finite() && d > 0.0) {
-            bail!("--duration must be a positive number of seconds, got {d}");
+/// Longest `--duration` (s): 30 days.
+const MAX_DURATION_S: f64 = 30.0 * 86_400.0;
+
+/// Checks every flag before anything starts; the error names the flag and what is wrong.
+/// Returns the run time limit.
+fn validate(args: &ServeArgs) -> Result<Option<Duration>> {
+    let duration = match args.duration {
+        None => None,
+        Some(d) if d.is_finite() && d > 0.0 && d <= MAX_DURATION_S => {
+            Some(Duration::try_from_secs_f64(d).context("--duration")?)
+        }
+        Some(d) => bail!(
+            "--duration must be a number of seconds in (0, {MAX_DURATION_S}] (30 days), got {}",
+            viewer::error::show_number(d)
+        ),
+    };
+    LoopParams {
+        rate_hz: args.rate,
+        rt_priority: args.rt_priority,
+        ..LoopParams::default()
+    }
+    .validate()?;
+    if !args.no_udp {
+        BridgeParams {
+            addr: SocketAddr::new(args.bind, args.udp_port),
+            timeout: Duration::from_millis(args.udp_timeout_ms),
+        }
+        .validate()?;
+    }
+    WebParams {
+        display_hz: args.display_hz,
+        record_dir: args.record_dir.clone(),
+        addr: SocketAddr::new(args.bind, args.port),
+        allowed_origins: args.allow_origin.clone(),
+        allow_page_recording: args.allow_page_recording,
+        ..WebParams::default()
+    }
+    .validate()?;
+    if args.force && args.record.is_none() {
+        bail!("--force applies to --record FILE, which is not given");
+    }
+    if let Some(path) = &args.record {
+        match std::fs::symlink_metadata(path) {
+            Ok(m) if !m.file_type().is_file() => {
+                bail!("--record {} exists and is not a regular file", path.display())
+            }
+            Ok(_) if !args.force => bail!(
+                "--record {} already exists; choose another file or pass --force to replace it when the recording ends",
+                path.display()
+            ),
+            _ => {}
+        }
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => std::path::Path::new("."),
+        };
+        if !dir.is_dir() {
+            bail!(
+                "--record {}: the directory {} does not exist",
+                path.display(),
+                dir.display()
+            );
         }
     }
+    Ok(duration)
+}
+
+/// Resolves when the server should stop: after `duration`, on Ctrl-C (SIGINT) or on SIGTERM.
+async fn stop_signal(duration: Option<Duration>) {
+    let limit = async {
+        match duration {
+            Some(d) => tokio::time::sleep(d).await,
+            None => std::future::pending().await,
+        }
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = limit => {}
+        _ = term => {}
+        r = tokio::signal::ctrl_c() => {
+            if r.is_err() {
+                // No Ctrl-C handler could be installed: rely on the other two.
+                std::future::pending::<()>().await;
+            }
+        }
+    }
+}
+
+/// Runs `haptic6d serve`.
+pub fn run(args: ServeArgs) -> Result<()> {
+    let duration = validate(&args)?;
     let web_dir = args.web_dir.clone().unwrap_or_else(server::default_web_dir);
     if !web_dir
         .join("node_modules/three/build/three.module.js")
@@ -95,9 +205,6 @@ pub fn run(args: ServeArgs) -> Result<()> {
         },
     )?;
     let haptic = Arc::new(haptic);
-    if let Some(path) = &args.record {
-        haptic.start_recording(path)?;
-    }
     let bridge = if args.no_udp {
         None
     } else {
@@ -115,12 +222,6 @@ pub fn run(args: ServeArgs) -> Result<()> {
         .enable_all()
         .build()
         .context("cannot start the async runtime")?;
-    let params = WebParams {
-        web_dir,
-        display_hz: args.display_hz,
-        record_dir: args.record_dir.clone(),
-    };
-    let duration = args.duration;
     let json = args.json;
     // With --json, stdout carries only the final summary; the startup lines go to stderr.
     let say = move |line: String| {
@@ -135,6 +236,22 @@ pub fn run(args: ServeArgs) -> Result<()> {
         let local = listener
             .local_addr()
             .context("cannot read the bound address")?;
+        let router = server::router(
+            haptic.clone(),
+            WebParams {
+                web_dir,
+                display_hz: args.display_hz,
+                record_dir: args.record_dir.clone(),
+                addr: local,
+                allowed_origins: args.allow_origin.clone(),
+                allow_page_recording: args.allow_page_recording,
+            },
+        )?;
+        // Every port is bound: only now is the recording's file created (beside the target;
+        // the target itself is only replaced when the recording ends).
+        if let Some(path) = &args.record {
+            haptic.start_recording(path, args.force)?;
+        }
         say(format!(
             "haptic6d serve: scene {} at {:.0} Hz; open http://{local}/",
             scene.name, args.rate
@@ -156,16 +273,21 @@ pub fn run(args: ServeArgs) -> Result<()> {
                 format!("haptic thread: SCHED_FIFO priority {p} refused (no privilege?); normal priority")
             });
         }
-        let router = server::router(haptic.clone(), params);
-        let shutdown = async move {
-            match duration {
-                Some(d) => tokio::time::sleep(Duration::from_secs_f64(d)).await,
-                None => {
-                    let _ = tokio::signal::ctrl_c().await;
+        let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
+        let serving = server::run(listener, router, async move {
+            let _ = stop_rx.await;
+        });
+        tokio::pin!(serving);
+        tokio::select! {
+            r = &mut serving => r?,
+            _ = stop_signal(duration) => {
+                let _ = stop_tx.send(());
+                // Open pages may hold connections: give them a moment, then stop regardless.
+                if let Ok(r) = tokio::time::timeout(Duration::from_secs(2), &mut serving).await {
+                    r?;
                 }
             }
-        };
-        server::run(listener, router, shutdown).await?;
+        }
         anyhow::Ok(())
     })?;
     if let Some(b) = bridge {

@@ -1,6 +1,6 @@
-//! A device program for the haptic6d UDP bridge (protocol v1, docs/VIEWER.md), standing in for
+//! A device program for the haptic6d UDP bridge (protocol v2, docs/VIEWER.md), standing in for
 //! a real device SDK loop (OpenHaptics, Force Dimension, libnifalcon): it learns where the tool
-//! is (a PROBE), then streams POSEs at 1 kHz moving the tool along one axis and back
+//! is (a PROBE), opens a session (HELLO), then streams POSEs at 1 kHz moving the tool along one axis and back
 //! (a raised cosine), and renders the WRENCHes it gets back — here it prints them and keeps
 //! round-trip statistics. With no WRENCH for `--timeout` ms it renders zero force.
 //!
@@ -114,6 +114,20 @@ fn main() {
         ping(&mut client, o.ping);
         return;
     }
+    match client.open_session(Duration::from_secs(1)) {
+        Ok(true) => {}
+        Ok(false) => {
+            eprintln!(
+                "error: the bridge at {} did not grant a session (another device program owns it?)",
+                o.server
+            );
+            std::process::exit(1);
+        }
+        Err(e) => {
+            eprintln!("error: cannot send HELLO: {e}");
+            std::process::exit(1);
+        }
+    }
     let distance = o
         .distance
         .unwrap_or(if start[o.axis] > 0.0 { -80.0 } else { 80.0 });
@@ -148,6 +162,12 @@ fn main() {
             if let Some(r) = client.round_trip() {
                 rtt_us.push(r.as_secs_f64() * 1e6);
             }
+        }
+        if !client.has_session() {
+            // Timed out (e.g. this program stalled): the server dropped the session. A real
+            // device program would re-engage deliberately; here, open a new one (the force
+            // ramps up from zero again).
+            let _ = client.hello();
         }
         // What a device loop would command to its motors:
         let (force, torque) = client.wrench(Instant::now());

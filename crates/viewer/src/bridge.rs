@@ -2,9 +2,13 @@
 //! drives the haptic loop with them and answers each with a WRENCH; and [`BridgeClient`], the
 //! device program's side. The protocol is in [`crate::protocol`] and docs/VIEWER.md.
 //!
-//! Safety rule: a device whose POSE stream stops for longer than the timeout is released —
+//! Safety rules: a device whose POSE stream stops for longer than the timeout is released —
 //! the haptic thread holds it at the graphic pose, so force and torque go to zero — and the
 //! client, for its part, renders zero force when no WRENCH arrived within its own timeout.
+//! POSEs drive the loop only inside a session that the client opened with HELLO; a timeout or
+//! BYE ends the session, so a stale or delayed POSE can never re-engage the device: the client
+//! must say HELLO again, and the force then ramps up from zero (the render pipeline's soft
+//! start on every engagement, see [`crate::RenderSim`]).
 
 use std::io;
 use std::net::{SocketAddr, UdpSocket};
@@ -18,8 +22,8 @@ use collide::Pose;
 use crate::error::ViewerError;
 use crate::hub::{InputHub, InputSource, StateHub};
 use crate::protocol::{
-    decode, encode_bye, flags, seq_newer, Header, Kind, Message, PoseMsg, WrenchMsg, BYE_LEN,
-    POSE_LEN, WRENCH_LEN,
+    decode, encode_bye, encode_hello, flags, seq_newer, Header, Kind, Message, PoseMsg, WrenchMsg,
+    BYE_LEN, HELLO_LEN, POSE_LEN, WRENCH_LEN,
 };
 
 /// Bridge settings.
@@ -27,8 +31,29 @@ use crate::protocol::{
 pub struct BridgeParams {
     /// Address to bind (e.g. `127.0.0.1:8081`; port 0 picks a free one).
     pub addr: SocketAddr,
-    /// A device whose POSE stream is silent this long is released (zero force).
+    /// A device whose POSE stream is silent this long is released (zero force) and its
+    /// session ends; [`BridgeParams::MIN_TIMEOUT`] ..= [`BridgeParams::MAX_TIMEOUT`].
     pub timeout: Duration,
+}
+
+impl BridgeParams {
+    /// Shortest accepted timeout (10 ms: ten haptic frames at 1 kHz).
+    pub const MIN_TIMEOUT: Duration = Duration::from_millis(10);
+    /// Longest accepted timeout (10 s): a silent device must not hold force longer.
+    pub const MAX_TIMEOUT: Duration = Duration::from_secs(10);
+
+    /// Checks the settings; the error names the CLI flag and the accepted range.
+    pub fn validate(&self) -> Result<(), ViewerError> {
+        if self.timeout < Self::MIN_TIMEOUT || self.timeout > Self::MAX_TIMEOUT {
+            return Err(ViewerError::Params(format!(
+                "--udp-timeout-ms must be between {} and {} ms, got {} ms",
+                Self::MIN_TIMEOUT.as_millis(),
+                Self::MAX_TIMEOUT.as_millis(),
+                self.timeout.as_millis()
+            )));
+        }
+        Ok(())
+    }
 }
 
 /// Counters of what the bridge did, readable while it runs.
@@ -40,8 +65,13 @@ pub struct BridgeStats {
     pub stale: AtomicU64,
     /// Datagrams that failed to decode.
     pub malformed: AtomicU64,
-    /// POSE datagrams refused because another client owns the bridge.
+    /// POSE and HELLO datagrams refused because another client owns the bridge.
     pub busy: AtomicU64,
+    /// POSE datagrams not applied because their sender had no session (never opened, timed
+    /// out, or ended by BYE).
+    pub no_session: AtomicU64,
+    /// Sessions opened (HELLOs accepted).
+    pub sessions: AtomicU64,
     /// Times a client timed out.
     pub timeouts: AtomicU64,
 }
@@ -56,12 +86,14 @@ pub struct UdpBridge {
 
 impl UdpBridge {
     /// Binds `params.addr` and starts the bridge thread (`haptic6d-udp`), feeding `input` and
-    /// answering from `state`.
+    /// answering from `state`. Fails on invalid parameters ([`BridgeParams::validate`]) or when
+    /// the address cannot be bound.
     pub fn spawn(
         params: &BridgeParams,
         input: Arc<InputHub>,
         state: Arc<StateHub>,
     ) -> Result<Self, ViewerError> {
+        params.validate()?;
         let bind_err = |source| ViewerError::Bind {
             what: "UDP bridge",
             addr: params.addr.to_string(),
@@ -149,7 +181,9 @@ impl Server {
             let now = Instant::now();
             if let Some(o) = &self.owner {
                 if now.duration_since(o.last_rx) > self.timeout {
-                    // The loop already releases on the command's expiry; free the bridge too.
+                    // The loop already released on the command's expiry; end the session, so
+                    // that only a fresh HELLO can drive the device again.
+                    self.input.release(InputSource::Udp);
                     self.owner = None;
                     self.stats.timeouts.fetch_add(1, Ordering::Relaxed);
                 }
@@ -169,6 +203,7 @@ impl Server {
             };
             match decode(&buf[..n]) {
                 Ok(Message::Pose(p)) => self.on_pose(p, from),
+                Ok(Message::Hello(h)) => self.on_hello(h, from),
                 Ok(Message::Bye(_)) => {
                     if self.owner.as_ref().is_some_and(|o| o.addr == from) {
                         self.input.release(InputSource::Udp);
@@ -185,16 +220,36 @@ impl Server {
         }
     }
 
+    /// HELLO: open a session for `from` if the bridge is free (or `from` already owns it: a
+    /// new session then replaces the old one, releasing the device first).
+    fn on_hello(&mut self, h: Header, from: SocketAddr) {
+        if self.owner.as_ref().is_some_and(|o| o.addr != from) {
+            self.stats.busy.fetch_add(1, Ordering::Relaxed);
+            self.reply(&h, from, flags::BUSY | flags::RELEASED, false);
+            return;
+        }
+        if self.owner.is_some() {
+            self.input.release(InputSource::Udp);
+        }
+        self.owner = Some(Owner {
+            addr: from,
+            last_seq: h.seq,
+            last_rx: Instant::now(),
+        });
+        self.stats.sessions.fetch_add(1, Ordering::Relaxed);
+        self.reply(&h, from, flags::SESSION | flags::RELEASED, false);
+    }
+
     fn on_pose(&mut self, p: PoseMsg, from: SocketAddr) {
         let now = Instant::now();
         if p.header.flags & flags::PROBE != 0 {
-            self.reply(&p, from, flags::RELEASED, false);
+            self.reply(&p.header, from, flags::RELEASED, false);
             return;
         }
         match &mut self.owner {
             Some(o) if o.addr != from => {
                 self.stats.busy.fetch_add(1, Ordering::Relaxed);
-                self.reply(&p, from, flags::BUSY | flags::RELEASED, false);
+                self.reply(&p.header, from, flags::BUSY | flags::RELEASED, false);
                 return;
             }
             Some(o) => {
@@ -206,11 +261,11 @@ impl Server {
                 o.last_rx = now;
             }
             None => {
-                self.owner = Some(Owner {
-                    addr: from,
-                    last_seq: p.header.seq,
-                    last_rx: now,
-                });
+                // No session (never opened, timed out, or ended): never applied, whatever its
+                // sequence number; the client must open a new session with HELLO.
+                self.stats.no_session.fetch_add(1, Ordering::Relaxed);
+                self.reply(&p.header, from, flags::NO_SESSION | flags::RELEASED, false);
+                return;
             }
         }
         let applied = self
@@ -224,10 +279,11 @@ impl Server {
         if applied {
             self.stats.accepted.fetch_add(1, Ordering::Relaxed);
         }
-        self.reply(&p, from, 0, applied);
+        self.reply(&p.header, from, 0, applied);
     }
 
-    fn reply(&mut self, p: &PoseMsg, to: SocketAddr, extra: u16, applied: bool) {
+    /// Answers the datagram with header `req` (a POSE or HELLO) with a WRENCH.
+    fn reply(&mut self, req: &Header, to: SocketAddr, extra: u16, applied: bool) {
         self.seq = self.seq.wrapping_add(1);
         let mut msg = self.state.with_latest(|s| {
             let ours = applied && !s.released && s.source == InputSource::Udp as u8;
@@ -243,8 +299,8 @@ impl Server {
                     kind: Kind::Wrench,
                     flags: fl,
                     seq: 0,
-                    ack: p.header.seq,
-                    time_us: p.header.time_us,
+                    ack: req.seq,
+                    time_us: req.time_us,
                 },
                 force: if ours { s.force } else { [0.0; 3] },
                 torque: if ours { s.torque } else { [0.0; 3] },
@@ -269,6 +325,8 @@ pub struct BridgeClient {
     timeout: Duration,
     epoch: Instant,
     last: Option<(Instant, WrenchMsg)>,
+    hello_seq: Option<u32>,
+    session: bool,
 }
 
 impl BridgeClient {
@@ -298,10 +356,53 @@ impl BridgeClient {
             timeout,
             epoch: Instant::now(),
             last: None,
+            hello_seq: None,
+            session: false,
         })
     }
 
-    /// Sends the device pose `q` (mm, rad); returns its sequence number.
+    /// Sends a HELLO asking for a session; returns its sequence number. The answer arrives
+    /// through [`Self::poll`]; [`Self::has_session`] then says whether it was granted.
+    pub fn hello(&mut self) -> io::Result<u32> {
+        self.seq = self.seq.wrapping_add(1);
+        let mut buf = [0u8; HELLO_LEN];
+        let n = encode_hello(self.seq, self.epoch.elapsed().as_micros() as u64, &mut buf);
+        self.socket.send_to(&buf[..n], self.server)?;
+        self.hello_seq = Some(self.seq);
+        self.session = false;
+        Ok(self.seq)
+    }
+
+    /// Sends a HELLO and waits up to `wait` for the answer (polling every millisecond);
+    /// returns whether a session was granted (false: the bridge is busy or did not answer).
+    pub fn open_session(&mut self, wait: Duration) -> io::Result<bool> {
+        let seq = self.hello()?;
+        let end = Instant::now() + wait;
+        loop {
+            self.poll()?;
+            if self.session {
+                return Ok(true);
+            }
+            if let Some((_, w)) = &self.last {
+                if w.header.ack == seq && w.header.flags & flags::BUSY != 0 {
+                    return Ok(false);
+                }
+            }
+            if Instant::now() >= end {
+                return Ok(false);
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
+    /// True while this client holds a session: its HELLO was answered with `SESSION` and no
+    /// answer since said `NO_SESSION`.
+    pub fn has_session(&self) -> bool {
+        self.session
+    }
+
+    /// Sends the device pose `q` (mm, rad); returns its sequence number. Applied only inside
+    /// a session ([`Self::open_session`]); otherwise answered with `NO_SESSION`.
     pub fn send_pose(&mut self, q: [f64; 6]) -> io::Result<u32> {
         self.send(q, 0)
     }
@@ -347,6 +448,14 @@ impl BridgeClient {
                             .as_ref()
                             .is_none_or(|(_, l)| !seq_newer(l.header.ack, w.header.ack));
                         if newer {
+                            if w.header.flags & flags::SESSION != 0
+                                && self.hello_seq == Some(w.header.ack)
+                            {
+                                self.session = true;
+                            }
+                            if w.header.flags & flags::NO_SESSION != 0 {
+                                self.session = false;
+                            }
                             self.last = Some((Instant::now(), w));
                             got = Some(w);
                         }
@@ -386,8 +495,9 @@ impl BridgeClient {
         }
     }
 
-    /// Tells the server to release the device now.
+    /// Tells the server to release the device now and end the session.
     pub fn bye(&mut self) -> io::Result<()> {
+        self.session = false;
         self.seq = self.seq.wrapping_add(1);
         let mut buf = [0u8; BYE_LEN];
         let n = encode_bye(self.seq, &mut buf);

@@ -26,16 +26,42 @@ pub enum ViewerError {
         /// The OS error.
         source: std::io::Error,
     },
+    /// The recording's file exists and overwriting was not asked for.
+    #[error("{path} already exists; choose another file or pass --force to replace it when the recording ends")]
+    RecordExists {
+        /// The CSV file.
+        path: PathBuf,
+    },
+    /// A finished recording could not be moved onto its file; the rows are kept elsewhere.
+    #[error("cannot put the recording in place at {path}: {source}; the rows are kept in {kept}")]
+    RecordNotMoved {
+        /// The CSV file asked for.
+        path: PathBuf,
+        /// The temporary file holding the complete recording.
+        kept: PathBuf,
+        /// The OS error (or `AlreadyExists` when the file appeared meanwhile).
+        source: std::io::Error,
+    },
     /// A recording was asked to stop while none runs.
     #[error("no recording is running (start one with --record FILE or the page's Record button)")]
     NotRecording,
     /// The recorder's writer thread is gone.
     #[error("the recorder's writer thread stopped unexpectedly; restart `haptic6d serve`")]
     RecorderGone,
-    /// The loop parameters are unusable.
-    #[error("invalid loop parameter: {0}")]
+    /// A setting is unusable (the text names the flag and what is wrong).
+    #[error("{0}")]
     Params(String),
     /// Serving failed.
     #[error("web server failed: {0}")]
     Serve(std::io::Error),
+}
+
+/// A number for an error message: plain when of ordinary size, in scientific notation when
+/// tiny or huge (`1e-30`, not thirty zeros).
+pub fn show_number(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && (x.abs() < 1e-4 || x.abs() >= 1e9) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
 }

@@ -18,14 +18,54 @@ use crate::sim::{FrameState, SceneGeometry, Simulation};
 /// Haptic loop settings.
 #[derive(Clone, Debug)]
 pub struct LoopParams {
-    /// Frame rate (Hz); 1000 by default.
+    /// Frame rate (Hz), [`LoopParams::MIN_RATE_HZ`] ..= [`LoopParams::MAX_RATE_HZ`]; 1000 by
+    /// default.
     pub rate_hz: f64,
-    /// How long before a deadline the thread stops sleeping and spins (µs); trades CPU for
-    /// timing precision. 150 by default.
+    /// How long before a deadline the thread stops sleeping and spins (µs), at most
+    /// [`LoopParams::MAX_SPIN_US`]; trades CPU for timing precision. 150 by default.
     pub spin_us: u64,
     /// Ask for `SCHED_FIFO` at this priority for the haptic thread (best effort, needs the
     /// privilege; see [`HapticLoop::realtime`]). `None` (the default) keeps the normal priority.
     pub rt_priority: Option<i32>,
+}
+
+impl LoopParams {
+    /// Lowest haptic rate accepted (Hz): below it a stiff contact cannot be rendered stably.
+    pub const MIN_RATE_HZ: f64 = 100.0;
+    /// Highest haptic rate accepted (Hz): ten times the usual 1 kHz; beyond it a frame's step
+    /// (tens of µs) no longer fits the period.
+    pub const MAX_RATE_HZ: f64 = 10_000.0;
+    /// Longest spin before a deadline (µs): 10 ms.
+    pub const MAX_SPIN_US: u64 = 10_000;
+
+    /// Checks the settings; the error names the CLI flag and the accepted range.
+    pub fn validate(&self) -> Result<(), ViewerError> {
+        if !(self.rate_hz.is_finite()
+            && (Self::MIN_RATE_HZ..=Self::MAX_RATE_HZ).contains(&self.rate_hz))
+        {
+            return Err(ViewerError::Params(format!(
+                "--rate must be between {} and {} Hz, got {}",
+                Self::MIN_RATE_HZ,
+                Self::MAX_RATE_HZ,
+                crate::error::show_number(self.rate_hz)
+            )));
+        }
+        if self.spin_us > Self::MAX_SPIN_US {
+            return Err(ViewerError::Params(format!(
+                "spin must be at most {} µs, got {}",
+                Self::MAX_SPIN_US,
+                self.spin_us
+            )));
+        }
+        if let Some(p) = self.rt_priority {
+            if !(1..=99).contains(&p) {
+                return Err(ViewerError::Params(format!(
+                    "--rt-priority must be between 1 and 99, got {p}"
+                )));
+            }
+        }
+        Ok(())
+    }
 }
 
 impl Default for LoopParams {
@@ -79,13 +119,10 @@ impl HapticLoop {
         mut sim: S,
         params: &LoopParams,
     ) -> Result<(Self, ManualFrames<S>), ViewerError> {
-        if !(params.rate_hz.is_finite() && params.rate_hz > 0.0 && params.rate_hz <= 100_000.0) {
-            return Err(ViewerError::Params(format!(
-                "rate {} Hz is outside (0, 100000]",
-                params.rate_hz
-            )));
-        }
-        let period = Duration::from_secs_f64(1.0 / params.rate_hz);
+        params.validate()?;
+        // In range after validation: 100 µs ..= 10 ms.
+        let period = Duration::try_from_secs_f64(1.0 / params.rate_hz)
+            .map_err(|e| ViewerError::Params(format!("--rate {}: {e}", params.rate_hz)))?;
         let scene = Arc::new(sim.scene());
         let start = sim.start_pose();
         sim.reset(&start);
@@ -161,9 +198,11 @@ impl HapticLoop {
         self.period
     }
 
-    /// Starts recording the device trajectory to `path` (trajectory CSV).
-    pub fn start_recording(&self, path: &Path) -> Result<(), ViewerError> {
-        self.recorder.start(path)
+    /// Starts recording the device trajectory to `path` (trajectory CSV). The rows go to a
+    /// temporary file beside `path`, renamed onto `path` when the recording stops; an existing
+    /// `path` is refused unless `overwrite` (and even then stays intact until the stop).
+    pub fn start_recording(&self, path: &Path, overwrite: bool) -> Result<(), ViewerError> {
+        self.recorder.start(path, overwrite)
     }
 
     /// Stops the running recording and waits for the file to be complete.

@@ -9,14 +9,17 @@
 //!   [`HapticLoop::manual`] gives the same frame body ([`ManualFrames`]) without the thread.
 //! - [`RenderSim`]: the real pipeline (render's god-object step + safety filter) as a
 //!   [`Simulation`].
-//! - [`server::router`]: the axum app (page, scene, WebSocket state stream at display rate).
+//! - [`server::router`]: the axum app (page, scene, WebSocket state stream at display rate),
+//!   guarded by [`guard`] (Host/Origin checks) and [`pages`] (one page owns the device).
 //! - [`UdpBridge`] / [`BridgeClient`]: the UDP device bridge ([`protocol`], version 1).
 #![warn(missing_docs)]
 
 pub mod bridge;
 pub mod error;
+pub mod guard;
 pub mod haptic;
 pub mod hub;
+pub mod pages;
 pub mod protocol;
 pub mod recorder;
 pub mod render_sim;

@@ -1,12 +1,12 @@
-//! The UDP device bridge protocol, version 1 (the normative text is in docs/VIEWER.md).
+//! The UDP device bridge protocol, version 2 (the normative text is in docs/VIEWER.md).
 //!
 //! Every datagram is little-endian and starts with the same 24-byte header:
 //!
 //! | offset | type | field |
 //! |---|---|---|
 //! | 0 | `[u8; 4]` | magic `b"H6DB"` |
-//! | 4 | `u8` | version, [`VERSION`] = 1 |
-//! | 5 | `u8` | kind: 1 [`Kind::Pose`], 2 [`Kind::Wrench`], 3 [`Kind::Bye`] |
+//! | 4 | `u8` | version, [`VERSION`] = 2 |
+//! | 5 | `u8` | kind: 1 [`Kind::Pose`], 2 [`Kind::Wrench`], 3 [`Kind::Bye`], 4 [`Kind::Hello`] |
 //! | 6 | `u16` | flags (see [`flags`]) |
 //! | 8 | `u32` | `seq`: the sender's sequence number, +1 per datagram, wrapping |
 //! | 12 | `u32` | `ack`: in a WRENCH, the `seq` of the newest POSE applied; 0 otherwise |
@@ -14,12 +14,17 @@
 //!
 //! POSE (72 bytes) carries `q = (x, y, z, gamma, beta, alpha)` as 6 `f64` (mm, rad).
 //! WRENCH (128 bytes) carries force (3 `f64`, N), torque (3 `f64`, N·mm), the graphic pose
-//! (6 `f64`, mm, rad), the pair count (`u32`) and 4 reserved bytes. BYE is the header alone.
+//! (6 `f64`, mm, rad), the pair count (`u32`) and 4 reserved bytes. BYE and HELLO are the
+//! header alone.
+//!
+//! Version 2 added sessions: a device program opens one with HELLO before its POSEs are
+//! applied, and needs a new one after a timeout or BYE (version 1 applied the first POSE from
+//! anyone, so a stale datagram arriving after a timeout re-engaged the device).
 
 /// Protocol magic, the first four bytes of every datagram.
 pub const MAGIC: [u8; 4] = *b"H6DB";
 /// Protocol version carried in byte 4.
-pub const VERSION: u8 = 1;
+pub const VERSION: u8 = 2;
 /// Header size (bytes).
 pub const HEADER_LEN: usize = 24;
 /// POSE datagram size (bytes).
@@ -28,6 +33,8 @@ pub const POSE_LEN: usize = HEADER_LEN + 48;
 pub const WRENCH_LEN: usize = HEADER_LEN + 104;
 /// BYE datagram size (bytes).
 pub const BYE_LEN: usize = HEADER_LEN;
+/// HELLO datagram size (bytes).
+pub const HELLO_LEN: usize = HEADER_LEN;
 /// Default server-side timeout (ms): no fresh POSE for this long releases the device (zero force).
 pub const DEFAULT_TIMEOUT_MS: u64 = 100;
 
@@ -40,6 +47,12 @@ pub mod flags {
     pub const CONTACT: u16 = 1 << 1;
     /// WRENCH: the last POSE was not applied because another client owns the bridge.
     pub const BUSY: u16 = 1 << 2;
+    /// WRENCH: the last POSE was not applied because its sender has no session (none opened
+    /// yet, or it timed out or said BYE): send HELLO to open one.
+    pub const NO_SESSION: u16 = 1 << 3;
+    /// WRENCH: the answer to a HELLO that opened a session; POSEs with a `seq` newer than the
+    /// HELLO's are applied from now on.
+    pub const SESSION: u16 = 1 << 4;
     /// POSE: a probe — do not apply the pose, only answer with the current state (graphic pose,
     /// RELEASED set). Lets a device program learn where the tool is before it engages.
     pub const PROBE: u16 = 1 << 8;
@@ -53,8 +66,11 @@ pub enum Kind {
     Pose = 1,
     /// Server → client: the wrench to render and the graphic pose.
     Wrench = 2,
-    /// Client → server: release the device now (zero force) and free the bridge.
+    /// Client → server: release the device now (zero force), end the session, free the bridge.
     Bye = 3,
+    /// Client → server: open a session (take the bridge if it is free); answered with a
+    /// WRENCH carrying [`flags::SESSION`] (or [`flags::BUSY`]).
+    Hello = 4,
 }
 
 /// The header fields common to every datagram.
@@ -105,6 +121,8 @@ pub enum Message {
     Wrench(WrenchMsg),
     /// Release (client → server).
     Bye(Header),
+    /// Open a session (client → server).
+    Hello(Header),
 }
 
 /// Why a datagram was rejected.
@@ -122,7 +140,7 @@ pub enum DecodeError {
     #[error("bad magic (not a haptic6d bridge datagram)")]
     Magic,
     /// A version this build does not speak.
-    #[error("protocol version {0} is not supported (this build speaks version 1)")]
+    #[error("protocol version {0} is not supported (this build speaks version 2)")]
     Version(u8),
     /// An unknown kind byte.
     #[error("unknown datagram kind {0}")]
@@ -210,6 +228,21 @@ pub fn encode_bye(seq: u32, buf: &mut [u8; BYE_LEN]) -> usize {
     BYE_LEN
 }
 
+/// Encodes a HELLO datagram (`time_us`: the client's clock, echoed in the answer).
+pub fn encode_hello(seq: u32, time_us: u64, buf: &mut [u8; HELLO_LEN]) -> usize {
+    put_header(
+        buf,
+        &Header {
+            kind: Kind::Hello,
+            flags: 0,
+            seq,
+            ack: 0,
+            time_us,
+        },
+    );
+    HELLO_LEN
+}
+
 /// Decodes one datagram, checking magic, version, kind, exact length and finiteness.
 pub fn decode(buf: &[u8]) -> Result<Message, DecodeError> {
     if buf.len() < HEADER_LEN {
@@ -228,12 +261,14 @@ pub fn decode(buf: &[u8]) -> Result<Message, DecodeError> {
         1 => Kind::Pose,
         2 => Kind::Wrench,
         3 => Kind::Bye,
+        4 => Kind::Hello,
         k => return Err(DecodeError::Kind(k)),
     };
     let expected = match kind {
         Kind::Pose => POSE_LEN,
         Kind::Wrench => WRENCH_LEN,
         Kind::Bye => BYE_LEN,
+        Kind::Hello => HELLO_LEN,
     };
     if buf.len() != expected {
         return Err(DecodeError::Length {
@@ -281,6 +316,7 @@ pub fn decode(buf: &[u8]) -> Result<Message, DecodeError> {
             }))
         }
         Kind::Bye => Ok(Message::Bye(header)),
+        Kind::Hello => Ok(Message::Hello(header)),
     }
 }
 
@@ -314,7 +350,7 @@ mod tests {
         let mut buf = [0u8; POSE_LEN];
         assert_eq!(m.encode(&mut buf), POSE_LEN);
         assert_eq!(&buf[0..4], b"H6DB");
-        assert_eq!(buf[4], 1);
+        assert_eq!(buf[4], 2);
         assert_eq!(buf[5], 1);
         // Little-endian seq at offset 8.
         assert_eq!(&buf[8..12], &[0xef, 0xbe, 0xad, 0xde]);
@@ -358,14 +394,34 @@ mod tests {
         bad[0] = b'X';
         assert_eq!(decode(&bad), Err(DecodeError::Magic));
         let mut bad = buf;
-        bad[4] = 2;
-        assert_eq!(decode(&bad), Err(DecodeError::Version(2)));
+        bad[4] = 1;
+        assert_eq!(decode(&bad), Err(DecodeError::Version(1)));
         let mut bad = buf;
         bad[5] = 9;
         assert_eq!(decode(&bad), Err(DecodeError::Kind(9)));
         let mut bad = buf;
         bad[HEADER_LEN + 16..HEADER_LEN + 24].copy_from_slice(&f64::NAN.to_le_bytes());
         assert_eq!(decode(&bad), Err(DecodeError::NotFinite));
+    }
+
+    #[test]
+    fn hello_round_trips_and_has_one_length() {
+        let mut buf = [0u8; HELLO_LEN];
+        assert_eq!(encode_hello(77, 5_000, &mut buf), HELLO_LEN);
+        assert_eq!(buf[5], 4);
+        let Ok(Message::Hello(h)) = decode(&buf) else {
+            panic!("not a hello: {:?}", decode(&buf))
+        };
+        assert_eq!((h.kind, h.seq, h.time_us), (Kind::Hello, 77, 5_000));
+        let mut long = buf.to_vec();
+        long.push(0);
+        assert_eq!(
+            decode(&long),
+            Err(DecodeError::Length {
+                got: HELLO_LEN + 1,
+                expected: HELLO_LEN
+            })
+        );
     }
 
     #[test]

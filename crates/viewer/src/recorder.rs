@@ -4,9 +4,14 @@
 //! The haptic thread pushes one [`Sample`] per frame into a wait-free ring while a recording
 //! runs; a writer thread turns them into CSV rows. `t` is `frame_index * dt` counted from the
 //! first recorded frame, so a replay at the same rate sees the same poses frame for frame.
+//!
+//! Nothing a user has is lost: the rows go to a temporary file beside the target
+//! (`.NAME.PID-K.partial`, created new), written in whole rows only and flushed every 20 ms;
+//! when the recording stops the file is synced and renamed onto the target. An existing target
+//! is refused unless overwriting was asked for, and even then it is untouched until the end.
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::fs::{File, OpenOptions};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::mpsc;
@@ -49,7 +54,9 @@ enum Control {
     Start {
         session: u32,
         path: PathBuf,
-        file: BufWriter<File>,
+        tmp: PathBuf,
+        overwrite: bool,
+        file: RowWriter,
     },
     Stop {
         reply: mpsc::Sender<Result<RecordingSummary, ViewerError>>,
@@ -119,9 +126,12 @@ impl Recorder {
         ))
     }
 
-    /// Starts recording to `path` (created or truncated; the header is written at once). A
-    /// recording already running is stopped first.
-    pub fn start(&self, path: &Path) -> Result<(), ViewerError> {
+    /// Starts recording to `path`: the rows go to a new temporary file beside it (header
+    /// written at once), renamed onto `path` when the recording stops. An existing `path` is
+    /// refused ([`ViewerError::RecordExists`]) unless `overwrite`; a `path` that exists and is
+    /// not a regular file is always refused. A recording already running is stopped first.
+    pub fn start(&self, path: &Path, overwrite: bool) -> Result<(), ViewerError> {
+        check_target(path, overwrite)?;
         if self.is_recording() {
             self.stop()?;
         }
@@ -129,8 +139,13 @@ impl Recorder {
             path: path.to_path_buf(),
             source,
         };
-        let mut file = BufWriter::new(File::create(path).map_err(err)?);
-        writeln!(file, "t,x,y,z,gamma,beta,alpha").map_err(err)?;
+        let (tmp, file) = create_temp(path).map_err(err)?;
+        let mut file = RowWriter::new(file);
+        file.row(format_args!("t,x,y,z,gamma,beta,alpha"));
+        if let Err(e) = file.flush_rows() {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(err(e));
+        }
         let session = self.shared.session.load(Ordering::Acquire).wrapping_add(1);
         self.control
             .lock()
@@ -138,6 +153,8 @@ impl Recorder {
             .send(Control::Start {
                 session,
                 path: path.to_path_buf(),
+                tmp,
+                overwrite,
                 file,
             })
             .map_err(|_| ViewerError::RecorderGone)?;
@@ -201,10 +218,89 @@ impl Drop for Recorder {
     }
 }
 
+/// Refuses a target that exists (unless `overwrite`) or is not a regular file.
+fn check_target(path: &Path, overwrite: bool) -> Result<(), ViewerError> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if !m.file_type().is_file() => Err(ViewerError::Record {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "it exists and is not a regular file",
+            ),
+        }),
+        Ok(_) if !overwrite => Err(ViewerError::RecordExists {
+            path: path.to_path_buf(),
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// Creates a new temporary file beside `path`: `.NAME.PID-K.partial`.
+fn create_temp(path: &Path) -> std::io::Result<(PathBuf, File)> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "recording".into());
+    let mut k = 0u32;
+    loop {
+        let tmp = dir.join(format!(".{name}.{}-{k}.partial", std::process::id()));
+        match OpenOptions::new().write(true).create_new(true).open(&tmp) {
+            Ok(f) => return Ok((tmp, f)),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && k < 1000 => k += 1,
+            Err(e) => return Err(e),
+        }
+    }
+}
+
+/// Writes CSV rows to a file in whole rows: rows are formatted into a buffer that goes to the
+/// file only as a whole, so the file always ends at a row boundary.
+struct RowWriter {
+    file: File,
+    buf: Vec<u8>,
+}
+
+/// Buffered bytes that trigger a write (64 KiB ≈ 1 s of rows at 1 kHz).
+const ROW_BUF: usize = 64 * 1024;
+
+impl RowWriter {
+    fn new(file: File) -> Self {
+        Self {
+            file,
+            buf: Vec::with_capacity(ROW_BUF + 256),
+        }
+    }
+
+    /// Appends one row (without its newline).
+    fn row(&mut self, args: std::fmt::Arguments<'_>) {
+        // Writing into a Vec cannot fail.
+        let _ = self.buf.write_fmt(args);
+        self.buf.push(b'\n');
+    }
+
+    fn full(&self) -> bool {
+        self.buf.len() >= ROW_BUF
+    }
+
+    /// Writes the buffered rows to the file.
+    fn flush_rows(&mut self) -> std::io::Result<()> {
+        if !self.buf.is_empty() {
+            self.file.write_all(&self.buf)?;
+            self.buf.clear();
+        }
+        Ok(())
+    }
+}
+
 struct Open {
     session: u32,
     path: PathBuf,
-    file: BufWriter<File>,
+    tmp: PathBuf,
+    overwrite: bool,
+    file: RowWriter,
     first_frame: Option<u64>,
     rows: u64,
     dropped_at_start: u64,
@@ -219,32 +315,63 @@ impl Open {
         let first = *self.first_frame.get_or_insert(s.frame);
         let t = (s.frame.saturating_sub(first)) as f64 * dt;
         let q = s.q;
-        let r = writeln!(
-            self.file,
+        self.file.row(format_args!(
             "{t:.6},{},{},{},{},{},{}",
             q[0], q[1], q[2], q[3], q[4], q[5]
-        );
-        match r {
-            Ok(()) => self.rows += 1,
-            Err(e) => self.error = Some(e),
+        ));
+        self.rows += 1;
+        if self.file.full() {
+            self.flush();
         }
     }
 
-    fn finish(mut self, dropped_now: u64) -> Result<RecordingSummary, ViewerError> {
+    /// Writes the buffered rows (whole rows only); remembers the first error.
+    fn flush(&mut self) {
         if self.error.is_none() {
-            if let Err(e) = self.file.flush() {
+            if let Err(e) = self.file.flush_rows() {
                 self.error = Some(e);
             }
         }
-        match self.error {
-            Some(source) => Err(ViewerError::Record {
+    }
+
+    /// Flushes and syncs the temporary file and moves it onto the target.
+    fn finish(mut self, dropped_now: u64) -> Result<RecordingSummary, ViewerError> {
+        self.flush();
+        if self.error.is_none() {
+            if let Err(e) = self.file.file.sync_all() {
+                self.error = Some(e);
+            }
+        }
+        if let Some(source) = self.error {
+            return Err(ViewerError::RecordNotMoved {
                 path: self.path,
+                kept: self.tmp,
                 source,
-            }),
-            None => Ok(RecordingSummary {
+            });
+        }
+        drop(self.file);
+        let placed = if self.overwrite {
+            std::fs::rename(&self.tmp, &self.path)
+        } else {
+            // No-clobber: a hard link fails if the target appeared meanwhile.
+            match std::fs::hard_link(&self.tmp, &self.path) {
+                Ok(()) => std::fs::remove_file(&self.tmp),
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Err(e),
+                // A file system without hard links: check, then rename.
+                Err(_) if self.path.exists() => Err(std::io::ErrorKind::AlreadyExists.into()),
+                Err(_) => std::fs::rename(&self.tmp, &self.path),
+            }
+        };
+        match placed {
+            Ok(()) => Ok(RecordingSummary {
                 path: self.path,
                 rows: self.rows,
                 dropped: dropped_now - self.dropped_at_start,
+            }),
+            Err(source) => Err(ViewerError::RecordNotMoved {
+                path: self.path,
+                kept: self.tmp,
+                source,
             }),
         }
     }
@@ -280,11 +407,15 @@ fn writer_loop(
             Ok(Control::Start {
                 session,
                 path,
+                tmp,
+                overwrite,
                 file,
             }) => {
                 let mut o = Open {
                     session,
                     path,
+                    tmp,
+                    overwrite,
                     file,
                     first_frame: None,
                     rows: 0,
@@ -315,7 +446,12 @@ fn writer_loop(
                 }
                 return;
             }
-            Err(mpsc::RecvTimeoutError::Timeout) => {}
+            Err(mpsc::RecvTimeoutError::Timeout) => {
+                // Whole rows reach the file every tick (20 ms).
+                if let Some(o) = open.as_mut() {
+                    o.flush();
+                }
+            }
         }
     }
 }

@@ -22,6 +22,9 @@ pub struct RenderSim {
     probe_objects: Vec<PackedTree>,
     probe_ws: CollideWorkspace,
     probe_margin: f64,
+    /// Loop time (s) of the first frame of the current engagement (a live input after a
+    /// release); `None` while released. The safety filter's soft start counts from it.
+    engaged_at: Option<f64>,
     /// Frames whose step kept the last safe pose (numerical failure), since start.
     pub kept_last_safe: u64,
 }
@@ -83,6 +86,7 @@ impl RenderSim {
             probe_objects,
             probe_ws,
             probe_margin: scene.solver.skin_mm.max(0.05),
+            engaged_at: None,
             kept_last_safe: 0,
         })
     }
@@ -104,12 +108,26 @@ impl Simulation for RenderSim {
         self.start
     }
 
+    /// Every engagement (the first live frame after a release, a time-out, a new UDP session or
+    /// a reset) restarts the safety filter: its soft start runs again from that frame and its
+    /// rate limit starts from zero, so the force never jumps when a device (re-)engages.
+    ///
     /// # Real-time
     /// [`GodObject::step`] and [`Safety::filter`] (no allocation, bounded); when contacts are
     /// requested, one more traversal at the graphic pose into the pre-sized contact list.
     fn step(&mut self, device: &Pose, out: &mut FrameState) {
         let f = self.god.step(device);
-        let (sent, _flags) = self.safety.filter(out.t, f.wrench);
+        if out.released {
+            // The loop sends zero while released; the filter must start from zero too.
+            self.engaged_at = None;
+            self.safety = Safety::new(*self.safety.params());
+        }
+        let since = if out.released {
+            0.0
+        } else {
+            out.t - *self.engaged_at.get_or_insert(out.t)
+        };
+        let (sent, _flags) = self.safety.filter(since, f.wrench);
         if f.status == FrameStatus::KeptLastSafe {
             self.kept_last_safe += 1;
         }
@@ -146,6 +164,7 @@ impl Simulation for RenderSim {
             self.start = p;
         }
         self.safety = Safety::new(*self.safety.params());
+        self.engaged_at = None;
     }
 }
 

@@ -7,9 +7,15 @@
 //!   directory (`npm ci` in crates/viewer/web);
 //! - `GET /api/scene` — meshes (JSON, flat arrays, mm), sent once;
 //! - `GET /api/state` — the latest [`FrameState`] (JSON);
-//! - `GET /ws` — WebSocket: the server sends `{"type":"state",…}` at display rate; the page
-//!   sends `{"type":"pose","q":[x,y,z,gamma,beta,alpha]}`, `{"type":"release"}`,
+//! - `GET /ws` — WebSocket: the server sends `{"type":"state",…}` at display rate and
+//!   `{"type":"role",…}` whenever the page's role changes; the page sends
+//!   `{"type":"pose","q":[x,y,z,gamma,beta,alpha]}`, `{"type":"release"}`,
 //!   `{"type":"reset"}`, `{"type":"contacts","on":bool}`, `{"type":"record","on":bool}`.
+//!
+//! Security (docs/VIEWER.md): every request's `Host` and `Origin` are checked
+//! ([`crate::guard`]; refused with 403), one page owns the device at a time
+//! ([`crate::pages`]), and recording from the page is off unless
+//! [`WebParams::allow_page_recording`].
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -17,8 +23,9 @@ use std::sync::Arc;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
-use axum::extract::{Path as UrlPath, State};
-use axum::http::{header, StatusCode};
+use axum::extract::{Path as UrlPath, Request, State};
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::middleware::{self, Next};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use axum::Router;
@@ -26,8 +33,10 @@ use collide::Pose;
 use serde::{Deserialize, Serialize};
 
 use crate::error::ViewerError;
+use crate::guard::AccessPolicy;
 use crate::haptic::HapticLoop;
 use crate::hub::InputSource;
+use crate::pages::{PageSeats, Role};
 use crate::sim::{FrameState, NamedMesh, SceneGeometry};
 
 const INDEX_HTML: &str = include_str!("../web/index.html");
@@ -39,10 +48,18 @@ const STYLE_CSS: &str = include_str!("../web/style.css");
 pub struct WebParams {
     /// Directory holding `node_modules/three` (the npm install of crates/viewer/web).
     pub web_dir: PathBuf,
-    /// State stream rate (Hz), ~60.
+    /// State stream rate (Hz), [`WebParams::MIN_DISPLAY_HZ`] ..= [`WebParams::MAX_DISPLAY_HZ`].
     pub display_hz: f64,
     /// Where recordings started from the page are written.
     pub record_dir: PathBuf,
+    /// The address the server listens on (after binding, so port 0 is resolved): `Host` and
+    /// `Origin` must name it ([`crate::guard`]).
+    pub addr: SocketAddr,
+    /// Further origins allowed to use the server (`http(s)://host[:port]`, `--allow-origin`).
+    pub allowed_origins: Vec<String>,
+    /// Whether the page may start recordings (`--allow-page-recording`); off by default, the
+    /// server then ignores the page's record commands.
+    pub allow_page_recording: bool,
 }
 
 impl Default for WebParams {
@@ -51,7 +68,50 @@ impl Default for WebParams {
             web_dir: default_web_dir(),
             display_hz: 60.0,
             record_dir: PathBuf::from("."),
+            addr: SocketAddr::from(([127, 0, 0, 1], 8080)),
+            allowed_origins: Vec::new(),
+            allow_page_recording: false,
         }
+    }
+}
+
+impl WebParams {
+    /// Lowest state stream rate (Hz).
+    pub const MIN_DISPLAY_HZ: f64 = 1.0;
+    /// Highest state stream rate (Hz): no display refreshes faster.
+    pub const MAX_DISPLAY_HZ: f64 = 240.0;
+
+    /// Checks the settings; the error names the CLI flag and what is wrong.
+    pub fn validate(&self) -> Result<(), ViewerError> {
+        if !(self.display_hz.is_finite()
+            && (Self::MIN_DISPLAY_HZ..=Self::MAX_DISPLAY_HZ).contains(&self.display_hz))
+        {
+            return Err(ViewerError::Params(format!(
+                "--display-hz must be between {} and {} Hz, got {}",
+                Self::MIN_DISPLAY_HZ,
+                Self::MAX_DISPLAY_HZ,
+                crate::error::show_number(self.display_hz)
+            )));
+        }
+        if self.allow_page_recording && !self.record_dir.is_dir() {
+            return Err(ViewerError::Params(format!(
+                "--record-dir {} is not a directory",
+                self.record_dir.display()
+            )));
+        }
+        AccessPolicy::new(self.addr, &self.allowed_origins)?;
+        Ok(())
+    }
+
+    /// The stream period, from the (clamped) display rate.
+    fn display_period(&self) -> Duration {
+        let hz = if self.display_hz.is_finite() {
+            self.display_hz
+                .clamp(Self::MIN_DISPLAY_HZ, Self::MAX_DISPLAY_HZ)
+        } else {
+            60.0
+        };
+        Duration::from_secs_f64(1.0 / hz)
     }
 }
 
@@ -64,17 +124,24 @@ struct App {
     haptic: Arc<HapticLoop>,
     scene_json: String,
     params: WebParams,
+    policy: AccessPolicy,
+    seats: PageSeats,
 }
 
-/// Builds the router for a running haptic loop.
-pub fn router(haptic: Arc<HapticLoop>, params: WebParams) -> Router {
+/// Builds the router for a running haptic loop; fails when `params` are invalid
+/// ([`WebParams::validate`]).
+pub fn router(haptic: Arc<HapticLoop>, params: WebParams) -> Result<Router, ViewerError> {
+    params.validate()?;
     let scene_json = scene_json(haptic.scene(), haptic.start_pose());
+    let policy = AccessPolicy::new(params.addr, &params.allowed_origins)?;
     let app = Arc::new(App {
         haptic,
         scene_json,
         params,
+        policy,
+        seats: PageSeats::new(),
     });
-    Router::new()
+    Ok(Router::new()
         .route("/", get(index))
         .route("/app.js", get(app_js))
         .route("/style.css", get(style_css))
@@ -82,7 +149,31 @@ pub fn router(haptic: Arc<HapticLoop>, params: WebParams) -> Router {
         .route("/api/scene", get(scene))
         .route("/api/state", get(state))
         .route("/ws", get(ws_upgrade))
-        .with_state(app)
+        .layer(middleware::from_fn_with_state(app.clone(), check_access))
+        .with_state(app))
+}
+
+/// Refuses (403) a request whose `Host` or `Origin` is not this server's ([`crate::guard`]).
+async fn check_access(State(app): State<Arc<App>>, req: Request, next: Next) -> Response {
+    let verdict = header_str(req.headers(), header::HOST).and_then(|host| {
+        let origin = header_str(req.headers(), header::ORIGIN)?;
+        app.policy.check(host, origin).map_err(|r| r.to_string())
+    });
+    match verdict {
+        Ok(()) => next.run(req).await,
+        Err(why) => (StatusCode::FORBIDDEN, why).into_response(),
+    }
+}
+
+/// A header's value; `Ok(None)` when absent, an error when present but not visible ASCII.
+fn header_str(h: &HeaderMap, name: header::HeaderName) -> Result<Option<&str>, String> {
+    match h.get(&name) {
+        None => Ok(None),
+        Some(v) => v
+            .to_str()
+            .map(Some)
+            .map_err(|_| format!("unreadable {name} header")),
+    }
 }
 
 /// Binds `addr` for the web server.
@@ -271,32 +362,68 @@ fn notice(kind: &str, text: &str) -> Message {
     )
 }
 
-async fn stream(app: Arc<App>, mut socket: WebSocket) {
-    let hz = if app.params.display_hz.is_finite() && app.params.display_hz > 0.0 {
-        app.params.display_hz
-    } else {
-        60.0
+fn role_msg(app: &App, id: u64) -> Message {
+    let (role, ahead) = match app.seats.role(id) {
+        Role::Owner => ("owner", 0),
+        Role::Watcher { ahead } => ("watcher", ahead),
     };
-    let mut tick = tokio::time::interval(Duration::from_secs_f64(1.0 / hz));
+    Message::Text(
+        serde_json::json!({
+            "type": "role",
+            "role": role,
+            "ahead": ahead,
+            "page_recording": app.params.allow_page_recording,
+        })
+        .to_string()
+        .into(),
+    )
+}
+
+async fn stream(app: Arc<App>, mut socket: WebSocket) {
+    let mut tick = tokio::time::interval(app.params.display_period());
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let mut contacts = false;
-    stream_loop(&app, &mut socket, &mut tick, &mut contacts).await;
+    let mut seat_changes = app.seats.subscribe();
+    let id = app.seats.join();
+    stream_loop(
+        &app,
+        id,
+        &mut socket,
+        &mut tick,
+        &mut seat_changes,
+        &mut contacts,
+    )
+    .await;
     if contacts {
         app.haptic.input().want_contacts(false);
     }
-    // A closed page lets go of the tool (no-op if another source drives it).
-    app.haptic.input().release(InputSource::Page);
+    // The owner closing lets go of the tool (no-op if another source drives it); a watcher
+    // closing changes nothing.
+    if app.seats.leave(id) {
+        app.haptic.input().release(InputSource::Page);
+    }
 }
 
 async fn stream_loop(
     app: &App,
+    id: u64,
     socket: &mut WebSocket,
     tick: &mut tokio::time::Interval,
+    seat_changes: &mut tokio::sync::watch::Receiver<u64>,
     contacts: &mut bool,
 ) {
     let mut snapshot = FrameState::default();
+    seat_changes.mark_unchanged();
+    if socket.send(role_msg(app, id)).await.is_err() {
+        return;
+    }
     loop {
         tokio::select! {
+            changed = seat_changes.changed() => {
+                if changed.is_err() || socket.send(role_msg(app, id)).await.is_err() {
+                    return;
+                }
+            }
             _ = tick.tick() => {
                 app.haptic.state().with_latest(|s| snapshot.copy_from(s));
                 if !*contacts {
@@ -314,7 +441,7 @@ async fn stream_loop(
                 let Some(Ok(msg)) = msg else { return };
                 let Message::Text(text) = msg else { continue };
                 let reply = match serde_json::from_str::<PageMsg>(text.as_str()) {
-                    Ok(m) => handle(app, m, contacts),
+                    Ok(m) => handle(app, id, m, contacts),
                     Err(e) => Some(notice("error", &format!("bad message: {e}"))),
                 };
                 if let Some(r) = reply {
@@ -327,8 +454,26 @@ async fn stream_loop(
     }
 }
 
-fn handle(app: &App, m: PageMsg, contacts: &mut bool) -> Option<Message> {
+fn handle(app: &App, id: u64, m: PageMsg, contacts: &mut bool) -> Option<Message> {
     let h = &app.haptic;
+    if !app.seats.is_owner(id) {
+        return match m {
+            // Display only: any page may ask for the contact list.
+            PageMsg::Contacts { on } => {
+                if on != *contacts {
+                    h.input().want_contacts(on);
+                }
+                *contacts = on;
+                None
+            }
+            // A watcher's poses are dropped without a word (they may come at display rate).
+            PageMsg::Pose { .. } => None,
+            _ => Some(notice(
+                "error",
+                "ignored: another page controls the device (this one watches until it closes)",
+            )),
+        };
+    }
     match m {
         PageMsg::Pose { q } => match h
             .input()
@@ -353,9 +498,13 @@ fn handle(app: &App, m: PageMsg, contacts: &mut bool) -> Option<Message> {
             *contacts = on;
             None
         }
+        PageMsg::Record { .. } if !app.params.allow_page_recording => Some(notice(
+            "error",
+            "recording from the page is off (start serve with --allow-page-recording)",
+        )),
         PageMsg::Record { on: true } => {
             let path = recording_path(&app.params.record_dir);
-            Some(match h.start_recording(&path) {
+            Some(match h.start_recording(&path, false) {
                 Ok(()) => notice("recording", &format!("recording to {}", path.display())),
                 Err(e) => notice("error", &e.to_string()),
             })

@@ -214,7 +214,9 @@ pub trait Simulation: Send + 'static {
 
     /// One haptic frame: move the god-object toward `device` and write the graphic pose,
     /// force (N), torque (N·mm), pair count, penetration and timings into `out`. The caller has
-    /// already set `out.device`, `out.frame`, `out.t` and cleared `out.contacts`; contacts are
+    /// already set `out.device`, `out.frame`, `out.t`, `out.released` (no live input: the
+    /// caller zeroes the wrench after the step; a simulation with output filters should reset
+    /// them so the next engagement starts from zero) and cleared `out.contacts`; contacts are
     /// added with [`FrameState::push_contact`].
     ///
     /// # Real-time

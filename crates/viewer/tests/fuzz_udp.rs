@@ -1,5 +1,5 @@
 //! Fuzzing the UDP bridge decoder: random datagrams (0 to 300 bytes) and structured mutations
-//! of valid POSE, WRENCH and BYE datagrams (truncated, extended, bytes flipped, NaN / inf
+//! of valid POSE, WRENCH, BYE and HELLO datagrams (truncated, extended, bytes flipped, NaN / inf
 //! written into the payload, wrong magic, version or kind). The property: `decode` returns (no
 //! panic), a decoded POSE or WRENCH carries only finite numbers, and a decoded POSE encodes back
 //! to the same bytes.
@@ -9,8 +9,8 @@
 //! runs longer.
 
 use viewer::protocol::{
-    decode, encode_bye, Header, Kind, Message, PoseMsg, WrenchMsg, BYE_LEN, HEADER_LEN, POSE_LEN,
-    WRENCH_LEN,
+    self, decode, encode_bye, encode_hello, Header, Kind, Message, PoseMsg, WrenchMsg, BYE_LEN,
+    HEADER_LEN, HELLO_LEN, POSE_LEN, WRENCH_LEN,
 };
 
 struct Rng(u64);
@@ -39,7 +39,7 @@ fn header(kind: Kind, r: &mut Rng) -> Header {
 }
 
 fn valid(r: &mut Rng) -> Vec<u8> {
-    match r.below(3) {
+    match r.below(4) {
         0 => {
             let mut b = [0u8; POSE_LEN];
             let q = [0.0, 1.5, -2.0, 0.1, -0.2, 3.0];
@@ -62,9 +62,14 @@ fn valid(r: &mut Rng) -> Vec<u8> {
             .encode(&mut b);
             b.to_vec()
         }
-        _ => {
+        2 => {
             let mut b = [0u8; BYE_LEN];
             encode_bye(r.next() as u32, &mut b);
+            b.to_vec()
+        }
+        _ => {
+            let mut b = [0u8; HELLO_LEN];
+            encode_hello(r.next() as u32, r.next(), &mut b);
             b.to_vec()
         }
     }
@@ -129,6 +134,10 @@ fn check(b: &[u8], case: u64) {
             );
         }
         Ok(Message::Bye(h)) => assert_eq!(h.kind, Kind::Bye, "case {case}"),
+        Ok(Message::Hello(h)) => {
+            assert_eq!(h.kind, Kind::Hello, "case {case}");
+            assert_eq!(b.len(), HELLO_LEN, "case {case}");
+        }
         Err(e) => {
             let m = e.to_string();
             assert!(!m.is_empty() && !m.contains('\n'), "case {case}: {m:?}");
@@ -151,7 +160,7 @@ fn decode_random_and_mutated_datagrams() {
             // Half of the random ones get a valid magic and version to reach the kind checks.
             if case % 2 == 0 && b.len() >= 5 {
                 b[..4].copy_from_slice(b"H6DB");
-                b[4] = 1;
+                b[4] = protocol::VERSION;
             }
             b
         } else {

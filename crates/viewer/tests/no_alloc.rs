@@ -62,7 +62,9 @@ fn a_warmed_up_frame_allocates_nothing() {
     let sim = RenderSim::new(&common::small_scene()).unwrap();
     let (handle, mut frames) = HapticLoop::manual(sim, &LoopParams::default()).unwrap();
     handle.input().want_contacts(true);
-    handle.start_recording(&dir.path().join("rec.csv")).unwrap();
+    handle
+        .start_recording(&dir.path().join("rec.csv"), false)
+        .unwrap();
     let mut max_pairs = 0;
     let mut listed = 0;
     // Warm-up: one full cycle grows every buffer to its working size.

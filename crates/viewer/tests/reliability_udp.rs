@@ -57,7 +57,13 @@ fn bad_datagram(r: &mut Rng, seq: u32) -> Vec<u8> {
         }
         2 => b.truncate((r.next() % POSE_LEN as u64) as usize),
         3 => b.extend([0u8; 9]),
-        4 => b[4] = 2 + (r.next() % 250) as u8,
+        4 => {
+            // Any version but the one spoken.
+            b[4] = (r.next() % 255) as u8;
+            if b[4] == protocol::VERSION {
+                b[4] = 255;
+            }
+        }
         5 => b[5] = [0u8, 4, 9, 255][(r.next() % 4) as usize],
         _ => {
             let len = (r.next() % 1500) as usize;
@@ -90,6 +96,11 @@ fn garbage_flood_is_counted_and_never_applied() {
             return w;
         }
     };
+    let mut hello = [0u8; protocol::HELLO_LEN];
+    protocol::encode_hello(0, 0, &mut hello);
+    sock.send_to(&hello, server).unwrap();
+    let w = recv_wrench(&sock);
+    assert!(w.header.flags & protocol::flags::SESSION != 0, "{w:?}");
 
     sock.send_to(&raw_pose(1, [0.0, 0.0, -3.0, 0.0, 0.0, 0.0]), server)
         .unwrap();

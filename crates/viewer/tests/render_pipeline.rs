@@ -168,7 +168,7 @@ fn a_recording_replays_through_render_frame_for_frame() {
         &LoopParams::default(),
     )
     .unwrap();
-    haptic.start_recording(&path).unwrap();
+    haptic.start_recording(&path, false).unwrap();
     let mut sent = Vec::new();
     for k in 0..=40 {
         let q = [

@@ -1,5 +1,7 @@
 //! The web server on loopback: the page and three.js routes, the scene JSON, and the WebSocket
-//! (state stream, pose input, contacts on demand, recording), over the real render pipeline.
+//! (state stream, pose input, contacts on demand, recording), over the real render pipeline;
+//! and its security: Host and Origin checks (DNS rebinding, cross-origin pages), one page
+//! owning the device at a time, recording from the page only when allowed.
 
 mod common;
 
@@ -15,6 +17,7 @@ use viewer::{HapticLoop, LoopParams, RenderSim};
 
 async fn start(
     record_dir: &std::path::Path,
+    allow_page_recording: bool,
 ) -> (
     Arc<HapticLoop>,
     SocketAddr,
@@ -33,9 +36,12 @@ async fn start(
         haptic.clone(),
         WebParams {
             record_dir: record_dir.to_path_buf(),
+            addr,
+            allow_page_recording,
             ..WebParams::default()
         },
-    );
+    )
+    .unwrap();
     let (tx, rx) = tokio::sync::oneshot::channel::<()>();
     tokio::spawn(server::run(listener, router, async {
         let _ = rx.await;
@@ -45,8 +51,16 @@ async fn start(
 
 /// A bare HTTP/1.1 GET; returns (status code, body).
 async fn get(addr: SocketAddr, path: &str) -> (u16, String) {
+    get_as(addr, path, &addr.to_string(), None).await
+}
+
+/// A bare HTTP/1.1 GET with this `Host` and, if given, `Origin`; returns (status code, body).
+async fn get_as(addr: SocketAddr, path: &str, host: &str, origin: Option<&str>) -> (u16, String) {
     let mut s = tokio::net::TcpStream::connect(addr).await.unwrap();
-    let req = format!("GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n");
+    let origin = origin
+        .map(|o| format!("Origin: {o}\r\n"))
+        .unwrap_or_default();
+    let req = format!("GET {path} HTTP/1.1\r\nHost: {host}\r\n{origin}Connection: close\r\n\r\n");
     s.write_all(req.as_bytes()).await.unwrap();
     let mut buf = Vec::new();
     s.read_to_end(&mut buf).await.unwrap();
@@ -62,7 +76,7 @@ async fn get(addr: SocketAddr, path: &str) -> (u16, String) {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn page_scene_and_three_routes() {
     let dir = tempfile::tempdir().unwrap();
-    let (_haptic, addr, stop) = start(dir.path()).await;
+    let (_haptic, addr, stop) = start(dir.path(), false).await;
     let (code, body) = get(addr, "/").await;
     assert_eq!(code, 200);
     assert!(
@@ -95,6 +109,19 @@ async fn page_scene_and_three_routes() {
     let _ = stop.send(());
 }
 
+/// The next message of type `kind`, skipping others.
+async fn next_of<S>(ws: &mut S, kind: &str) -> serde_json::Value
+where
+    S: StreamExt<Item = Result<Message, tokio_tungstenite::tungstenite::Error>> + Unpin,
+{
+    loop {
+        let m = next_json(ws).await;
+        if m["type"] == kind {
+            return m;
+        }
+    }
+}
+
 async fn next_json<S>(ws: &mut S) -> serde_json::Value
 where
     S: StreamExt<Item = Result<Message, tokio_tungstenite::tungstenite::Error>> + Unpin,
@@ -114,10 +141,14 @@ where
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn websocket_streams_state_takes_poses_and_records() {
     let dir = tempfile::tempdir().unwrap();
-    let (haptic, addr, stop) = start(dir.path()).await;
+    let (haptic, addr, stop) = start(dir.path(), true).await;
     let (mut ws, _) = tokio_tungstenite::connect_async(format!("ws://{addr}/ws"))
         .await
         .unwrap();
+    let role = next_json(&mut ws).await;
+    assert_eq!(role["type"], "role");
+    assert_eq!(role["role"], "owner", "the only page owns the device");
+    assert_eq!(role["page_recording"], true);
     let first = next_json(&mut ws).await;
     assert_eq!(first["type"], "state");
     assert_eq!(first["device"][2], 30.0);
@@ -243,5 +274,189 @@ async fn websocket_streams_state_takes_poses_and_records() {
         );
         tokio::time::sleep(Duration::from_millis(10)).await;
     }
+    let _ = stop.send(());
+}
+
+fn pose_msg(z: f64) -> Message {
+    Message::Text(
+        serde_json::json!({"type": "pose", "q": [0.0, 0.0, z, 0.0, 0.0, 0.0]})
+            .to_string()
+            .into(),
+    )
+}
+
+/// Issue 14 item 7: a foreign Host (DNS rebinding) is refused on every route, and a page of
+/// another origin cannot open the WebSocket; the served address and its own origin pass.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn foreign_host_and_origin_are_refused() {
+    use tokio_tungstenite::tungstenite::client::IntoClientRequest;
+    let dir = tempfile::tempdir().unwrap();
+    let (haptic, addr, stop) = start(dir.path(), false).await;
+    let port = addr.port();
+    for path in ["/", "/api/state", "/api/scene", "/app.js", "/ws"] {
+        let (code, body) = get_as(addr, path, &format!("evil.example:{port}"), None).await;
+        assert_eq!(code, 403, "{path}: {body}");
+        assert!(body.contains("evil.example"), "{body}");
+    }
+    let (code, _) = get_as(addr, "/api/state", &format!("localhost:{port}"), None).await;
+    assert_eq!(code, 200);
+    let (code, _) = get_as(addr, "/api/state", "127.0.0.1:1", None).await;
+    assert_eq!(code, 403, "another port is another server");
+    let own = format!("http://127.0.0.1:{port}");
+    let (code, _) = get_as(addr, "/api/state", &addr.to_string(), Some(&own)).await;
+    assert_eq!(code, 200);
+    let (code, _) = get_as(
+        addr,
+        "/api/state",
+        &addr.to_string(),
+        Some("http://evil.example"),
+    )
+    .await;
+    assert_eq!(code, 403);
+
+    // The WebSocket upgrade from another origin: 403, nothing reaches the device.
+    let mut req = format!("ws://{addr}/ws").into_client_request().unwrap();
+    req.headers_mut()
+        .insert("Origin", "http://evil.example".parse().unwrap());
+    match tokio_tungstenite::connect_async(req).await {
+        Err(tokio_tungstenite::tungstenite::Error::Http(r)) => assert_eq!(r.status(), 403),
+        Err(e) => panic!("refused, but not with 403: {e}"),
+        Ok(_) => panic!("a cross-origin page opened the WebSocket"),
+    }
+    // Its own origin may.
+    let mut req = format!("ws://{addr}/ws").into_client_request().unwrap();
+    req.headers_mut().insert("Origin", own.parse().unwrap());
+    let (mut ws, _) = tokio_tungstenite::connect_async(req).await.unwrap();
+    assert_eq!(next_of(&mut ws, "role").await["role"], "owner");
+    ws.send(pose_msg(20.0)).await.unwrap();
+    let end = std::time::Instant::now() + Duration::from_secs(5);
+    while haptic.state().latest().device[2] != 20.0 {
+        assert!(
+            std::time::Instant::now() < end,
+            "own-origin pose not applied"
+        );
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    let _ = stop.send(());
+}
+
+/// Issue 14 item 7: recording from the page is off unless allowed: the command is refused with
+/// a notice and no file is created.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn page_recording_is_opt_in() {
+    let dir = tempfile::tempdir().unwrap();
+    let (haptic, addr, stop) = start(dir.path(), false).await;
+    let (mut ws, _) = tokio_tungstenite::connect_async(format!("ws://{addr}/ws"))
+        .await
+        .unwrap();
+    let role = next_of(&mut ws, "role").await;
+    assert_eq!(role["page_recording"], false);
+    for _ in 0..3 {
+        ws.send(Message::Text(r#"{"type":"record","on":true}"#.into()))
+            .await
+            .unwrap();
+        let e = next_of(&mut ws, "error").await;
+        assert!(
+            e["message"]
+                .as_str()
+                .unwrap()
+                .contains("--allow-page-recording"),
+            "{e}"
+        );
+    }
+    assert!(!next_of(&mut ws, "state").await["recording"]
+        .as_bool()
+        .unwrap());
+    assert!(haptic.recording_path().is_none());
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    let _ = stop.send(());
+}
+
+async fn wait_for<F: Fn(&viewer::FrameState) -> bool>(haptic: &HapticLoop, what: &str, f: F) {
+    let end = std::time::Instant::now() + Duration::from_secs(5);
+    while !f(&haptic.state().latest()) {
+        assert!(std::time::Instant::now() < end, "{what}");
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+}
+
+/// Issue 14 item 8: page 1 holds the tool pressed into the floor; pages 2 and 3 open as
+/// watchers (they get the state; their poses, release and reset are ignored); page 2 closing
+/// leaves page 1's hold as it was; page 1 closing releases the tool and makes page 3 the owner,
+/// whose poses then drive the device.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_page_owns_the_device_and_watchers_cannot_release_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let (haptic, addr, stop) = start(dir.path(), false).await;
+    let url = format!("ws://{addr}/ws");
+    let (mut p1, _) = tokio_tungstenite::connect_async(&url).await.unwrap();
+    assert_eq!(next_of(&mut p1, "role").await["role"], "owner");
+    for k in 0..=40 {
+        p1.send(pose_msg(25.0 - k as f64)).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(2)).await;
+    }
+    wait_for(&haptic, "page 1's hold", |s| {
+        s.device[2] == -15.0 && s.source == 1 && s.force[2] > 5.0
+    })
+    .await;
+    // Let the graphic tool settle on the floor.
+    tokio::time::sleep(Duration::from_millis(400)).await;
+    let held = haptic.state().latest().force;
+
+    let (mut p2, _) = tokio_tungstenite::connect_async(&url).await.unwrap();
+    let r2 = next_of(&mut p2, "role").await;
+    assert_eq!(
+        (r2["role"].as_str(), r2["ahead"].as_u64()),
+        (Some("watcher"), Some(1))
+    );
+    let (mut p3, _) = tokio_tungstenite::connect_async(&url).await.unwrap();
+    let r3 = next_of(&mut p3, "role").await;
+    assert_eq!(
+        (r3["role"].as_str(), r3["ahead"].as_u64()),
+        (Some("watcher"), Some(2))
+    );
+    // A watcher sees the stream…
+    let st = next_of(&mut p2, "state").await;
+    assert_eq!(st["device"][2], -15.0);
+    // …but cannot move, release or reset the tool.
+    p2.send(pose_msg(10.0)).await.unwrap();
+    for cmd in [r#"{"type":"release"}"#, r#"{"type":"reset"}"#] {
+        p2.send(Message::Text(cmd.into())).await.unwrap();
+        let e = next_of(&mut p2, "error").await;
+        assert!(
+            e["message"].as_str().unwrap().contains("another page"),
+            "{e}"
+        );
+    }
+    // Page 2 closes: page 1 still holds the tool, and nobody's role changed but page 3's rank.
+    p2.close(None).await.unwrap();
+    drop(p2);
+    let r3 = next_of(&mut p3, "role").await;
+    assert_eq!(
+        (r3["role"].as_str(), r3["ahead"].as_u64()),
+        (Some("watcher"), Some(1))
+    );
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let s = haptic.state().latest();
+    assert!(
+        !s.released && s.source == 1,
+        "page 1's hold was released: {s:?}"
+    );
+    assert_eq!(s.device[2], -15.0);
+    assert!(
+        (s.force[2] - held[2]).abs() < 0.5,
+        "the force changed from {held:?} to {:?}",
+        s.force
+    );
+
+    // Page 1 closes: the tool is released, page 3 becomes the owner and drives it.
+    drop(p1);
+    wait_for(&haptic, "page 1 closing did not release", |s| s.released).await;
+    assert_eq!(next_of(&mut p3, "role").await["role"], "owner");
+    p3.send(pose_msg(12.0)).await.unwrap();
+    wait_for(&haptic, "page 3's pose not applied", |s| {
+        s.source == 1 && s.device[2] == 12.0
+    })
+    .await;
     let _ = stop.send(());
 }

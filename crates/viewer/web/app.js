@@ -14,6 +14,9 @@ const app = {
   dev: null,           // the page's device pose (mm, rad)
   maxForceSeen: 0,     // largest |F| shown so far (N)
   frames: 0,           // states received
+  role: null,          // 'owner' (this page drives the device) or 'watcher'; from the server
+  ahead: 0,            // watcher: pages ahead in the queue
+  pageRecording: false, // the server lets the page record (serve --allow-page-recording)
 };
 window.haptic6d = app;
 
@@ -141,6 +144,7 @@ function connect() {
   };
   ws.onclose = () => {
     app.connected = false;
+    app.role = null;
     $('conn').textContent = 'disconnected (retrying)';
     $('conn').className = 'bad';
     setTimeout(connect, 1000);
@@ -148,6 +152,7 @@ function connect() {
   ws.onmessage = (ev) => {
     const m = JSON.parse(ev.data);
     if (m.type === 'state') onState(m);
+    else if (m.type === 'role') onRole(m);
     else if (m.type === 'recording') { $('notice').textContent = m.message; }
     else if (m.type === 'error') { $('notice').textContent = m.message; }
   };
@@ -165,11 +170,31 @@ const norm3 = (v) => Math.hypot(v[0], v[1], v[2]);
 const SOURCES = ['none (released)', 'page', 'UDP device', 'script'];
 let lastUserInput = -1e9;
 
+// One page owns the device; the others watch until it closes (the server ignores their
+// commands). A page that becomes the owner starts from the device pose it was shown.
+function onRole(m) {
+  const wasOwner = app.role === 'owner';
+  app.role = m.role;
+  app.ahead = m.ahead;
+  app.pageRecording = !!m.page_recording;
+  if (m.role === 'owner' && !wasOwner) {
+    if (app.state) app.dev = app.state.device.slice();
+    dirty = false;
+  }
+  const owner = m.role === 'owner';
+  $('conn').textContent = owner ? 'live' : `watching (${m.ahead} page${m.ahead === 1 ? '' : 's'} ahead)`;
+  $('conn').className = owner ? 'good' : 'dim';
+  for (const id of ['btn-reset', 'btn-release', 'btn-record']) $(id).disabled = !owner;
+  $('btn-record').hidden = !app.pageRecording;
+}
+
 function onState(s) {
   app.state = s;
   app.frames += 1;
   // Follow the server's device pose whenever the page is not the one driving it.
-  if (s.source !== 1 && performance.now() - lastUserInput > 500) app.dev = s.device.slice();
+  if (app.role !== 'owner' || (s.source !== 1 && performance.now() - lastUserInput > 500)) {
+    app.dev = s.device.slice();
+  }
   const f = norm3(s.force);
   const t = norm3(s.torque);
   app.maxForceSeen = Math.max(app.maxForceSeen, f);
@@ -393,8 +418,13 @@ function toggleContacts() {
   send({ type: 'contacts', on: contactsOn });
   if (!contactsOn) drawContacts([]);
 }
-function release() { send({ type: 'release' }); lastUserInput = -1e9; }
+function release() {
+  if (app.role !== 'owner') return;
+  send({ type: 'release' });
+  lastUserInput = -1e9;
+}
 function reset() {
+  if (app.role !== 'owner') return;
   send({ type: 'reset' });
   if (app.scene) app.dev = app.scene.start.slice();
   lastUserInput = -1e9;
@@ -418,10 +448,10 @@ function frame(now) {
   last = now;
   applyKeys(dt);
   applyGamepads(dt);
-  if (dirty && app.dev) {
+  if (dirty && app.dev && app.role === 'owner') {
     send({ type: 'pose', q: app.dev });
-    dirty = false;
   }
+  dirty = false;
   plot($('plot-force'), histF, '#ffd34d', 'plot-f-max', 2);
   plot($('plot-time'), histT, '#6bd0ff', 'plot-t-max', 0);
   renderer.render(scene3, camera);

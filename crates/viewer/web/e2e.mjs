@@ -2,8 +2,9 @@
 // playwright-core). Starts the server on free loopback ports, opens the page, drives the tool
 // into the object with the keyboard, and checks: the force shown is non-zero, the graphic tool
 // stayed out of the object (penetration within tolerance while the device went deep), the
-// contact spheres arrive on demand, and a recording started from the page is a valid trajectory
-// CSV. Saves a screenshot. Prints "e2e: N passed, M failed".
+// contact spheres arrive on demand, a recording started from the page (allowed with
+// --allow-page-recording) is a valid trajectory CSV, and a second page only watches. Saves a
+// screenshot. Prints "e2e: N passed, M failed".
 //
 // Usage: node e2e.mjs [--bin PATH] [--out DIR] [--scene NAME]
 //   --bin   the haptic6d binary (default: $HAPTIC6D_BIN or ../../../target/release/haptic6d)
@@ -40,7 +41,7 @@ const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 function startServer() {
   return new Promise((resolveUrl, reject) => {
     const p = spawn(bin, ['serve', sceneName, '--port', '0', '--udp-port', '0', '--bind', '127.0.0.1',
-      '--record-dir', recordDir, '--duration', '300'], { stdio: ['ignore', 'pipe', 'pipe'] });
+      '--record-dir', recordDir, '--allow-page-recording', '--duration', '300'], { stdio: ['ignore', 'pipe', 'pipe'] });
     let out = '';
     const timer = setTimeout(() => reject(new Error(`server did not start in 180 s:\n${out}`)), 180_000);
     const onData = (d) => {
@@ -74,8 +75,19 @@ async function main() {
     page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(m.text()); });
     await page.goto(url);
     await page.waitForFunction(() => window.haptic6d && window.haptic6d.ready, null, { timeout: 60_000 });
-    check('page loads the scene and streams state', true,
-      `scene ${await page.evaluate(() => window.haptic6d.scene.name)}`);
+    // The scene arrived (named, with triangles), the state stream is live (frames advance over
+    // half a second), and this first page owns the device.
+    const s0 = await page.evaluate(() => ({ frame: window.haptic6d.state.frame, n: window.haptic6d.frames }));
+    await sleep(500);
+    const loaded = await page.evaluate(() => {
+      const a = window.haptic6d;
+      return { name: a.scene.name, tris: a.scene.objects.reduce((k, o) => k + o.indices.length / 3, 0),
+        frame: a.state.frame, n: a.frames, role: a.role };
+    });
+    check('page loads the scene and streams state', loaded.name && loaded.tris > 0
+      && loaded.frame > s0.frame + 100 && loaded.n - s0.n >= 10 && loaded.role === 'owner',
+    `scene ${loaded.name}, ${loaded.tris} triangles, ${loaded.n - s0.n} states and `
+      + `${loaded.frame - s0.frame} haptic frames in 0.5 s, role ${loaded.role}`);
 
     // Direction from the tool's start toward the object's centre, as the key to hold.
     const plan = await page.evaluate(() => {
@@ -156,6 +168,25 @@ async function main() {
     check('recording from the page writes a trajectory CSV', files.length === 1
       && header === 't,x,y,z,gamma,beta,alpha' && okRows && moved > 5 && Math.abs(dt - 0.001) < 1e-9,
     `${notice}; ${data.length} rows, moved ${moved.toFixed(1)} mm, dt ${dt}`);
+
+    // A second page watches: told so, and its keys do not move the device.
+    const page2 = await browser.newPage();
+    page2.on('pageerror', (e) => consoleErrors.push(String(e)));
+    await page2.goto(url);
+    await page2.waitForFunction(() => window.haptic6d && window.haptic6d.ready && window.haptic6d.role,
+      null, { timeout: 60_000 });
+    const devBefore = await page.evaluate(() => window.haptic6d.state.device.slice());
+    await page2.locator('#view canvas').click({ position: { x: 5, y: 5 }, button: 'middle' });
+    await page2.keyboard.down(key);
+    await sleep(700);
+    await page2.keyboard.up(key);
+    await sleep(300);
+    const watch = await page2.evaluate(() => ({ role: window.haptic6d.role, conn: document.getElementById('conn').textContent,
+      dev: window.haptic6d.state.device }));
+    const moved2 = Math.hypot(...[0, 1, 2].map((k) => watch.dev[k] - devBefore[k]));
+    check('a second page only watches', watch.role === 'watcher' && /watching/.test(watch.conn) && moved2 < 1e-9,
+      `role ${watch.role}, "${watch.conn}", device moved ${moved2.toFixed(3)} mm`);
+    await page2.close();
 
     check('no errors in the page console', consoleErrors.length === 0, consoleErrors.slice(0, 3).join(' | '));
   } finally {

@@ -1,0 +1,267 @@
+//! `haptic6d serve` as a user meets it (loopback only, free ports): every flag out of range is
+//! one `error:` line naming it (no panic, non-zero exit); `--record` never touches an existing
+//! file when start-up fails (busy port), refuses one without `--force`; a recording ended by
+//! SIGTERM or SIGINT is complete and `haptic6d run --trajectory` replays it.
+
+use std::io::{BufRead, BufReader};
+use std::net::{TcpListener, UdpSocket};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn haptic6d(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_haptic6d"))
+        .args(args)
+        .output()
+        .expect("the haptic6d binary runs")
+}
+
+/// Asserts a failure with exactly one non-empty line on stderr; returns it.
+#[track_caller]
+fn one_line_failure(o: &Output) -> String {
+    assert!(
+        !o.status.success(),
+        "expected failure, stdout: {}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    let lines: Vec<&str> = err
+        .lines()
+        .filter(|l| !l.trim().is_empty() && !l.starts_with("warning:"))
+        .collect();
+    assert_eq!(lines.len(), 1, "expected one line on stderr, got: {err}");
+    lines[0].to_string()
+}
+
+struct Dir(PathBuf);
+
+impl Dir {
+    fn new(tag: &str) -> Self {
+        let d =
+            std::env::temp_dir().join(format!("haptic6d-serve-cli-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        Dir(d)
+    }
+    fn path(&self, name: &str) -> String {
+        self.0.join(name).display().to_string()
+    }
+    /// A scene of two small sphere trees (no build: loads at once).
+    fn scene(&self) -> String {
+        let sph = "2 2\n0 0 0 2 1\n-1 0 0 1 1\n1 0 0 1 1\n";
+        std::fs::write(self.0.join("tool.sph"), sph).unwrap();
+        std::fs::write(self.0.join("object.sph"), sph).unwrap();
+        let scene = self.path("scene.toml");
+        std::fs::write(
+            &scene,
+            "[tool]\ntree = \"tool.sph\"\nstart = [0, 0, 10, 0, 0, 0]\n\n\
+             [[object]]\ntree = \"object.sph\"\npose = [0, 0, 0, 0, 0, 0]\n",
+        )
+        .unwrap();
+        scene
+    }
+    fn names(&self) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(&self.0)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+}
+
+impl Drop for Dir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+#[test]
+fn every_serve_flag_out_of_range_is_one_line_naming_it() {
+    let d = Dir::new("flags");
+    let scene = d.scene();
+    let cases: &[(&[&str], &str)] = &[
+        (&["--duration", "1e30"], "--duration"),
+        (&["--duration", "0"], "--duration"),
+        (&["--duration", "nan"], "--duration"),
+        (&["--display-hz", "1e-30"], "--display-hz"),
+        (&["--display-hz", "1e12"], "--display-hz"),
+        (&["--rate", "1e-30"], "--rate"),
+        (&["--rate", "1e7"], "--rate"),
+        (&["--rate", "inf"], "--rate"),
+        (&["--udp-timeout-ms", "0"], "--udp-timeout-ms"),
+        (
+            &["--udp-timeout-ms", "18446744073709551615"],
+            "--udp-timeout-ms",
+        ),
+        (&["--rt-priority", "0"], "--rt-priority"),
+        (&["--rt-priority", "100"], "--rt-priority"),
+        (&["--allow-origin", "evil.example"], "--allow-origin"),
+        (&["--allow-origin", "http://x/path"], "--allow-origin"),
+        (&["--force"], "--force"),
+        (&["--record", "/nonexistent-dir/x.csv"], "--record"),
+        (
+            &["--allow-page-recording", "--record-dir", "/nonexistent-dir"],
+            "--record-dir",
+        ),
+    ];
+    for (flags, name) in cases {
+        let mut args = vec!["serve", scene.as_str(), "--port", "0", "--udp-port", "0"];
+        args.extend_from_slice(flags);
+        let line = one_line_failure(&haptic6d(&args));
+        assert!(
+            line.starts_with("error: ") && line.contains(name),
+            "{flags:?}: {line}"
+        );
+    }
+    // 1e-30 is shown as such, not as thirty zeros.
+    let line = one_line_failure(&haptic6d(&["serve", &scene, "--rate", "1e-30"]));
+    assert!(line.contains("1e-30"), "{line}");
+}
+
+#[test]
+fn a_failed_start_leaves_the_recording_target_untouched() {
+    let d = Dir::new("busy");
+    let scene = d.scene();
+    let precious = d.path("precious.csv");
+    std::fs::write(&precious, "t,x,y,z,gamma,beta,alpha\n0,1,2,3,0,0,0\n").unwrap();
+    let before = d.names();
+    // Without --force: refused before anything starts.
+    let line = one_line_failure(&haptic6d(&[
+        "serve",
+        &scene,
+        "--port",
+        "0",
+        "--udp-port",
+        "0",
+        "--record",
+        &precious,
+    ]));
+    assert!(
+        line.contains("already exists") && line.contains("--force"),
+        "{line}"
+    );
+    // With --force but a busy UDP port, then a busy web port: start-up fails, and the file
+    // (and the folder) are as they were.
+    let udp = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let udp_port = udp.local_addr().unwrap().port().to_string();
+    let tcp = TcpListener::bind("127.0.0.1:0").unwrap();
+    let web_port = tcp.local_addr().unwrap().port().to_string();
+    for (port, uport, what) in [
+        ("0", udp_port.as_str(), "UDP"),
+        (web_port.as_str(), "0", "web"),
+    ] {
+        let line = one_line_failure(&haptic6d(&[
+            "serve",
+            &scene,
+            "--port",
+            port,
+            "--udp-port",
+            uport,
+            "--record",
+            &precious,
+            "--force",
+            "--duration",
+            "5",
+        ]));
+        assert!(line.contains("cannot bind"), "{what}: {line}");
+        assert_eq!(
+            std::fs::read_to_string(&precious).unwrap(),
+            "t,x,y,z,gamma,beta,alpha\n0,1,2,3,0,0,0\n",
+            "{what}"
+        );
+        assert_eq!(d.names(), before, "{what}: files left behind");
+    }
+}
+
+/// Starts `serve` recording to `rec`, waits for it to be up, sends `signal`, and waits for it
+/// to exit (10 s at most).
+fn serve_then_signal(scene: &str, rec: &str, signal: &str) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_haptic6d"))
+        .args([
+            "serve",
+            scene,
+            "--port",
+            "0",
+            "--udp-port",
+            "0",
+            "--record",
+            rec,
+            "--duration",
+            "60",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    let mut lines = BufReader::new(stdout).lines();
+    let first = lines.next().expect("a start-up line").unwrap();
+    assert!(first.contains("open http://127.0.0.1:"), "{first}");
+    // Let it record for a while (several flushes of the temporary file).
+    std::thread::sleep(Duration::from_millis(300));
+    let pid = child.id().to_string();
+    let kill = Command::new("kill").args([signal, &pid]).status().unwrap();
+    assert!(kill.success());
+    let end = Instant::now() + Duration::from_secs(10);
+    loop {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        if Instant::now() > end {
+            let _ = child.kill();
+            panic!("serve did not stop within 10 s of {signal}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let rest: Vec<String> = lines.map_while(Result::ok).collect();
+    let mut out = child.wait_with_output().unwrap();
+    out.stdout = rest.join("\n").into_bytes();
+    out
+}
+
+#[test]
+fn a_recording_ended_by_sigterm_or_sigint_is_a_valid_trajectory() {
+    let d = Dir::new("signal");
+    let scene = d.scene();
+    for signal in ["-TERM", "-INT"] {
+        let rec = d.path(&format!("session{signal}.csv"));
+        let o = serve_then_signal(&scene, &rec, signal);
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            o.status.success(),
+            "{signal}: {}\n{stdout}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(stdout.contains("recorded "), "{signal}: {stdout}");
+        let text = std::fs::read_to_string(&rec).unwrap();
+        assert!(text.starts_with("t,x,y,z,gamma,beta,alpha\n") && text.ends_with('\n'));
+        let rows = text.lines().count() - 1;
+        assert!(
+            rows >= 200,
+            "{signal}: {rows} rows in about 300 ms at 1 kHz"
+        );
+        assert!(
+            !d.names().iter().any(|n| n.ends_with(".partial")),
+            "{signal}: {:?}",
+            d.names()
+        );
+        let out = d.path(&format!("replay{signal}"));
+        let r = haptic6d(&[
+            "run",
+            &scene,
+            "--trajectory",
+            &rec,
+            "--out",
+            &out,
+            "--no-plots",
+        ]);
+        assert!(
+            r.status.success(),
+            "{signal}: run rejected the recording: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+        assert!(Path::new(&out).join("frames.csv").exists());
+    }
+}
