@@ -161,6 +161,7 @@ fn rotation_angle(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
 impl GodObject {
     /// Packs the scene's trees and reserves every buffer (allocates; not real-time).
     pub fn new(scene: &Scene, params: StepParams) -> Result<Self, RenderError> {
+        params.validate()?; // the same ranges as the scene file (crate::config)
         let bad = |what: &str, e: collide::CollideError| RenderError::Scene {
             file: scene.name.clone(),
             msg: format!("{what}: {e}"),
@@ -455,7 +456,7 @@ impl GodObject {
         let mut cd = 0.0;
         let mut opt = 0.0;
         let mut q_new = q_prev;
-        let max_passes = 1 + self.params.relinearize;
+        let max_passes = self.params.relinearize.saturating_add(1);
         for pass in 0..max_passes {
             let t0 = Instant::now();
             let bound = self.motion_bound(&q_lin, q_h);
