@@ -144,8 +144,12 @@ impl Staging {
         let mut foreign = Vec::new();
         match std::fs::symlink_metadata(out) {
             Ok(m) if m.is_dir() => {
-                for e in std::fs::read_dir(out).with_context(|| format!("reading {}", out.display()))? {
-                    let n = e.with_context(|| format!("reading {}", out.display()))?.file_name();
+                for e in
+                    std::fs::read_dir(out).with_context(|| format!("reading {}", out.display()))?
+                {
+                    let n = e
+                        .with_context(|| format!("reading {}", out.display()))?
+                        .file_name();
                     if !RUN_FILES.iter().any(|r| n == std::ffi::OsStr::new(r)) {
                         foreign.push(n);
                     }
@@ -220,9 +224,8 @@ impl Staging {
             moved += 1;
         }
         if result.is_ok() {
-            result = std::fs::rename(&self.out, &self.backup).with_context(|| {
-                format!("moving the previous run {} aside", self.out.display())
-            });
+            result = std::fs::rename(&self.out, &self.backup)
+                .with_context(|| format!("moving the previous run {} aside", self.out.display()));
             if result.is_ok() {
                 if let Err(e) = std::fs::rename(&self.tmp, &self.out) {
                     let _ = std::fs::rename(&self.backup, &self.out);

@@ -265,10 +265,7 @@ fn check_output(output: &Path, input: &Path) -> Result<()> {
         _ => PathBuf::from("."),
     };
     if !dir.is_dir() {
-        bail!(
-            "-o {shown}: the directory {} does not exist",
-            dir.display()
-        );
+        bail!("-o {shown}: the directory {} does not exist", dir.display());
     }
     // Writable? Create and remove a probe file where the atomic write will put its temp file.
     let probe = dir.join(format!(".haptic6d-probe-{}", std::process::id()));

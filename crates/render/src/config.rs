@@ -33,7 +33,11 @@ pub struct SettingError {
 
 impl fmt::Display for SettingError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} = {}: must be {}", self.key, self.value, self.expected)
+        write!(
+            f,
+            "{} = {}: must be {}",
+            self.key, self.value, self.expected
+        )
     }
 }
 
@@ -58,7 +62,13 @@ pub struct Range {
 impl Range {
     /// True when `v` is finite and inside the range.
     pub fn contains(&self, v: f64) -> bool {
-        v.is_finite() && (if self.lo_open { v > self.lo } else { v >= self.lo }) && v <= self.hi
+        v.is_finite()
+            && (if self.lo_open {
+                v > self.lo
+            } else {
+                v >= self.lo
+            })
+            && v <= self.hi
     }
 
     /// The range as text: `a finite number in (0, 100] N`.
@@ -84,7 +94,7 @@ impl Range {
         } else {
             Err(SettingError {
                 key: key.to_string(),
-                value: format!("{v}"),
+                value: show(v),
                 expected: self.expected(),
             })
         }
@@ -124,6 +134,17 @@ impl IntRange {
     }
 }
 
+/// A value for a one-line message: plain for everyday magnitudes, `1e300` style otherwise
+/// (the plain form of 1e300 is 301 digits).
+fn show(v: f64) -> String {
+    let a = v.abs();
+    if v.is_finite() && a != 0.0 && !(1e-4..1e9).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 const fn open(key: &'static str, lo: f64, hi: f64, unit: &'static str) -> Range {
     Range {
         key,
@@ -154,8 +175,7 @@ pub const MAX_TORQUE_NMM: Range = open("[safety] max_torque_nmm", 0.0, 10_000.0,
 /// `[safety] max_force_step_n`: largest force change per frame, N.
 pub const MAX_FORCE_STEP_N: Range = open("[safety] max_force_step_n", 0.0, 100.0, "N");
 /// `[safety] max_torque_step_nmm`: largest torque change per frame, N·mm.
-pub const MAX_TORQUE_STEP_NMM: Range =
-    open("[safety] max_torque_step_nmm", 0.0, 10_000.0, "N·mm");
+pub const MAX_TORQUE_STEP_NMM: Range = open("[safety] max_torque_step_nmm", 0.0, 10_000.0, "N·mm");
 /// `[safety] soft_start_s`: soft-start ramp, s (0 = none).
 pub const SOFT_START_S: Range = closed("[safety] soft_start_s", 0.0, 10.0, "s");
 
@@ -288,7 +308,14 @@ mod tests {
             e,
             "--rate = 10000000: must be a finite number in [100, 20000] Hz"
         );
-        let e = RELINEARIZE.check(u64::from(u32::MAX)).unwrap_err().to_string();
+        let e = KT.check(1e300).unwrap_err().to_string();
+        assert!(e.starts_with("[coupling] kt = 1e300: "), "{e}");
+        let e = KT.check(-1e-300).unwrap_err().to_string();
+        assert!(e.starts_with("[coupling] kt = -1e-300: "), "{e}");
+        let e = RELINEARIZE
+            .check(u64::from(u32::MAX))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("4294967295") && e.contains("0..=16"), "{e}");
     }
 

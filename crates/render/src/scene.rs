@@ -543,11 +543,18 @@ fn load_body(
 /// trees, reads the trajectory named in `[device]`.
 pub fn load_scene_file(path: &Path, cache: &TreeCache) -> Result<Scene, RenderError> {
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| RenderError::Scene {
-        file: file.clone(),
-        msg: format!("cannot read the scene file: {e}"),
-    })?;
-    let spec = SceneSpec::parse(&text, &file)?;
+    // Bounded read: a scene file is a few hundred bytes; a device node is refused.
+    let text = mesh::read_input(path, 1 << 20)
+        .and_then(|b| {
+            String::from_utf8(b)
+                .map_err(|_| std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8 text"))
+        })
+        .map_err(|e| RenderError::Scene {
+            file: file.clone(),
+            msg: format!("cannot read the scene file: {e}"),
+        })?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let spec = SceneSpec::parse(text, &file)?;
     let base = path.parent().unwrap_or(Path::new("."));
     let mut log = Vec::new();
     let (tool, tool_mesh) = load_body(&spec.tool, base, &file, "tool", cache, &mut log)?;
