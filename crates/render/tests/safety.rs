@@ -353,8 +353,7 @@ fn good() -> Settings {
 #[track_caller]
 fn refused(s: &Settings, needle: &str) {
     let e = SceneSpec::parse(&toml(s), "scene.toml")
-        .err()
-        .expect("the scene file accepted it")
+        .expect_err("the scene file accepted it")
         .to_string();
     assert!(e.starts_with("scene.toml: ") && e.contains(needle), "{e}");
     assert!(!e.contains('\n'), "{e}");
