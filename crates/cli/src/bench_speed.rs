@@ -74,7 +74,11 @@ pub fn motions(quick: bool) -> Vec<SpeedMotion> {
 
 /// Runs the study: every motion of [`motions`] with the puck (and slides with the ball too),
 /// for each solver in `solvers`.
-pub fn speed_study(cache: &TreeCache, quick: bool, solvers: &[SolverKind]) -> Result<Vec<SpeedRow>> {
+pub fn speed_study(
+    cache: &TreeCache,
+    quick: bool,
+    solvers: &[SolverKind],
+) -> Result<Vec<SpeedRow>> {
     let min_steady = if quick { 0.15 } else { 0.5 };
     let mut rows = Vec::new();
     for tool in [PlateTool::Puck, PlateTool::Ball] {
@@ -131,7 +135,8 @@ fn speed_row(
         if let Some(p) = prev_force {
             let pm = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
             if pm > 0.0 && fm > 0.0 {
-                let d = ((f[0] - p[0]).powi(2) + (f[1] - p[1]).powi(2) + (f[2] - p[2]).powi(2)).sqrt();
+                let d =
+                    ((f[0] - p[0]).powi(2) + (f[1] - p[1]).powi(2) + (f[2] - p[2]).powi(2)).sqrt();
                 jump = jump.max(d);
             }
         }

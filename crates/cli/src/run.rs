@@ -10,6 +10,7 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use render::cache::TreeCache;
+use render::config;
 use render::device::ReplayDevice;
 use render::report::{frames_csv, summarize, RunSummary};
 use render::rt::{run_loop, LoopParams};
@@ -32,7 +33,8 @@ pub struct RunArgs {
     /// QP solver: dual (default, exact), pqp (the paper's), active-set (the paper's baseline).
     #[arg(long)]
     pub solver: Option<String>,
-    /// Output directory (created if missing).
+    /// Output directory (created if missing). The run is written beside it and moved into
+    /// place as a whole at the end: a failed run leaves a previous run there untouched.
     #[arg(long, short)]
     pub out: PathBuf,
     /// Print the summary as JSON on stdout.
@@ -90,45 +92,193 @@ pub(crate) fn load_scene(name: &str, cache: &TreeCache) -> Result<Scene> {
     Ok(load_scene_file(path, cache)?)
 }
 
-/// Refuses to write into a directory holding files that are not a previous run's, unless
-/// `force`.
-fn check_out_dir(dir: &Path, force: bool) -> Result<()> {
-    if !dir.exists() {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        return Ok(());
-    }
-    if !dir.is_dir() {
-        bail!("--out {} exists and is not a directory", dir.display());
-    }
-    let ours = [
-        "frames.csv",
-        "summary.json",
-        "trajectory.csv",
-        "pairs.png",
-        "timing.png",
-        "force.png",
-    ];
-    let foreign: Vec<String> = std::fs::read_dir(dir)
-        .with_context(|| format!("reading {}", dir.display()))?
-        .filter_map(|e| e.ok())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| !ours.contains(&n.as_str()) && !n.starts_with('.'))
-        .collect();
-    if !foreign.is_empty() && !force {
-        bail!(
-            "--out {} already holds other files ({}); choose an empty directory or pass --force",
-            dir.display(),
-            foreign.join(", ")
-        );
+/// The files a run writes into its `--out` folder.
+const RUN_FILES: [&str; 6] = [
+    "frames.csv",
+    "summary.json",
+    "trajectory.csv",
+    "pairs.png",
+    "timing.png",
+    "force.png",
+];
+
+/// Test hook: when set to one of [`RUN_FILES`] (or `plots`), the run fails just after writing
+/// that output into its staging folder, as a full disk would. Tests use it to show that a
+/// failure midway leaves the previous run intact.
+const FAIL_HOOK: &str = "HAPTIC6D_TEST_FAIL_RUN_OUTPUT";
+
+fn fail_hook(stage: &str) -> Result<()> {
+    if std::env::var(FAIL_HOOK).is_ok_and(|v| v == stage) {
+        bail!("simulated failure after writing {stage} ({FAIL_HOOK})");
     }
     Ok(())
 }
 
+/// A run's outputs are written into a fresh staging folder beside `--out` and put in place as
+/// a whole at the end ([`Staging::commit`]), so a failure midway (disk full, a plot that cannot
+/// be written) never leaves new files beside old ones: the previous run stays as it was. The
+/// staging folder is removed when the run fails (on drop).
+struct Staging {
+    /// `--out`.
+    out: PathBuf,
+    /// The staging folder `.<name>.new-<pid>-<ns>` beside `out`.
+    tmp: PathBuf,
+    /// Where the previous run is parked during the swap: `.<name>.old-<pid>-<ns>`.
+    backup: PathBuf,
+    /// Entries of the previous `--out` that are not a run's (kept with `--force`).
+    foreign: Vec<std::ffi::OsString>,
+    committed: bool,
+}
+
+impl Staging {
+    /// Checks `out` (a folder, or missing; holding only a previous run's files unless `force`)
+    /// and creates the staging folder beside it, which also proves the place writable before
+    /// the run starts.
+    fn new(out: &Path, force: bool) -> Result<Self> {
+        let name = out
+            .file_name()
+            .with_context(|| format!("--out {}: name a folder", out.display()))?
+            .to_string_lossy()
+            .into_owned();
+        let parent = match out.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let mut foreign = Vec::new();
+        match std::fs::symlink_metadata(out) {
+            Ok(m) if m.is_dir() => {
+                for e in
+                    std::fs::read_dir(out).with_context(|| format!("reading {}", out.display()))?
+                {
+                    let n = e
+                        .with_context(|| format!("reading {}", out.display()))?
+                        .file_name();
+                    if !RUN_FILES.iter().any(|r| n == std::ffi::OsStr::new(r)) {
+                        foreign.push(n);
+                    }
+                }
+                let visible: Vec<String> = foreign
+                    .iter()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .filter(|n| !n.starts_with('.'))
+                    .collect();
+                if !visible.is_empty() && !force {
+                    bail!(
+                        "--out {} already holds other files ({}); choose an empty directory or pass --force",
+                        out.display(),
+                        visible.join(", ")
+                    );
+                }
+            }
+            Ok(_) => bail!("--out {} exists and is not a directory", out.display()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(e).with_context(|| format!("--out {}", out.display())),
+        }
+        std::fs::create_dir_all(&parent)
+            .with_context(|| format!("creating {}", parent.display()))?;
+        let stamp = format!(
+            "{}-{}",
+            std::process::id(),
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_nanos())
+        );
+        let tmp = parent.join(format!(".{name}.new-{stamp}"));
+        std::fs::create_dir(&tmp).with_context(|| {
+            format!(
+                "--out {}: cannot create a staging folder beside it ({})",
+                out.display(),
+                tmp.display()
+            )
+        })?;
+        Ok(Self {
+            out: out.to_path_buf(),
+            backup: parent.join(format!(".{name}.old-{stamp}")),
+            tmp,
+            foreign,
+            committed: false,
+        })
+    }
+
+    /// The staging folder to write the run into.
+    fn dir(&self) -> &Path {
+        &self.tmp
+    }
+
+    /// Puts the staged run in place as a whole: the user's own files in the old folder
+    /// (`--force`) move into the new one, the old folder is parked, the new one renamed in,
+    /// the old one removed. Any failure undoes what was done: the previous run stays intact.
+    fn commit(mut self) -> Result<()> {
+        if std::fs::symlink_metadata(&self.out).is_err() {
+            std::fs::rename(&self.tmp, &self.out)
+                .with_context(|| format!("moving the run into {}", self.out.display()))?;
+            self.committed = true;
+            return Ok(());
+        }
+        let mut moved = 0;
+        let mut result = Ok(());
+        for n in &self.foreign {
+            if let Err(e) = std::fs::rename(self.out.join(n), self.tmp.join(n)) {
+                result = Err(e).with_context(|| {
+                    format!("keeping {} in the new run", self.out.join(n).display())
+                });
+                break;
+            }
+            moved += 1;
+        }
+        if result.is_ok() {
+            result = std::fs::rename(&self.out, &self.backup)
+                .with_context(|| format!("moving the previous run {} aside", self.out.display()));
+            if result.is_ok() {
+                if let Err(e) = std::fs::rename(&self.tmp, &self.out) {
+                    let _ = std::fs::rename(&self.backup, &self.out);
+                    result = Err(e)
+                        .with_context(|| format!("moving the run into {}", self.out.display()));
+                } else {
+                    self.committed = true;
+                    if let Err(e) = std::fs::remove_dir_all(&self.backup) {
+                        eprintln!(
+                            "warning: the previous run is kept in {}: cannot remove it: {e}",
+                            self.backup.display()
+                        );
+                    }
+                    return Ok(());
+                }
+            }
+        }
+        // Undo: the user's files go back where they were.
+        for n in &self.foreign[..moved] {
+            let _ = std::fs::rename(self.tmp.join(n), self.out.join(n));
+        }
+        result
+    }
+}
+
+impl Drop for Staging {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_dir_all(&self.tmp);
+        }
+    }
+}
+
 /// Runs `haptic6d run`.
 pub fn run(args: RunArgs) -> Result<()> {
+    // Flags are checked against the same ranges as the scene file's keys (render::config),
+    // before anything long starts.
     if let Some(r) = args.rate {
-        if !(r > 0.0 && r.is_finite()) {
-            bail!("--rate {r}: must be a positive number of Hz (e.g. 1000)");
+        config::RATE_HZ.check_as("--rate", r)?;
+    }
+    if let Some(n) = args.relinearize {
+        config::RELINEARIZE.check_as("--relinearize", u64::from(n))?;
+    }
+    for (v, range, name) in [
+        (args.skin, config::SKIN_MM, "--skin"),
+        (args.max_margin, config::MAX_MARGIN_MM, "--max-margin"),
+        (args.budget_us, config::BUDGET_US, "--budget-us"),
+    ] {
+        if let Some(v) = v {
+            range.check_as(name, v)?;
         }
     }
     let solver = args.solver.as_deref().map(SolverKind::parse).transpose()?;
@@ -143,7 +293,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         .as_deref()
         .map(Trajectory::read_csv)
         .transpose()?;
-    check_out_dir(&args.out, args.force)?;
+    let staging = Staging::new(&args.out, args.force)?;
 
     // One progress bar per tree build (terminal only), replaced when the next tree starts.
     let bar: Arc<Mutex<Option<(String, Progress)>>> = Arc::new(Mutex::new(None));
@@ -179,17 +329,6 @@ pub fn run(args: RunArgs) -> Result<()> {
     if let Some(r) = args.rate {
         scene.rate_hz = r;
     }
-    for (v, name) in [
-        (args.skin, "--skin"),
-        (args.max_margin, "--max-margin"),
-        (args.budget_us, "--budget-us"),
-    ] {
-        if let Some(v) = v {
-            if !(v > 0.0 && v.is_finite()) {
-                bail!("{name} {v}: must be a positive number");
-            }
-        }
-    }
     if let Some(v) = args.skin {
         scene.solver.skin_mm = v;
     }
@@ -205,6 +344,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     if let Some(t) = trajectory {
         scene.motion = Motion::Trajectory(t);
     }
+    scene.validate()?;
     let traj = scene.trajectory();
     let first = traj
         .samples
@@ -237,21 +377,27 @@ pub fn run(args: RunArgs) -> Result<()> {
         scene.load_log.clone(),
         load_s,
     );
-    let out = &args.out;
+    let dir = staging.dir();
     render::io::write_atomic(
-        &out.join("frames.csv"),
+        &dir.join("frames.csv"),
         frames_csv(&report.frames).as_bytes(),
     )?;
-    render::io::write_atomic(&out.join("trajectory.csv"), traj.to_csv_string().as_bytes())?;
+    fail_hook("frames.csv")?;
+    render::io::write_atomic(&dir.join("trajectory.csv"), traj.to_csv_string().as_bytes())?;
+    fail_hook("trajectory.csv")?;
     let json = serde_json::to_string_pretty(&summary)?;
-    render::io::write_atomic(&out.join("summary.json"), json.as_bytes())?;
+    render::io::write_atomic(&dir.join("summary.json"), json.as_bytes())?;
+    fail_hook("summary.json")?;
     if !args.no_plots {
         crate::plot::write_plots(
-            out,
+            dir,
             &report.frames,
             &format!("{} / {}", summary.scene, summary.solver),
         )?;
+        fail_hook("plots")?;
     }
+    staging.commit()?;
+    let out = &args.out;
     if args.json {
         println!("{json}");
     } else {

@@ -17,6 +17,9 @@ use crate::progress::Progress;
 /// Largest tree the command line builds (slots); beyond it memory and time explode.
 const MAX_SLOTS: usize = 1 << 24;
 
+/// Most coverage samples `tree eval` takes (10^7: about a minute on the bunny).
+const MAX_SAMPLES: usize = 10_000_000;
+
 /// `haptic6d tree ...`
 #[derive(Subcommand)]
 pub enum TreeCommand {
@@ -141,6 +144,8 @@ fn build(args: &BuildArgs) -> Result<()> {
             args.branch
         );
     }
+    // Before the (possibly long) build: the output must be a place a file can be written.
+    check_output(&args.output, &args.mesh)?;
     let loaded = load(&args.mesh)?;
     let mesh = &loaded.mesh;
     if args.method == Method::Tight {
@@ -229,6 +234,66 @@ fn build(args: &BuildArgs) -> Result<()> {
     Ok(())
 }
 
+/// Refuses an output that is not a regular file (a device node, a directory, a fifo), that is
+/// the input itself (same path or the same file through another name), or whose directory
+/// cannot be written; checked before the build so a long build never ends in such an error.
+fn check_output(output: &Path, input: &Path) -> Result<()> {
+    let shown = output.display();
+    match std::fs::metadata(output) {
+        Ok(m) => {
+            if !m.is_file() {
+                bail!("-o {shown}: exists and is not a regular file; give a .sph file path");
+            }
+            if same_file(output, input) {
+                bail!(
+                    "-o {shown} is the input mesh {}: give another output file",
+                    input.display()
+                );
+            }
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => bail!("-o {shown}: {e}"),
+    }
+    // A dangling symlink, or a path through a missing directory.
+    if std::fs::symlink_metadata(output).is_ok_and(|m| m.file_type().is_symlink())
+        && std::fs::metadata(output).is_err()
+    {
+        bail!("-o {shown}: is a symbolic link to nothing; give a .sph file path");
+    }
+    let dir = match output.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        bail!("-o {shown}: the directory {} does not exist", dir.display());
+    }
+    // Writable? Create and remove a probe file where the atomic write will put its temp file.
+    let probe = dir.join(format!(".haptic6d-probe-{}", std::process::id()));
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+        .with_context(|| format!("-o {shown}: cannot write in {}", dir.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
+/// True when `a` and `b` name the same existing file (same device and inode on Unix; the
+/// same canonical path elsewhere).
+fn same_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            return x.dev() == y.dev() && x.ino() == y.ino();
+        }
+    }
+    matches!(
+        (std::fs::canonicalize(a), std::fs::canonicalize(b)),
+        (Ok(x), Ok(y)) if x == y
+    )
+}
+
 /// The largest amount by which a child sphere pokes out of its parent (0 when every parent
 /// contains its children), in the tree's units.
 fn containment_excess(tree: &SphereTree) -> f64 {
@@ -251,10 +316,20 @@ fn containment_excess(tree: &SphereTree) -> f64 {
 }
 
 fn eval(args: &EvalArgs) -> Result<()> {
-    if args.samples == 0 {
-        bail!("--samples must be at least 1");
+    // Bounded: the samples are stored (24 bytes each) and measured against every sphere.
+    if !(1..=MAX_SAMPLES).contains(&args.samples) {
+        bail!(
+            "--samples {}: must be an integer in 1..={MAX_SAMPLES}",
+            args.samples
+        );
     }
     let mut tree = read_sph(&args.tree)?;
+    if !tree.spheres().iter().any(|s| s.is_used()) {
+        bail!(
+            "{}: the tree has no used sphere (every radius is negative); nothing to measure",
+            args.tree.display()
+        );
+    }
     let loaded = load(&args.mesh)?;
     let mesh = &loaded.mesh;
     mesh.check_closed().with_context(|| {

@@ -197,13 +197,23 @@ mod tests {
     /// `from_translation_rotation` keeps the orientation at the Euler singularity.
     #[test]
     fn log_exp_round_trip_and_gimbal_lock() {
-        for (k, angle) in [1e-12, 1e-7, 1e-3, 0.5, 2.0, 3.0, 3.14159].into_iter().enumerate() {
+        for (k, angle) in [1e-12, 1e-7, 1e-3, 0.5, 2.0, 3.0, 3.14159]
+            .into_iter()
+            .enumerate()
+        {
             let axis = Vector3::new(0.3 + k as f64, -0.8, 0.5).normalize();
             let w = axis * angle;
             let back = rotation_log(&rotation_exp(&w));
-            assert!((back - w).norm() <= 1e-12 * angle.max(1.0), "{angle}: {back:?} vs {w:?}");
+            assert!(
+                (back - w).norm() <= 1e-12 * angle.max(1.0),
+                "{angle}: {back:?} vs {w:?}"
+            );
         }
-        for beta in [std::f64::consts::FRAC_PI_2, -std::f64::consts::FRAC_PI_2, 0.3] {
+        for beta in [
+            std::f64::consts::FRAC_PI_2,
+            -std::f64::consts::FRAC_PI_2,
+            0.3,
+        ] {
             let r = rotation_zyx(0.7, beta, -1.2);
             let p = Pose::from_translation_rotation(&Vector3::new(1.0, 2.0, 3.0), &r);
             assert!((p.rotation_matrix() - r).norm() < 1e-9, "beta {beta}");

@@ -288,7 +288,14 @@ pub fn collect_pairs(
 /// `o` (axis-aligned), each grown by `m`, are separated along one of the six face axes: no
 /// leaf pair under them can be within `m`. Conservative (the nine edge axes are not tested).
 #[inline(always)]
-fn boxes_may_touch(ws: &CollideWorkspace, tool: &PackedTree, t: usize, obj: &PackedTree, o: usize, m: f64) -> bool {
+fn boxes_may_touch(
+    ws: &CollideWorkspace,
+    tool: &PackedTree,
+    t: usize,
+    obj: &PackedTree,
+    o: usize,
+    m: f64,
+) -> bool {
     let (ct, et) = (&tool.box_center[t], &tool.box_half[t]);
     let (co, eo) = (&obj.box_center[o], &obj.box_half[o]);
     let r = &ws.rot;

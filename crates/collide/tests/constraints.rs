@@ -222,7 +222,15 @@ fn rotational_gradient_matches_partial_matrices() {
 }
 
 /// `C` with the tool rotated by `exp([w]x)` about the world axes and shifted by `dt`.
-fn rotated_value(pose: &Pose, dt: [f64; 3], w: [f64; 3], p: &[f64; 3], rt: f64, o: &[f64; 3], ro: f64) -> f64 {
+fn rotated_value(
+    pose: &Pose,
+    dt: [f64; 3],
+    w: [f64; 3],
+    p: &[f64; 3],
+    rt: f64,
+    o: &[f64; 3],
+    ro: f64,
+) -> f64 {
     // Straight from the matrix: a round trip through Euler angles near beta = ±pi/2 would
     // lose more digits than the finite difference has.
     let rot = collide::rotation_exp(&nalgebra::Vector3::from(w)) * pose.rotation_matrix();
@@ -313,9 +321,14 @@ fn rotation_vector_rows_ignore_the_euler_representation() {
     assert!((twin.rotation_matrix() - q_h.rotation_matrix()).norm() < 1e-12);
     let pr = pair([5.0, 0.0, -1.0], 1.0, [6.0, 2.0, 0.5], 2.0);
     let rows = |h: &Pose| {
-        Linearization::with_coordinates(ConstraintForm::Distance, RotationCoordinates::RotationVector, &q_lin, h)
-            .unwrap()
-            .row(&pr)
+        Linearization::with_coordinates(
+            ConstraintForm::Distance,
+            RotationCoordinates::RotationVector,
+            &q_lin,
+            h,
+        )
+        .unwrap()
+        .row(&pr)
     };
     let (j0, d0) = rows(&q_h);
     for other in [q_h_wrapped, twin] {

@@ -11,10 +11,12 @@
 #![warn(missing_docs)]
 
 mod error;
+pub mod input;
 pub mod load;
 pub mod validate;
 
 pub use error::MeshError;
+pub use input::{read_input, MAX_MESH_BYTES};
 pub use load::{load_mesh, load_mesh_bytes, LoadReport, LoadedMesh, MeshFormat};
 
 pub mod query;

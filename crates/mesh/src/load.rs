@@ -79,9 +79,11 @@ pub struct LoadedMesh {
 /// follow its format (truncated, wrong counts), no face, NaN or infinite coordinates,
 /// out-of-range indices, faces of fewer than 3 vertices, or only degenerate triangles.
 pub fn load_mesh(path: &Path) -> Result<LoadedMesh, MeshError> {
-    let bytes = std::fs::read(path).map_err(|error| MeshError::Read {
-        path: path.to_path_buf(),
-        error,
+    let bytes = crate::input::read_input(path, crate::input::MAX_MESH_BYTES).map_err(|error| {
+        MeshError::Read {
+            path: path.to_path_buf(),
+            error,
+        }
     })?;
     load_mesh_bytes(&bytes, path)
 }
@@ -162,6 +164,9 @@ fn parse_error(path: &Path, format: &str, message: impl fmt::Display) -> MeshErr
 // OBJ
 
 fn read_obj(bytes: &[u8], path: &Path) -> Result<RawPolygons, MeshError> {
+    // A UTF-8 byte-order mark is not part of the first line (it would hide a `v` there and
+    // shift every reported line).
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     // No triangulation (we fan ourselves), one index per vertex, geometry only.
     let options = tobj::LoadOptions {
         single_index: false,
@@ -240,10 +245,14 @@ fn read_obj(bytes: &[u8], path: &Path) -> Result<RawPolygons, MeshError> {
 fn locate_obj_problem(bytes: &[u8]) -> Option<String> {
     let text = String::from_utf8_lossy(bytes);
     let mut n_vertices: i64 = 0;
+    let mut n_texcoords: i64 = 0;
+    let mut n_normals: i64 = 0;
     for (i, line) in text.lines().enumerate() {
         let lineno = i + 1;
         let mut tokens = line.split_whitespace();
         match tokens.next() {
+            Some("vt") => n_texcoords += 1,
+            Some("vn") => n_normals += 1,
             Some("v") => {
                 let nums: Vec<&str> = tokens.collect();
                 if nums.len() < 3 || nums.iter().any(|t| t.parse::<f64>().is_err()) {
@@ -291,6 +300,26 @@ fn locate_obj_problem(bytes: &[u8]) -> Option<String> {
                             "line {lineno}: face refers to vertex {ix}, but only {n_vertices} vertices are defined before this line"
                         ));
                     }
+                    // `a/t/n`: texture and normal references are checked the same way.
+                    for (part, what, count) in [
+                        (c.split('/').nth(1), "texture coordinate (vt)", n_texcoords),
+                        (c.split('/').nth(2), "normal (vn)", n_normals),
+                    ] {
+                        let Some(part) = part.filter(|p| !p.is_empty()) else {
+                            continue;
+                        };
+                        let Ok(jx) = part.parse::<i64>() else {
+                            return Some(format!(
+                                "line {lineno}: `{c}`: `{part}` is not a {what} number"
+                            ));
+                        };
+                        let resolved = if jx < 0 { count + jx + 1 } else { jx };
+                        if jx == 0 || resolved < 1 || resolved > count {
+                            return Some(format!(
+                                "line {lineno}: face refers to {what} {jx}, but only {count} are defined before this line"
+                            ));
+                        }
+                    }
                 }
             }
             _ => {}
@@ -331,13 +360,19 @@ fn read_stl(bytes: &[u8], path: &Path) -> Result<(MeshFormat, RawPolygons), Mesh
         }
         let n = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64;
         let need = 84 + 50 * n;
-        if (bytes.len() as u64) < need {
+        if (bytes.len() as u64) != need {
+            let held = (bytes.len() as u64).saturating_sub(84) as f64 / 50.0;
             return Err(parse_error(
                 path,
                 &fname,
                 format!(
-                    "the header says {n} triangles ({need} bytes) but the file has {} bytes: truncated, or not an STL file",
-                    bytes.len()
+                    "the header says {n} triangles ({need} bytes) but the file has {} bytes (room for {held} triangles): {}",
+                    bytes.len(),
+                    if (bytes.len() as u64) < need {
+                        "truncated, or not an STL file"
+                    } else {
+                        "the triangle count is wrong, or data follows the triangles"
+                    }
                 ),
             ));
         }
@@ -493,6 +528,26 @@ fn read_ply(bytes: &[u8], path: &Path) -> Result<(MeshFormat, RawPolygons), Mesh
             _ => {}
         }
     }
+    // More data than the header declares (e.g. `element face 12` followed by 24 faces): the
+    // counts are wrong, and loading the declared part would silently drop the rest.
+    let mut rest = Vec::new();
+    std::io::Read::read_to_end(&mut reader, &mut rest).map_err(|e| parse_error(path, &fname, e))?;
+    if !rest.iter().all(u8::is_ascii_whitespace) {
+        let declared: Vec<String> = header
+            .elements
+            .iter()
+            .map(|(n, d)| format!("{} {n}", d.count))
+            .collect();
+        return Err(parse_error(
+            path,
+            &fname,
+            format!(
+                "{} bytes of data follow the last element: the header's counts ({}) are smaller than the data",
+                rest.len(),
+                declared.join(", ")
+            ),
+        ));
+    }
     if !saw_vertex {
         return Err(parse_error(
             path,
@@ -503,20 +558,28 @@ fn read_ply(bytes: &[u8], path: &Path) -> Result<(MeshFormat, RawPolygons), Mesh
     Ok((format, raw))
 }
 
-/// Rejects `format` / `element` header lines with a number that does not fit in 64 bits (ply-rs
-/// panics on them) and element counts above the file's size in bytes (ply-rs would loop that
-/// many times on an element without properties).
+/// Checks a PLY header before ply-rs reads it, wherever the header ends (any number of
+/// `comment` lines): numbers on `format` / `element` lines must fit in 64 bits (ply-rs panics
+/// on longer ones), and the elements must fit in the bytes after the header, counting the
+/// fewest bytes each element can take (ply-rs would otherwise allocate for a count of 10^11,
+/// an abort, or loop that many times on an element without properties, a hang).
 fn check_ply_element_counts(bytes: &[u8], path: &Path) -> Result<(), MeshError> {
-    let head = &bytes[..bytes.len().min(64 * 1024)];
-    for (i, line) in head.split(|&b| b == b'\n').enumerate() {
-        let line = String::from_utf8_lossy(line);
-        let first = line.split_whitespace().next();
-        if first == Some("end_header") {
-            break;
-        }
-        if !matches!(first, Some("format" | "element")) {
-            continue;
-        }
+    struct Declared {
+        name: String,
+        count: u64,
+        line: usize,
+        /// Fewest bytes one element takes (ASCII: 2 per property; binary: the scalar sizes).
+        min_bytes: u64,
+    }
+    let mut ascii = true;
+    let mut elements: Vec<Declared> = Vec::new();
+    let mut offset = 0usize;
+    let mut header_end = None;
+    for (i, raw) in bytes.split(|&b| b == b'\n').enumerate() {
+        offset = offset.saturating_add(raw.len() + 1);
+        let line = String::from_utf8_lossy(raw);
+        let mut tokens = line.split_whitespace();
+        let first = tokens.next();
         let bad = |what: String| {
             parse_error(
                 path,
@@ -524,22 +587,79 @@ fn check_ply_element_counts(bytes: &[u8], path: &Path) -> Result<(), MeshError> 
                 format!("header line {}: {what}; the header is corrupt", i + 1),
             )
         };
-        for run in line
-            .split(|c: char| !c.is_ascii_digit())
-            .filter(|r| !r.is_empty())
-        {
-            if run.parse::<u64>().is_err() {
-                return Err(bad(format!("number {run} is too large")));
+        match first {
+            Some("end_header") => {
+                header_end = Some(offset.min(bytes.len()));
+                break;
             }
+            Some("format" | "element") => {
+                for run in line
+                    .split(|c: char| !c.is_ascii_digit())
+                    .filter(|r| !r.is_empty())
+                {
+                    if run.parse::<u64>().is_err() {
+                        return Err(bad(format!("number {run} is too large")));
+                    }
+                }
+                if first == Some("format") {
+                    ascii = tokens.next() == Some("ascii");
+                } else {
+                    let name = tokens.next().unwrap_or("").to_string();
+                    // A malformed count is ply-rs's to report (with its own message).
+                    if let Ok(count) = tokens.next().unwrap_or("").parse::<u64>() {
+                        elements.push(Declared {
+                            name,
+                            count,
+                            line: i + 1,
+                            min_bytes: 0,
+                        });
+                    }
+                }
+            }
+            Some("property") => {
+                if let Some(e) = elements.last_mut() {
+                    let ty = match tokens.next() {
+                        Some("list") => tokens.next().unwrap_or(""),
+                        Some(t) => t,
+                        None => "",
+                    };
+                    e.min_bytes += if ascii {
+                        2
+                    } else {
+                        match ty {
+                            "char" | "uchar" | "int8" | "uint8" => 1,
+                            "short" | "ushort" | "int16" | "uint16" => 2,
+                            "double" | "float64" => 8,
+                            _ => 4,
+                        }
+                    };
+                }
+            }
+            _ => {}
         }
-        if first == Some("element") {
-            let count = line.split_whitespace().nth(2).unwrap_or("");
-            if matches!(count.parse::<u64>(), Ok(n) if n > bytes.len() as u64) {
-                return Err(bad(format!(
-                    "element count {count} is larger than the file ({} bytes)",
-                    bytes.len()
-                )));
-            }
+    }
+    // No `end_header`: ply-rs says so.
+    let Some(end) = header_end else {
+        return Ok(());
+    };
+    let body = (bytes.len() - end) as u128;
+    let mut need: u128 = 0;
+    for e in &elements {
+        // At least one byte per element, so an element without properties cannot loop.
+        need += u128::from(e.count) * u128::from(e.min_bytes.max(1));
+        // The last ASCII value may lack its separator.
+        if need > body + u128::from(ascii) {
+            return Err(parse_error(
+                path,
+                "PLY",
+                format!(
+                    "header line {}: element `{}` count {} does not fit in the {body} bytes after the header (at least {} bytes each); the header is corrupt",
+                    e.line,
+                    e.name,
+                    e.count,
+                    e.min_bytes.max(1)
+                ),
+            ));
         }
     }
     Ok(())

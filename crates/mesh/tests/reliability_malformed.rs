@@ -363,12 +363,7 @@ fn ply_element_count_larger_than_file_is_an_error_not_a_hang() {
     // elements (hours, then out of memory).
     let d = Dir::new("reg3");
     let text = "ply\nformat binary_little_endian 1.0\nelement pad 99999999999\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
-    expect_err(
-        &d,
-        "r3.ply",
-        text,
-        &["header line 3", "larger than the file"],
-    );
+    expect_err(&d, "r3.ply", text, &["header line 3", "does not fit"]);
 }
 
 #[test]
@@ -391,4 +386,151 @@ fn obj_non_finite_vertex_error_names_the_line() {
     let d = Dir::new("reg5");
     let text = TET_OBJ.replace("v 0 1 0", "v 0 nan 0");
     expect_err(&d, "r6.obj", text, &["line 3", "finite"]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Issue 14 (safety and security): each failure found by the adversarial pass.
+
+#[test]
+fn ply_count_after_75_kb_of_comments_is_checked_against_the_file_size() {
+    // The count check used to read only the first 64 KiB of the header: a count of 10^11
+    // behind 75 KB of comments reached ply-rs (allocation abort, rc 134).
+    let d = Dir::new("i14a");
+    let comments = "comment padding padding padding padding padding padding\n".repeat(1400);
+    assert!(comments.len() > 75_000);
+    let text = ply_header("ascii", "99999999999", "4").replace(
+        "format ascii 1.0\n",
+        &format!("format ascii 1.0\n{comments}"),
+    ) + TET_PLY_BODY;
+    expect_err(
+        &d,
+        "c.ply",
+        &text,
+        &["header line 1403", "99999999999", "does not fit"],
+    );
+    // Binary too, and a count past 64 bits behind the comments (ply-rs panicked).
+    let bin = ply_header("binary_little_endian", "99999999999", "4").replace(
+        "format binary_little_endian 1.0\n",
+        &format!("format binary_little_endian 1.0\n{comments}"),
+    );
+    expect_err(&d, "b.ply", bin.as_bytes(), &["vertex", "does not fit"]);
+    let big = ply_header("ascii", "184467440737095516160", "4").replace(
+        "format ascii 1.0\n",
+        &format!("format ascii 1.0\n{comments}"),
+    );
+    expect_err(&d, "o.ply", big + TET_PLY_BODY, &["too large"]);
+}
+
+#[test]
+fn ply_counts_must_fit_the_bytes_each_element_needs() {
+    // 4 binary float vertices need 48 bytes; the file holds fewer, although the count (4) is
+    // far below the file size the old check compared with.
+    let d = Dir::new("i14b");
+    let mut b = ply_header("binary_little_endian", "400", "0").into_bytes();
+    b.extend([0u8; 100]);
+    expect_err(
+        &d,
+        "s.ply",
+        b,
+        &["element `vertex` count 400", "at least 12 bytes"],
+    );
+}
+
+#[test]
+fn ascii_ply_with_more_faces_than_declared_is_refused() {
+    let d = Dir::new("i15a");
+    // 4 faces declared, 8 present: the second half used to be dropped silently.
+    let body = TET_PLY_BODY.to_string() + "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+    expect_err(
+        &d,
+        "f.ply",
+        ply_header("ascii", "4", "4") + &body,
+        &["follow the last element", "4 face"],
+    );
+    // Trailing blank lines are fine.
+    assert!(load_mesh(&d.write(
+        "ok.ply",
+        ply_header("ascii", "4", "4") + TET_PLY_BODY + "\n\n"
+    ))
+    .is_ok());
+}
+
+#[test]
+fn binary_stl_holding_more_triangles_than_its_count_is_refused() {
+    let d = Dir::new("i15b");
+    const TRI: [[f32; 3]; 3] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let tris = [TRI; 24];
+    expect_err(
+        &d,
+        "m.stl",
+        stl_binary(&tris, 12),
+        &[
+            "says 12 triangles",
+            "room for 24 triangles",
+            "count is wrong",
+        ],
+    );
+    expect_err(
+        &d,
+        "t.stl",
+        stl_binary(&tris[..6], 12),
+        &["says 12", "truncated"],
+    );
+}
+
+#[test]
+fn obj_texture_and_normal_index_errors_name_the_line() {
+    let d = Dir::new("i17a");
+    let base = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvn 0 0 1\n";
+    expect_err(
+        &d,
+        "t.obj",
+        format!("{base}f 1/1 2/1 3/1\nf 1/9 2/1 4/1\n"),
+        &["line 8", "texture coordinate (vt) 9", "only 1"],
+    );
+    expect_err(
+        &d,
+        "n.obj",
+        format!("{base}f 1//1 2//1 3//5\n"),
+        &["line 7", "normal (vn) 5"],
+    );
+    expect_err(
+        &d,
+        "x.obj",
+        format!("{base}f 1/a 2/1 3/1\n"),
+        &["line 7", "`a`"],
+    );
+    // Valid references load.
+    let ok = format!("{base}f 1/1/1 3/1/1 2/1/1\nf 1/1/1 2/1/1 4/1/1\nf 1/1/1 4/1/1 3/1/1\nf 2/1/1 3/1/1 4/1/1\n");
+    assert!(load_mesh(&d.write("ok.obj", ok)).is_ok());
+}
+
+#[test]
+fn utf8_bom_does_not_shift_obj_line_numbers() {
+    let d = Dir::new("i17b");
+    let text = format!("\u{feff}{TET_OBJ}f 1 2 99\n");
+    expect_err(&d, "bom.obj", text, &["line 9:", "vertex 99"]);
+    // And a BOM'd valid file loads with all four vertices.
+    let l = load_mesh(&d.write("ok.obj", format!("\u{feff}{TET_OBJ}"))).unwrap();
+    assert_eq!(l.mesh.vertices.len(), 4);
+}
+
+#[cfg(unix)]
+#[test]
+fn dev_zero_and_directories_are_refused_not_read() {
+    let e = load_mesh(Path::new("/dev/zero.obj"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("/dev/zero.obj"), "{e}");
+    // The device itself, through a symlink with a mesh extension.
+    let d = Dir::new("i17c");
+    let link = d.0.join("zero.stl");
+    std::os::unix::fs::symlink("/dev/zero", &link).unwrap();
+    let e = load_mesh(&link).unwrap_err().to_string();
+    assert!(
+        e.contains("zero.stl") && e.contains("not a regular file"),
+        "{e}"
+    );
+    let e = load_mesh(&d.0).unwrap_err().to_string();
+    assert!(e.contains("directory"), "{e}");
 }

@@ -8,6 +8,7 @@
 //! - [`device::Device`]: trajectory replay, scripted motion, and a recorder.
 //! - [`step::GodObject`]: one haptic frame (detect, constrain, solve, force).
 //! - [`safety::Safety`]: force/torque clamp, rate limit, NaN guard, soft start.
+//! - [`config`]: the accepted range of every setting (scene file, command line, API).
 //! - [`rt::run_loop`]: the real-time loop on a named thread, with deadline and jitter stats.
 //! - [`trajectory::Trajectory`]: the `t,x,y,z,gamma,beta,alpha` CSV and keyframe scripts.
 #![warn(missing_docs)]
@@ -16,6 +17,7 @@
 #![cfg_attr(not(test), warn(clippy::unwrap_used, clippy::expect_used))]
 
 pub mod cache;
+pub mod config;
 pub mod device;
 pub mod io;
 pub mod report;
@@ -66,6 +68,10 @@ pub enum RenderError {
         /// The accepted names.
         expected: String,
     },
+    /// A setting (given through the Rust API) is outside its range; scene files report the
+    /// same error inside [`RenderError::Scene`].
+    #[error("{0}")]
+    Setting(#[from] config::SettingError),
     /// The start configuration is in collision and no free pose was found nearby.
     #[error("the start pose is in collision and no free pose was found within {searched_mm} mm; move `start` away from the objects")]
     NoFreeStart {

@@ -52,6 +52,16 @@ impl Default for LoopParams {
     }
 }
 
+impl LoopParams {
+    /// Checks `rate_hz` ([`crate::config::RATE_HZ`]), `spin_us` and `max_frames` against
+    /// their ranges; the first bad one is named.
+    pub fn validate(&self) -> Result<(), crate::config::SettingError> {
+        crate::config::RATE_HZ.check(self.rate_hz)?;
+        crate::config::SPIN_US.check(self.spin_us)?;
+        crate::config::MAX_FRAMES.check(self.max_frames as u64)
+    }
+}
+
 /// One frame as recorded by the loop.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameRecord {
@@ -149,9 +159,16 @@ fn wait_until(deadline: Instant, spin: Duration) {
 
 /// Runs frames on the current thread until the device ends or `records` is full.
 ///
+/// The safety filter's clock is the loop's own: wall time when paced, `frame / rate_hz` when
+/// not; never the device's time stamps, so a recording whose times are all equal or negative
+/// still gets its soft start once, at the beginning.
+///
+/// `params` should have passed [`LoopParams::validate`] ([`run_loop`] checks it); a rate
+/// outside [`crate::config::RATE_HZ`] is paced at 1 kHz rather than panicking.
+///
 /// # Real-time
 /// Allocation-free when `records` has spare capacity: the body is [`GodObject::step`],
-/// [`Safety::filter`] and the device calls. No panic.
+/// [`Safety::filter`] and the device calls. No panic, no arithmetic that can overflow.
 pub fn run_frames<D: Device + ?Sized>(
     god: &mut GodObject,
     device: &mut D,
@@ -159,16 +176,26 @@ pub fn run_frames<D: Device + ?Sized>(
     params: &LoopParams,
     records: &mut Vec<FrameRecord>,
 ) -> usize {
-    let period = Duration::from_secs_f64(1.0 / params.rate_hz);
-    let spin = Duration::from_secs_f64(params.spin_us.max(0.0) * 1e-6);
+    let rate_hz = if crate::config::RATE_HZ.contains(params.rate_hz) {
+        params.rate_hz
+    } else {
+        1000.0
+    };
+    let period = Duration::from_secs_f64(1.0 / rate_hz);
+    let spin_us = if crate::config::SPIN_US.contains(params.spin_us) {
+        params.spin_us
+    } else {
+        0.0
+    };
+    let spin = Duration::from_secs_f64(spin_us * 1e-6);
     let start = Instant::now();
-    let mut base = start;
-    let mut sched_i: u32 = 0;
+    // Deadlines advance by one period per frame (no `period * i`, which could overflow).
+    let mut deadline = start;
     let mut last_start: Option<Instant> = None;
     let mut frame = 0usize;
     while records.len() < records.capacity() {
         if params.realtime {
-            wait_until(base + period * sched_i, spin);
+            wait_until(deadline, spin);
         }
         let now = Instant::now();
         let t_wall = (now - start).as_secs_f64();
@@ -176,25 +203,26 @@ pub fn run_frames<D: Device + ?Sized>(
             break;
         };
         let out = god.step(&sample.pose);
-        let t_rel = if params.realtime { t_wall } else { sample.t };
+        let t_rel = if params.realtime {
+            t_wall
+        } else {
+            frame as f64 / rate_hz
+        };
         let (sent, flags) = safety.filter(t_rel, out.wrench);
         device.send(&sent);
         let period_us = last_start.map_or(0.0, |l| (now - l).as_secs_f64() * 1e6);
         last_start = Some(now);
         let mut overrun = false;
         if params.realtime {
-            let next = base + period * (sched_i + 1);
+            let next = deadline.checked_add(period).unwrap_or(now);
             let end = Instant::now();
+            deadline = next;
             if end > next {
                 overrun = true;
-                if end > next + period {
-                    base = end;
-                    sched_i = 0;
-                } else {
-                    sched_i += 1;
+                // More than a whole period behind: re-base on now (no burst of catch-up frames).
+                if end > next.checked_add(period).unwrap_or(end) {
+                    deadline = end;
                 }
-            } else {
-                sched_i += 1;
             }
         }
         records.push(FrameRecord {
@@ -206,7 +234,7 @@ pub fn run_frames<D: Device + ?Sized>(
             period_us,
             overrun,
         });
-        frame += 1;
+        frame = frame.saturating_add(1);
     }
     frame
 }
@@ -219,6 +247,11 @@ pub fn run_loop<D: Device>(
     safety: &mut Safety,
     params: &LoopParams,
 ) -> Result<LoopReport, RenderError> {
+    // One validation of every setting before the thread starts (the same ranges as the scene
+    // file): a settings struct built through the API cannot bypass the safety layer.
+    god.params().validate()?;
+    safety.params().validate()?;
+    params.validate()?;
     let mut rt_priority = false;
     let cap = device
         .frames()

@@ -78,6 +78,11 @@ impl SafetyEvents {
 #[derive(Clone, Debug)]
 pub struct Safety {
     params: SafetyParams,
+    /// The limits passed [`SafetyParams::validate`]; when not, every output is zero.
+    valid: bool,
+    /// Time of the first filtered frame: the soft start runs from there, whatever the clock's
+    /// origin (a recording may start at a negative or large time).
+    t0: Option<f64>,
     last: [f64; 6],
     events: SafetyEvents,
 }
@@ -100,12 +105,24 @@ fn clamp3(v: &mut [f64], limit: f64) -> bool {
 
 impl Safety {
     /// A filter with these limits; the last output starts at zero.
+    ///
+    /// Limits that fail [`SafetyParams::validate`] (NaN, negative, absurdly large) do not
+    /// disable or reverse the clamp: such a filter sends zero in every frame, flagged as a
+    /// force and torque clamp. Use [`Safety::try_new`] to be told instead.
     pub fn new(params: SafetyParams) -> Self {
         Self {
             params,
+            valid: params.validate().is_ok(),
+            t0: None,
             last: [0.0; 6],
             events: SafetyEvents::default(),
         }
+    }
+
+    /// A filter with these limits, or the error naming the first limit out of its range.
+    pub fn try_new(params: SafetyParams) -> Result<Self, crate::config::SettingError> {
+        params.validate()?;
+        Ok(Self::new(params))
     }
 
     /// The limits.
@@ -118,13 +135,23 @@ impl Safety {
         self.events
     }
 
-    /// Filters the raw wrench `[F (N); T (N·mm)]` of the frame at time `t` (s since start) and
-    /// returns the wrench to send plus the flags of what was done.
+    /// Filters the raw wrench `[F (N); T (N·mm)]` of the frame at time `t` (s; the soft start
+    /// counts from the first frame's `t`) and returns the wrench to send plus the flags of what
+    /// was done.
     ///
     /// # Real-time
-    /// No allocation, no panic, constant time. The output is always finite.
+    /// No allocation, no panic, constant time. The output is always finite, within the limits,
+    /// and within the rate limit of the previous output.
     pub fn filter(&mut self, t: f64, raw: [f64; 6]) -> ([f64; 6], u8) {
         let mut f = 0u8;
+        if !self.valid {
+            let f = flags::FORCE_CLAMP | flags::TORQUE_CLAMP;
+            self.events.record(f);
+            return ([0.0; 6], f);
+        }
+        let t = if t.is_finite() { t } else { 0.0 };
+        let t0 = *self.t0.get_or_insert(t);
+        let t = t - t0;
         if !raw.iter().all(|v| v.is_finite()) {
             f |= flags::NAN_GUARD;
             self.events.record(f);
@@ -167,8 +194,9 @@ mod tests {
     fn no_ramp() -> SafetyParams {
         SafetyParams {
             soft_start_s: 0.0,
-            max_force_step_n: 1e9,
-            max_torque_step_nmm: 1e9,
+            // The largest accepted steps: no rate limiting in these tests.
+            max_force_step_n: 100.0,
+            max_torque_step_nmm: 10_000.0,
             ..SafetyParams::default()
         }
     }
@@ -194,12 +222,48 @@ mod tests {
     }
 
     #[test]
+    fn invalid_limits_send_zero_never_a_reversed_or_unclamped_force() {
+        for bad in [f64::NAN, -10.0, 0.0, f64::INFINITY, 1e9] {
+            let p = SafetyParams {
+                max_force_n: bad,
+                ..no_ramp()
+            };
+            assert!(Safety::try_new(p)
+                .unwrap_err()
+                .to_string()
+                .contains("max_force_n"));
+            let mut s = Safety::new(p);
+            for t in [0.0, 1.0, 2.0] {
+                let (w, f) = s.filter(t, [0.0, 0.0, 110.9, 0.0, 0.0, 5.0]);
+                assert_eq!(w, [0.0; 6], "max_force_n = {bad}");
+                assert_ne!(f & flags::FORCE_CLAMP, 0);
+            }
+        }
+    }
+
+    #[test]
+    fn soft_start_counts_from_the_first_frame_whatever_the_clock_origin() {
+        for t0 in [-5.0, 0.0, 1e6] {
+            let mut s = Safety::new(SafetyParams {
+                soft_start_s: 0.01,
+                max_force_step_n: 100.0,
+                ..SafetyParams::default()
+            });
+            let (w, _) = s.filter(t0, [10.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+            assert_eq!(w[0], 0.0);
+            let (w, f) = s.filter(t0 + 0.02, [10.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+            assert_eq!((w[0], f), (10.0, 0), "t0 = {t0}");
+        }
+    }
+
+    #[test]
     fn rate_limit_and_soft_start() {
         let mut s = Safety::new(SafetyParams {
             soft_start_s: 0.1,
             max_force_step_n: 1.0,
             ..SafetyParams::default()
         });
+        s.filter(0.0, [0.0; 6]);
         let (w, f) = s.filter(0.05, [10.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
         assert!((w[0] - 1.0).abs() < 1e-12, "{w:?}");
         assert_eq!(f, flags::SOFT_START | flags::RATE_LIMIT);

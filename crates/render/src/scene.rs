@@ -311,15 +311,14 @@ impl SceneSpec {
                 )));
             }
         }
-        let positive = |v: f64| v > 0.0 && v.is_finite();
-        if !(positive(spec.coupling.kt) && positive(spec.coupling.kr)) {
-            return Err(err(
-                "[coupling] kt and kr must be finite and > 0 (e.g. kt = 1.0, kr = 1000.0)".into(),
-            ));
-        }
-        if !(spec.device.rate_hz > 0.0 && spec.device.rate_hz.is_finite()) {
-            return Err(err("[device] rate_hz must be > 0 (e.g. 1000.0)".into()));
-        }
+        // Every numeric setting against its one range (crate::config), first bad key named.
+        let setting = |e: crate::config::SettingError| err(e.to_string());
+        spec.coupling.validate().map_err(setting)?;
+        spec.solver.validate().map_err(setting)?;
+        spec.safety.validate().map_err(setting)?;
+        crate::config::RATE_HZ
+            .check(spec.device.rate_hz)
+            .map_err(setting)?;
         Ok(spec)
     }
 }
@@ -355,10 +354,11 @@ fn check_body(b: &BodySpec, name: &str) -> Result<(), String> {
             ));
         }
     }
-    for q in [&b.start, &b.pose].into_iter().flatten() {
-        if q.iter().any(|v| !v.is_finite()) {
-            return Err(format!("{name}: pose numbers must be finite"));
-        }
+    if let Some(q) = &b.start {
+        crate::config::check_pose(&format!("{name} start"), q).map_err(|e| e.to_string())?;
+    }
+    if let Some(q) = &b.pose {
+        crate::config::check_pose(&format!("{name} pose"), q).map_err(|e| e.to_string())?;
     }
     Ok(())
 }
@@ -429,6 +429,26 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// Checks every setting of the scene against its range ([`crate::config`]): coupling,
+    /// solver, safety limits, rate, start and object poses. Scene files are checked when
+    /// parsed; call this again after changing a loaded scene (command-line overrides, API).
+    pub fn validate(&self) -> Result<(), RenderError> {
+        let err = |e: crate::config::SettingError| RenderError::Scene {
+            file: self.name.clone(),
+            msg: e.to_string(),
+        };
+        self.coupling.validate().map_err(err)?;
+        self.solver.validate().map_err(err)?;
+        self.safety.validate().map_err(err)?;
+        crate::config::RATE_HZ.check(self.rate_hz).map_err(err)?;
+        crate::config::check_pose("[tool] start", &self.start.to_array()).map_err(err)?;
+        for (i, (_, p)) in self.objects.iter().enumerate() {
+            crate::config::check_pose(&format!("[[object]] #{} pose", i + 1), &p.to_array())
+                .map_err(err)?;
+        }
+        Ok(())
+    }
+
     /// The device trajectory (the script sampled at the scene rate, the recorded one, or the
     /// start pose held for one second).
     pub fn trajectory(&self) -> Trajectory {
@@ -570,11 +590,18 @@ fn load_body(
 /// trees, reads the trajectory named in `[device]`.
 pub fn load_scene_file(path: &Path, cache: &TreeCache) -> Result<Scene, RenderError> {
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| RenderError::Scene {
-        file: file.clone(),
-        msg: format!("cannot read the scene file: {e}"),
-    })?;
-    let spec = SceneSpec::parse(&text, &file)?;
+    // Bounded read: a scene file is a few hundred bytes; a device node is refused.
+    let text = mesh::read_input(path, 1 << 20)
+        .and_then(|b| {
+            String::from_utf8(b)
+                .map_err(|_| std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8 text"))
+        })
+        .map_err(|e| RenderError::Scene {
+            file: file.clone(),
+            msg: format!("cannot read the scene file: {e}"),
+        })?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let spec = SceneSpec::parse(text, &file)?;
     let base = path.parent().unwrap_or(Path::new("."));
     let mut log = Vec::new();
     let (tool, tool_mesh) = load_body(&spec.tool, base, &file, "tool", cache, &mut log)?;

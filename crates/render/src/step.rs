@@ -234,6 +234,7 @@ pub fn spring_wrench(
 impl GodObject {
     /// Packs the scene's trees and reserves every buffer (allocates; not real-time).
     pub fn new(scene: &Scene, params: StepParams) -> Result<Self, RenderError> {
+        params.validate()?; // the same ranges as the scene file (crate::config)
         let bad = |what: &str, e: collide::CollideError| RenderError::Scene {
             file: scene.name.clone(),
             msg: format!("{what}: {e}"),
@@ -400,11 +401,7 @@ impl GodObject {
     /// Fills rows for `self.pairs` from `lin`, plus the trust box when given: half-widths
     /// `(translation mm, rotation rad)` per coordinate around the variable's value `base` at
     /// the box's centre. Returns the row count.
-    fn fill_rows(
-        &mut self,
-        lin: &Linearization,
-        trust: Option<((f64, f64), [f64; 6])>,
-    ) -> usize {
+    fn fill_rows(&mut self, lin: &Linearization, trust: Option<((f64, f64), [f64; 6])>) -> usize {
         let mut n = 0;
         for (pair, (row, d)) in self
             .pairs

@@ -51,6 +51,8 @@ impl Trajectory {
             line,
             msg,
         };
+        // A byte-order mark is not part of the header (and shifts no line).
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut lines = text.lines().enumerate();
         let header = loop {
             match lines.next() {
@@ -139,10 +141,15 @@ impl Trajectory {
 
     /// Reads a trajectory CSV file.
     pub fn read_csv(path: &Path) -> Result<Self, RenderError> {
-        let text = std::fs::read_to_string(path).map_err(|e| RenderError::Io {
+        // Bounded read (a device node or a huge file is refused, not read until memory runs
+        // out): 1 GiB is about 10 hours of frames at 1 kHz.
+        let io = |msg: String| RenderError::Io {
             path: path.display().to_string(),
-            msg: e.to_string(),
-        })?;
+            msg,
+        };
+        let bytes = mesh::read_input(path, 1 << 30).map_err(|e| io(e.to_string()))?;
+        let text = String::from_utf8(bytes)
+            .map_err(|_| io("not UTF-8 text; expected a CSV file".into()))?;
         Self::parse_csv(&text, &path.display().to_string())
     }
 
@@ -267,7 +274,7 @@ impl Script {
     /// Samples the script at `rate_hz` (one sample per haptic frame), from 0 to its end.
     pub fn to_trajectory(&self, rate_hz: f64) -> Trajectory {
         let dt = 1.0 / rate_hz;
-        let n = (self.duration() * rate_hz).round() as usize + 1;
+        let n = ((self.duration() * rate_hz).round() as usize).saturating_add(1);
         Trajectory {
             samples: (0..n)
                 .map(|i| {

@@ -143,7 +143,7 @@ fn scene_toml_malformed() {
     scene_err(&scene("[tool]\nmesh = \"x.obj\"\n"), "tool");
     // Non-finite and out-of-range numbers (TOML has nan and inf literals).
     scene_err(&scene("[coupling]\nkt = nan\n"), "kt");
-    scene_err(&scene("[coupling]\nkr = inf\n"), "kt and kr");
+    scene_err(&scene("[coupling]\nkr = inf\n"), "[coupling] kr = inf");
     scene_err(&scene("[coupling]\nkt = -1.0\n"), "kt");
     scene_err(&scene("[device]\nrate_hz = nan\n"), "rate_hz");
     scene_err(&scene("[device]\nrate_hz = 0\n"), "rate_hz");

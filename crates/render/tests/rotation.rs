@@ -129,7 +129,10 @@ fn wrapped_angles_give_the_same_frames() {
             w
         })
         .collect();
-    assert!(wrapped.iter().any(|q| q.q[5] < 0.0), "the script must cross pi");
+    assert!(
+        wrapped.iter().any(|q| q.q[5] < 0.0),
+        "the script must cross pi"
+    );
     let a = run(&unwrapped, PlateTool::Puck);
     let b = run(&wrapped, PlateTool::Puck);
     let mut turning = 0;

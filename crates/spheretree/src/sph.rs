@@ -93,9 +93,13 @@ pub enum SphError {
     },
 }
 
+/// Largest `.sph` file read, bytes (256 MiB: far beyond a depth-7 tree).
+pub const MAX_SPH_BYTES: u64 = 256 << 20;
+
 /// Reads a `.sph` file (see the module docs for the format). Errors name the file and line.
 pub fn read_sph(path: &Path) -> Result<SphereTree, SphError> {
-    let bytes = std::fs::read(path).map_err(|error| SphError::Read {
+    // Bounded read: a device node or a huge file is refused, not read until memory runs out.
+    let bytes = mesh::read_input(path, MAX_SPH_BYTES).map_err(|error| SphError::Read {
         path: path.to_path_buf(),
         error,
     })?;

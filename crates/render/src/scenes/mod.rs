@@ -23,16 +23,20 @@ pub const BUILTIN_NAMES: &[&str] = &["bunny", "spline", "plate"];
 
 /// A built-in scene by name (`bunny`, `spline`), trees from `cache` or built.
 pub fn builtin(name: &str, cache: &TreeCache) -> Result<Scene, RenderError> {
-    match name {
-        "bunny" => bunny::scene(cache),
-        "spline" => spline_scene::scene(cache, &spline::SplineParams::default(), 5),
-        "plate" => plate::builtin(cache),
-        _ => Err(RenderError::Unknown {
-            what: "scene",
-            name: name.to_string(),
-            expected: format!("{} or a scene file (.toml)", BUILTIN_NAMES.join(", ")),
-        }),
-    }
+    let scene = match name {
+        "bunny" => bunny::scene(cache)?,
+        "spline" => spline_scene::scene(cache, &spline::SplineParams::default(), 5)?,
+        "plate" => plate::builtin(cache)?,
+        _ => {
+            return Err(RenderError::Unknown {
+                what: "scene",
+                name: name.to_string(),
+                expected: format!("{} or a scene file (.toml)", BUILTIN_NAMES.join(", ")),
+            })
+        }
+    };
+    scene.validate()?;
+    Ok(scene)
 }
 
 /// The `spline` scene assembly (meshes from [`spline`], trees, script).

@@ -174,7 +174,12 @@ pub struct SpeedRun {
 /// [`PRESS_MM`] in (0.2 s) and rest (0.1 s), then strokes at constant speed — slides of
 /// ±`35 - tool half-width / 2` mm about the centre, or turns of ±1 rad — for at least
 /// `min_steady_s` of motion and at least two strokes.
-pub fn speed_script(tool: PlateTool, motion: SpeedMotion, rate_hz: f64, min_steady_s: f64) -> SpeedRun {
+pub fn speed_script(
+    tool: PlateTool,
+    motion: SpeedMotion,
+    rate_hz: f64,
+    min_steady_s: f64,
+) -> SpeedRun {
     let start = [0.0, 0.0, 2.0, 0.0, 0.0, 0.0];
     let pressed = [0.0, 0.0, -PRESS_MM, 0.0, 0.0, 0.0];
     let mut script = Script::starting_at(start)
@@ -186,7 +191,11 @@ pub fn speed_script(tool: PlateTool, motion: SpeedMotion, rate_hz: f64, min_stea
                 PlateTool::Puck => PUCK_SIZE_MM[0] / 2.0,
                 PlateTool::Ball => BALL_RADIUS_MM,
             };
-            (0usize, PLATE_SIZE_MM[0] / 2.0 - half - 5.0, v.abs().max(1e-3))
+            (
+                0usize,
+                PLATE_SIZE_MM[0] / 2.0 - half - 5.0,
+                v.abs().max(1e-3),
+            )
         }
         SpeedMotion::Turn(w) => (5usize, 1.0, w.abs().max(1e-6)),
     };

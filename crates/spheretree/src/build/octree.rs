@@ -89,7 +89,12 @@ pub(super) fn build(
         })
         .collect();
     for (slot, s) in leaves {
-        tree.spheres_mut()[slot] = s;
+        // A cell that meets the surface in a single point (a corner of an open mesh or of a
+        // lone triangle on its boundary) gets a sphere of radius 0: it covers nothing the
+        // neighbouring cells do not, and a used sphere of radius 0 cannot be written to .sph.
+        if s.radius > 0.0 {
+            tree.spheres_mut()[slot] = s;
+        }
     }
     // Mark the path to every leaf used, then enclose bottom-up.
     for n in (1..tree.len()).rev() {

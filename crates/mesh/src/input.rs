@@ -1,0 +1,70 @@
+//! Reading an input file with a size limit: a device node (`/dev/zero`), a directory or a file
+//! larger than the limit is refused before it is read, instead of being read until memory
+//! runs out.
+
+use std::io::Read;
+use std::path::Path;
+
+/// Largest mesh file read, bytes (1 GiB: a 20 M-triangle binary STL).
+pub const MAX_MESH_BYTES: u64 = 1 << 30;
+
+/// Reads the whole of `path`, refusing directories, character and block devices (which never
+/// end, or are not files), and anything larger than `max_bytes`. Pipes are read up to the
+/// limit. Errors are one line (`io::ErrorKind::InvalidInput` for the refusals).
+pub fn read_input(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u8>> {
+    let refuse = |msg: String| std::io::Error::new(std::io::ErrorKind::InvalidInput, msg);
+    let file = std::fs::File::open(path)?;
+    let meta = file.metadata()?;
+    let ft = meta.file_type();
+    if ft.is_dir() {
+        return Err(refuse("is a directory, not a file".into()));
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if ft.is_char_device() || ft.is_block_device() || ft.is_socket() {
+            return Err(refuse(
+                "is a device or socket, not a regular file; give a file".into(),
+            ));
+        }
+    }
+    if ft.is_file() && meta.len() > max_bytes {
+        return Err(refuse(format!(
+            "is {} bytes, more than the limit of {max_bytes} bytes",
+            meta.len()
+        )));
+    }
+    let mut bytes = Vec::new();
+    // One byte past the limit tells a pipe (or a file that grew) that is too long.
+    file.take(max_bytes.saturating_add(1))
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(refuse(format!(
+            "holds more than the limit of {max_bytes} bytes"
+        )));
+    }
+    Ok(bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn device_directory_and_oversized_files_are_refused() {
+        #[cfg(unix)]
+        {
+            let e = read_input(Path::new("/dev/zero"), 1 << 20).unwrap_err();
+            assert!(e.to_string().contains("not a regular file"), "{e}");
+        }
+        let dir = std::env::temp_dir();
+        let e = read_input(&dir, 1 << 20).unwrap_err();
+        assert!(e.to_string().contains("directory"), "{e}");
+        let p = dir.join(format!("mesh-input-test-{}", std::process::id()));
+        std::fs::write(&p, [7u8; 100]).unwrap();
+        let e = read_input(&p, 99).unwrap_err();
+        assert!(e.to_string().contains("limit of 99 bytes"), "{e}");
+        assert_eq!(read_input(&p, 100).unwrap().len(), 100);
+        std::fs::remove_file(&p).unwrap();
+    }
+}
