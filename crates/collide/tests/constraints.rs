@@ -294,7 +294,10 @@ proptest! {
         // `variable` inverts `configuration`.
         let dq = [0.4, -0.3, 0.2, 0.05, -0.02, 0.03];
         let back = lin.variable(&lin.configuration(&dq));
-        for k in 0..6 {
+        // The rotation vector of the increment must be below pi for the log to return it.
+        let d = lin.delta();
+        let inc = ((dq[3] - d[3]).powi(2) + (dq[4] - d[4]).powi(2) + (dq[5] - d[5]).powi(2)).sqrt();
+        for k in 0..if euler || inc < 3.0 { 6 } else { 3 } {
             prop_assert!((back[k] - dq[k]).abs() < 1e-8, "{}: {} vs {}", k, back[k], dq[k]);
         }
         let at_h = lin.configuration(&[0.0; 6]);

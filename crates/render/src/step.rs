@@ -165,6 +165,10 @@ const CONVERGED_MM: f64 = 0.005;
 /// rather than one region of tens of thousands of rows.
 const PAIR_TARGET: f64 = 1500.0;
 
+/// Margin (mm) of a detection made in free space: an empty result proves free space this far,
+/// and later frames near the same pose skip their traversals.
+const FREE_PROBE_MM: f64 = 0.3;
+
 /// Smallest motion allowance of a detected region, mm.
 const MIN_ALLOW_MM: f64 = 0.1;
 
@@ -194,6 +198,10 @@ pub struct GodObject {
     last_motion: f64,
     /// Leaf pairs per mm of detection margin near the tool, as last seen (for sizing regions).
     pairs_per_mm: f64,
+    /// A pose at which no leaf pair was within `free_radius` (mm): a free-space proof that
+    /// spares traversals while the tool stays near it (radius 0 = none).
+    free_center: Pose,
+    free_radius: f64,
     started: bool,
 }
 
@@ -280,6 +288,8 @@ impl GodObject {
             q_g: Pose::identity(),
             last_motion: 0.0,
             pairs_per_mm: 0.0,
+            free_center: Pose::identity(),
+            free_radius: 0.0,
             started: false,
         })
     }
@@ -361,6 +371,7 @@ impl GodObject {
         }
         self.warm_len = 0;
         self.last_motion = 0.0;
+        self.free_radius = 0.0;
         let mut q = *start;
         let tol = self.params.penetration_tol_mm.max(1e-6);
         let mut searched = 0.0f64;
@@ -573,12 +584,37 @@ impl GodObject {
                 let dense_cap = PAIR_TARGET / self.pairs_per_mm.max(1e-9) - skin;
                 let mut allowed = need.min(allow).min(cap).min(dense_cap.max(MIN_ALLOW_MM));
                 let mut trust = need > allowed;
-                let mut detected = self.detect(&q_lin, allowed + skin);
+                // Free space proven by an earlier empty detection: no pair within
+                // `free_radius` of `free_center`, so none within `m` of q_lin while
+                // `b(free_center, q_lin) + m <= free_radius` (no traversal at all).
+                let free_slack = self.free_radius - self.motion_bound(&self.free_center, &q_lin);
+                let mut detected = if allowed + skin <= free_slack {
+                    self.pairs.clear();
+                    self.dropped = 0;
+                    Ok(f64::INFINITY)
+                } else {
+                    // In free space, probe a little wider so the proof lasts several frames.
+                    let probe = if self.pairs.is_empty() {
+                        (allowed + skin).max(FREE_PROBE_MM)
+                    } else {
+                        allowed + skin
+                    };
+                    let d = self.detect(&q_lin, probe);
+                    if d.is_ok() && self.pairs.is_empty() {
+                        self.free_center = q_lin;
+                        self.free_radius = probe;
+                    }
+                    d
+                };
                 if trust && self.pairs.is_empty() && detected.is_ok() {
                     // Nothing within the allowance: if nothing is within the whole way to q_h
                     // either, the path is free and no trust box is needed (no lag in free
                     // space). The check stops at the first pair; it stores none.
-                    let near = self.any_within(&q_lin, need + skin);
+                    let near = if need + skin <= free_slack {
+                        Ok(false)
+                    } else {
+                        self.any_within(&q_lin, need + skin)
+                    };
                     trust = matches!(near, Ok(true));
                     if !trust {
                         allowed = need;
