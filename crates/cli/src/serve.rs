@@ -42,10 +42,6 @@ pub struct ServeArgs {
     /// Directory for recordings started from the page.
     #[arg(long, default_value = ".")]
     pub record_dir: PathBuf,
-    /// Directory of the page's npm install (holding node_modules/three); defaults to the
-    /// source tree's crates/viewer/web.
-    #[arg(long)]
-    pub web_dir: Option<PathBuf>,
     /// Haptic rate, Hz.
     #[arg(long, default_value_t = 1000.0)]
     pub rate: f64,
@@ -71,16 +67,6 @@ pub fn run(args: ServeArgs) -> Result<()> {
         if !(d.is_finite() && d > 0.0) {
             bail!("--duration must be a positive number of seconds, got {d}");
         }
-    }
-    let web_dir = args.web_dir.clone().unwrap_or_else(server::default_web_dir);
-    if !web_dir
-        .join("node_modules/three/build/three.module.js")
-        .exists()
-    {
-        eprintln!(
-            "warning: three.js is not installed in {}; run `npm ci` there, or the page cannot draw",
-            web_dir.display()
-        );
     }
     let cache = TreeCache::from_env();
     let scene = load_scene(&args.scene, &cache)
@@ -116,7 +102,6 @@ pub fn run(args: ServeArgs) -> Result<()> {
         .build()
         .context("cannot start the async runtime")?;
     let params = WebParams {
-        web_dir,
         display_hz: args.display_hz,
         record_dir: args.record_dir.clone(),
     };
