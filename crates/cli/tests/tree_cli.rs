@@ -375,7 +375,8 @@ fn toolkit_tree_needs_centre() {
     let (v, err) = run(true);
     let levels = v["per_level"].as_array().unwrap();
     assert_eq!(levels[0]["coverage"], 1.0);
-    // DESIGN.md: the toolkit's medial tree covers 98.44 % of the surface at its leaf level.
+    // docs/DESIGN.md §The fit measure: the toolkit's medial tree covers 98.44 % of the surface
+    // at its leaf level.
     let leaf = levels[3]["coverage"].as_f64().unwrap();
     assert!((leaf - 0.9844).abs() < 0.005, "leaf coverage {leaf}");
     assert_eq!(v["parents_contain_children"], false);

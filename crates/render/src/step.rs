@@ -1,4 +1,4 @@
-//! The god-object step: one haptic frame (DESIGN.md steps 1–5).
+//! The god-object step: one haptic frame (docs/DESIGN.md §The frame step).
 //!
 //! Given the device configuration `q_h` and the last graphic configuration `q_g_prev`:
 //!
