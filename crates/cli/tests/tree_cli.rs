@@ -346,7 +346,11 @@ fn eval_json_parses_and_matches_the_tree() {
 fn bradshaw_medial() -> String {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../assets/peers/bradshaw/bunny-medial-d3.sph");
-    assert!(p.is_file(), "{} is missing from the repository", p.display());
+    assert!(
+        p.is_file(),
+        "{} is missing from the repository",
+        p.display()
+    );
     p.display().to_string()
 }
 
