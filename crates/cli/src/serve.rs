@@ -58,10 +58,6 @@ pub struct ServeArgs {
     /// other Host or Origin is refused (403).
     #[arg(long, value_name = "URL")]
     pub allow_origin: Vec<String>,
-    /// Directory of the page's npm install (holding node_modules/three); defaults to the
-    /// source tree's crates/viewer/web.
-    #[arg(long)]
-    pub web_dir: Option<PathBuf>,
     /// Haptic rate, Hz (100 to 10000).
     #[arg(long, default_value_t = 1000.0)]
     pub rate: f64,
@@ -182,16 +178,6 @@ async fn stop_signal(duration: Option<Duration>) {
 /// Runs `haptic6d serve`.
 pub fn run(args: ServeArgs) -> Result<()> {
     let duration = validate(&args)?;
-    let web_dir = args.web_dir.clone().unwrap_or_else(server::default_web_dir);
-    if !web_dir
-        .join("node_modules/three/build/three.module.js")
-        .exists()
-    {
-        eprintln!(
-            "warning: three.js is not installed in {}; run `npm ci` there, or the page cannot draw",
-            web_dir.display()
-        );
-    }
     let cache = TreeCache::from_env();
     let scene = load_scene(&args.scene, &cache)
         .with_context(|| format!("cannot load scene `{}`", args.scene))?;
@@ -239,7 +225,6 @@ pub fn run(args: ServeArgs) -> Result<()> {
         let router = server::router(
             haptic.clone(),
             WebParams {
-                web_dir,
                 display_hz: args.display_hz,
                 record_dir: args.record_dir.clone(),
                 addr: local,

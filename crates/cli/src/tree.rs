@@ -437,7 +437,7 @@ fn level_json(f: &LevelFit) -> serde_json::Value {
     })
 }
 
-/// The per-level table of DESIGN.md.
+/// The per-level table of the fit measure (docs/DESIGN.md §The fit measure).
 fn table(fits: &[LevelFit]) -> String {
     let mut s = format!(
         "{:>5} {:>7} {:>10} {:>10} {:>10} {:>11} {:>11}\n",

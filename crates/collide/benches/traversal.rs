@@ -37,13 +37,13 @@ fn repo_root() -> PathBuf {
 
 /// The bunny tree, in mm: `spheretree::build::build_tree` (default tight builder, depth 4, B 8)
 /// on assets/bunny.obj scaled by 10 (~100 mm). With `COLLIDE_BENCH_TREE=hubbard`, the Bradshaw
-/// toolkit's hubbard tree (../shared/data/peers/bradshaw/bunny-hubbard.sph) instead, containment
+/// toolkit's hubbard tree (assets/peers/bradshaw/bunny-hubbard.sph) instead, containment
 /// enforced.
 fn bunny_tree() -> (SphereTree, String) {
     let mut tree;
     let source;
     if std::env::var("COLLIDE_BENCH_TREE").as_deref() == Ok("hubbard") {
-        let path = repo_root().join("../shared/data/peers/bradshaw/bunny-hubbard.sph");
+        let path = repo_root().join("assets/peers/bradshaw/bunny-hubbard.sph");
         tree = spheretree::sph::read_sph(&path)
             .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
         source = "Bradshaw toolkit hubbard tree bunny-hubbard.sph".to_string();

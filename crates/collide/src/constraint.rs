@@ -1,4 +1,5 @@
-//! Linearized non-penetration constraints `J dq >= d` for the haptic QP (DESIGN.md step 2).
+//! Linearized non-penetration constraints `J dq >= d` for the haptic QP (docs/DESIGN.md
+//! §Constraints).
 //!
 //! For a pair with tool sphere centre `p` (tool frame), radius `r_t`, object sphere centre `o`
 //! (world), radius `r_o`, and `c(q) = R(q) p + (x, y, z)`:

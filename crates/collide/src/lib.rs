@@ -1,5 +1,5 @@
 //! Collision detection between posed sphere-trees, and the linearized non-penetration
-//! constraints of the haptic QP (DESIGN.md steps 1–2).
+//! constraints of the haptic QP (docs/DESIGN.md §Collision detection, §Constraints).
 //!
 //! Entry points:
 //! - [`Pose`]: the tool configuration `q = (x, y, z, gamma, beta, alpha)` (mm, rad),

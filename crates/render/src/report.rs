@@ -1,4 +1,5 @@
-//! What a run writes: `frames.csv` (DESIGN.md columns) and the summary behind `summary.json`.
+//! What a run writes: `frames.csv` (columns in docs/DESIGN.md §Formats) and the summary behind
+//! `summary.json`.
 
 use std::fmt::Write as _;
 

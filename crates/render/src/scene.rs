@@ -1,5 +1,5 @@
-//! Scenes: the TOML scene file (DESIGN.md) and the loaded scene (trees in mm, poses, coupling,
-//! solver, safety limits, device motion).
+//! Scenes: the TOML scene file (docs/DESIGN.md §Formats) and the loaded scene (trees in mm,
+//! poses, coupling, solver, safety limits, device motion).
 //!
 //! A scene file names one tool and any number of objects, each by `mesh = "file"` (OBJ, STL,
 //! PLY; a sphere-tree is built and cached, see [`crate::cache`]) or `tree = "file.sph"`

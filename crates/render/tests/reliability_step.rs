@@ -504,8 +504,8 @@ fn qp_iteration_cap_never_reaches_the_device() {
         let (frames, stats) = run_capped(&sc, &traj, 1);
         assert_eq!(frames.len(), traj.len());
         assert_safe_output(&frames, &sc.safety);
-        // PQP's own stopping rule leaves up to ~0.3 mm of violation (DESIGN.md); the exact
-        // solvers must hold the 0.01 mm bound.
+        // PQP's own stopping rule leaves up to ~0.3 mm of violation (docs/DESIGN.md §The QP and
+        // its solvers); the exact solvers must hold the 0.01 mm bound.
         let bound = if kind == SolverKind::Pqp { 0.3 } else { 0.01 };
         for (i, f) in frames.iter().enumerate() {
             assert!(

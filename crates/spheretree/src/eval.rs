@@ -1,4 +1,5 @@
-//! The fit measure of DESIGN.md, comparable with the Sphere-Tree Construction Toolkit.
+//! The fit measure (docs/DESIGN.md §The fit measure), comparable with the Sphere-Tree
+//! Construction Toolkit.
 //!
 //! Entry point: [`evaluate_fit`] → one [`LevelFit`] per level.
 //!
@@ -155,10 +156,10 @@ pub fn sphere_error(q: &MeshQuery, s: &Sphere) -> (f64, f64) {
     (e42, e162)
 }
 
-/// The fit measure of DESIGN.md for every level of `tree` against `mesh` (see the module
-/// docs). `tree` is in the mesh's own frame; all results are in toolkit units. Parallel
-/// (rayon). A mesh with no usable triangle yields infinite errors; an empty mesh an empty
-/// vector.
+/// The fit measure (docs/DESIGN.md §The fit measure) for every level of `tree` against `mesh`
+/// (see the module docs). `tree` is in the mesh's own frame; all results are in toolkit units.
+/// Parallel (rayon). A mesh with no usable triangle yields infinite errors; an empty mesh an
+/// empty vector.
 pub fn evaluate_fit(tree: &SphereTree, mesh: &TriMesh, params: &FitParams) -> Vec<LevelFit> {
     let Some((centre, s)) = toolkit_frame(mesh) else {
         return Vec::new();

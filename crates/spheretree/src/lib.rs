@@ -5,7 +5,8 @@
 //! - [`SphereTree`], [`Sphere`]: the tree (flat, breadth-first, branching B, unused slots).
 //! - [`sph`]: the Bradshaw `.sph` format ([`sph::read_sph`], [`sph::write_sph`]).
 //! - [`build::build_tree`]: sphere-trees from a closed mesh (tight or octree builder).
-//! - [`eval::evaluate_fit`]: the fit measure of DESIGN.md, per level, in toolkit units.
+//! - [`eval::evaluate_fit`]: the fit measure (docs/DESIGN.md §The fit measure), per level, in
+//!   toolkit units.
 #![warn(missing_docs)]
 
 pub mod build;

@@ -1,6 +1,7 @@
 //! The fit measure on the Sphere-Tree Construction Toolkit's own bunny trees lands on the
-//! figures the toolkit printed for them (DESIGN.md table): octree d4 783 leaves, worst 211,
-//! mean 113, 100 %; hubbard d4 2650, 162, 12.3, 99.94 %; medial d3 490 leaves, 98.44 %.
+//! figures the toolkit printed for them (docs/DESIGN.md §The fit measure): octree d4 783 leaves,
+//! worst 211, mean 113, 100 %; hubbard d4 2650, 162, 12.3, 99.94 %; medial d3 490 leaves,
+//! 98.44 %.
 
 mod build_util;
 

@@ -1,5 +1,5 @@
 //! `.sph` reader/writer: round trips, malformed input, atomic writes, and every file the
-//! Bradshaw toolkit produced for the bunny (`<repo>/../shared/data/peers/bradshaw/`).
+//! Bradshaw toolkit produced for the bunny (`assets/peers/bradshaw/`).
 
 use std::path::{Path, PathBuf};
 
@@ -142,27 +142,27 @@ fn translate_moves_used_spheres_only() {
     }
 }
 
-/// `<repo>/../shared/data/peers/bradshaw`, if present.
-fn bradshaw_dir() -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/peers/bradshaw");
-    d.is_dir().then_some(d)
+/// The toolkit's files, in the repository (`assets/peers/bradshaw/`).
+fn bradshaw_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/peers/bradshaw")
 }
+
+/// The five files the toolkit built for the bunny; a missing one fails the test.
+const BRADSHAW_FILES: [&str; 5] = [
+    "bunny-grid-d3.sph",
+    "bunny-grid-d4-guarded.sph",
+    "bunny-hubbard.sph",
+    "bunny-medial-d3.sph",
+    "bunny-octree.sph",
+];
 
 #[test]
 fn reads_every_bradshaw_file() {
-    let Some(dir) = bradshaw_dir() else {
-        eprintln!("note: ../shared/data/peers/bradshaw not found beside the repo; skipping");
-        return;
-    };
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "sph"))
-        .collect();
-    files.sort();
-    assert!(!files.is_empty(), "no .sph file in {}", dir.display());
-    for path in &files {
-        let text = std::fs::read_to_string(path).unwrap();
+    let dir = bradshaw_dir();
+    for path in BRADSHAW_FILES.map(|f| dir.join(f)) {
+        let path = &path;
+        let text = std::fs::read_to_string(path)
+            .unwrap_or_else(|e| panic!("{}: {e} (part of the repository)", path.display()));
         let first = text.lines().next().unwrap();
         let t = read_sph(path).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(format!("{} {}", t.levels(), t.branching()), first.trim());

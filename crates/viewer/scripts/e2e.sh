@@ -2,8 +2,9 @@
 # End-to-end test of `haptic6d serve` in headless Chromium: opens the page, drives the tool into
 # the object with the keyboard, checks force and non-penetration, contacts and recording, and
 # saves a screenshot (crates/viewer/web/e2e-out/viewer.png, or $E2E_OUT).
-# Needs Debian's chromium (`apt-get install -y chromium`) and the page's npm packages
-# (`npm ci` in crates/viewer/web; done here when missing). Builds the release binary if needed.
+# Needs Debian's chromium (`apt-get install -y chromium`) and the test's npm package
+# (playwright-core: `npm ci` in crates/viewer/web, done here when missing; the page itself needs
+# nothing installed, three.js is vendored). Builds the release binary if needed.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../../.." && pwd)"
 web="$root/crates/viewer/web"
@@ -12,7 +13,7 @@ if [ ! -x "$chromium" ]; then
   echo "e2e: $chromium not found; install it with: apt-get install -y chromium" >&2
   exit 1
 fi
-if [ ! -f "$web/node_modules/three/build/three.module.js" ] || [ ! -d "$web/node_modules/playwright-core" ]; then
+if [ ! -d "$web/node_modules/playwright-core" ]; then
   (cd "$web" && npm ci --no-audit --no-fund)
 fi
 bin="${HAPTIC6D_BIN:-${CARGO_TARGET_DIR:-$root/target}/release/haptic6d}"

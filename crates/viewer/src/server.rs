@@ -3,8 +3,8 @@
 //!
 //! Routes:
 //! - `GET /` — the page; `GET /app.js`, `GET /style.css` — its code (compiled into the binary);
-//! - `GET /node_modules/three/build/<file>.js` — three.js, from the npm install in the web
-//!   directory (`npm ci` in crates/viewer/web);
+//! - `GET /vendor/three/three.module.js`, `GET /vendor/three/three.core.js` — three.js, vendored
+//!   in crates/viewer/web/vendor/three and compiled into the binary, so nothing is installed;
 //! - `GET /api/scene` — meshes (JSON, flat arrays, mm), sent once;
 //! - `GET /api/state` — the latest [`FrameState`] (JSON);
 //! - `GET /ws` — WebSocket: the server sends `{"type":"state",…}` at display rate and
@@ -42,12 +42,22 @@ use crate::sim::{FrameState, NamedMesh, SceneGeometry};
 const INDEX_HTML: &str = include_str!("../web/index.html");
 const APP_JS: &str = include_str!("../web/app.js");
 const STYLE_CSS: &str = include_str!("../web/style.css");
+/// three.js (see crates/viewer/web/vendor/three/README.md): the module the page imports and the
+/// core it imports in turn, served from the binary so a fresh clone needs no `npm ci`.
+const THREE_FILES: [(&str, &str); 2] = [
+    (
+        "three.module.js",
+        include_str!("../web/vendor/three/three.module.js"),
+    ),
+    (
+        "three.core.js",
+        include_str!("../web/vendor/three/three.core.js"),
+    ),
+];
 
 /// Web server settings.
 #[derive(Clone, Debug)]
 pub struct WebParams {
-    /// Directory holding `node_modules/three` (the npm install of crates/viewer/web).
-    pub web_dir: PathBuf,
     /// State stream rate (Hz), [`WebParams::MIN_DISPLAY_HZ`] ..= [`WebParams::MAX_DISPLAY_HZ`].
     pub display_hz: f64,
     /// Where recordings started from the page are written.
@@ -65,7 +75,6 @@ pub struct WebParams {
 impl Default for WebParams {
     fn default() -> Self {
         Self {
-            web_dir: default_web_dir(),
             display_hz: 60.0,
             record_dir: PathBuf::from("."),
             addr: SocketAddr::from(([127, 0, 0, 1], 8080)),
@@ -115,11 +124,6 @@ impl WebParams {
     }
 }
 
-/// The page's directory in the source tree (crates/viewer/web), where `npm ci` installs three.js.
-pub fn default_web_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("web")
-}
-
 struct App {
     haptic: Arc<HapticLoop>,
     scene_json: String,
@@ -145,7 +149,7 @@ pub fn router(haptic: Arc<HapticLoop>, params: WebParams) -> Result<Router, View
         .route("/", get(index))
         .route("/app.js", get(app_js))
         .route("/style.css", get(style_css))
-        .route("/node_modules/three/build/{file}", get(three_file))
+        .route("/vendor/three/{file}", get(three_file))
         .route("/api/scene", get(scene))
         .route("/api/state", get(state))
         .route("/ws", get(ws_upgrade))
@@ -220,38 +224,18 @@ async fn style_css() -> impl IntoResponse {
     )
 }
 
-async fn three_file(State(app): State<Arc<App>>, UrlPath(file): UrlPath<String>) -> Response {
-    let safe = file.ends_with(".js")
-        && file
-            .bytes()
-            .all(|b| b.is_ascii_alphanumeric() || b == b'.' || b == b'_' || b == b'-')
-        && !file.starts_with('.');
-    if !safe {
-        return (StatusCode::NOT_FOUND, "no such file").into_response();
-    }
-    let path = app
-        .params
-        .web_dir
-        .join("node_modules/three/build")
-        .join(&file);
-    match tokio::fs::read(&path).await {
-        Ok(bytes) => (
+async fn three_file(UrlPath(file): UrlPath<String>) -> Response {
+    // Only the vendored files, by exact name: nothing from the file system is ever served.
+    match THREE_FILES.iter().find(|(name, _)| *name == file) {
+        Some((_, body)) => (
             [
                 (header::CONTENT_TYPE, "text/javascript; charset=utf-8"),
                 (header::CACHE_CONTROL, "max-age=3600"),
             ],
-            bytes,
+            *body,
         )
             .into_response(),
-        Err(_) => (
-            StatusCode::SERVICE_UNAVAILABLE,
-            format!(
-                "three.js is not installed at {}: run `npm ci` in {}",
-                path.display(),
-                app.params.web_dir.display()
-            ),
-        )
-            .into_response(),
+        None => (StatusCode::NOT_FOUND, "no such file").into_response(),
     }
 }
 

@@ -79,9 +79,7 @@ async fn page_scene_and_three_routes() {
     let (_haptic, addr, stop) = start(dir.path(), false).await;
     let (code, body) = get(addr, "/").await;
     assert_eq!(code, 200);
-    assert!(
-        body.contains("importmap") && body.contains("/node_modules/three/build/three.module.js")
-    );
+    assert!(body.contains("importmap") && body.contains("/vendor/three/three.module.js"));
     let (code, body) = get(addr, "/app.js").await;
     assert_eq!(code, 200);
     assert!(body.contains("from 'three'"));
@@ -96,11 +94,23 @@ async fn page_scene_and_three_routes() {
         .all(|i| (i.as_u64().unwrap() as usize) < pos.len() / 3));
     assert_eq!(scene["objects"].as_array().unwrap().len(), 1);
     assert_eq!(scene["start"][2], 30.0);
-    // Only plain file names under three's build directory are served.
-    let (code, _) = get(addr, "/node_modules/three/build/..%2F..%2F..%2FCargo.toml").await;
-    assert_eq!(code, 404);
-    let (code, _) = get(addr, "/node_modules/three/build/.hidden.js").await;
-    assert_eq!(code, 404);
+    // three.js comes from the binary (no `npm ci`): the module and the core it imports.
+    let (code, module) = get(addr, "/vendor/three/three.module.js").await;
+    assert_eq!(code, 200);
+    assert!(module.contains("from './three.core.js'"));
+    let (code, core) = get(addr, "/vendor/three/three.core.js").await;
+    assert_eq!(code, 200);
+    assert!(core.contains("const REVISION = '"));
+    // Only those two names are served: nothing else, nothing from the file system.
+    for path in [
+        "/vendor/three/..%2F..%2F..%2FCargo.toml",
+        "/vendor/three/.hidden.js",
+        "/vendor/three/three.webgpu.js",
+        "/node_modules/three/build/three.module.js",
+    ] {
+        let (code, _) = get(addr, path).await;
+        assert_eq!(code, 404, "{path}");
+    }
     let (code, body) = get(addr, "/api/state").await;
     assert_eq!(code, 200);
     let st: serde_json::Value = serde_json::from_str(&body).unwrap();

@@ -10,7 +10,7 @@ use qp::Problem;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// The haptic weights of DESIGN.md: kt = 1 N/mm, kr = 1000 N·mm/rad.
+/// The haptic weights (docs/DESIGN.md §Units and frames): kt = 1 N/mm, kr = 1000 N·mm/rad.
 pub const G_HAPTIC: [f64; 6] = [1.0, 1.0, 1.0, 1000.0, 1000.0, 1000.0];
 
 /// One owned instance plus a point feasible for it (`dq0`, the "last graphic pose").

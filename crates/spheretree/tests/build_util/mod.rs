@@ -18,16 +18,11 @@ pub fn bunny() -> TriMesh {
     loaded.mesh
 }
 
-/// A Bradshaw `.sph` file from `../shared/data/peers/bradshaw/` (beside the repository),
-/// moved from the toolkit's bbox-centred frame into `mesh`'s own frame.
+/// A Bradshaw toolkit `.sph` file from `assets/peers/bradshaw/` (see its README), moved from
+/// the toolkit's bbox-centred frame into `mesh`'s own frame.
 pub fn bradshaw_in_mesh_frame(name: &str, mesh: &TriMesh) -> SphereTree {
-    let path = repo().join("../shared/data/peers/bradshaw").join(name);
-    let mut tree = spheretree::sph::read_sph(&path).unwrap_or_else(|e| {
-        panic!(
-            "{}: {e} (the peers' files live in ../shared)",
-            path.display()
-        )
-    });
+    let path = repo().join("assets/peers/bradshaw").join(name);
+    let mut tree = spheretree::sph::read_sph(&path).unwrap_or_else(|e| panic!("{e}"));
     let (centre, _) = toolkit_frame(mesh).unwrap();
     spheretree::sph::translate_tree(&mut tree, centre);
     tree
