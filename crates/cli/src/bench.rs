@@ -26,10 +26,10 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use collide::Pose;
 use render::cache::TreeCache;
-use render::scene::{Motion, Scene, SolverKind, TreeParams};
-use render::stats::Summary;
 use render::report::{tree_infos, TreeInfo};
 use render::rt::StatusCounts;
+use render::scene::{Motion, Scene, SolverKind, TreeParams};
+use render::stats::Summary;
 use render::step::{FrameOutput, GodObject, StepParams};
 use serde::Serialize;
 

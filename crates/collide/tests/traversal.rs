@@ -111,13 +111,15 @@ fn near_contact_strategy() -> impl Strategy<Value = NearContact> {
         proptest::array::uniform3(-1.0f64..1.0),
         0.0f64..0.95,
     )
-        .prop_map(|((g, b, a), tool_leaf, object_leaf, direction, depth)| NearContact {
-            angles: [g, b, a],
-            tool_leaf,
-            object_leaf,
-            direction,
-            depth,
-        })
+        .prop_map(
+            |((g, b, a), tool_leaf, object_leaf, direction, depth)| NearContact {
+                angles: [g, b, a],
+                tool_leaf,
+                object_leaf,
+                direction,
+                depth,
+            },
+        )
 }
 
 /// The tool pose that puts the chosen tool leaf's centre at `depth * (r_t + r_o)` from the
@@ -408,5 +410,3 @@ proptest! {
         }
     }
 }
-
-

@@ -88,8 +88,15 @@ fn assert_error_or_finite_mesh(
                 // triangle is measurable without overflow.
                 let e = |p: [f64; 3], q: [f64; 3]| [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
                 let (ab, ac, bc) = (e(a, b), e(a, c), e(b, c));
-                let s = ab.iter().chain(&ac).chain(&bc).fold(0.0f64, |m, x| m.max(x.abs()));
-                assert!(s > 0.0 && s.is_finite(), "{name}: triangle {k} has no extent");
+                let s = ab
+                    .iter()
+                    .chain(&ac)
+                    .chain(&bc)
+                    .fold(0.0f64, |m, x| m.max(x.abs()));
+                assert!(
+                    s > 0.0 && s.is_finite(),
+                    "{name}: triangle {k} has no extent"
+                );
                 let (u, w, z) = (ab.map(|x| x / s), ac.map(|x| x / s), bc.map(|x| x / s));
                 let n = [
                     u[1] * w[2] - u[2] * w[1],
@@ -301,7 +308,10 @@ fn stl_binary_malformed() {
     let p = d.write("b6.stl", &g);
     // Measured: it loads, one of the three triangles surviving (the others degenerate).
     let garbage = assert_error_or_finite_mesh(load_mesh(&p), "b6.stl");
-    assert!(garbage.is_some(), "b6.stl: garbage that loaded before now fails");
+    assert!(
+        garbage.is_some(),
+        "b6.stl: garbage that loaded before now fails"
+    );
 }
 
 #[test]

@@ -291,8 +291,14 @@ mod tests {
         };
         let v = spheretree::build::BUILDER_VERSION;
         assert_eq!(key_for_builder(&m, "depth=1", v), tree_key(&m, "depth=1"));
-        assert_ne!(key_for_builder(&m, "depth=1", v - 1), tree_key(&m, "depth=1"));
-        assert_ne!(key_for_builder(&m, "depth=1", v + 1), tree_key(&m, "depth=1"));
+        assert_ne!(
+            key_for_builder(&m, "depth=1", v - 1),
+            tree_key(&m, "depth=1")
+        );
+        assert_ne!(
+            key_for_builder(&m, "depth=1", v + 1),
+            tree_key(&m, "depth=1")
+        );
     }
 
     #[test]

@@ -119,7 +119,11 @@ fn cache_entry_with_edited_finite_radii_is_rebuilt_not_trusted() {
     let (t, outcome) = cache.get_or_build(KEY, build).unwrap();
     assert_eq!(outcome, CacheOutcome::Built, "an edited entry was trusted");
     assert_eq!(t, tree());
-    assert_eq!(std::fs::read(&path).unwrap(), good, "the edit was not replaced");
+    assert_eq!(
+        std::fs::read(&path).unwrap(),
+        good,
+        "the edit was not replaced"
+    );
     // Once rebuilt, the entry is trusted again.
     let (_, again) = cache.get_or_build(KEY, build).unwrap();
     assert_eq!(again, CacheOutcome::Hit);
@@ -142,7 +146,11 @@ fn cache_entry_under_another_key_is_rebuilt() {
     )
     .unwrap();
     let (t, outcome) = cache.get_or_build(KEY, || Ok::<_, String>(tree())).unwrap();
-    assert_eq!(outcome, CacheOutcome::Built, "another key's entry was trusted");
+    assert_eq!(
+        outcome,
+        CacheOutcome::Built,
+        "another key's entry was trusted"
+    );
     assert_eq!(t, tree());
 }
 
@@ -173,7 +181,11 @@ fn corrupt_cache_entry_is_rebuilt() {
     ] {
         std::fs::write(&path, &corrupt).unwrap();
         let (t, outcome) = cache.get_or_build(KEY, build).unwrap();
-        assert_eq!(outcome, CacheOutcome::Built, "{what}: a corrupt entry was trusted");
+        assert_eq!(
+            outcome,
+            CacheOutcome::Built,
+            "{what}: a corrupt entry was trusted"
+        );
         assert_eq!(t, tree());
         // The rebuilt entry replaced the corrupt one.
         assert_eq!(std::fs::read(&path).unwrap(), good, "{what}");

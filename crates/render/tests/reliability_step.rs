@@ -330,7 +330,10 @@ fn nan_device_row_keeps_the_loop_running_with_safe_output() {
         "summary.json: {}",
         json["loop_stats"]
     );
-    assert_eq!(json["loop_stats"]["frames"].as_u64(), Some(traj.len() as u64));
+    assert_eq!(
+        json["loop_stats"]["frames"].as_u64(),
+        Some(traj.len() as u64)
+    );
 }
 
 #[test]
