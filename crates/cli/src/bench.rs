@@ -26,9 +26,11 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use collide::Pose;
 use render::cache::TreeCache;
+use render::report::{tree_infos, TreeInfo};
+use render::rt::StatusCounts;
 use render::scene::{Motion, Scene, SolverKind, TreeParams};
 use render::stats::Summary;
-use render::step::{FrameOutput, FrameStatus, GodObject, StepParams};
+use render::step::{FrameOutput, GodObject, StepParams};
 use serde::Serialize;
 
 /// Arguments of `haptic6d bench`.
@@ -103,10 +105,15 @@ pub struct ReplayRow {
     pub force_diff_n: Summary,
     /// |T - T_dual| per frame, N·mm.
     pub torque_diff_nmm: Summary,
-    /// Frames whose QP stopped early or reported infeasible.
-    pub inexact_frames: usize,
-    /// Frames that kept the last safe pose.
-    pub failed_frames: usize,
+    /// Frames whose QP answer violated a constraint beyond the solver's tolerance (the step's
+    /// `FrameStatus::Inexact`, counted as in the loop's `LoopStats::inexact`).
+    pub inexact_frames: u64,
+    /// Frames that kept the last safe pose (the QP was capped, infeasible or failed; counted as
+    /// in `LoopStats::kept_last_safe`).
+    pub kept_last_safe_frames: u64,
+    /// Frames that ended short of the optimum, safe (passes or budget ran out; counted as in
+    /// `LoopStats::lagging`).
+    pub lagging_frames: u64,
     /// Wall time of the whole replay, s.
     pub wall_s: f64,
 }
@@ -135,6 +142,8 @@ pub struct DepthPoint {
     pub depth: u32,
     /// Leaves per tree.
     pub leaves: usize,
+    /// Version of the builder that made the trees (`spheretree::build::BUILDER_VERSION`).
+    pub builder_version: u32,
     /// Solver name.
     pub solver: String,
     /// Contact pairs per frame.
@@ -152,6 +161,8 @@ pub struct BenchReport {
     pub mode: String,
     /// Machine description (cores, CPU model).
     pub machine: String,
+    /// The trees of each replayed scene: (scene, its trees).
+    pub trees: Vec<(String, Vec<TreeInfo>)>,
     /// Replays, per scene and solver.
     pub replay: Vec<ReplayRow>,
     /// Frame time against pair count.
@@ -210,6 +221,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
     for name in scenes {
         let scene = render::scenes::builtin(name, &cache)
             .with_context(|| format!("loading the built-in scene `{name}`"))?;
+        let trees = tree_infos(&scene);
+        for t in &trees {
+            eprintln!("bench: {name}: {}", t.describe());
+        }
+        report.trees.push((name.clone(), trees));
         let traj = recorded_trajectory(&scene, window);
         eprintln!(
             "bench: {name}: {} frames x {} solvers",
@@ -361,6 +377,7 @@ fn replay_row(
             norm3(&e)
         }))
     };
+    let counts = StatusCounts::of(frames);
     ReplayRow {
         scene: scene.into(),
         solver: kind.name().into(),
@@ -374,14 +391,9 @@ fn replay_row(
         max_penetration_mm: frames.iter().map(|f| f.penetration_mm).fold(0.0, f64::max),
         force_diff_n: diff(0..3),
         torque_diff_nmm: diff(3..6),
-        inexact_frames: frames
-            .iter()
-            .filter(|f| matches!(f.status, FrameStatus::Inexact))
-            .count(),
-        failed_frames: frames
-            .iter()
-            .filter(|f| matches!(f.status, FrameStatus::KeptLastSafe))
-            .count(),
+        inexact_frames: counts.inexact,
+        kept_last_safe_frames: counts.kept_last_safe,
+        lagging_frames: counts.lagging,
         wall_s,
     }
 }
@@ -491,6 +503,7 @@ fn depth_study(
             out.push(DepthPoint {
                 depth,
                 leaves,
+                builder_version: spheretree::build::BUILDER_VERSION,
                 solver: kind.name().into(),
                 pairs: Summary::of(frames.iter().map(|f| f64::from(f.pairs))),
                 total_us: Summary::of(frames.iter().map(|f| f.total_us)),
@@ -520,15 +533,22 @@ fn machine_description() -> String {
 pub fn markdown(r: &BenchReport) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# haptic6d bench ({}), {}\n", r.mode, r.machine);
+    for (scene, trees) in &r.trees {
+        let list: Vec<String> = trees.iter().map(TreeInfo::describe).collect();
+        let _ = writeln!(s, "trees of {scene}: {}", list.join("; "));
+    }
+    if !r.trees.is_empty() {
+        let _ = writeln!(s);
+    }
     let _ = writeln!(
         s,
-        "| scene | solver | frames | cd µs mean / p99 | opt µs mean / p50 / p99 | total µs mean / p99 / max | iters mean / max | pairs mean / max | max pen. mm | ΔF vs dual N mean / max | inexact |"
+        "| scene | solver | frames | cd µs mean / p99 | opt µs mean / p50 / p99 | total µs mean / p99 / max | iters mean / max | pairs mean / max | max pen. mm | ΔF vs dual N mean / max | inexact | kept last safe | lagging |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for row in &r.replay {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.1} / {:.0} | {:.0} / {:.0} | {:.4} | {:.3} / {:.3} | {} |",
+            "| {} | {} | {} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.1} / {:.0} | {:.0} / {:.0} | {:.4} | {:.3} / {:.3} | {} | {} | {} |",
             row.scene,
             row.solver,
             if row.frames < row.planned_frames {
@@ -552,6 +572,8 @@ pub fn markdown(r: &BenchReport) -> String {
             row.force_diff_n.mean,
             row.force_diff_n.max,
             row.inexact_frames,
+            row.kept_last_safe_frames,
+            row.lagging_frames,
         );
     }
     if !r.scaling_pairs.is_empty() {
@@ -583,15 +605,16 @@ pub fn markdown(r: &BenchReport) -> String {
         let _ = writeln!(s, "\n## Frame time against tree depth (bunny trajectory)\n");
         let _ = writeln!(
             s,
-            "| depth | leaves | solver | pairs mean / max | total µs mean / p99 | max pen. mm |"
+            "| depth | leaves | builder | solver | pairs mean / max | total µs mean / p99 | max pen. mm |"
         );
-        let _ = writeln!(s, "|---|---|---|---|---|---|");
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|");
         for p in &r.scaling_depth {
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {:.0} / {:.0} | {:.1} / {:.1} | {:.4} |",
+                "| {} | {} | v{} | {} | {:.0} / {:.0} | {:.1} / {:.1} | {:.4} |",
                 p.depth,
                 p.leaves,
+                p.builder_version,
                 p.solver,
                 p.pairs.mean,
                 p.pairs.max,

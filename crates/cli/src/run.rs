@@ -12,7 +12,7 @@ use clap::Args;
 use render::cache::TreeCache;
 use render::config;
 use render::device::ReplayDevice;
-use render::report::{frames_csv, summarize, RunSummary};
+use render::report::{frames_csv, summarize, tree_infos, RunSummary};
 use render::rt::{run_loop, LoopParams};
 use render::safety::Safety;
 use render::scene::{load_scene_file, FormSpec, Motion, Scene, SolverKind};
@@ -364,7 +364,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     };
     let report = run_loop(&mut god, &mut device, &mut safety, &params)?;
 
-    let summary = summarize(
+    let mut summary = summarize(
         &scene.name,
         scene.solver.kind.name(),
         match scene.solver.form {
@@ -377,6 +377,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         scene.load_log.clone(),
         load_s,
     );
+    summary.trees = tree_infos(&scene);
     let dir = staging.dir();
     render::io::write_atomic(
         &dir.join("frames.csv"),
@@ -414,6 +415,9 @@ fn print_human(s: &RunSummary, out: &Path) {
         "{} / {} ({}): {} frames, scene loaded in {:.3} s",
         s.scene, s.solver, s.form, s.frames, s.load_s
     );
+    for t in &s.trees {
+        println!("  tree: {}", t.describe());
+    }
     println!(
         "  total µs  p50 {:.1}  p99 {:.1}  max {:.1}   (cd p99 {:.1}, opt p99 {:.1})",
         s.total_us.p50, s.total_us.p99, s.total_us.max, s.cd_us.p99, s.opt_us.p99
@@ -446,8 +450,8 @@ fn print_human(s: &RunSummary, out: &Path) {
         );
     }
     println!(
-        "  safety: {} force clamps, {} torque clamps, {} rate limits, {} NaN frames; {} kept-last-safe",
-        l.safety.force_clamps, l.safety.torque_clamps, l.safety.rate_limits, l.safety.nan_frames, l.kept_last_safe
+        "  safety: {} force clamps, {} torque clamps, {} rate limits, {} NaN frames; {} kept-last-safe, {} inexact",
+        l.safety.force_clamps, l.safety.torque_clamps, l.safety.rate_limits, l.safety.nan_frames, l.kept_last_safe, l.inexact
     );
     if let Some(g) = &s.goal {
         println!(

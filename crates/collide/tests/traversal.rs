@@ -91,9 +91,107 @@ fn pose_strategy(reach: f64) -> impl Strategy<Value = Pose> {
         .prop_map(|(x, y, z, g, b, a)| Pose::from_array([x, y, z, g, b, a]))
 }
 
+/// How to place the tool near contact: orientation (three Euler angles, rad), which tool leaf
+/// and which object leaf to bring together (fractions of the leaf lists), and the offset
+/// between their centres (a direction and a fraction of the sum of their radii).
+#[derive(Clone, Copy, Debug)]
+struct NearContact {
+    angles: [f64; 3],
+    tool_leaf: f64,
+    object_leaf: f64,
+    direction: [f64; 3],
+    depth: f64,
+}
+
+fn near_contact_strategy() -> impl Strategy<Value = NearContact> {
+    (
+        (-3.2f64..3.2, -1.6f64..1.6, -3.2f64..3.2),
+        0.0f64..1.0,
+        0.0f64..1.0,
+        proptest::array::uniform3(-1.0f64..1.0),
+        0.0f64..0.95,
+    )
+        .prop_map(
+            |((g, b, a), tool_leaf, object_leaf, direction, depth)| NearContact {
+                angles: [g, b, a],
+                tool_leaf,
+                object_leaf,
+                direction,
+                depth,
+            },
+        )
+}
+
+/// The tool pose that puts the chosen tool leaf's centre at `depth * (r_t + r_o)` from the
+/// chosen object leaf's centre (object at `world_from_object`): those two leaves overlap, so
+/// at least one pair is in contact, and their neighbours are near it.
+fn pose_near_contact(
+    tool: &SphereTree,
+    object: &SphereTree,
+    world_from_object: &Pose,
+    c: &NearContact,
+) -> Pose {
+    let pick = |t: &SphereTree, f: f64| {
+        let leaves: Vec<usize> = t.leaves().collect();
+        leaves[((f * leaves.len() as f64) as usize).min(leaves.len() - 1)]
+    };
+    let (lt, lo) = (pick(tool, c.tool_leaf), pick(object, c.object_leaf));
+    let (st, so) = (tool.sphere(lt), object.sphere(lo));
+    let n = common::dist(&c.direction, &[0.0; 3]);
+    let u = if n > 1e-6 {
+        c.direction.map(|v| v / n)
+    } else {
+        [1.0, 0.0, 0.0]
+    };
+    let d = c.depth * (st.radius + so.radius);
+    let o = common::to_world(world_from_object, &so.center);
+    let target = [o[0] + d * u[0], o[1] + d * u[1], o[2] + d * u[2]];
+    let [g, b, a] = c.angles;
+    let rotated = Pose::from_array([0.0, 0.0, 0.0, g, b, a]).transform_point(&st.center);
+    Pose::from_array([
+        target[0] - rotated[0],
+        target[1] - rotated[1],
+        target[2] - rotated[2],
+        g,
+        b,
+        a,
+    ])
+}
+
+/// `tree` with every used centre moved by up to `amount` mm per axis (seeded), parents then
+/// grown to contain their children again: a different tree of the same layout.
+fn jittered(tree: &SphereTree, seed: u64, amount: f64) -> SphereTree {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x7177);
+    let mut t = tree.clone();
+    for s in t.spheres_mut().iter_mut().filter(|s| s.is_used()) {
+        for c in &mut s.center {
+            *c += rng.random_range(-amount..amount);
+        }
+    }
+    t.enforce_containment();
+    t
+}
+
+/// Brute-force pairs in contact within `margin` (the ones the traversal must report).
+fn brute_force_count(
+    tool: &SphereTree,
+    world_from_tool: &Pose,
+    object: &SphereTree,
+    world_from_object: &Pose,
+    margin: f64,
+) -> usize {
+    brute_force_gaps(tool, world_from_tool, object, world_from_object)
+        .iter()
+        .filter(|&&(_, _, g)| g < margin - TIE)
+        .count()
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
 
+    /// Poses near contact (a chosen pair of leaves overlaps), so no case compares two empty
+    /// sets.
     #[test]
     fn traversal_equals_brute_force(
         seed_t in any::<u64>(),
@@ -104,11 +202,39 @@ proptest! {
         b_o in 2u32..=8,
         p_used in 0.3f64..1.0,
         p_early in 0.0f64..0.3,
-        pose in pose_strategy(EXTENT),
+        contact in near_contact_strategy(),
         margin in prop_oneof![Just(0.0), 0.0f64..10.0],
     ) {
         let tool = random_tree(seed_t, shape(levels_t, b_t, p_used, p_early));
         let object = random_tree(seed_o, shape(levels_o, b_o, p_used, p_early));
+        let pose = pose_near_contact(&tool, &object, &Pose::identity(), &contact);
+        let in_contact = brute_force_count(&tool, &pose, &object, &Pose::identity(), margin);
+        prop_assert!(in_contact >= 1, "the case has no pair in contact: {pose:?}");
+        let pt = PackedTree::new(&tool).unwrap();
+        let po = PackedTree::new(&object).unwrap();
+        let mut ws = CollideWorkspace::new();
+        let mut found = Vec::new();
+        let n = overlap_tree_tree(&pt, &pose, &po, margin, &mut ws, |p| found.push(*p)).unwrap();
+        prop_assert_eq!(n, found.len());
+        prop_assert!(n >= in_contact);
+        check_against_brute_force(&tool, &pose, &object, &Pose::identity(), margin, 0, &found);
+    }
+
+    /// Dense contact: a bushy depth-3 tree (512 leaves) nearly superposed on itself or on a
+    /// jittered copy, so hundreds of leaf pairs (measured: 1200–2200) are in contact at once.
+    #[test]
+    fn dense_contacts_equal_brute_force(
+        seed in any::<u64>(),
+        same_tree in any::<bool>(),
+        shift in proptest::array::uniform3(-1.0f64..1.0),
+        turn in proptest::array::uniform3(-0.02f64..0.02),
+        margin in prop_oneof![Just(0.0), 0.0f64..2.0],
+    ) {
+        let tool = random_tree(seed, shape(4, 8, 1.0, 0.0));
+        let object = if same_tree { tool.clone() } else { jittered(&tool, seed, 1.0) };
+        let pose = Pose::from_array([shift[0], shift[1], shift[2], turn[0], turn[1], turn[2]]);
+        let in_contact = brute_force_count(&tool, &pose, &object, &Pose::identity(), margin);
+        prop_assert!(in_contact >= 500, "only {in_contact} pairs in contact: not a dense case");
         let pt = PackedTree::new(&tool).unwrap();
         let po = PackedTree::new(&object).unwrap();
         let mut ws = CollideWorkspace::new();
@@ -121,13 +247,22 @@ proptest! {
     #[test]
     fn several_objects_equal_brute_force(
         seeds in proptest::array::uniform4(any::<u64>()),
-        pose in pose_strategy(EXTENT),
+        contact in near_contact_strategy(),
+        which in 0usize..3,
         object_poses in proptest::array::uniform3(pose_strategy(EXTENT)),
         margin in 0.0f64..5.0,
     ) {
         let tool = random_tree(seeds[0], shape(4, 4, 0.7, 0.1));
         let objects: Vec<SphereTree> =
             (1..4).map(|i| random_tree(seeds[i], shape(3, 8, 0.6, 0.1))).collect();
+        // Near contact with one object; the others where they fall.
+        let pose = pose_near_contact(&tool, &objects[which], &object_poses[which], &contact);
+        let in_contact: usize = objects
+            .iter()
+            .zip(&object_poses)
+            .map(|(o, p)| brute_force_count(&tool, &pose, o, p, margin))
+            .sum();
+        prop_assert!(in_contact >= 1, "the case has no pair in contact");
         let pt = PackedTree::new(&tool).unwrap();
         let packed: Vec<PackedTree> = objects
             .iter()
@@ -148,6 +283,22 @@ proptest! {
         }
         prop_assert_eq!(one_by_one, n);
     }
+}
+
+/// A fixed dense case: a bushy tree against itself, slightly moved, has hundreds of pairs in
+/// contact, and the traversal finds exactly the brute-force set.
+#[test]
+fn hundreds_of_pairs_equal_brute_force() {
+    let tree = random_tree(2024, shape(4, 8, 1.0, 0.0));
+    let pose = Pose::from_array([0.4, -0.3, 0.2, 0.01, -0.01, 0.015]);
+    let in_contact = brute_force_count(&tree, &pose, &tree, &Pose::identity(), 0.0);
+    assert!(in_contact >= 400, "{in_contact} pairs: not dense");
+    let p = PackedTree::new(&tree).unwrap();
+    let mut ws = CollideWorkspace::new();
+    let mut found = Vec::new();
+    let n = overlap_tree_tree(&p, &pose, &p, 0.0, &mut ws, |q| found.push(*q)).unwrap();
+    assert_eq!(n, found.len());
+    check_against_brute_force(&tree, &pose, &tree, &Pose::identity(), 0.0, 0, &found);
 }
 
 /// Unused slots sitting right on the other tree, with radii of any negative size, and used

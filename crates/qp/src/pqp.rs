@@ -27,8 +27,9 @@
 //!
 //! **Stopping.** The paper stops when the decrease `F(y_{k}) - F(y_{k+1})` falls below 0.01
 //! (absolute, in the objective's units) from `y_0 = 0.001`: [`PqpParams::paper`]. That rule
-//! does not bound the constraint violation. [`PqpParams::tight`] stops instead on a relative
-//! KKT test (violation and duality gap). Each iteration is O(N^2) (`Q` is dense, formed once
+//! does not bound the constraint violation: an answer whose [`crate::Kkt`] certificate shows a
+//! violation above [`PqpParams::violation_tol`] is reported [`Status::Inexact`], not
+//! [`Status::Solved`]. [`PqpParams::tight`] stops instead on a relative KKT test (violation and duality gap). Each iteration is O(N^2) (`Q` is dense, formed once
 //! per solve in O(6 N^2)); the workspace holds `Q`, `N^2` numbers.
 
 use crate::basis::{scaled, DIM};
@@ -49,6 +50,11 @@ pub struct PqpParams {
     /// `(d_k - J_k dq) / |n_k| <= kkt_tol |z|` and `|y^T (J dq - d)| <= kkt_tol |z|^2`, with
     /// `z = G^{1/2} dq`, `n_k = G^{-1/2} J_k^T` (both dimensionless tolerances).
     pub kkt_tol: Option<f64>,
+    /// Feasibility tolerance of the answer, in the units of `d` (mm for the distance rows of
+    /// the haptic step, mm or rad for its trust-region rows): when the stopping rule holds
+    /// but the certificate's [`crate::Kkt::max_violation`] exceeds it, the solve reports
+    /// [`Status::Inexact`] instead of [`Status::Solved`]. Both presets: `1e-3`.
+    pub violation_tol: f64,
     /// Cap on the number of multiplicative updates.
     pub max_iterations: u32,
     /// Start from the last solve's multipliers (floored at `warm_floor`) when `N` is
@@ -66,6 +72,7 @@ impl PqpParams {
             y0: 1e-3,
             min_decrease: 0.01,
             kkt_tol: None,
+            violation_tol: 1e-3,
             max_iterations: 1000,
             warm_start: false,
             warm_floor: 1e-9,
@@ -78,6 +85,7 @@ impl PqpParams {
             y0: 1e-3,
             min_decrease: 0.0,
             kkt_tol: Some(1e-6),
+            violation_tol: 1e-3,
             max_iterations: 5000,
             warm_start: true,
             warm_floor: 1e-9,
@@ -142,8 +150,10 @@ impl PqpWorkspace {
 
     /// Solves `p` by the multiplicative update, stopping by `params` (see the module docs).
     ///
-    /// Returns [`Status::Solved`] when the stopping rule held (which for the paper's rule does
-    /// not mean feasible: read the certificate), [`Status::Infeasible`] when the multipliers
+    /// Returns [`Status::Solved`] when the stopping rule held and the answer violates no
+    /// constraint by more than `params.violation_tol` ([`crate::Kkt::max_violation`]),
+    /// [`Status::Inexact`] when the rule held but the violation is larger (the paper's rule
+    /// bounds the objective decrease, not the violation), [`Status::Infeasible`] when the multipliers
     /// prove that no feasible point lies within `1e4` times the problem's own length scale
     /// (`max_k |d_k| / |n_k|`, in the `G` norm) or a zero row has `d_k > 0`,
     /// [`Status::MaxIterations`] otherwise (an infeasible problem often ends so: the
@@ -276,7 +286,18 @@ impl PqpWorkspace {
             }
         }
         let dq: [f64; 6] = std::array::from_fn(|i| zsum[i] * isg[i]);
-        Solution::finish(p, dq, &self.y, status, iterations)
+        let mut sol = Solution::finish(p, dq, &self.y, status, iterations);
+        // The stopping rule is not a feasibility test (the paper's is a decrease test): the
+        // certificate decides whether the answer is exact.
+        // (A NaN tolerance certifies nothing.)
+        let within = matches!(
+            sol.kkt.max_violation.partial_cmp(&prm.violation_tol),
+            Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+        );
+        if sol.status == Status::Solved && !within {
+            sol.status = Status::Inexact;
+        }
+        sol
     }
 }
 

@@ -7,9 +7,15 @@ use crate::problem::{dot6, Problem};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Status {
     /// The solver's stopping rule was met (for `dual` and `active-set`: optimal to the
-    /// tolerances; for `pqp` with the paper's stop: the objective decrease fell below the
-    /// threshold, which does *not* imply feasibility — read the [`Kkt`] certificate).
+    /// tolerances; for `pqp`: its stopping rule held *and* the answer is feasible to
+    /// [`crate::PqpParams::violation_tol`], otherwise it reports [`Status::Inexact`]).
     Solved,
+    /// The solver's stopping rule was met but its answer violates a constraint by more than
+    /// the solver's feasibility tolerance: [`Kkt::max_violation`] (units of `d`, mm in the
+    /// haptic step) is above it. `dq` is the last iterate, finite, usable as an approximation
+    /// only. Reported by `pqp` (see [`crate::PqpParams::violation_tol`]); with the paper's stop
+    /// it is the usual outcome of a problem with active constraints.
+    Inexact,
     /// The iteration cap was reached; `dq` is the last iterate.
     MaxIterations,
     /// The constraints have no common solution (the dual is unbounded); `dq` is the last

@@ -239,25 +239,66 @@ fn pqp_tight_stop_converges_to_the_optimum() {
     }
 }
 
+/// The paper reports 6 iterations on average and 10 at most (its own scenes). On these 40
+/// seeded haptic-like instances (N = 100) the paper's stop measured mean 9.9, max 29, min 3,
+/// every answer `Inexact` with 0.09–0.38 mm of violation: the bounds below are that
+/// measurement with a small margin, so a change of the update or of the stop shows here.
 #[test]
-fn pqp_paper_stop_matches_the_paper_iteration_counts_roughly() {
-    // The paper: 6 iterations on average, 10 at most (its own scenes). Ours on haptic-like
-    // instances is of that order; the stop leaves violation (see docs/benchmarks/qp.md).
-    let mut total = 0;
-    let mut worst = 0;
+fn pqp_paper_stop_takes_10_iterations_on_average_and_stops_inexact() {
+    let mut total = 0u32;
+    let (mut worst, mut least) = (0u32, u32::MAX);
     let mut ws = PqpWorkspace::new();
     for seed in 0..40u64 {
         let inst = common::haptic(100, 10, 0.2, &mut common::rng(seed));
         let s = ws.solve(&inst.problem());
-        assert_eq!(s.status, Status::Solved);
+        // The stop is a decrease test: the certificate shows the violation it leaves.
+        assert_eq!(s.status, Status::Inexact, "seed {seed}: {s:?}");
+        let v = s.kkt.max_violation;
+        assert!(
+            (0.05..=0.5).contains(&v),
+            "seed {seed}: violation {v} mm outside the measured 0.09-0.38"
+        );
         total += s.iterations;
         worst = worst.max(s.iterations);
+        least = least.min(s.iterations);
     }
+    let mean = f64::from(total) / 40.0;
     assert!(
-        total / 40 <= 30 && worst <= 200,
-        "mean {} max {worst}",
-        total / 40
+        (8.0..=12.0).contains(&mean) && (25..=35).contains(&worst) && least >= 2,
+        "mean {mean} max {worst} min {least} (measured 9.9 / 29 / 3)"
     );
+}
+
+/// `Inexact` is decided by the certificate: the same stop with a tolerance above the
+/// violation reports `Solved`; the tight KKT stop reaches it.
+#[test]
+fn pqp_inexact_is_the_certificate_violation_beyond_the_tolerance() {
+    let inst = common::haptic(100, 10, 0.2, &mut common::rng(7));
+    let p = inst.problem();
+    let paper = PqpWorkspace::new().solve(&p);
+    assert_eq!(paper.status, Status::Inexact, "{paper:?}");
+    assert!(paper.kkt.max_violation > PqpParams::paper().violation_tol);
+    let lenient = PqpWorkspace::with_params(PqpParams {
+        violation_tol: 2.0 * paper.kkt.max_violation,
+        ..PqpParams::paper()
+    })
+    .solve(&p);
+    assert_eq!(lenient.status, Status::Solved, "{lenient:?}");
+    assert_eq!(lenient.dq, paper.dq);
+    let tight = PqpWorkspace::with_params(PqpParams {
+        max_iterations: 200_000,
+        ..PqpParams::tight()
+    })
+    .solve(&p);
+    assert_eq!(tight.status, Status::Solved, "{tight:?}");
+    assert!(tight.kkt.max_violation <= PqpParams::tight().violation_tol);
+    // A NaN tolerance never certifies anything.
+    let nan = PqpWorkspace::with_params(PqpParams {
+        violation_tol: f64::NAN,
+        ..PqpParams::paper()
+    })
+    .solve(&p);
+    assert_eq!(nan.status, Status::Inexact);
 }
 
 #[test]

@@ -84,7 +84,8 @@ fn warmed_up_solves_do_not_allocate() {
                 for inst in &frames {
                     // Start at the device pose: infeasible when any d_k > 0 (phase 1 runs).
                     let sol = s.solve(&inst.problem(), &[0.0; 6]);
-                    solved += (sol.status == Status::Solved) as usize;
+                    // Inexact: PQP's stop held with violation left (still a full solve).
+                    solved += matches!(sol.status, Status::Solved | Status::Inexact) as usize;
                 }
             }
         });

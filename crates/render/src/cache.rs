@@ -1,10 +1,21 @@
-//! On-disk cache of sphere-trees built from meshes, keyed by a hash of the mesh content and the
-//! build parameters, so a second run of a scene starts without rebuilding.
+//! On-disk cache of sphere-trees built from meshes, keyed by a hash of the mesh content, the
+//! build parameters, the builder's version ([`spheretree::build::BUILDER_VERSION`]) and the
+//! entry format's version ([`FORMAT_VERSION`]), so a second run of a scene starts without
+//! rebuilding and a tree from an older builder is never reused.
 //!
 //! Location: `$HAPTIC6D_CACHE` if set, else `$XDG_CACHE_HOME/haptic6d`, else
-//! `~/.cache/haptic6d`. Files are `tree-<hash>.bin` (a small binary format: magic, levels,
-//! branching, then `x y z r` as little-endian f64 per slot), written atomically. A corrupt or
-//! unreadable entry is rebuilt, never trusted.
+//! `~/.cache/haptic6d`. Files are `tree-<key>.bin`, written atomically, in a small binary
+//! format (all integers and numbers little-endian):
+//!
+//! ```text
+//! magic "H6DTREE2" | key length u32 | key bytes | levels u32 | branching u32
+//! | per slot: x y z r as f64 (mm) | content hash u64 = FNV-1a 64 of every byte before it
+//! ```
+//!
+//! A corrupt, truncated, renamed (key mismatch) or edited (content hash mismatch) entry, or one
+//! whose numbers are not finite or whose parents do not contain their children, is rebuilt,
+//! never trusted. The hash guards against accidents (a disk error, a hand edit, a copy under
+//! the wrong name), not against someone who recomputes it.
 
 use std::path::{Path, PathBuf};
 
@@ -13,7 +24,10 @@ use spheretree::{Sphere, SphereTree};
 
 use crate::RenderError;
 
-const MAGIC: &[u8; 8] = b"H6DTREE1";
+/// Version of the cache entry format (the digit in the magic); folded into every key.
+pub const FORMAT_VERSION: u32 = 2;
+
+const MAGIC: &[u8; 8] = b"H6DTREE2";
 
 /// FNV-1a, 64-bit: a stable (toolchain-independent) content hash.
 #[derive(Clone, Copy, Debug)]
@@ -38,16 +52,32 @@ impl Fnv64 {
     pub fn finish(&self) -> u64 {
         self.0
     }
+
+    /// The FNV-1a 64 hash of `bytes` (the content hash of a cache entry).
+    pub fn hash(bytes: &[u8]) -> u64 {
+        let mut h = Self::default();
+        h.write(bytes);
+        h.finish()
+    }
 }
 
 /// The cache key of a tree built from `mesh` (mm) with build parameters described by
-/// `params` (any stable text, e.g. `"depth=4 branching=8 method=Tight"`).
+/// `params` (any stable text, e.g. `"depth=4 branching=8 method=Tight"`) by today's builder
+/// ([`spheretree::build::BUILDER_VERSION`]) in today's entry format ([`FORMAT_VERSION`]).
 pub fn tree_key(mesh: &TriMesh, params: &str) -> String {
+    key_for_builder(mesh, params, spheretree::build::BUILDER_VERSION)
+}
+
+/// [`tree_key`] for a given builder version.
+fn key_for_builder(mesh: &TriMesh, params: &str, builder_version: u32) -> String {
     // Two differently seeded FNV streams make a 128-bit key: accidental collisions are moot.
     let mut a = Fnv64::default();
     let mut b = Fnv64(0x6c62_272e_07bb_0142);
     for h in [&mut a, &mut b] {
-        h.write(b"haptic6d-tree-v1\0");
+        h.write(b"haptic6d-tree\0");
+        h.write(&FORMAT_VERSION.to_le_bytes());
+        h.write(&builder_version.to_le_bytes());
+        h.write(&(params.len() as u64).to_le_bytes());
         h.write(params.as_bytes());
         h.write(&(mesh.vertices.len() as u64).to_le_bytes());
         for v in &mesh.vertices {
@@ -154,22 +184,24 @@ impl TreeCache {
         if let Some(dir) = &self.dir {
             let path = dir.join(format!("tree-{key}.bin"));
             if let Ok(bytes) = std::fs::read(&path) {
-                if let Some(tree) = decode(&bytes) {
+                if let Some(tree) = decode(key, &bytes) {
                     return Ok((tree, CacheOutcome::Hit));
                 }
             }
             let tree = build()?;
-            let _ = crate::io::write_atomic(&path, &encode(&tree));
+            let _ = crate::io::write_atomic(&path, &encode(key, &tree));
             return Ok((tree, CacheOutcome::Built));
         }
         Ok((build()?, CacheOutcome::Built))
     }
 }
 
-/// Serialises a tree in the cache format.
-pub fn encode(tree: &SphereTree) -> Vec<u8> {
-    let mut out = Vec::with_capacity(16 + tree.len() * 32);
+/// Serialises `tree` as the cache entry for `key` (see the module docs for the format).
+pub fn encode(key: &str, tree: &SphereTree) -> Vec<u8> {
+    let mut out = Vec::with_capacity(28 + key.len() + tree.len() * 32);
     out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&(key.len() as u32).to_le_bytes());
+    out.extend_from_slice(key.as_bytes());
     out.extend_from_slice(&tree.levels().to_le_bytes());
     out.extend_from_slice(&tree.branching().to_le_bytes());
     for s in tree.spheres() {
@@ -178,12 +210,26 @@ pub fn encode(tree: &SphereTree) -> Vec<u8> {
         }
         out.extend_from_slice(&s.radius.to_le_bytes());
     }
+    let hash = Fnv64::hash(&out);
+    out.extend_from_slice(&hash.to_le_bytes());
     out
 }
 
-/// Reads a tree in the cache format; `None` if the bytes are not a valid tree.
-pub fn decode(bytes: &[u8]) -> Option<SphereTree> {
-    let rest = bytes.strip_prefix(MAGIC.as_slice())?;
+/// Reads the cache entry for `key`; `None` unless the bytes are a valid entry for that key:
+/// right magic and key, intact content hash, a slot count matching the shape, every number
+/// finite, and every used child inside its parent (to `1e-9` of the root radius).
+pub fn decode(key: &str, bytes: &[u8]) -> Option<SphereTree> {
+    let (content, hash) = bytes.split_at_checked(bytes.len().checked_sub(8)?)?;
+    if Fnv64::hash(content) != u64::from_le_bytes(hash.try_into().ok()?) {
+        return None;
+    }
+    let rest = content.strip_prefix(MAGIC.as_slice())?;
+    let key_len = u32::from_le_bytes(rest.get(0..4)?.try_into().ok()?) as usize;
+    let rest = rest.get(4..)?;
+    if rest.get(..key_len)? != key.as_bytes() {
+        return None;
+    }
+    let rest = rest.get(key_len..)?;
     let levels = u32::from_le_bytes(rest.get(0..4)?.try_into().ok()?);
     let branching = u32::from_le_bytes(rest.get(4..8)?.try_into().ok()?);
     let n = spheretree::slot_count(levels, branching)?;
@@ -199,7 +245,11 @@ pub fn decode(bytes: &[u8]) -> Option<SphereTree> {
     let spheres = (0..n)
         .map(|k| Sphere::new([f(4 * k), f(4 * k + 1), f(4 * k + 2)], f(4 * k + 3)))
         .collect();
-    SphereTree::from_slots(levels, branching, spheres).ok()
+    let tree = SphereTree::from_slots(levels, branching, spheres).ok()?;
+    // Pruning relies on containment; builders guarantee it exactly (see `build_tree`).
+    let tol = 1e-9 * tree.spheres().first()?.radius.abs().max(1.0);
+    tree.validate(tol).ok()?;
+    Some(tree)
 }
 
 /// Errors when the cache directory itself is unusable (reported, never fatal for a run).
@@ -224,10 +274,31 @@ mod tests {
     #[test]
     fn encode_decode_round_trip_and_rejects_garbage() {
         let t = small_tree();
-        let bytes = encode(&t);
-        assert_eq!(decode(&bytes), Some(t));
-        assert_eq!(decode(&bytes[..bytes.len() - 1]), None);
-        assert_eq!(decode(b"nonsense"), None);
+        let bytes = encode("k1", &t);
+        assert_eq!(decode("k1", &bytes), Some(t));
+        // The same bytes under another key (a renamed or copied file) are not that key's tree.
+        assert_eq!(decode("k2", &bytes), None);
+        assert_eq!(decode("k1", &bytes[..bytes.len() - 1]), None);
+        assert_eq!(decode("k1", b"nonsense"), None);
+        assert_eq!(decode("k1", b""), None);
+    }
+
+    #[test]
+    fn key_depends_on_builder_version() {
+        let m = TriMesh {
+            vertices: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            triangles: vec![[0, 1, 2]],
+        };
+        let v = spheretree::build::BUILDER_VERSION;
+        assert_eq!(key_for_builder(&m, "depth=1", v), tree_key(&m, "depth=1"));
+        assert_ne!(
+            key_for_builder(&m, "depth=1", v - 1),
+            tree_key(&m, "depth=1")
+        );
+        assert_ne!(
+            key_for_builder(&m, "depth=1", v + 1),
+            tree_key(&m, "depth=1")
+        );
     }
 
     #[test]

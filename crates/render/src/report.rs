@@ -74,6 +74,55 @@ pub struct ForceReport {
     pub non_finite_frames: usize,
 }
 
+/// Which sphere-tree a run used: its size and which builder made it, so a figure can be traced
+/// to the tree it was measured on.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct TreeInfo {
+    /// `tool`, or `object K` (K from 0, in scene order).
+    pub role: String,
+    /// Used leaf spheres (the spheres whose pairs become constraints).
+    pub leaves: usize,
+    /// Depth of the tree (levels - 1).
+    pub depth: u32,
+    /// Branching factor.
+    pub branching: u32,
+    /// [`spheretree::build::BUILDER_VERSION`] of the builder that made it (trees built from a
+    /// mesh, through the cache or not: the cache key includes the version, so a cached tree is
+    /// always today's builder's); `None` for a tree read from a `.sph` file.
+    pub builder_version: Option<u32>,
+}
+
+impl TreeInfo {
+    /// One line: `tool 4094 leaves (depth 4, branching 8, builder v2)`.
+    pub fn describe(&self) -> String {
+        let builder = match self.builder_version {
+            Some(v) => format!("builder v{v}"),
+            None => "read from a .sph file".into(),
+        };
+        format!(
+            "{} {} leaves (depth {}, branching {}, {builder})",
+            self.role, self.leaves, self.depth, self.branching
+        )
+    }
+}
+
+/// The trees of `scene`: the tool's, then each object's.
+pub fn tree_infos(scene: &crate::scene::Scene) -> Vec<TreeInfo> {
+    let info = |role: String, t: &spheretree::SphereTree, from_mesh: bool| TreeInfo {
+        role,
+        leaves: t.leaves().count(),
+        depth: t.levels().saturating_sub(1),
+        branching: t.branching(),
+        builder_version: from_mesh.then_some(spheretree::build::BUILDER_VERSION),
+    };
+    let mut out = vec![info("tool".into(), &scene.tool, scene.tool_mesh.is_some())];
+    for (k, (t, _)) in scene.objects.iter().enumerate() {
+        let from_mesh = scene.object_meshes.get(k).is_some_and(|m| m.is_some());
+        out.push(info(format!("object {k}"), t, from_mesh));
+    }
+    out
+}
+
 /// The content of `summary.json`.
 #[derive(Clone, Debug, Serialize)]
 pub struct RunSummary {
@@ -109,6 +158,9 @@ pub struct RunSummary {
     pub load: Vec<String>,
     /// Time to load the scene (trees included), s.
     pub load_s: f64,
+    /// The trees the run used (leaf counts, builder version); filled by the caller from the
+    /// scene ([`tree_infos`]), empty when not known.
+    pub trees: Vec<TreeInfo>,
 }
 
 fn norm3(v: &[f64]) -> f64 {
@@ -190,5 +242,6 @@ pub fn summarize(
         goal,
         load,
         load_s,
+        trees: Vec::new(),
     }
 }

@@ -81,6 +81,38 @@ pub struct FrameRecord {
     pub overrun: bool,
 }
 
+/// Frames counted by the step's status (one count per non-`Ok` outcome that matters); the
+/// same counting feeds [`LoopStats`] and the bench table.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct StatusCounts {
+    /// Frames that kept the last safe pose ([`FrameStatus::KeptLastSafe`]).
+    pub kept_last_safe: u64,
+    /// Frames whose pair list overflowed ([`FrameStatus::PairOverflow`]).
+    pub pair_overflows: u64,
+    /// Frames whose QP answer violated a constraint beyond the solver's tolerance
+    /// ([`FrameStatus::Inexact`]).
+    pub inexact: u64,
+    /// Frames that ended short of the optimum, safe ([`FrameStatus::Lagging`]).
+    pub lagging: u64,
+}
+
+impl StatusCounts {
+    /// Counts the statuses of `outputs`.
+    pub fn of<'a>(outputs: impl IntoIterator<Item = &'a FrameOutput>) -> Self {
+        let mut c = Self::default();
+        for o in outputs {
+            match o.status {
+                FrameStatus::KeptLastSafe => c.kept_last_safe += 1,
+                FrameStatus::PairOverflow => c.pair_overflows += 1,
+                FrameStatus::Inexact => c.inexact += 1,
+                FrameStatus::Lagging => c.lagging += 1,
+                FrameStatus::Ok => {}
+            }
+        }
+        c
+    }
+}
+
 /// Statistics of a loop run.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct LoopStats {
@@ -280,6 +312,7 @@ pub fn run_loop<D: Device>(
     })?;
     let wall_s = t0.elapsed().as_secs_f64();
     let nominal = 1e6 / params.rate_hz;
+    let counts = StatusCounts::of(records.iter().map(|r| &r.out));
     let stats = LoopStats {
         frames: records.len(),
         realtime: params.realtime,
@@ -298,22 +331,10 @@ pub fn run_loop<D: Device>(
         },
         period_us: Summary::of(records.iter().skip(1).map(|r| r.period_us)),
         safety: safety.events(),
-        kept_last_safe: records
-            .iter()
-            .filter(|r| r.out.status == FrameStatus::KeptLastSafe)
-            .count() as u64,
-        pair_overflows: records
-            .iter()
-            .filter(|r| r.out.status == FrameStatus::PairOverflow)
-            .count() as u64,
-        inexact: records
-            .iter()
-            .filter(|r| r.out.status == FrameStatus::Inexact)
-            .count() as u64,
-        lagging: records
-            .iter()
-            .filter(|r| r.out.status == FrameStatus::Lagging)
-            .count() as u64,
+        kept_last_safe: counts.kept_last_safe,
+        pair_overflows: counts.pair_overflows,
+        inexact: counts.inexact,
+        lagging: counts.lagging,
         stalled_frames: records
             .windows(2)
             .filter(|w| w[1].t == w[0].t && w[1].out.q_h == w[0].out.q_h)
