@@ -188,7 +188,7 @@ fn out_of_range_settings_are_refused_from_the_scene_file_and_the_flags() {
         (&["--rate", "1e7"], "--rate = 10000000"),
         (&["--rate", "NaN"], "--rate = NaN"),
         (&["--skin=-1000"], "--skin = -1000"),
-        (&["--trust-mm", "inf"], "--trust-mm = inf"),
+        (&["--max-margin", "inf"], "--max-margin = inf"),
     ];
     for (args, needle) in flags {
         let mut a = vec!["run", &scene, "--out", &out, "--no-plots"];

@@ -255,7 +255,7 @@ fn check_frames(frames: &[FrameRecord], p: &SafetyParams) -> Result<(), String> 
         }
         // While the hand's tool is inside the ball, the spring pulls it out: along the outward
         // normal at the graphic tool (the ball is convex), never into it. (Outside, a tool
-        // held back by the trust region behind a fast hand may pull it toward the surface.)
+        // that lags a fast hand, in a frame whose passes ran out, may pull it toward the surface.)
         let h = f.out.q_h;
         // (The tool's 2 mm leaves overlap the ball.)
         let hand_in = norm3(&[h[0] - BALL_C[0], h[1] - BALL_C[1], h[2] - BALL_C[2]]) < BALL_R + 2.0;
