@@ -1,5 +1,5 @@
-//! `haptic6d bench [--quick] [--out DIR]`: the paper's experiments, every solver on identical
-//! input, plus two scaling studies.
+//! `haptic6d bench [--quick] [--out DIR] [--studies replay,scaling,speed,contact]`: the paper's
+//! experiments, every solver on identical input, plus scaling, hand-speed and contact studies.
 //!
 //! 1. **Replay.** For each scene (`bunny`, `spline`) the scene's device trajectory is recorded
 //!    once and replayed into a fresh god-object per solver (`pqp` as in the paper, the
@@ -10,10 +10,14 @@
 //!    replay's frame with the most pairs, its detection skin grown until the QP holds the
 //!    target number of rows, then timed cold (fresh warm start) many times per solver.
 //! 3. **Depth.** The bunny trajectory replayed with trees of depth 3 … 6.
+//! 4. **Speed.** Drag, lag, penetration and frame time of a tool pressed onto a frictionless
+//!    plate and slid at 50–1000 mm/s or turned at 1–10 rad/s ([`crate::bench_speed`]).
+//! 5. **Contact.** Flat on flat and the spline's phases: pairs, times, degraded frames
+//!    ([`crate::bench_contact`]).
 //!
 //! Output: a table on stdout, `DIR/bench.json`, `DIR/bench.md`, and the plots
 //! `DIR/bench_pairs_<scene>.png`, `DIR/bench_time_<scene>.png`, `DIR/bench_cost.png`,
-//! `DIR/bench_scaling_pairs.png`, `DIR/bench_scaling_depth.png`.
+//! `DIR/bench_scaling_pairs.png`, `DIR/bench_scaling_depth.png`, `DIR/bench_speed_drag.png`.
 //!
 //! Timings are the engine's own per-stage counters (`FrameOutput`), one thread, frames computed
 //! back to back (no pacing), so they measure the work of a frame, not the loop.
@@ -58,8 +62,8 @@ pub struct BenchArgs {
     /// Skip the scaling studies (pairs and depth).
     #[arg(long)]
     pub no_scaling: bool,
-    /// Studies to run (comma-separated): replay, scaling, speed.
-    #[arg(long, value_delimiter = ',', default_value = "replay,scaling,speed")]
+    /// Studies to run (comma-separated): replay, scaling, speed, contact.
+    #[arg(long, value_delimiter = ',', default_value = "replay,scaling,speed,contact")]
     pub studies: Vec<String>,
     /// Skip the PNG plots.
     #[arg(long)]
@@ -171,6 +175,8 @@ pub struct BenchReport {
     pub scaling_depth: Vec<DepthPoint>,
     /// Drag, lag and frame time against hand speed on the plate.
     pub speed: Vec<crate::bench_speed::SpeedRow>,
+    /// Large and tight contacts: flat on flat, the spline's phases.
+    pub contact: Vec<crate::bench_contact::ContactRow>,
     /// Wall time of the bench, s.
     pub wall_s: f64,
 }
@@ -187,8 +193,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
         }
     }
     for study in &args.studies {
-        if !["replay", "scaling", "speed"].contains(&study.as_str()) {
-            bail!("--studies: no study `{study}` (studies: replay, scaling, speed)");
+        if !["replay", "scaling", "speed", "contact"].contains(&study.as_str()) {
+            bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact)");
         }
     }
     let wants = |name: &str| args.studies.iter().any(|s| s == name);
@@ -291,6 +297,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
         };
         eprintln!("bench: speed study (plate scene)");
         report.speed = crate::bench_speed::speed_study(&cache, args.quick, solvers)?;
+    }
+    if wants("contact") {
+        eprintln!("bench: contact study (flat on flat, spline phases)");
+        report.contact = crate::bench_contact::contact_study(&cache, args.quick)?;
     }
     report.wall_s = t0.elapsed().as_secs_f64();
 
@@ -630,6 +640,10 @@ pub fn markdown(r: &BenchReport) -> String {
             "\n## Hand speed on a frictionless plate (1 mm press, exact solvers)\n"
         );
         s.push_str(&crate::bench_speed::speed_markdown(&r.speed));
+    }
+    if !r.contact.is_empty() {
+        let _ = writeln!(s, "\n## Large and tight contacts (dual)\n");
+        s.push_str(&crate::bench_contact::contact_markdown(&r.contact));
     }
     let _ = writeln!(s, "\nbench wall time: {:.1} s", r.wall_s);
     s

@@ -6,6 +6,7 @@
 //! non-zero exit status; progress bars (see `progress.rs`) only show on a terminal.
 
 mod bench;
+mod bench_contact;
 mod bench_plot;
 mod bench_speed;
 mod plot;
