@@ -63,7 +63,11 @@ pub struct BenchArgs {
     #[arg(long)]
     pub no_scaling: bool,
     /// Studies to run (comma-separated): replay, scaling, speed, contact.
-    #[arg(long, value_delimiter = ',', default_value = "replay,scaling,speed,contact")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "replay,scaling,speed,contact"
+    )]
     pub studies: Vec<String>,
     /// Skip the PNG plots.
     #[arg(long)]

@@ -63,7 +63,11 @@ fn replay(scene: &Scene) -> Result<(Vec<f64>, Vec<FrameOutput>)> {
     Ok((times, out))
 }
 
-fn row<'a>(scene: &str, phase: &str, frames: impl Iterator<Item = &'a FrameOutput> + Clone) -> ContactRow {
+fn row<'a>(
+    scene: &str,
+    phase: &str,
+    frames: impl Iterator<Item = &'a FrameOutput> + Clone,
+) -> ContactRow {
     let f = frames.clone();
     ContactRow {
         scene: scene.into(),

@@ -38,7 +38,14 @@ fn csv_rows(path: &Path) -> (String, Vec<Vec<f64>>) {
         .map(|l| {
             let (numbers, status) = l.rsplit_once(',').unwrap();
             assert!(
-                ["ok", "inexact", "pair-overflow", "lagging", "kept-last-safe"].contains(&status),
+                [
+                    "ok",
+                    "inexact",
+                    "pair-overflow",
+                    "lagging",
+                    "kept-last-safe"
+                ]
+                .contains(&status),
                 "status {status}"
             );
             numbers

@@ -95,7 +95,11 @@ fn ball_turning(index: usize, from: f64, to: f64, secs: f64) -> Vec<Pose> {
 fn run(traj: &[Pose], tool: PlateTool) -> Vec<render::step::FrameOutput> {
     let cache = common::test_cache();
     let scene = plate::scene(&cache, tool, Script::starting_at(traj[0].to_array())).unwrap();
-    let mut god = GodObject::new(&scene, StepParams::from_scene(&scene)).unwrap();
+    let mut params = StepParams::from_scene(&scene);
+    // Algorithmic behaviour, not timing: no pass is cut by a busy machine (the frames of two
+    // runs are compared exactly).
+    params.budget_us = 1e6;
+    let mut god = GodObject::new(&scene, params).unwrap();
     god.reset(&traj[0]).unwrap();
     traj.iter().map(|q| god.step(q)).collect()
 }
@@ -155,31 +159,57 @@ fn wrapped_angles_give_the_same_frames() {
     assert!(turning > 50, "only {turning} frames with torque");
 }
 
-/// The ball pressed onto the plate and turned about y through beta = pi/2 behaves like the same
-/// turn elsewhere: every frame solved, the tool follows the hand's orientation, the normal force
-/// stays the press's.
+/// The ball pressed onto the plate and turned about y through beta = pi/2 gives the same
+/// frames as the physically identical turn that stays far from the Euler singularity: the same
+/// ball with its tree turned by pi/2 about y beforehand, its hand turning from -0.6 to 0.6 rad.
+/// The world geometry is the same at every instant; only the device's Euler angles differ (one
+/// run passes through gimbal lock), so the forces must agree.
 #[test]
 fn turning_through_the_euler_singularity_is_uneventful() {
-    for (from, to) in [(FRAC_PI_2 - 0.6, FRAC_PI_2 + 0.6), (-0.6, 0.6)] {
-        let traj = ball_turning(4, from, to, 0.4);
-        let frames = run(&traj, PlateTool::Ball);
-        let turn_start = 250;
-        for (i, f) in frames.iter().enumerate().skip(turn_start) {
-            assert!(
-                matches!(f.status, FrameStatus::Ok),
-                "turn from {from}: frame {i} {:?}",
-                f.status
-            );
-            let r = Pose::from_array(f.q_g).rotation_matrix()
-                * Pose::from_array(f.q_h).rotation_matrix().transpose();
-            let lag = rotation_log(&r).norm();
-            assert!(lag < 0.005, "turn from {from}: frame {i} lags {lag} rad");
-            assert!(
-                (f.wrench[2] - 1.0).abs() < 0.35,
-                "turn from {from}: frame {i} normal force {}",
-                f.wrench[2]
-            );
-            assert!(f.penetration_mm <= 0.01);
+    let cache = common::test_cache();
+    let through = ball_turning(4, FRAC_PI_2 - 0.6, FRAC_PI_2 + 0.6, 0.4);
+    let away = ball_turning(4, -0.6, 0.6, 0.4);
+    let scene = plate::scene(
+        &cache,
+        PlateTool::Ball,
+        Script::starting_at(through[0].to_array()),
+    )
+    .unwrap();
+    let mut turned = scene.clone();
+    let ry = collide::rotation_zyx(0.0, FRAC_PI_2, 0.0);
+    for sphere in turned.tool.spheres_mut() {
+        if sphere.is_used() {
+            sphere.center = (ry * Vector3::from(sphere.center)).into();
         }
     }
+    let run_on = |scene: &render::scene::Scene, traj: &[Pose]| {
+        let mut params = StepParams::from_scene(scene);
+        params.budget_us = 1e6;
+        let mut god = GodObject::new(scene, params).unwrap();
+        god.reset(&traj[0]).unwrap();
+        traj.iter().map(|q| god.step(q)).collect::<Vec<_>>()
+    };
+    let a = run_on(&scene, &through);
+    let b = run_on(&turned, &away);
+    let mut pressed = 0;
+    for (i, (fa, fb)) in a.iter().zip(&b).enumerate() {
+        assert_eq!(fa.status, fb.status, "frame {i}");
+        assert!(
+            matches!(fa.status, FrameStatus::Ok),
+            "frame {i}: {:?}",
+            fa.status
+        );
+        for k in 0..6 {
+            let tol = if k < 3 { 1e-3 } else { 0.5 };
+            assert!(
+                (fa.wrench[k] - fb.wrench[k]).abs() <= tol,
+                "frame {i}, component {k}: {} through pi/2 vs {} away from it",
+                fa.wrench[k],
+                fb.wrench[k]
+            );
+        }
+        assert!(fa.penetration_mm <= 0.01);
+        pressed += usize::from(fa.wrench[2] > 0.5);
+    }
+    assert!(pressed > 300, "only {pressed} frames pressed");
 }
