@@ -7,8 +7,9 @@
 //! only, one thread, frames back to back):
 //! - **drag**: mean force (N) or torque (N·mm) opposing the motion, over the frames at constant
 //!   speed (a few frames after each reversal are left out);
-//! - **lag**: mean and largest tangential offset of the graphic tool from the hand (mm), or
-//!   their rotation angle (rad), over the same frames;
+//! - **lag**: mean and largest offset of the graphic tool behind the hand along the motion:
+//!   along `x` (mm) or about the vertical axis (rad), over the same frames (the tool also
+//!   rides over the sphere-tree's bumps, which tilts it and moves it sideways: not lag);
 //! - penetration (all frames), the largest force change between consecutive frames in contact
 //!   (contact onsets excluded), frame time p50 / p99 / max, and the frames that ended lagging
 //!   or kept the last safe pose.
@@ -39,9 +40,10 @@ pub struct SpeedRow {
     pub steady_frames: usize,
     /// Mean force (N, slide) or torque (N·mm, turn) opposing the motion at constant speed.
     pub drag: f64,
-    /// Mean tangential lag at constant speed: mm (slide) or rad (turn).
+    /// Mean lag of the graphic tool behind the hand along the motion at constant speed
+    /// (negative: ahead): mm (slide, along x) or rad (turn, about z).
     pub lag_mean: f64,
-    /// Largest tangential lag at constant speed: mm (slide) or rad (turn).
+    /// Largest lag (either sign) along the motion at constant speed: mm or rad.
     pub lag_max: f64,
     /// Deepest overlap over the run, mm.
     pub max_penetration_mm: f64,
@@ -149,12 +151,14 @@ fn speed_row(
         match motion {
             SpeedMotion::Slide(_) => {
                 drag.push(-out.wrench[0] * dir);
-                lag.push((q_g.q[0] - q_h.q[0]).hypot(q_g.q[1] - q_h.q[1]));
+                // How far the tool is behind the hand along the motion.
+                lag.push((q_h.q[0] - q_g.q[0]) * dir);
             }
             SpeedMotion::Turn(_) => {
                 drag.push(-out.wrench[5] * dir);
-                let r = q_g.rotation_matrix() * q_h.rotation_matrix().transpose();
-                lag.push(rotation_log(&r).norm());
+                // How far it is turned behind the hand about the turning (vertical) axis.
+                let r = q_h.rotation_matrix() * q_g.rotation_matrix().transpose();
+                lag.push(rotation_log(&r)[2] * dir);
             }
         }
     }
@@ -172,7 +176,7 @@ fn speed_row(
         steady_frames: drag.len(),
         drag: Summary::of(drag).mean,
         lag_mean: lag_summary.mean,
-        lag_max: lag_summary.max,
+        lag_max: lag.iter().fold(0.0, |m: f64, v| m.max(v.abs())),
         max_penetration_mm: pen,
         max_force_jump_n: jump,
         total_us: Summary::of(times),

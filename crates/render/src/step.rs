@@ -567,8 +567,11 @@ impl GodObject {
         let (mut cd, mut opt, mut longest_pass) = (0.0, 0.0, 0.0f64);
         for pass in 0..max_passes {
             let t_pass = Instant::now();
+            // A pass may cost more than the longest so far (a new region's traversal): keep
+            // half a pass of headroom.
             if pass > 0
-                && (t_pass - t_start).as_secs_f64() * 1e6 + longest_pass > self.params.budget_us
+                && (t_pass - t_start).as_secs_f64() * 1e6 + 1.5 * longest_pass
+                    > self.params.budget_us
             {
                 break;
             }
@@ -655,6 +658,15 @@ impl GodObject {
             }
             let t1 = Instant::now();
             let n_pairs = self.pairs.len();
+            if n_pairs == 0 && boxed.is_none() {
+                // Free all the way to the hand (the region reaches it and holds no pair): the
+                // tool is the hand, exactly (no rounding through the QP's coordinates).
+                q_safe = *q_h;
+                pen_safe = 0.0;
+                self.warm_len = 0;
+                reached = true;
+                break;
+            }
             let Some(lin) = self.linearization(&q_lin, q_h) else {
                 return self.keep_last_safe(out, q_h, t_start);
             };
