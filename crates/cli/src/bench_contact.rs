@@ -14,7 +14,7 @@
 use anyhow::Result;
 use collide::Pose;
 use render::cache::TreeCache;
-use render::scene::Scene;
+use render::scene::{Scene, SolverKind};
 use render::scenes::plate::{self, PlateTool, SpeedMotion};
 use render::stats::Summary;
 use render::step::{FrameOutput, FrameStatus, GodObject, StepParams};
@@ -45,9 +45,13 @@ pub struct ContactRow {
     pub max_penetration_mm: f64,
 }
 
-fn replay(scene: &Scene) -> Result<(Vec<f64>, Vec<FrameOutput>)> {
+/// Steps a fresh god-object with `solver` through the scene's device motion: the device times
+/// (s) and every frame's output.
+pub fn replay(scene: &Scene, solver: SolverKind) -> Result<(Vec<f64>, Vec<FrameOutput>)> {
     let traj = scene.trajectory();
-    let mut god = GodObject::new(scene, StepParams::from_scene(scene))?;
+    let mut params = StepParams::from_scene(scene);
+    params.solver = solver;
+    let mut god = GodObject::new(scene, params)?;
     let first = traj
         .samples
         .first()
@@ -101,7 +105,7 @@ pub fn contact_study(cache: &TreeCache, quick: bool) -> Result<Vec<ContactRow>> 
         if quick { 0.3 } else { 1.0 },
     );
     let scene = plate::scene(cache, PlateTool::Puck, run.script.clone())?;
-    let (t, frames) = replay(&scene)?;
+    let (t, frames) = replay(&scene, SolverKind::Dual)?;
     let pressed = |&(ti, _): &(&f64, &FrameOutput)| *ti >= 0.2;
     let rest_end = run.steady.first().map_or(0.3, |s| s.0);
     rows.push(row(
@@ -121,7 +125,7 @@ pub fn contact_study(cache: &TreeCache, quick: bool) -> Result<Vec<ContactRow>> 
             .map(|p| p.1),
     ));
     let scene = render::scenes::builtin("spline", cache)?;
-    let (t, frames) = replay(&scene)?;
+    let (t, frames) = replay(&scene, SolverKind::Dual)?;
     // The script's phases (render::scenes::spline_scene): approach 0.5 s, rest 0.2 s, turn
     // 1.2 s, rest 0.2 s, insert 1.0 s, rest 0.2 s, withdraw 0.8 s.
     let phase = |a: f64, b: f64| {

@@ -120,7 +120,7 @@ pub fn write_bench_plots(dir: &Path, replays: &[SceneReplays], report: &BenchRep
     if !report.speed.is_empty() {
         // Drag against speed: slides (N against mm/s) and turns (N·mm against rad/s), one
         // panel each, a line per tool and solver.
-        let lines = |motion: &str| -> Vec<(String, RGBColor, Vec<(f64, f64)>)> {
+        let lines = |motion: &str| -> Vec<Line> {
             let mut keys: Vec<(String, String)> = Vec::new();
             for r in report.speed.iter().filter(|r| r.motion == motion) {
                 let k = (r.tool.clone(), r.solver.clone());
@@ -143,7 +143,7 @@ pub fn write_bench_plots(dir: &Path, replays: &[SceneReplays], report: &BenchRep
         };
         let slides = lines("slide");
         let turns = lines("turn");
-        fn as_series(v: &[(String, RGBColor, Vec<(f64, f64)>)]) -> Vec<Series<'_>> {
+        fn as_series(v: &[Line]) -> Vec<Series<'_>> {
             v.iter()
                 .map(|(label, color, values)| Series {
                     label,
@@ -172,6 +172,9 @@ pub fn write_bench_plots(dir: &Path, replays: &[SceneReplays], report: &BenchRep
     }
     Ok(())
 }
+
+/// One line of a drag plot: label, colour, points.
+type Line = (String, RGBColor, Vec<(f64, f64)>);
 
 /// Average cost per frame, stacked detection + optimisation, one bar per scene and solver.
 fn cost_bars<DB: DrawingBackend>(

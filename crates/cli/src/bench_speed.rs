@@ -20,7 +20,7 @@ use render::cache::TreeCache;
 use render::scene::SolverKind;
 use render::scenes::plate::{self, PlateTool, SpeedMotion};
 use render::stats::Summary;
-use render::step::{FrameStatus, GodObject, StepParams};
+use render::step::FrameStatus;
 use serde::Serialize;
 
 /// One row of the speed study.
@@ -106,29 +106,15 @@ fn speed_row(
     run: &plate::SpeedRun,
     kind: SolverKind,
 ) -> Result<SpeedRow> {
-    let traj = scene.trajectory();
-    let mut params = StepParams::from_scene(scene);
-    params.solver = kind;
-    let mut god = GodObject::new(scene, params)?;
-    let first = traj
-        .samples
-        .first()
-        .map(|s| Pose::from_array(s.q))
-        .unwrap_or_default();
-    god.reset(&first)?;
+    let (times, outputs) = crate::bench_contact::replay(scene, kind)?;
     let mut drag = Vec::new();
     let mut lag = Vec::new();
     let mut pen: f64 = 0.0;
     let mut jump: f64 = 0.0;
     let mut prev_force: Option<[f64; 3]> = None;
-    let mut times = Vec::with_capacity(traj.samples.len());
-    let mut passes = Vec::with_capacity(traj.samples.len());
     let (mut lagging, mut kept) = (0, 0);
-    for s in &traj.samples {
-        let q_h = Pose::from_array(s.q);
-        let out = god.step(&q_h);
-        times.push(out.total_us);
-        passes.push(f64::from(out.passes));
+    for (&t, out) in times.iter().zip(&outputs) {
+        let q_h = Pose::from_array(out.q_h);
         lagging += usize::from(out.status == FrameStatus::Lagging);
         kept += usize::from(out.status == FrameStatus::KeptLastSafe);
         pen = pen.max(out.penetration_mm);
@@ -143,7 +129,7 @@ fn speed_row(
             }
         }
         prev_force = Some(f);
-        let Some(i) = run.steady.iter().position(|&(a, b)| s.t >= a && s.t < b) else {
+        let Some(i) = run.steady.iter().position(|&(a, b)| t >= a && t < b) else {
             continue;
         };
         let dir = run.direction[i];
@@ -172,15 +158,15 @@ fn speed_row(
         motion: name.into(),
         speed,
         solver: kind.name().into(),
-        frames: traj.samples.len(),
+        frames: outputs.len(),
         steady_frames: drag.len(),
         drag: Summary::of(drag).mean,
         lag_mean: lag_summary.mean,
         lag_max: lag.iter().fold(0.0, |m: f64, v| m.max(v.abs())),
         max_penetration_mm: pen,
         max_force_jump_n: jump,
-        total_us: Summary::of(times),
-        passes: Summary::of(passes),
+        total_us: Summary::of(outputs.iter().map(|o| o.total_us)),
+        passes: Summary::of(outputs.iter().map(|o| f64::from(o.passes))),
         lagging_frames: lagging,
         kept_last_safe: kept,
     })

@@ -112,7 +112,6 @@ fn validate(args: &ServeArgs) -> Result<Option<Duration>> {
         addr: SocketAddr::new(args.bind, args.port),
         allowed_origins: args.allow_origin.clone(),
         allow_page_recording: args.allow_page_recording,
-        ..WebParams::default()
     }
     .validate()?;
     if args.force && args.record.is_none() {

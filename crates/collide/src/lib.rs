@@ -36,6 +36,8 @@
 //! assert!((rows[0][0] - 1.0).abs() < 1e-12 && (rhs[0] - 0.5).abs() < 1e-12); // push +x by 0.5 mm
 //! ```
 #![warn(missing_docs)]
+// Index loops over the 6 coordinates read like the maths they implement.
+#![allow(clippy::needless_range_loop)]
 
 mod constraint;
 mod packed;

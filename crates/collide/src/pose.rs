@@ -197,9 +197,17 @@ mod tests {
     /// `from_translation_rotation` keeps the orientation at the Euler singularity.
     #[test]
     fn log_exp_round_trip_and_gimbal_lock() {
-        for (k, angle) in [1e-12, 1e-7, 1e-3, 0.5, 2.0, 3.0, 3.14159]
-            .into_iter()
-            .enumerate()
+        for (k, angle) in [
+            1e-12,
+            1e-7,
+            1e-3,
+            0.5,
+            2.0,
+            3.0,
+            std::f64::consts::PI - 1e-5,
+        ]
+        .into_iter()
+        .enumerate()
         {
             let axis = Vector3::new(0.3 + k as f64, -0.8, 0.5).normalize();
             let w = axis * angle;
