@@ -9,8 +9,7 @@
 # Options: --only S1,S2  --skip S1,S2  --out DIR (default target/figures/<commit>)
 #          --reps N (repeated runs for medians: tree builds, bunny runs; default 5)
 # Environment: CARGO_TARGET_DIR (as for cargo), BRADSHAW_DIR (the Sphere-Tree Construction
-# Toolkit's bunny .sph files; default: assets/bradshaw, data/bradshaw or
-# ../shared/data/peers/bradshaw, the first that exists).
+# Toolkit's bunny .sph files; default: assets/peers/bradshaw, in the repository).
 #
 # Every command runs with HAPTIC6D_CACHE set to a fresh temporary directory, so no tree from an
 # earlier builder or an edited cache can feed a figure. Each command's stdout and stderr go to
@@ -85,7 +84,7 @@ trap 'rm -rf "$cache"' EXIT
 
 bradshaw="${BRADSHAW_DIR:-}"
 if [ -z "$bradshaw" ]; then
-  for d in assets/bradshaw data/bradshaw ../shared/data/peers/bradshaw; do
+  for d in assets/peers/bradshaw; do
     if [ -d "$d" ]; then bradshaw="$(cd "$d" && pwd)"; break; fi
   done
 fi
@@ -193,10 +192,8 @@ fi
 
 if wanted collide; then
   fig collide criterion-traversal cargo bench -p collide --bench traversal
-  if [ -d ../shared/data/peers/bradshaw ]; then
-    fig collide criterion-traversal-hubbard \
-      env COLLIDE_BENCH_TREE=hubbard cargo bench -p collide --bench traversal -- --quick
-  fi
+  fig collide criterion-traversal-hubbard \
+    env COLLIDE_BENCH_TREE=hubbard cargo bench -p collide --bench traversal -- --quick
 fi
 
 if wanted spheretree; then

@@ -136,7 +136,13 @@ pub fn write_bench_plots(dir: &Path, replays: &[SceneReplays], report: &BenchRep
                         .filter(|r| r.motion == motion && r.tool == tool && r.solver == solver)
                         .map(|r| (r.speed, r.drag))
                         .collect();
-                    let color = solver_color(&solver);
+                    // Puck and ball apart: a darker shade of the solver's colour for the ball.
+                    let c = solver_color(&solver);
+                    let color = if tool == "ball" {
+                        RGBColor(c.0 / 2, c.1 / 2, c.2 / 2)
+                    } else {
+                        c
+                    };
                     (format!("{tool}, {solver}"), color, values)
                 })
                 .collect()

@@ -543,6 +543,8 @@ impl GodObject {
         // The last pose proven free on the way (q_g_prev is: it was accepted last frame).
         let mut q_safe = self.q_g;
         let mut pen_safe = 0.0;
+        // The last answer verified inside its region, and its overlap (for an inexact solver).
+        let mut last_answer: Option<(Pose, f64)> = None;
         let mut q_lin = self.q_g;
         // The detected region: every pair that can touch while no tool sphere moves more than
         // `radius` from `center` is in `self.pairs`; `boxed` keeps the iterates inside it.
@@ -709,6 +711,7 @@ impl GodObject {
             // undershot (an active row whose true gap is open: another pass moves further).
             let (pen, slack) = self.gaps_at(&q_new, &dq, n_pairs);
             cd += t2.elapsed().as_secs_f64();
+            last_answer = Some((q_new, pen));
             if pen <= tol {
                 q_safe = q_new;
                 pen_safe = pen;
@@ -732,12 +735,19 @@ impl GodObject {
             // Penetrating or undershooting: re-linearise at q_new (same pairs).
             q_lin = q_new;
         }
-        if !reached && out.status == FrameStatus::Ok {
-            out.status = if overflowed {
-                FrameStatus::PairOverflow
-            } else {
-                FrameStatus::Lagging
-            };
+        if !reached {
+            match (self.params.solver.is_exact(), last_answer) {
+                // The paper's PQP stops inexact by design: as in the paper, its last answer is
+                // used, with whatever overlap it has (reported, and marked Inexact).
+                (false, Some((q, pen))) if !overflowed => {
+                    q_safe = q;
+                    pen_safe = pen;
+                    out.status = FrameStatus::Inexact;
+                }
+                // An exact step that ran out of passes: the last pose proven free.
+                _ if overflowed => out.status = FrameStatus::PairOverflow,
+                _ => out.status = FrameStatus::Lagging,
+            }
         }
         self.last_motion = self.motion_bound(&self.q_g, &q_safe);
         self.q_g = q_safe;
