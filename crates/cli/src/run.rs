@@ -450,8 +450,8 @@ fn print_human(s: &RunSummary, out: &Path) {
         );
     }
     println!(
-        "  safety: {} force clamps, {} torque clamps, {} rate limits, {} NaN frames; {} kept-last-safe, {} inexact",
-        l.safety.force_clamps, l.safety.torque_clamps, l.safety.rate_limits, l.safety.nan_frames, l.kept_last_safe, l.inexact
+        "  safety: {} force clamps, {} torque clamps, {} rate limits, {} NaN frames; {} kept-last-safe, {} inexact, {} lagging",
+        l.safety.force_clamps, l.safety.torque_clamps, l.safety.rate_limits, l.safety.nan_frames, l.kept_last_safe, l.inexact, l.lagging
     );
     if let Some(g) = &s.goal {
         println!(

@@ -4,28 +4,9 @@
 //! with no temporary files left behind.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn haptic6d(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_haptic6d"))
-        .args(args)
-        .output()
-        .expect("the haptic6d binary runs")
-}
-
-/// Asserts a failure with exactly one non-empty line on stderr; returns it.
-#[track_caller]
-fn one_line_failure(o: &Output) -> String {
-    assert!(
-        !o.status.success(),
-        "expected failure, stdout: {}",
-        String::from_utf8_lossy(&o.stdout)
-    );
-    let err = String::from_utf8_lossy(&o.stderr);
-    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "expected one line on stderr, got: {err}");
-    lines[0].to_string()
-}
+mod common;
+use common::{haptic6d, one_line_failure, snapshot, CUBE_OBJ, SMALL_SPH};
 
 struct Dir(PathBuf);
 
@@ -57,31 +38,6 @@ impl Drop for Dir {
         let _ = std::fs::remove_dir_all(&self.0);
     }
 }
-
-/// Every file under `dir` (relative path, contents), sorted.
-fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                let rel = p.strip_prefix(dir).unwrap().display().to_string();
-                out.push((rel, std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    out.sort();
-    out
-}
-
-const CUBE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nv 1 0 1\nv 0 1 1\nv 1 1 1\n\
-f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
-
-/// A 2-level tree (root + 2 used children) in the `.sph` format.
-const SMALL_SPH: &str = "2 2\n0 0 0 2 1\n-1 0 0 1 1\n1 0 0 1 1\n";
 
 #[test]
 fn failing_tree_build_keeps_the_existing_output() {
