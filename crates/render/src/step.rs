@@ -1,36 +1,37 @@
 //! The god-object step: one haptic frame (docs/DESIGN.md, "The frame step").
 //!
 //! Given the device configuration `q_h` and the last graphic configuration `q_g_prev`, a frame
-//! makes one or more **passes**, each from a linearisation pose `q_lin` (first `q_g_prev`):
+//! makes one or more **passes** from a linearisation pose `q_lin` (first `q_g_prev`):
 //!
-//! 1. **Detect** at `q_lin` every leaf pair whose gap is at most a margin `m` that bounds how
-//!    far any tool sphere may move in this pass. A tool point `p` (tool frame) moving from
-//!    `(R_a, t_a)` to `(R_b, t_b)` moves by at most `|t_b - t_a| + θ |p|` (`θ` the angle of
-//!    `R_b R_a^T`), so with `reach` = the largest `|p|` over tool leaf centres the motion bound
-//!    is `|Δt| + θ · reach`. The pass may move by `need` = the bound from `q_lin` to `q_h`,
-//!    capped at `max_margin_mm`; `m` adds a skin.
+//! 1. **Region.** A tool point `p` (tool frame) moving from `(R_a, t_a)` to `(R_b, t_b)` moves
+//!    by at most `|t_b - t_a| + θ |p|` (`θ` the angle of `R_b R_a^T`); with `reach` the largest
+//!    `|p|` over tool leaf centres, `|Δt| + θ · reach` bounds every sphere's motion. A region
+//!    lists every leaf pair within `allowance + skin` at `q_lin`: every pair that can touch
+//!    while no sphere moves more than the allowance. The allowance follows the last frame's
+//!    motion, is capped by `max_margin_mm` and by the pair density (dense contacts take smaller
+//!    regions); when it does not reach the hand a **trust box** (12 rows) keeps the iterates
+//!    inside it. An empty region is remembered as a free-space proof that spares later
+//!    traversals near the same pose.
 //! 2. **Constrain**: rows `J dq >= d` linearized at `q_lin` ([`collide::Linearization`]), in
 //!    rotation-vector coordinates by default (a local rotation increment about `q_lin`, world
 //!    axes: no Euler singularity, any representation of `R_h` gives the same frame) or the
-//!    paper's Euler coordinates. When `need` exceeds the cap, a **trust box** around `q_lin`
-//!    (12 rows) keeps the motion of the pass within the capped margin.
+//!    paper's Euler coordinates.
 //! 3. **Solve** `min 1/2 dq^T G dq` with the chosen solver, warm-started from the last active
 //!    pairs; map the answer back to a configuration `q_new`.
-//! 4. **Verify**: if `q_new` moved farther from `q_lin` than the margin covers, the pair list
-//!    is not proven complete for that motion: the pass is redone with a margin that covers it.
-//!    Otherwise the deepest overlap at `q_new` is measured exactly on the listed pairs (they
-//!    hold every pair that can touch on the way).
-//! 5. **Advance**: if `q_new` penetrates more than `penetration_tol_mm`, re-linearise there;
-//!    if the trust box bound, `q_new` is a safe step toward the optimum: start the next pass
-//!    from it. Otherwise the frame has reached the constrained optimum.
+//! 4. **Verify**: an answer that left its region is discarded and the region detected again,
+//!    wider. Otherwise the listed pairs' exact gaps at `q_new` give the deepest overlap and how
+//!    far the rows holding the tool are still open in truth.
+//! 5. **Iterate**: penetrating, or held by rows that are open, re-linearise at `q_new` on the
+//!    same pairs; free and converged but stopped by the trust box, detect a new region from
+//!    `q_new`; otherwise the frame has reached the constrained optimum.
 //! 6. **Force** from the spring between `q_g` and `q_h`: `F = kt (t_g - t_h)` (N) and
 //!    `T = kr log(R_g R_h^T)` (N·mm, world axes; the exact gradient of the spring energy
 //!    `kr/2 |log(R_g R_h^T)|^2`), or the paper's `kr (euler_g - euler_h)` in Euler coordinates.
 //!
 //! Passes stop at `1 + relinearize` or when the next one would overrun `budget_us`. A frame that
-//! stops before the optimum is **lagging**: it returns the last pose known to be free (never a
+//! stops before the optimum is **lagging**: it returns the last pose proven free (never a
 //! penetrating one) and says so in [`FrameOutput::status`]. A frame that fails (non-finite input,
-//! solver breakdown, a traversal over its work limit) keeps the last safe `q_g`.
+//! solver breakdown, a capped or infeasible QP) keeps the last safe `q_g`.
 
 use std::time::Instant;
 
@@ -552,7 +553,7 @@ impl GodObject {
         let mut radius = 0.0;
         let mut boxed: Option<(f64, f64)> = None;
         let mut detect_now = true;
-        // Motion allowance of the next detected region, mm: twice the last frame's motion (a
+        // Motion allowance of the next detected region, mm: 1.5 times the last frame's motion (a
         // hand in steady motion stays inside it), never below MIN_ALLOW_MM. A region whose
         // box binds grows it; an answer that left its region widens it; an overflowing pair
         // list shrinks it.
