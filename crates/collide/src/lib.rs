@@ -52,7 +52,7 @@ pub use packed::PackedTree;
 pub use pose::{rotation_exp, rotation_log, rotation_zyx, rotation_zyx_partials, Pose};
 pub use traverse::{
     any_pair_within, collect_pairs, overlap_tree_tree, overlap_tree_trees, CollideWorkspace,
-    LeafPair, TraversalStats,
+    FreeSpaceProbe, LeafPair, ProbeStatus, TraversalStats,
 };
 
 /// Errors of this crate.

@@ -344,9 +344,41 @@ fn descend<F: FnMut(&LeafPair) -> bool>(
     ws: &mut CollideWorkspace,
     visit: &mut F,
 ) -> usize {
+    let mut unlimited = usize::MAX;
+    descend_budgeted(tool, obj, obj_id, m, ws, visit, false, &mut unlimited).count
+}
+
+/// How a budgeted descent ended.
+struct Descent {
+    /// Leaf pairs reported.
+    count: usize,
+    /// True when the descent is complete (or stopped by `visit`); false when the budget ran out
+    /// with node pairs left on the stack (resume with `resume = true`).
+    finished: bool,
+}
+
+/// [`descend`] splitting at most `budget` node pairs (decremented), so a long descent can be
+/// spread over several calls: with `resume` the stack left in `ws` by the last call is
+/// continued instead of starting from the roots.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn descend_budgeted<F: FnMut(&LeafPair) -> bool>(
+    tool: &PackedTree,
+    obj: &PackedTree,
+    obj_id: u32,
+    m: f64,
+    ws: &mut CollideWorkspace,
+    visit: &mut F,
+    resume: bool,
+    budget: &mut usize,
+) -> Descent {
     let mut count = 0usize;
+    let done = |count: usize| Descent {
+        count,
+        finished: true,
+    };
     if tool.is_empty() || obj.is_empty() {
-        return 0;
+        return done(0);
     }
     let report = |t: usize, o: usize, d2: f64, visit: &mut F| {
         let pair = LeafPair {
@@ -362,24 +394,34 @@ fn descend<F: FnMut(&LeafPair) -> bool>(
         visit(&pair)
     };
 
-    ws.stats.sphere_tests += 1;
-    {
+    if !resume {
+        ws.stats.sphere_tests += 1;
         let dx = ws.wx[0] - obj.x[0];
         let dy = ws.wy[0] - obj.y[0];
         let dz = ws.wz[0] - obj.z[0];
         let d2 = dx * dx + dy * dy + dz * dz;
         let s = tool.r[0] + obj.r[0] + m;
         if d2 > s * s {
-            return 0;
+            return done(0);
         }
         if tool.child_count[0] == 0 && obj.child_count[0] == 0 {
             report(0, 0, d2, visit);
-            return 1;
+            return done(1);
         }
+        ws.stack.clear();
+        ws.stack.push((0, 0));
     }
-    ws.stack.clear();
-    ws.stack.push((0, 0));
-    while let Some((t, o)) = ws.stack.pop() {
+    loop {
+        if *budget == 0 {
+            return Descent {
+                count,
+                finished: ws.stack.is_empty(),
+            };
+        }
+        let Some((t, o)) = ws.stack.pop() else {
+            return done(count);
+        };
+        *budget -= 1;
         let (t, o) = (t as usize, o as usize);
         let tc = tool.child_count[t] as usize;
         let oc = obj.child_count[o] as usize;
@@ -404,7 +446,7 @@ fn descend<F: FnMut(&LeafPair) -> bool>(
                     if cc[i] == 0 && oc == 0 {
                         count += 1;
                         if !report(f + i, o, d2, visit) {
-                            return count;
+                            return done(count);
                         }
                     } else if boxes_may_touch(ws, tool, f + i, obj, o, m) {
                         ws.stack.push(((f + i) as u32, o as u32));
@@ -432,7 +474,7 @@ fn descend<F: FnMut(&LeafPair) -> bool>(
                     if cc[i] == 0 && tc == 0 {
                         count += 1;
                         if !report(t, f + i, d2, visit) {
-                            return count;
+                            return done(count);
                         }
                     } else if boxes_may_touch(ws, tool, t, obj, f + i, m) {
                         ws.stack.push((t as u32, (f + i) as u32));
@@ -443,7 +485,143 @@ fn descend<F: FnMut(&LeafPair) -> bool>(
             }
         }
     }
-    count
+}
+
+/// State of a [`FreeSpaceProbe`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProbeStatus {
+    /// No probe started (or the last one was taken).
+    Idle,
+    /// Started, not finished: call [`FreeSpaceProbe::advance`] again.
+    Running,
+    /// Finished: no leaf pair within the probe's margin at its pose.
+    Free,
+    /// Finished: some leaf pair is within the margin.
+    Touching,
+}
+
+/// The question of [`any_pair_within`] asked in slices: "is any leaf pair within `margin` of
+/// touching at this pose?", answered over several calls of at most a given number of node-pair
+/// splits each, so a long traversal (a tool inside a tight hole: thousands of node pairs, none
+/// touching) can run a slice per haptic frame ahead of the time its answer is needed. It has
+/// its own workspace (the pose stays fixed between slices).
+#[derive(Clone, Debug)]
+pub struct FreeSpaceProbe {
+    ws: CollideWorkspace,
+    pose: Pose,
+    margin: f64,
+    object: usize,
+    resume: bool,
+    status: ProbeStatus,
+}
+
+impl FreeSpaceProbe {
+    /// A probe sized for `tool` against `objects` (allocates; never again for these trees).
+    pub fn for_trees(tool: &PackedTree, objects: &[PackedTree]) -> Self {
+        Self {
+            ws: CollideWorkspace::for_trees(tool, objects),
+            pose: Pose::identity(),
+            margin: 0.0,
+            object: 0,
+            resume: false,
+            status: ProbeStatus::Idle,
+        }
+    }
+
+    /// Starts a probe of `tool` at `pose` with `margin` (mm), dropping any unfinished one.
+    /// Errors on a non-finite pose.
+    ///
+    /// # Real-time
+    /// No allocation (after [`FreeSpaceProbe::for_trees`] for these trees), constant time.
+    pub fn start(
+        &mut self,
+        tool: &PackedTree,
+        pose: &Pose,
+        margin: f64,
+    ) -> Result<(), CollideError> {
+        if !pose.is_finite() {
+            return Err(CollideError::NonFinitePose);
+        }
+        // Sized for these trees by `for_trees`: posing the root allocates nothing.
+        if self.ws.wx.len() < tool.len() {
+            return Err(CollideError::InvalidTree(
+                "the probe was made for another tool tree".into(),
+            ));
+        }
+        self.ws.begin(tool, pose);
+        self.pose = *pose;
+        self.margin = clean_margin(margin);
+        self.object = 0;
+        self.resume = false;
+        self.status = ProbeStatus::Running;
+        Ok(())
+    }
+
+    /// Runs at most `max_splits` node-pair splits of the started probe; returns its status.
+    /// `objects` (and `tool`) must be the trees it was started with.
+    ///
+    /// # Real-time
+    /// No allocation, no panic; at most `max_splits` splits.
+    pub fn advance(
+        &mut self,
+        tool: &PackedTree,
+        objects: &[PackedTree],
+        max_splits: usize,
+    ) -> ProbeStatus {
+        if self.status != ProbeStatus::Running {
+            return self.status;
+        }
+        let mut budget = max_splits;
+        while let Some(o) = objects.get(self.object) {
+            self.ws.reserve(tool, o);
+            let d = descend_budgeted(
+                tool,
+                o,
+                self.object as u32,
+                self.margin,
+                &mut self.ws,
+                &mut |_: &LeafPair| false,
+                self.resume,
+                &mut budget,
+            );
+            if d.count > 0 {
+                self.status = ProbeStatus::Touching;
+                return self.status;
+            }
+            if !d.finished {
+                self.resume = true;
+                return self.status;
+            }
+            self.object += 1;
+            self.resume = false;
+        }
+        self.status = ProbeStatus::Free;
+        self.status
+    }
+
+    /// Node pairs split so far by the current (or last) probe.
+    pub fn splits(&self) -> usize {
+        self.ws.stats.node_pairs_split
+    }
+
+    /// The status, without running anything.
+    pub fn status(&self) -> ProbeStatus {
+        self.status
+    }
+
+    /// Takes a finished answer (the probe becomes idle): the pose and margin (mm) it holds for.
+    pub fn take(&mut self) -> (ProbeStatus, Pose, f64) {
+        let s = self.status;
+        if s != ProbeStatus::Running {
+            self.status = ProbeStatus::Idle;
+        }
+        (s, self.pose, self.margin)
+    }
+
+    /// Drops an unfinished probe.
+    pub fn cancel(&mut self) {
+        self.status = ProbeStatus::Idle;
+    }
 }
 
 #[cfg(test)]
@@ -481,6 +659,47 @@ mod tests {
                 assert_eq!(any, n > 0, "x {x}, margin {margin}");
             }
         }
+    }
+
+    /// A probe run in slices of a few splits answers as `any_pair_within` does.
+    #[test]
+    fn probe_in_slices_matches_any_pair_within() {
+        let tree = PackedTree::new(&small_tree()).unwrap();
+        let objects = std::slice::from_ref(&tree);
+        let mut ws = CollideWorkspace::for_trees(&tree, objects);
+        let mut probe = FreeSpaceProbe::for_trees(&tree, objects);
+        let mut sliced = 0;
+        for k in 0..60 {
+            let x = -12.0 + 0.4 * f64::from(k);
+            let q = Pose::from_array([x, 0.3, -0.2, 0.1, 0.2, 0.05 * f64::from(k)]);
+            for margin in [0.0, 0.5, 3.0] {
+                let any = any_pair_within(&tree, &q, objects, margin, &mut ws).unwrap();
+                probe.start(&tree, &q, margin).unwrap();
+                let mut calls = 0;
+                let status = loop {
+                    calls += 1;
+                    match probe.advance(&tree, objects, 1) {
+                        ProbeStatus::Running => continue,
+                        s => break s,
+                    }
+                };
+                sliced += usize::from(calls > 2);
+                let (taken, pose, m) = probe.take();
+                assert_eq!(taken, status);
+                assert_eq!((pose, m), (q, margin));
+                assert_eq!(probe.status(), ProbeStatus::Idle);
+                let expected = if any {
+                    ProbeStatus::Touching
+                } else {
+                    ProbeStatus::Free
+                };
+                assert_eq!(status, expected, "x {x}, margin {margin}");
+            }
+        }
+        assert!(
+            sliced > 10,
+            "only {sliced} probes needed more than two slices"
+        );
     }
 
     /// The posed-centre cache stays correct when the query epoch wraps around: stamps left by

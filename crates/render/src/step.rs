@@ -36,8 +36,8 @@
 use std::time::Instant;
 
 use collide::{
-    overlap_tree_trees, rotation_log, CollideWorkspace, ConstraintForm, LeafPair, Linearization,
-    PackedTree, Pose, RotationCoordinates,
+    overlap_tree_trees, rotation_log, CollideWorkspace, ConstraintForm, FreeSpaceProbe, LeafPair,
+    Linearization, PackedTree, Pose, ProbeStatus, RotationCoordinates,
 };
 use nalgebra::Matrix3;
 use qp::{Problem, Solver, Status};
@@ -170,6 +170,20 @@ const PAIR_TARGET: f64 = 1500.0;
 /// and later frames near the same pose skip their traversals.
 const FREE_PROBE_MM: f64 = 0.3;
 
+/// Node pairs a background free-space probe splits per frame (~70 µs).
+const PROBE_SLICE_SPLITS: usize = 1500;
+
+/// Node pairs a background probe expects to split per frame (to place it ahead of the tool).
+const PROBE_NOMINAL_SLICE_SPLITS: usize = 3000;
+
+/// Most node pairs a background probe splits in one frame (~250 µs), when its proof is about
+/// to run out.
+const PROBE_MAX_SLICE_SPLITS: usize = 5000;
+
+/// A background probe starts at the latest when the free-space proof has this many frames of
+/// slack left (earlier when the last probe needed more slices).
+const PROBE_LEAD_FRAMES: f64 = 8.0;
+
 /// Smallest motion allowance of a detected region, mm.
 const MIN_ALLOW_MM: f64 = 0.1;
 
@@ -197,12 +211,18 @@ pub struct GodObject {
     q_g: Pose,
     /// Motion bound of the graphic tool over the last frame, mm.
     last_motion: f64,
+    /// Translation of the graphic tool over the last frame, mm.
+    last_step: [f64; 3],
     /// Leaf pairs per mm of detection margin near the tool, as last seen (for sizing regions).
     pairs_per_mm: f64,
     /// A pose at which no leaf pair was within `free_radius` (mm): a free-space proof that
     /// spares traversals while the tool stays near it (radius 0 = none).
     free_center: Pose,
     free_radius: f64,
+    /// The next free-space proof, computed a slice per frame ahead of need.
+    probe: FreeSpaceProbe,
+    /// Node pairs the last finished probe split (its cost, to size the next one's slices).
+    probe_splits: usize,
     started: bool,
 }
 
@@ -265,6 +285,7 @@ impl GodObject {
             })
             .fold(0.0, f64::max);
         let ws = CollideWorkspace::for_trees(&tool, &objects);
+        let probe = FreeSpaceProbe::for_trees(&tool, &objects);
         let cap = params.max_pairs;
         let mut solver = Solver::new(match params.solver {
             SolverKind::Dual => qp::SolverKind::Dual,
@@ -288,9 +309,12 @@ impl GodObject {
             reach,
             q_g: Pose::identity(),
             last_motion: 0.0,
+            last_step: [0.0; 3],
             pairs_per_mm: 0.0,
             free_center: Pose::identity(),
             free_radius: 0.0,
+            probe,
+            probe_splits: 0,
             started: false,
         })
     }
@@ -350,6 +374,54 @@ impl GodObject {
         }
     }
 
+    /// Keeps the free-space proof ahead of the tool without a long traversal in any one frame:
+    /// when the current proof has only a few frames of slack left (`slack` mm at the tool's
+    /// last motion per frame), a probe starts at `q`; each frame runs one slice of it
+    /// ([`PROBE_SLICE_SPLITS`] node pairs); a finished free probe becomes the proof if it
+    /// leaves more slack at `q` than the current one.
+    fn tend_probe(&mut self, q: &Pose, slack: f64) {
+        // Frames the current proof still lasts at the tool's speed, and the slice that finishes
+        // a probe as long as the last one within them.
+        let frames_left = slack / self.last_motion.max(1e-4);
+        if self.probe.status() == ProbeStatus::Running {
+            let left = self.probe_splits.saturating_sub(self.probe.splits()) as f64;
+            let slice = (left / (frames_left - 1.0).max(1.0))
+                .clamp(PROBE_SLICE_SPLITS as f64, PROBE_MAX_SLICE_SPLITS as f64);
+            self.probe
+                .advance(&self.tool, &self.objects, slice as usize);
+        }
+        match self.probe.status() {
+            ProbeStatus::Free => {
+                self.probe_splits = self.probe.splits();
+                let (_, pose, radius) = self.probe.take();
+                let new_slack = radius - self.motion_bound(&pose, q);
+                let old_slack = self.free_radius - self.motion_bound(&self.free_center, q);
+                if new_slack > old_slack {
+                    self.free_center = pose;
+                    self.free_radius = radius;
+                }
+            }
+            ProbeStatus::Touching => {
+                self.probe.take();
+            }
+            ProbeStatus::Idle => {
+                let lead = self.probe_splits as f64 / PROBE_SLICE_SPLITS as f64 + 2.0;
+                if frames_left < lead.max(PROBE_LEAD_FRAMES) {
+                    // Probe where the tool will be halfway through the probe's slices (it
+                    // keeps moving as it did last frame), so the answer is fresh on arrival.
+                    let frames = (self.probe_splits as f64 / PROBE_NOMINAL_SLICE_SPLITS as f64)
+                        .clamp(1.0, PROBE_LEAD_FRAMES);
+                    let mut ahead = *q;
+                    for k in 0..3 {
+                        ahead.q[k] += 0.5 * frames * self.last_step[k];
+                    }
+                    let _ = self.probe.start(&self.tool, &ahead, FREE_PROBE_MM);
+                }
+            }
+            ProbeStatus::Running => {}
+        }
+    }
+
     /// The motion bound (mm) of any tool leaf centre between `a` and `b`:
     /// `|t_b - t_a| + angle(R_b R_a^T) · reach`.
     fn motion_bound(&self, a: &Pose, b: &Pose) -> f64 {
@@ -372,7 +444,9 @@ impl GodObject {
         }
         self.warm_len = 0;
         self.last_motion = 0.0;
+        self.last_step = [0.0; 3];
         self.free_radius = 0.0;
+        self.probe.cancel();
         let mut q = *start;
         let tol = self.params.penetration_tol_mm.max(1e-6);
         let mut searched = 0.0f64;
@@ -597,8 +671,14 @@ impl GodObject {
                 let mut detected = if allowed + skin <= free_slack {
                     self.pairs.clear();
                     self.dropped = 0;
+                    if pass == 0 {
+                        self.tend_probe(&q_lin, free_slack - (allowed + skin));
+                    }
                     Ok(f64::INFINITY)
                 } else {
+                    // A full traversal gives a fresh answer; an unfinished background probe is
+                    // dropped.
+                    self.probe.cancel();
                     // In free space, probe a little wider so the proof lasts several frames.
                     let probe = if self.pairs.is_empty() {
                         (allowed + skin).max(FREE_PROBE_MM)
@@ -751,6 +831,9 @@ impl GodObject {
             }
         }
         self.last_motion = self.motion_bound(&self.q_g, &q_safe);
+        for k in 0..3 {
+            self.last_step[k] = q_safe.q[k] - self.q_g.q[k];
+        }
         self.q_g = q_safe;
         out.penetration_mm = pen_safe;
         out.q_g = q_safe.to_array();
