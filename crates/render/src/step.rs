@@ -405,8 +405,11 @@ impl GodObject {
                 self.probe.take();
             }
             ProbeStatus::Idle => {
+                // Where a whole proof costs less than a slice (open space), renewing it when
+                // it runs out is cheaper than probing ahead.
+                let worth_it = self.probe_splits > PROBE_SLICE_SPLITS;
                 let lead = self.probe_splits as f64 / PROBE_SLICE_SPLITS as f64 + 2.0;
-                if frames_left < lead.max(PROBE_LEAD_FRAMES) {
+                if worth_it && frames_left < lead.max(PROBE_LEAD_FRAMES) {
                     // Probe where the tool will be halfway through the probe's slices (it
                     // keeps moving as it did last frame), so the answer is fresh on arrival.
                     let frames = (self.probe_splits as f64 / PROBE_NOMINAL_SLICE_SPLITS as f64)
@@ -689,6 +692,9 @@ impl GodObject {
                     if d.is_ok() && self.pairs.is_empty() {
                         self.free_center = q_lin;
                         self.free_radius = probe;
+                        // What a proof costs here: a background probe pays off only where it
+                        // is more than a slice.
+                        self.probe_splits = self.ws.stats().node_pairs_split;
                     }
                     d
                 };
