@@ -3,41 +3,10 @@
 //! `haptic6d tree build` or `haptic6d run` leaves existing outputs byte-for-byte as they were,
 //! with no temporary files left behind.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 mod common;
-use common::{haptic6d, one_line_failure, snapshot, CUBE_OBJ, SMALL_SPH};
-
-struct Dir(PathBuf);
-
-impl Dir {
-    fn new(tag: &str) -> Self {
-        let d = std::env::temp_dir().join(format!(
-            "haptic6d-reliability-cli-{tag}-{}",
-            std::process::id()
-        ));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        Dir(d)
-    }
-    fn path(&self, name: &str) -> String {
-        self.0.join(name).display().to_string()
-    }
-    fn write(&self, name: &str, bytes: impl AsRef<[u8]>) -> String {
-        let p = self.0.join(name);
-        if let Some(parent) = p.parent() {
-            std::fs::create_dir_all(parent).unwrap();
-        }
-        std::fs::write(&p, bytes).unwrap();
-        p.display().to_string()
-    }
-}
-
-impl Drop for Dir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+use common::{haptic6d, one_line_failure, snapshot, Dir, CUBE_OBJ, SMALL_SPH};
 
 #[test]
 fn failing_tree_build_keeps_the_existing_output() {

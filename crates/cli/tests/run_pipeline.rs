@@ -5,6 +5,9 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+mod common;
+use common::box_obj;
+
 fn haptic6d(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_haptic6d"))
         .args(args)
@@ -126,31 +129,6 @@ fn bunny_run_writes_frames_summary_plots_and_replays_identically() {
     // Two exact solvers on identical input agree on the graphic tool.
     assert!(max_dq < 1e-3, "dual and active-set differ by {max_dq}");
     let _ = std::fs::remove_dir_all(&d);
-}
-
-/// A closed axis-aligned box as OBJ text (mm), CCW from outside.
-fn box_obj(h: f64) -> String {
-    let mut s = String::new();
-    for i in 0..8 {
-        let x = if i & 1 == 0 { -h } else { h };
-        let y = if i & 2 == 0 { -h } else { h };
-        let z = if i & 4 == 0 { -h } else { h };
-        s += &format!("v {x} {y} {z}\n");
-    }
-    for f in [
-        [1, 3, 4, 2],
-        [5, 6, 8, 7],
-        [1, 2, 6, 5],
-        [3, 7, 8, 4],
-        [1, 5, 7, 3],
-        [2, 4, 8, 6],
-    ] {
-        s += &format!(
-            "f {} {} {}\nf {} {} {}\n",
-            f[0], f[1], f[2], f[0], f[2], f[3]
-        );
-    }
-    s
 }
 
 #[test]

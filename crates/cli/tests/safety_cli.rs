@@ -4,11 +4,11 @@
 //! a whole or not at all; the octree builder handles open meshes; `tree eval` refuses what it
 //! cannot measure; a device node is never read as a mesh.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 mod common;
-use common::{haptic6d, one_line_failure, snapshot, CUBE_OBJ, SMALL_SPH};
+use common::{haptic6d, one_line_failure, snapshot, Dir, CUBE_OBJ, SMALL_SPH};
 
 fn haptic6d_env(args: &[&str], env: &[(&str, &str)]) -> Output {
     let mut c = Command::new(env!("CARGO_BIN_EXE_haptic6d"));
@@ -22,44 +22,6 @@ fn haptic6d_env(args: &[&str], env: &[(&str, &str)]) -> Output {
 #[track_caller]
 fn success(o: &Output) {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-}
-
-struct Dir(PathBuf);
-
-impl Dir {
-    fn new(tag: &str) -> Self {
-        let d =
-            std::env::temp_dir().join(format!("haptic6d-safety-cli-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        Dir(d)
-    }
-    fn path(&self, name: &str) -> String {
-        self.0.join(name).display().to_string()
-    }
-    fn write(&self, name: &str, bytes: impl AsRef<[u8]>) -> String {
-        let p = self.0.join(name);
-        if let Some(parent) = p.parent() {
-            std::fs::create_dir_all(parent).unwrap();
-        }
-        std::fs::write(&p, bytes).unwrap();
-        p.display().to_string()
-    }
-    /// Names in the directory itself (not recursive), sorted.
-    fn names(&self) -> Vec<String> {
-        let mut v: Vec<String> = std::fs::read_dir(&self.0)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
-        v.sort();
-        v
-    }
-}
-
-impl Drop for Dir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
 }
 
 fn scene_toml(extra: &str) -> String {

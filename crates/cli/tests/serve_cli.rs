@@ -5,60 +5,17 @@
 
 use std::io::{BufRead, BufReader};
 use std::net::{TcpListener, UdpSocket};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 mod common;
-use common::{haptic6d, one_line_failure};
-
-struct Dir(PathBuf);
-
-impl Dir {
-    fn new(tag: &str) -> Self {
-        let d =
-            std::env::temp_dir().join(format!("haptic6d-serve-cli-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        Dir(d)
-    }
-    fn path(&self, name: &str) -> String {
-        self.0.join(name).display().to_string()
-    }
-    /// A scene of two small sphere trees (no build: loads at once).
-    fn scene(&self) -> String {
-        let sph = "2 2\n0 0 0 2 1\n-1 0 0 1 1\n1 0 0 1 1\n";
-        std::fs::write(self.0.join("tool.sph"), sph).unwrap();
-        std::fs::write(self.0.join("object.sph"), sph).unwrap();
-        let scene = self.path("scene.toml");
-        std::fs::write(
-            &scene,
-            "[tool]\ntree = \"tool.sph\"\nstart = [0, 0, 10, 0, 0, 0]\n\n\
-             [[object]]\ntree = \"object.sph\"\npose = [0, 0, 0, 0, 0, 0]\n",
-        )
-        .unwrap();
-        scene
-    }
-    fn names(&self) -> Vec<String> {
-        let mut v: Vec<String> = std::fs::read_dir(&self.0)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
-        v.sort();
-        v
-    }
-}
-
-impl Drop for Dir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+use common::{haptic6d, one_line_failure, Dir};
 
 #[test]
 fn every_serve_flag_out_of_range_is_one_line_naming_it() {
     let d = Dir::new("flags");
-    let scene = d.scene();
+    let scene = scene(&d);
     let cases: &[(&[&str], &str)] = &[
         (&["--duration", "1e30"], "--duration"),
         (&["--duration", "0"], "--duration"),
@@ -101,7 +58,7 @@ fn every_serve_flag_out_of_range_is_one_line_naming_it() {
 #[test]
 fn a_failed_start_leaves_the_recording_target_untouched() {
     let d = Dir::new("busy");
-    let scene = d.scene();
+    let scene = scene(&d);
     let precious = d.path("precious.csv");
     std::fs::write(&precious, "t,x,y,z,gamma,beta,alpha\n0,1,2,3,0,0,0\n").unwrap();
     let before = d.names();
@@ -202,7 +159,7 @@ fn serve_then_signal(scene: &str, rec: &str, signal: &str) -> Output {
 #[test]
 fn a_recording_ended_by_sigterm_or_sigint_is_a_valid_trajectory() {
     let d = Dir::new("signal");
-    let scene = d.scene();
+    let scene = scene(&d);
     for signal in ["-TERM", "-INT"] {
         let rec = d.path(&format!("session{signal}.csv"));
         let o = serve_then_signal(&scene, &rec, signal);
@@ -241,4 +198,19 @@ fn a_recording_ended_by_sigterm_or_sigint_is_a_valid_trajectory() {
         );
         assert!(Path::new(&out).join("frames.csv").exists());
     }
+}
+
+/// A scene of two small sphere trees (no build: loads at once).
+fn scene(d: &Dir) -> String {
+    let sph = "2 2\n0 0 0 2 1\n-1 0 0 1 1\n1 0 0 1 1\n";
+    std::fs::write(d.0.join("tool.sph"), sph).unwrap();
+    std::fs::write(d.0.join("object.sph"), sph).unwrap();
+    let scene = d.path("scene.toml");
+    std::fs::write(
+        &scene,
+        "[tool]\ntree = \"tool.sph\"\nstart = [0, 0, 10, 0, 0, 0]\n\n\
+         [[object]]\ntree = \"object.sph\"\npose = [0, 0, 0, 0, 0, 0]\n",
+    )
+    .unwrap();
+    scene
 }

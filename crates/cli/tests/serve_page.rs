@@ -7,30 +7,8 @@ use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
-/// A closed axis-aligned box as OBJ text (mm), CCW from outside.
-fn box_obj(h: f64) -> String {
-    let mut s = String::new();
-    for i in 0..8 {
-        let x = if i & 1 == 0 { -h } else { h };
-        let y = if i & 2 == 0 { -h } else { h };
-        let z = if i & 4 == 0 { -h } else { h };
-        s += &format!("v {x} {y} {z}\n");
-    }
-    for f in [
-        [1, 3, 4, 2],
-        [5, 6, 8, 7],
-        [1, 2, 6, 5],
-        [3, 7, 8, 4],
-        [1, 5, 7, 3],
-        [2, 4, 8, 6],
-    ] {
-        s += &format!(
-            "f {} {} {}\nf {} {} {}\n",
-            f[0], f[1], f[2], f[0], f[2], f[3]
-        );
-    }
-    s
-}
+mod common;
+use common::box_obj;
 
 /// The server process, killed (by its own handle) when the test ends, pass or fail.
 struct Server(Child);

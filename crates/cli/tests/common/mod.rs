@@ -2,8 +2,83 @@
 //! snapshot of a folder, and small input files.
 #![allow(dead_code)]
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+/// A fresh temporary folder for one test (named after the test binary and `tag`), removed
+/// when dropped.
+pub struct Dir(pub PathBuf);
+
+impl Dir {
+    /// An empty folder `haptic6d-<binary>-<tag>-<pid>` in the system's temporary directory.
+    pub fn new(tag: &str) -> Self {
+        let bin = std::env::current_exe()
+            .ok()
+            .and_then(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
+            .unwrap_or_default();
+        let d = std::env::temp_dir().join(format!("haptic6d-{bin}-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        Dir(d)
+    }
+
+    /// The path of `name` inside the folder, as a string.
+    pub fn path(&self, name: &str) -> String {
+        self.0.join(name).display().to_string()
+    }
+
+    /// Writes `bytes` to `name` (creating its folders); returns its path.
+    pub fn write(&self, name: &str, bytes: impl AsRef<[u8]>) -> String {
+        let p = self.0.join(name);
+        if let Some(parent) = p.parent() {
+            std::fs::create_dir_all(parent).unwrap();
+        }
+        std::fs::write(&p, bytes).unwrap();
+        p.display().to_string()
+    }
+
+    /// Names in the folder itself (not recursive), sorted.
+    pub fn names(&self) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(&self.0)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+}
+
+impl Drop for Dir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// A closed axis-aligned cube of half-size `h` as OBJ text (mm), counter-clockwise from
+/// outside.
+pub fn box_obj(h: f64) -> String {
+    let mut s = String::new();
+    for i in 0..8 {
+        let x = if i & 1 == 0 { -h } else { h };
+        let y = if i & 2 == 0 { -h } else { h };
+        let z = if i & 4 == 0 { -h } else { h };
+        s += &format!("v {x} {y} {z}\n");
+    }
+    for f in [
+        [1, 3, 4, 2],
+        [5, 6, 8, 7],
+        [1, 2, 6, 5],
+        [3, 7, 8, 4],
+        [1, 5, 7, 3],
+        [2, 4, 8, 6],
+    ] {
+        s += &format!(
+            "f {} {} {}\nf {} {} {}\n",
+            f[0], f[1], f[2], f[0], f[2], f[3]
+        );
+    }
+    s
+}
 
 /// Runs the `haptic6d` binary with `args`.
 pub fn haptic6d(args: &[&str]) -> Output {
