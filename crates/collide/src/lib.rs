@@ -10,7 +10,8 @@
 //!   gap is at most a margin (mm), through a visit closure or a reusable buffer, with a
 //!   caller-owned [`CollideWorkspace`]; [`LeafPair`] carries the geometry of the pair;
 //!   [`TraversalStats`] counts the work; [`PackedTree::sweep_margin`] gives the anti-tunnelling
-//!   margin for the motion from `q_g_prev` to `q_h`.
+//!   margin for the motion from `q_g_prev` to `q_h`; [`overlap_swept`] the pairs that can
+//!   touch along a straight motion ([`Sweep`]), without the isotropic margin's excess.
 //! - [`ConstraintForm`], [`Linearization`], [`fill_constraints`]: rows `J dq >= d`.
 //!
 //! ```
@@ -51,8 +52,8 @@ pub use constraint::{
 pub use packed::PackedTree;
 pub use pose::{rotation_exp, rotation_log, rotation_zyx, rotation_zyx_partials, Pose};
 pub use traverse::{
-    any_pair_within, collect_pairs, overlap_tree_tree, overlap_tree_trees, CollideWorkspace,
-    FreeSpaceProbe, LeafPair, ProbeStatus, TraversalStats,
+    any_pair_within, collect_pairs, overlap_swept, overlap_tree_tree, overlap_tree_trees,
+    CollideWorkspace, FreeSpaceProbe, LeafPair, ProbeStatus, Sweep, TraversalStats,
 };
 
 /// Errors of this crate.

@@ -233,14 +233,20 @@ impl PackedTree {
     /// # Real-time
     /// No allocation, no panic, constant time.
     pub fn sweep_margin(&self, a: &Pose, b: &Pose) -> f64 {
-        let rho = if self.is_empty() {
+        let d = a.q - b.q;
+        let dt = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        dt + (d[3].abs() + d[4].abs() + d[5].abs()) * self.reach()
+    }
+
+    /// The largest distance (mm) from the packing frame's origin to a point of the root sphere:
+    /// for a tool packed with [`PackedTree::new`], how far any of its geometry lies from the
+    /// tool origin (a rotation by `theta` rad moves no point more than `theta * reach`).
+    pub fn reach(&self) -> f64 {
+        if self.is_empty() {
             0.0
         } else {
             (self.x[0].powi(2) + self.y[0].powi(2) + self.z[0].powi(2)).sqrt() + self.r[0].max(0.0)
-        };
-        let d = a.q - b.q;
-        let dt = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-        dt + (d[3].abs() + d[4].abs() + d[5].abs()) * rho
+        }
     }
 
     /// Packed indices of all leaves.

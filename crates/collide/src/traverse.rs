@@ -46,7 +46,45 @@ pub struct CollideWorkspace {
     /// `|R|` element-wise, for box projections.
     abs_rot: [[f64; 3]; 3],
     t: [f64; 3],
+    /// Displacement of each posed tool centre over the sweep (mm, world), for swept queries:
+    /// `v + w x (c - t)`, valid where the centre is.
+    sx: Vec<f64>,
+    sy: Vec<f64>,
+    sz: Vec<f64>,
+    /// The current query's sweep (zero for a query at a pose), and whether the query is swept
+    /// (then `sx, sy, sz` are kept for every posed node).
+    sweep: Sweep,
+    swept: bool,
+    /// `|w|` of the sweep (rad): a node sphere of radius `r` moves within `|w| r` of its
+    /// centre's displacement.
+    sweep_turn: f64,
     stats: TraversalStats,
+}
+
+/// A straight motion of the tool away from the query pose, for [`overlap_swept`]: the poses
+/// `Q(s) = (t + s v, exp(s [w]x) R)` for `s` in `[0, 1]`, the rotation about the tool origin.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sweep {
+    /// Translation `v` of the tool origin over the whole motion, world axes (mm).
+    pub translation: [f64; 3],
+    /// Rotation vector `w` of the whole motion about the tool origin, world axes (rad).
+    pub rotation: [f64; 3],
+}
+
+impl Sweep {
+    /// Length of the rotation (rad).
+    pub fn angle(&self) -> f64 {
+        let w = &self.rotation;
+        (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt()
+    }
+
+    /// True when every number is finite.
+    pub fn is_finite(&self) -> bool {
+        self.translation
+            .iter()
+            .chain(self.rotation.iter())
+            .all(|v| v.is_finite())
+    }
 }
 
 /// Work done by the last query (counters, for benches and frame logs).
@@ -104,12 +142,28 @@ impl CollideWorkspace {
             self.wx.resize(n, 0.0);
             self.wy.resize(n, 0.0);
             self.wz.resize(n, 0.0);
+            self.sx.resize(n, 0.0);
+            self.sy.resize(n, 0.0);
+            self.sz.resize(n, 0.0);
             self.children_posed.resize(n, 0);
         }
     }
 
     /// Starts a query: sets the pose, invalidates the cache, poses the root.
     fn begin(&mut self, tool: &PackedTree, world_from_tool: &Pose) {
+        self.start(tool, world_from_tool, None);
+    }
+
+    /// [`CollideWorkspace::begin`] for a swept query: posing a node also gives its centre's
+    /// displacement over `sweep`.
+    fn begin_swept(&mut self, tool: &PackedTree, world_from_tool: &Pose, sweep: &Sweep) {
+        self.start(tool, world_from_tool, Some(sweep));
+    }
+
+    fn start(&mut self, tool: &PackedTree, world_from_tool: &Pose, sweep: Option<&Sweep>) {
+        self.swept = sweep.is_some();
+        self.sweep = sweep.copied().unwrap_or_default();
+        self.sweep_turn = self.sweep.angle();
         let m = world_from_tool.rotation_matrix();
         for i in 0..3 {
             for j in 0..3 {
@@ -152,6 +206,16 @@ impl CollideWorkspace {
             wx[i] = r[0][0] * x + r[0][1] * y + r[0][2] * z + t[0];
             wy[i] = r[1][0] * x + r[1][1] * y + r[1][2] * z + t[1];
             wz[i] = r[2][0] * x + r[2][1] * y + r[2][2] * z + t[2];
+        }
+        if self.swept {
+            // Displacement along the sweep's tangent: v + w x (c - t).
+            let (v, w) = (self.sweep.translation, self.sweep.rotation);
+            for i in first..end {
+                let (x, y, z) = (self.wx[i] - t[0], self.wy[i] - t[1], self.wz[i] - t[2]);
+                self.sx[i] = v[0] + w[1] * z - w[2] * y;
+                self.sy[i] = v[1] + w[2] * x - w[0] * z;
+                self.sz[i] = v[2] + w[0] * y - w[1] * x;
+            }
         }
     }
 
@@ -235,6 +299,51 @@ pub fn overlap_tree_trees<F: FnMut(&LeafPair)>(
     Ok(total)
 }
 
+/// Every leaf pair of `tool` and `objects` that comes within `margin` (mm) of touching at some
+/// pose of the straight motion `sweep` away from `world_from_tool` (the poses
+/// `Q(s) = (t + s v, exp(s [w]x) R)`, `s` in `[0, 1]`). Reported pairs carry their geometry and
+/// gap at `world_from_tool`; [`LeafPair::object`] is the index in `objects`.
+///
+/// Each tool sphere is tested as the capsule its centre sweeps along the motion's tangent
+/// `v + w x (c - t)`, its radius grown by `|w| r` (the spread of displacements inside it) and
+/// the margin by `reach |w|^2 / 2` (how far the arc leaves its tangent), so the answer is
+/// conservative: no pair that can come within `margin` on the way is missed, and a pair far
+/// from the path is not listed. For a hand sliding over a flat face this lists the pairs along
+/// the path instead of every pair within the motion's length (an isotropic margin).
+///
+/// Errors on a non-finite pose or sweep; a negative or NaN `margin` is taken as 0.
+///
+/// # Real-time
+/// As [`overlap_tree_tree`].
+#[allow(clippy::too_many_arguments)]
+pub fn overlap_swept<F: FnMut(&LeafPair)>(
+    tool: &PackedTree,
+    world_from_tool: &Pose,
+    sweep: &Sweep,
+    objects: &[PackedTree],
+    margin: f64,
+    ws: &mut CollideWorkspace,
+    mut visit: F,
+) -> Result<usize, CollideError> {
+    if !world_from_tool.is_finite() || !sweep.is_finite() {
+        return Err(CollideError::NonFinitePose);
+    }
+    for o in objects {
+        ws.reserve(tool, o);
+    }
+    ws.begin_swept(tool, world_from_tool, sweep);
+    let turn = sweep.angle();
+    let m = clean_margin(margin) + 0.5 * tool.reach() * turn * turn;
+    let mut total = 0;
+    for (i, o) in objects.iter().enumerate() {
+        total += descend(tool, o, i as u32, m, ws, &mut |p: &LeafPair| {
+            visit(p);
+            true
+        });
+    }
+    Ok(total)
+}
+
 /// True when some leaf pair of `tool` (posed by `world_from_tool`) and `objects` has a gap of
 /// at most `margin` (mm). Stops at the first such pair, so it stays cheap for a large margin
 /// where [`overlap_tree_trees`] would enumerate thousands of pairs (a fast hand far from the
@@ -287,8 +396,11 @@ pub fn collect_pairs(
 /// False when the leaf boxes of tool node `t` (an oriented box in the world) and object node
 /// `o` (axis-aligned), each grown by `m`, are separated along one of the six face axes: no
 /// leaf pair under them can be within `m`. Conservative (the nine edge axes are not tested).
+/// With `SWEPT`, the tool box is the one swept over the query's motion: centred halfway along
+/// its centre's displacement `D`, grown by `|D_i| / 2` per axis and by `|w|` times its half
+/// diagonal (the spread of displacements inside it).
 #[inline(always)]
-fn boxes_may_touch(
+fn boxes_may_touch<const SWEPT: bool>(
     ws: &CollideWorkspace,
     tool: &PackedTree,
     t: usize,
@@ -305,10 +417,30 @@ fn boxes_may_touch(
     for i in 0..3 {
         d[i] = r[i][0] * ct[0] + r[i][1] * ct[1] + r[i][2] * ct[2] + ws.t[i] - co[i];
     }
+    let mut half_sweep = [0.0; 3];
+    let mut spread = 0.0;
+    if SWEPT {
+        let (v, w) = (&ws.sweep.translation, &ws.sweep.rotation);
+        let x = [
+            d[0] + co[0] - ws.t[0],
+            d[1] + co[1] - ws.t[1],
+            d[2] + co[2] - ws.t[2],
+        ];
+        let disp = [
+            v[0] + w[1] * x[2] - w[2] * x[1],
+            v[1] + w[2] * x[0] - w[0] * x[2],
+            v[2] + w[0] * x[1] - w[1] * x[0],
+        ];
+        for i in 0..3 {
+            half_sweep[i] = 0.5 * disp[i];
+            d[i] += half_sweep[i];
+        }
+        spread = ws.sweep_turn * (et[0] * et[0] + et[1] * et[1] + et[2] * et[2]).sqrt();
+    }
     // World axes: the tool box projects to sum_j |R_ij| e_j.
     for i in 0..3 {
         let rt = a[i][0] * et[0] + a[i][1] * et[1] + a[i][2] * et[2];
-        if d[i].abs() > eo[i] + m + rt {
+        if d[i].abs() > eo[i] + m + rt + half_sweep[i].abs() + spread {
             return false;
         }
     }
@@ -316,11 +448,33 @@ fn boxes_may_touch(
     for j in 0..3 {
         let p = r[0][j] * d[0] + r[1][j] * d[1] + r[2][j] * d[2];
         let ro = a[0][j] * (eo[0] + m) + a[1][j] * (eo[1] + m) + a[2][j] * (eo[2] + m);
-        if p.abs() > et[j] + ro {
+        let sweep_j = if SWEPT {
+            (r[0][j] * half_sweep[0] + r[1][j] * half_sweep[1] + r[2][j] * half_sweep[2]).abs()
+                + spread
+        } else {
+            0.0
+        };
+        if p.abs() > et[j] + ro + sweep_j {
             return false;
         }
     }
     true
+}
+
+/// Squared distance from the origin to the segment `x + s D`, `s` in `[0, 1]` (mm²): with `x`
+/// a tool centre minus an object centre at the query pose and `D` the tool centre's
+/// displacement over the sweep, the closest the two centres come on the way.
+#[inline(always)]
+fn segment_dist2(x: [f64; 3], d: [f64; 3]) -> f64 {
+    let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    let xd = x[0] * d[0] + x[1] * d[1] + x[2] * d[2];
+    let s = if dd > 0.0 {
+        (-xd / dd).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let e = [x[0] + s * d[0], x[1] + s * d[1], x[2] + s * d[2]];
+    e[0] * e[0] + e[1] * e[1] + e[2] * e[2]
 }
 
 #[inline]
@@ -345,7 +499,11 @@ fn descend<F: FnMut(&LeafPair) -> bool>(
     visit: &mut F,
 ) -> usize {
     let mut unlimited = usize::MAX;
-    descend_budgeted(tool, obj, obj_id, m, ws, visit, false, &mut unlimited).count
+    if ws.swept {
+        descend_budgeted::<true, F>(tool, obj, obj_id, m, ws, visit, false, &mut unlimited).count
+    } else {
+        descend_budgeted::<false, F>(tool, obj, obj_id, m, ws, visit, false, &mut unlimited).count
+    }
 }
 
 /// How a budgeted descent ended.
@@ -359,10 +517,13 @@ struct Descent {
 
 /// [`descend`] splitting at most `budget` node pairs (decremented), so a long descent can be
 /// spread over several calls: with `resume` the stack left in `ws` by the last call is
-/// continued instead of starting from the roots.
+/// continued instead of starting from the roots. With `SWEPT`, a tool node stands for its
+/// sphere swept along its centre's displacement (`ws.sx..`, a capsule whose radius grows by
+/// `|w| r` for the spread of displacements inside it); `m` must then include the sweep's
+/// curvature allowance.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-fn descend_budgeted<F: FnMut(&LeafPair) -> bool>(
+fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
     tool: &PackedTree,
     obj: &PackedTree,
     obj_id: u32,
@@ -380,6 +541,9 @@ fn descend_budgeted<F: FnMut(&LeafPair) -> bool>(
     if tool.is_empty() || obj.is_empty() {
         return done(0);
     }
+    // A tool sphere's radius as tested: grown by the spread of displacements inside it.
+    let grow = if SWEPT { 1.0 + ws.sweep_turn } else { 1.0 };
+    // `d2`: squared distance of the two centres at the query pose (mm²).
     let report = |t: usize, o: usize, d2: f64, visit: &mut F| {
         let pair = LeafPair {
             object: obj_id,
@@ -393,19 +557,38 @@ fn descend_budgeted<F: FnMut(&LeafPair) -> bool>(
         };
         visit(&pair)
     };
+    // Closest approach (squared, mm²) over the query of a tool centre and an object centre
+    // `x` apart at the pose, the tool centre moving by `d` over the sweep.
+    let at_pose = |x: [f64; 3]| x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+    let dist2 = |x: [f64; 3], d: [f64; 3]| {
+        if SWEPT {
+            segment_dist2(x, d)
+        } else {
+            at_pose(x)
+        }
+    };
 
     if !resume {
         ws.stats.sphere_tests += 1;
-        let dx = ws.wx[0] - obj.x[0];
-        let dy = ws.wy[0] - obj.y[0];
-        let dz = ws.wz[0] - obj.z[0];
-        let d2 = dx * dx + dy * dy + dz * dz;
-        let s = tool.r[0] + obj.r[0] + m;
+        let x = [
+            ws.wx[0] - obj.x[0],
+            ws.wy[0] - obj.y[0],
+            ws.wz[0] - obj.z[0],
+        ];
+        let d2 = dist2(
+            x,
+            if SWEPT {
+                [ws.sx[0], ws.sy[0], ws.sz[0]]
+            } else {
+                [0.0; 3]
+            },
+        );
+        let s = tool.r[0] * grow + obj.r[0] + m;
         if d2 > s * s {
             return done(0);
         }
         if tool.child_count[0] == 0 && obj.child_count[0] == 0 {
-            report(0, 0, d2, visit);
+            report(0, 0, if SWEPT { at_pose(x) } else { d2 }, visit);
             return done(1);
         }
         ws.stack.clear();
@@ -434,22 +617,34 @@ fn descend_budgeted<F: FnMut(&LeafPair) -> bool>(
             let ro = obj.r[o] + m;
             let e = f + tc;
             let (wx, wy, wz) = (&ws.wx[f..e], &ws.wy[f..e], &ws.wz[f..e]);
+            let no_sweep: &[f64] = &[];
+            let (sx, sy, sz) = if SWEPT {
+                (&ws.sx[f..e], &ws.sy[f..e], &ws.sz[f..e])
+            } else {
+                (no_sweep, no_sweep, no_sweep)
+            };
             let (rr, cc) = (&tool.r[f..e], &tool.child_count[f..e]);
             ws.stats.sphere_tests += tc;
             for i in 0..tc {
-                let dx = wx[i] - ox;
-                let dy = wy[i] - oy;
-                let dz = wz[i] - oz;
-                let d2 = dx * dx + dy * dy + dz * dz;
-                let s = rr[i] + ro;
+                let x = [wx[i] - ox, wy[i] - oy, wz[i] - oz];
+                let d2 = dist2(
+                    x,
+                    if SWEPT {
+                        [sx[i], sy[i], sz[i]]
+                    } else {
+                        [0.0; 3]
+                    },
+                );
+                let s = rr[i] * grow + ro;
                 if d2 <= s * s {
+                    let c = f + i;
                     if cc[i] == 0 && oc == 0 {
                         count += 1;
-                        if !report(f + i, o, d2, visit) {
+                        if !report(c, o, if SWEPT { at_pose(x) } else { d2 }, visit) {
                             return done(count);
                         }
-                    } else if boxes_may_touch(ws, tool, f + i, obj, o, m) {
-                        ws.stack.push(((f + i) as u32, o as u32));
+                    } else if boxes_may_touch::<SWEPT>(ws, tool, c, obj, o, m) {
+                        ws.stack.push((c as u32, o as u32));
                     } else {
                         ws.stats.box_pruned += 1;
                     }
@@ -458,26 +653,30 @@ fn descend_budgeted<F: FnMut(&LeafPair) -> bool>(
         } else {
             // Split the object node.
             let f = obj.first_child[o] as usize;
+            let rt = tool.r[t] * grow + m;
             let (tx, ty, tz) = (ws.wx[t], ws.wy[t], ws.wz[t]);
-            let rt = tool.r[t] + m;
+            let d = if SWEPT {
+                [ws.sx[t], ws.sy[t], ws.sz[t]]
+            } else {
+                [0.0; 3]
+            };
             let e = f + oc;
             let (ox, oy, oz) = (&obj.x[f..e], &obj.y[f..e], &obj.z[f..e]);
             let (rr, cc) = (&obj.r[f..e], &obj.child_count[f..e]);
             ws.stats.sphere_tests += oc;
             for i in 0..oc {
-                let dx = tx - ox[i];
-                let dy = ty - oy[i];
-                let dz = tz - oz[i];
-                let d2 = dx * dx + dy * dy + dz * dz;
+                let x = [tx - ox[i], ty - oy[i], tz - oz[i]];
+                let d2 = dist2(x, d);
                 let s = rr[i] + rt;
                 if d2 <= s * s {
+                    let c = f + i;
                     if cc[i] == 0 && tc == 0 {
                         count += 1;
-                        if !report(t, f + i, d2, visit) {
+                        if !report(t, c, if SWEPT { at_pose(x) } else { d2 }, visit) {
                             return done(count);
                         }
-                    } else if boxes_may_touch(ws, tool, t, obj, f + i, m) {
-                        ws.stack.push((t as u32, (f + i) as u32));
+                    } else if boxes_may_touch::<SWEPT>(ws, tool, t, obj, c, m) {
+                        ws.stack.push((t as u32, c as u32));
                     } else {
                         ws.stats.box_pruned += 1;
                     }
@@ -574,7 +773,7 @@ impl FreeSpaceProbe {
         let mut budget = max_splits;
         while let Some(o) = objects.get(self.object) {
             self.ws.reserve(tool, o);
-            let d = descend_budgeted(
+            let d = descend_budgeted::<false, _>(
                 tool,
                 o,
                 self.object as u32,

@@ -5,7 +5,10 @@ mod common;
 
 use std::collections::HashSet;
 
-use collide::{collect_pairs, overlap_tree_tree, CollideWorkspace, LeafPair, PackedTree, Pose};
+use collide::{
+    collect_pairs, overlap_swept, overlap_tree_tree, rotation_exp, CollideWorkspace, LeafPair,
+    PackedTree, Pose, Sweep,
+};
 use common::{brute_force_gaps, random_tree, TreeShape};
 use proptest::prelude::*;
 use spheretree::{Sphere, SphereTree};
@@ -408,5 +411,96 @@ proptest! {
                 }
             }
         }
+    }
+}
+
+/// The pose of `sweep` at `s` in `[0, 1]`: translation `t + s v`, rotation `exp(s [w]x) R`.
+fn pose_along(q: &Pose, sweep: &Sweep, s: f64) -> Pose {
+    let v = nalgebra::Vector3::from(sweep.translation);
+    let w = nalgebra::Vector3::from(sweep.rotation);
+    Pose::from_translation_rotation(
+        &(q.translation() + v * s),
+        &(rotation_exp(&(w * s)) * q.rotation_matrix()),
+    )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// The swept query finds every pair that comes within the margin anywhere along the motion
+    /// (sampled at 41 poses), reports each pair's true gap at the start pose, and lists no pair
+    /// that stays farther from the path than its stated slack (the capsule's growth `|w| r_t`,
+    /// the arc's `reach |w|^2 / 2` and the sampling step).
+    #[test]
+    fn swept_query_covers_the_path_and_nothing_far_from_it(
+        seed_t in any::<u64>(),
+        seed_o in any::<u64>(),
+        levels in 2u32..=4,
+        contact in near_contact_strategy(),
+        v in proptest::array::uniform3(-8.0f64..8.0),
+        w in proptest::array::uniform3(-0.2f64..0.2),
+        margin in prop_oneof![Just(0.0), 0.0f64..2.0],
+    ) {
+        let tool = random_tree(seed_t, shape(levels, 6, 0.8, 0.1));
+        let object = random_tree(seed_o, shape(levels, 6, 0.8, 0.1));
+        let pose = pose_near_contact(&tool, &object, &Pose::identity(), &contact);
+        let sweep = Sweep { translation: v, rotation: w };
+        let pt = PackedTree::new(&tool).unwrap();
+        let objects = [PackedTree::new(&object).unwrap()];
+        let mut ws = CollideWorkspace::new();
+        let mut found = Vec::new();
+        let n = overlap_swept(&pt, &pose, &sweep, &objects, margin, &mut ws, |p| found.push(*p)).unwrap();
+        prop_assert_eq!(n, found.len());
+        let at_start: std::collections::HashMap<(u32, u32), f64> =
+            brute_force_gaps(&tool, &pose, &object, &Pose::identity())
+                .into_iter()
+                .map(|(t, o, g)| ((t, o), g))
+                .collect();
+        // Closest approach of every pair over the sampled path.
+        let samples = 40;
+        let mut closest: std::collections::HashMap<(u32, u32), f64> = Default::default();
+        for i in 0..=samples {
+            let q = pose_along(&pose, &sweep, f64::from(i) / f64::from(samples));
+            for (t, o, g) in brute_force_gaps(&tool, &q, &object, &Pose::identity()) {
+                let e = closest.entry((t, o)).or_insert(f64::INFINITY);
+                *e = e.min(g);
+            }
+        }
+        let set: HashSet<(u32, u32)> = found.iter().map(|p| (p.tool_slot, p.object_slot)).collect();
+        prop_assert_eq!(set.len(), found.len(), "duplicate pairs");
+        for (&(t, o), &g) in &closest {
+            if g <= margin - TIE {
+                prop_assert!(set.contains(&(t, o)), "pair ({t}, {o}) comes within {g} <= {margin} on the way but was not found");
+            }
+        }
+        let turn = sweep.angle();
+        let path_step = (v.iter().map(|x| x * x).sum::<f64>().sqrt() + turn * pt.reach())
+            / f64::from(samples);
+        for p in &found {
+            prop_assert!((p.gap - at_start[&(p.tool_slot, p.object_slot)]).abs() < 1e-9);
+            let slack = margin + 2.0 * turn * p.r_tool + 0.5 * pt.reach() * turn * turn + path_step + 1e-9;
+            let g = closest[&(p.tool_slot, p.object_slot)];
+            prop_assert!(g <= slack, "listed pair ({}, {}) stays {g} mm away (slack {slack})", p.tool_slot, p.object_slot);
+        }
+    }
+
+    /// With no motion the swept query is the plain query: the same pairs.
+    #[test]
+    fn swept_query_without_motion_is_the_plain_query(
+        seed in any::<u64>(),
+        contact in near_contact_strategy(),
+        margin in 0.0f64..3.0,
+    ) {
+        let tool = random_tree(seed, shape(3, 6, 0.8, 0.1));
+        let object = random_tree(seed ^ 0xab, shape(3, 6, 0.8, 0.1));
+        let pose = pose_near_contact(&tool, &object, &Pose::identity(), &contact);
+        let pt = PackedTree::new(&tool).unwrap();
+        let objects = [PackedTree::new(&object).unwrap()];
+        let mut ws = CollideWorkspace::new();
+        let mut plain = Vec::new();
+        collide::overlap_tree_trees(&pt, &pose, &objects, margin, &mut ws, |p| plain.push(*p)).unwrap();
+        let mut swept = Vec::new();
+        overlap_swept(&pt, &pose, &Sweep::default(), &objects, margin, &mut ws, |p| swept.push(*p)).unwrap();
+        prop_assert_eq!(plain, swept);
     }
 }
