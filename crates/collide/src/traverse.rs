@@ -46,13 +46,17 @@ pub struct CollideWorkspace {
     /// `|R|` element-wise, for box projections.
     abs_rot: [[f64; 3]; 3],
     t: [f64; 3],
-    /// Displacement of each posed tool centre over the sweep (mm, world), for swept queries:
-    /// `v + w x (c - t)`, valid where the centre is.
-    sx: Vec<f64>,
-    sy: Vec<f64>,
-    sz: Vec<f64>,
+    /// Leaf box of each posed tool node, as the box tests use it (mm): centre in the world,
+    /// half-extents along the world axes (`|R| e`) and along the tool's axes (`e`), each grown
+    /// to hold the box's sweep in a swept query.
+    box_center: Vec<[f64; 3]>,
+    box_world_half: Vec<[f64; 3]>,
+    box_tool_half: Vec<[f64; 3]>,
+    /// Swept queries: each posed tool centre's displacement over the sweep (mm, world,
+    /// `v + w x (c - t)`), the midpoint of its path and half the path's length (mm).
+    path: Vec<Path>,
     /// The current query's sweep (zero for a query at a pose), and whether the query is swept
-    /// (then `sx, sy, sz` are kept for every posed node).
+    /// (then `disp`, `mid` and `half_path` are kept for every posed node).
     sweep: Sweep,
     swept: bool,
     /// `|w|` of the sweep (rad): a node sphere of radius `r` moves within `|w| r` of its
@@ -142,9 +146,10 @@ impl CollideWorkspace {
             self.wx.resize(n, 0.0);
             self.wy.resize(n, 0.0);
             self.wz.resize(n, 0.0);
-            self.sx.resize(n, 0.0);
-            self.sy.resize(n, 0.0);
-            self.sz.resize(n, 0.0);
+            self.box_center.resize(n, [0.0; 3]);
+            self.box_world_half.resize(n, [0.0; 3]);
+            self.box_tool_half.resize(n, [0.0; 3]);
+            self.path.resize(n, Path::default());
             self.children_posed.resize(n, 0);
         }
     }
@@ -207,15 +212,50 @@ impl CollideWorkspace {
             wy[i] = r[1][0] * x + r[1][1] * y + r[1][2] * z + t[1];
             wz[i] = r[2][0] * x + r[2][1] * y + r[2][2] * z + t[2];
         }
-        if self.swept {
-            // Displacement along the sweep's tangent: v + w x (c - t).
-            let (v, w) = (self.sweep.translation, self.sweep.rotation);
-            for i in first..end {
-                let (x, y, z) = (self.wx[i] - t[0], self.wy[i] - t[1], self.wz[i] - t[2]);
-                self.sx[i] = v[0] + w[1] * z - w[2] * y;
-                self.sy[i] = v[1] + w[2] * x - w[0] * z;
-                self.sz[i] = v[2] + w[0] * y - w[1] * x;
+        let a = self.abs_rot;
+        let (v, w) = (self.sweep.translation, self.sweep.rotation);
+        // Displacement along the sweep's tangent of a world point `p`: v + w x (p - t).
+        let displacement = |p: [f64; 3]| {
+            let (x, y, z) = (p[0] - t[0], p[1] - t[1], p[2] - t[2]);
+            [
+                v[0] + w[1] * z - w[2] * y,
+                v[1] + w[2] * x - w[0] * z,
+                v[2] + w[0] * y - w[1] * x,
+            ]
+        };
+        for i in first..end {
+            let (ct, et) = (&tool.box_center[i], &tool.box_half[i]);
+            let mut c = [0.0; 3];
+            let mut world_half = [0.0; 3];
+            for k in 0..3 {
+                c[k] = r[k][0] * ct[0] + r[k][1] * ct[1] + r[k][2] * ct[2] + t[k];
+                world_half[k] = a[k][0] * et[0] + a[k][1] * et[1] + a[k][2] * et[2];
             }
+            let mut tool_half = *et;
+            if self.swept {
+                // The box swept along its centre's displacement D: centred halfway, grown by
+                // |D| / 2 per axis and by |w| times its half diagonal (the spread of
+                // displacements inside it).
+                let d = displacement(c);
+                let spread =
+                    self.sweep_turn * (et[0] * et[0] + et[1] * et[1] + et[2] * et[2]).sqrt();
+                for k in 0..3 {
+                    c[k] += 0.5 * d[k];
+                    world_half[k] += 0.5 * d[k].abs() + spread;
+                    let along_tool_axis = r[0][k] * d[0] + r[1][k] * d[1] + r[2][k] * d[2];
+                    tool_half[k] += 0.5 * along_tool_axis.abs() + spread;
+                }
+                let centre = [self.wx[i], self.wy[i], self.wz[i]];
+                let d = displacement(centre);
+                self.path[i] = Path {
+                    disp: d,
+                    mid: std::array::from_fn(|k| centre[k] + 0.5 * d[k]),
+                    half: 0.5 * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt(),
+                };
+            }
+            self.box_center[i] = c;
+            self.box_world_half[i] = world_half;
+            self.box_tool_half[i] = tool_half;
         }
     }
 
@@ -393,68 +433,32 @@ pub fn collect_pairs(
     })
 }
 
-/// False when the leaf boxes of tool node `t` (an oriented box in the world) and object node
-/// `o` (axis-aligned), each grown by `m`, are separated along one of the six face axes: no
-/// leaf pair under them can be within `m`. Conservative (the nine edge axes are not tested).
-/// With `SWEPT`, the tool box is the one swept over the query's motion: centred halfway along
-/// its centre's displacement `D`, grown by `|D_i| / 2` per axis and by `|w|` times its half
-/// diagonal (the spread of displacements inside it).
+/// False when the leaf boxes of tool node `t` (an oriented box in the world, as posed by the
+/// workspace, swept in a swept query) and object node `o` (axis-aligned), the latter grown by
+/// `m`, are separated along one of the six face axes: no leaf pair under them can be within
+/// `m`. Conservative (the nine edge axes are not tested).
 #[inline(always)]
-fn boxes_may_touch<const SWEPT: bool>(
-    ws: &CollideWorkspace,
-    tool: &PackedTree,
-    t: usize,
-    obj: &PackedTree,
-    o: usize,
-    m: f64,
-) -> bool {
-    let (ct, et) = (&tool.box_center[t], &tool.box_half[t]);
+fn boxes_may_touch(ws: &CollideWorkspace, t: usize, obj: &PackedTree, o: usize, m: f64) -> bool {
+    let (c, world_half, tool_half) = (
+        &ws.box_center[t],
+        &ws.box_world_half[t],
+        &ws.box_tool_half[t],
+    );
     let (co, eo) = (&obj.box_center[o], &obj.box_half[o]);
-    let r = &ws.rot;
-    let a = &ws.abs_rot;
-    // Tool box centre in the world, and the offset to the object box.
-    let mut d = [0.0; 3];
+    let d = [c[0] - co[0], c[1] - co[1], c[2] - co[2]];
+    // World axes: the tool box projects to its world half-extents.
     for i in 0..3 {
-        d[i] = r[i][0] * ct[0] + r[i][1] * ct[1] + r[i][2] * ct[2] + ws.t[i] - co[i];
-    }
-    let mut half_sweep = [0.0; 3];
-    let mut spread = 0.0;
-    if SWEPT {
-        let (v, w) = (&ws.sweep.translation, &ws.sweep.rotation);
-        let x = [
-            d[0] + co[0] - ws.t[0],
-            d[1] + co[1] - ws.t[1],
-            d[2] + co[2] - ws.t[2],
-        ];
-        let disp = [
-            v[0] + w[1] * x[2] - w[2] * x[1],
-            v[1] + w[2] * x[0] - w[0] * x[2],
-            v[2] + w[0] * x[1] - w[1] * x[0],
-        ];
-        for i in 0..3 {
-            half_sweep[i] = 0.5 * disp[i];
-            d[i] += half_sweep[i];
-        }
-        spread = ws.sweep_turn * (et[0] * et[0] + et[1] * et[1] + et[2] * et[2]).sqrt();
-    }
-    // World axes: the tool box projects to sum_j |R_ij| e_j.
-    for i in 0..3 {
-        let rt = a[i][0] * et[0] + a[i][1] * et[1] + a[i][2] * et[2];
-        if d[i].abs() > eo[i] + m + rt + half_sweep[i].abs() + spread {
+        if d[i].abs() > eo[i] + m + world_half[i] {
             return false;
         }
     }
     // Tool axes: the offset projects to (R^T d)_j, the object box to sum_i |R_ij| (e_i + m).
+    let r = &ws.rot;
+    let a = &ws.abs_rot;
     for j in 0..3 {
         let p = r[0][j] * d[0] + r[1][j] * d[1] + r[2][j] * d[2];
         let ro = a[0][j] * (eo[0] + m) + a[1][j] * (eo[1] + m) + a[2][j] * (eo[2] + m);
-        let sweep_j = if SWEPT {
-            (r[0][j] * half_sweep[0] + r[1][j] * half_sweep[1] + r[2][j] * half_sweep[2]).abs()
-                + spread
-        } else {
-            0.0
-        };
-        if p.abs() > et[j] + ro + sweep_j {
+        if p.abs() > tool_half[j] + ro {
             return false;
         }
     }
@@ -515,12 +519,35 @@ struct Descent {
     finished: bool,
 }
 
+/// The path of a posed tool centre over a swept query: its displacement, the path's midpoint
+/// (world) and half its length (mm).
+#[derive(Clone, Copy, Debug, Default)]
+struct Path {
+    disp: [f64; 3],
+    mid: [f64; 3],
+    half: f64,
+}
+
+/// True when a tool node moving along `path` comes within `s` (mm) of the point `o` (world),
+/// with `x` = its centre minus `o` at the pose: first the sphere around the path's midpoint
+/// (cheap, rejects most), then the exact distance to the path.
+#[inline(always)]
+fn swept_within(path: &Path, o: [f64; 3], x: [f64; 3], s: f64) -> bool {
+    let m = &path.mid;
+    let y = [m[0] - o[0], m[1] - o[1], m[2] - o[2]];
+    let bound = s + path.half;
+    if y[0] * y[0] + y[1] * y[1] + y[2] * y[2] > bound * bound {
+        return false;
+    }
+    segment_dist2(x, path.disp) <= s * s
+}
+
 /// [`descend`] splitting at most `budget` node pairs (decremented), so a long descent can be
 /// spread over several calls: with `resume` the stack left in `ws` by the last call is
 /// continued instead of starting from the roots. With `SWEPT`, a tool node stands for its
-/// sphere swept along its centre's displacement (`ws.sx..`, a capsule whose radius grows by
-/// `|w| r` for the spread of displacements inside it); `m` must then include the sweep's
-/// curvature allowance.
+/// sphere swept along its centre's displacement (a capsule whose radius grows by `|w| r` for
+/// the spread of displacements inside it); `m` must then include the sweep's curvature
+/// allowance.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
@@ -557,38 +584,26 @@ fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
         };
         visit(&pair)
     };
-    // Closest approach (squared, mm²) over the query of a tool centre and an object centre
-    // `x` apart at the pose, the tool centre moving by `d` over the sweep.
-    let at_pose = |x: [f64; 3]| x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
-    let dist2 = |x: [f64; 3], d: [f64; 3]| {
+    // A tool node (moving along `path`) within `s` of the object centre `o`, `x` apart at the
+    // pose (d2 = |x|²).
+    let near = |path: &Path, o: [f64; 3], x: [f64; 3], d2: f64, s: f64| {
         if SWEPT {
-            segment_dist2(x, d)
+            swept_within(path, o, x, s)
         } else {
-            at_pose(x)
+            d2 <= s * s
         }
     };
 
     if !resume {
         ws.stats.sphere_tests += 1;
-        let x = [
-            ws.wx[0] - obj.x[0],
-            ws.wy[0] - obj.y[0],
-            ws.wz[0] - obj.z[0],
-        ];
-        let d2 = dist2(
-            x,
-            if SWEPT {
-                [ws.sx[0], ws.sy[0], ws.sz[0]]
-            } else {
-                [0.0; 3]
-            },
-        );
-        let s = tool.r[0] * grow + obj.r[0] + m;
-        if d2 > s * s {
+        let o = [obj.x[0], obj.y[0], obj.z[0]];
+        let x = [ws.wx[0] - o[0], ws.wy[0] - o[1], ws.wz[0] - o[2]];
+        let d2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+        if !near(&ws.path[0], o, x, d2, tool.r[0] * grow + obj.r[0] + m) {
             return done(0);
         }
         if tool.child_count[0] == 0 && obj.child_count[0] == 0 {
-            report(0, 0, if SWEPT { at_pose(x) } else { d2 }, visit);
+            report(0, 0, d2, visit);
             return done(1);
         }
         ws.stack.clear();
@@ -613,37 +628,30 @@ fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
             // Split the tool node.
             ws.pose_children(tool, t);
             let f = tool.first_child[t] as usize;
-            let (ox, oy, oz) = (obj.x[o], obj.y[o], obj.z[o]);
+            let oc3 = [obj.x[o], obj.y[o], obj.z[o]];
             let ro = obj.r[o] + m;
             let e = f + tc;
             let (wx, wy, wz) = (&ws.wx[f..e], &ws.wy[f..e], &ws.wz[f..e]);
-            let no_sweep: &[f64] = &[];
-            let (sx, sy, sz) = if SWEPT {
-                (&ws.sx[f..e], &ws.sy[f..e], &ws.sz[f..e])
-            } else {
-                (no_sweep, no_sweep, no_sweep)
-            };
             let (rr, cc) = (&tool.r[f..e], &tool.child_count[f..e]);
+            // Paths are kept in swept queries only: an empty slice otherwise (never read).
+            let paths = if SWEPT { &ws.path[f..e] } else { &ws.path[..0] };
             ws.stats.sphere_tests += tc;
             for i in 0..tc {
-                let x = [wx[i] - ox, wy[i] - oy, wz[i] - oz];
-                let d2 = dist2(
-                    x,
-                    if SWEPT {
-                        [sx[i], sy[i], sz[i]]
-                    } else {
-                        [0.0; 3]
-                    },
-                );
-                let s = rr[i] * grow + ro;
-                if d2 <= s * s {
-                    let c = f + i;
+                let x = [wx[i] - oc3[0], wy[i] - oc3[1], wz[i] - oc3[2]];
+                let d2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+                let c = f + i;
+                let hit = if SWEPT {
+                    near(&paths[i], oc3, x, d2, rr[i] * grow + ro)
+                } else {
+                    d2 <= (rr[i] + ro) * (rr[i] + ro)
+                };
+                if hit {
                     if cc[i] == 0 && oc == 0 {
                         count += 1;
-                        if !report(c, o, if SWEPT { at_pose(x) } else { d2 }, visit) {
+                        if !report(c, o, d2, visit) {
                             return done(count);
                         }
-                    } else if boxes_may_touch::<SWEPT>(ws, tool, c, obj, o, m) {
+                    } else if boxes_may_touch(ws, c, obj, o, m) {
                         ws.stack.push((c as u32, o as u32));
                     } else {
                         ws.stats.box_pruned += 1;
@@ -655,27 +663,22 @@ fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
             let f = obj.first_child[o] as usize;
             let rt = tool.r[t] * grow + m;
             let (tx, ty, tz) = (ws.wx[t], ws.wy[t], ws.wz[t]);
-            let d = if SWEPT {
-                [ws.sx[t], ws.sy[t], ws.sz[t]]
-            } else {
-                [0.0; 3]
-            };
+            let path = ws.path[t];
             let e = f + oc;
             let (ox, oy, oz) = (&obj.x[f..e], &obj.y[f..e], &obj.z[f..e]);
             let (rr, cc) = (&obj.r[f..e], &obj.child_count[f..e]);
             ws.stats.sphere_tests += oc;
             for i in 0..oc {
                 let x = [tx - ox[i], ty - oy[i], tz - oz[i]];
-                let d2 = dist2(x, d);
-                let s = rr[i] + rt;
-                if d2 <= s * s {
-                    let c = f + i;
+                let d2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+                let c = f + i;
+                if near(&path, [ox[i], oy[i], oz[i]], x, d2, rr[i] + rt) {
                     if cc[i] == 0 && tc == 0 {
                         count += 1;
-                        if !report(t, c, if SWEPT { at_pose(x) } else { d2 }, visit) {
+                        if !report(t, c, d2, visit) {
                             return done(count);
                         }
-                    } else if boxes_may_touch::<SWEPT>(ws, tool, t, obj, c, m) {
+                    } else if boxes_may_touch(ws, t, obj, c, m) {
                         ws.stack.push((t as u32, c as u32));
                     } else {
                         ws.stats.box_pruned += 1;

@@ -36,10 +36,11 @@
 use std::time::Instant;
 
 use collide::{
-    overlap_tree_trees, rotation_log, CollideWorkspace, ConstraintForm, FreeSpaceProbe, LeafPair,
-    Linearization, PackedTree, Pose, ProbeStatus, RotationCoordinates,
+    overlap_swept, overlap_tree_trees, rotation_exp, rotation_log, CollideWorkspace,
+    ConstraintForm, FreeSpaceProbe, LeafPair, Linearization, PackedTree, Pose, ProbeStatus,
+    RotationCoordinates, Sweep,
 };
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Vector3};
 use qp::{Problem, Solver, Status};
 
 use crate::scene::{Scene, SolverKind};
@@ -133,8 +134,12 @@ pub struct FrameOutput {
     pub q_g: [f64; 6],
     /// Spring wrench on the hand `[F; T]`: N and N·mm (world axes), before the safety layer.
     pub wrench: [f64; 6],
-    /// Leaf pairs in the first pass's QP.
+    /// Leaf pairs in the first pass's QP (the detected region's list: its size follows the
+    /// region's shape, not only the contact).
     pub pairs: u32,
+    /// Leaf pairs touching at the answer (exact gap within [`TOUCH_MM`]): the size of the
+    /// contact itself.
+    pub contacts: u32,
     /// Solver iterations, summed over passes.
     pub iterations: u32,
     /// Passes made (detect + solve).
@@ -154,6 +159,10 @@ pub struct FrameOutput {
     /// Outcome.
     pub status: FrameStatus,
 }
+
+/// A leaf pair whose exact gap (mm) at the answer is at most this is counted as touching
+/// ([`FrameOutput::contacts`]).
+pub const TOUCH_MM: f64 = 0.01;
 
 /// A row whose linearized gap at the answer is below this (mm) holds the tool.
 const TIGHT_MM: f64 = 1e-6;
@@ -190,6 +199,64 @@ const MIN_ALLOW_MM: f64 = 0.1;
 /// Below this allowance (mm) an overflowing pair list ends the frame (lagging, safe).
 const MIN_OVERFLOW_ALLOW_MM: f64 = 0.005;
 
+/// A predicted motion shorter than this (mm, largest sphere motion) takes a ball region: a
+/// path region pays off only for a hand in motion.
+const MIN_SWEEP_MM: f64 = 0.1;
+
+/// Largest pair list reused from an earlier frame (about what a small region's traversal
+/// costs to rebuild, in solving time).
+const REUSE_MAX_PAIRS: usize = 400;
+
+/// A path region reaches this many times the predicted motion ahead (at most `max_margin_mm`),
+/// so that the frames after reuse it.
+const PATH_LOOKAHEAD: f64 = 1.0;
+
+/// How far (mm) the iterates of a path region may stray from the predicted path: twice the
+/// recent prediction error, within these bounds (a tool riding over the bumps of a sphere-tree
+/// surface strays by a few tenths of a millimetre).
+const PATH_WIDTH_MIN_MM: f64 = 0.1;
+const PATH_WIDTH_MAX_MM: f64 = 0.4;
+
+/// The trust region that keeps a pass's iterates inside its detected region.
+#[derive(Clone, Copy, Debug)]
+enum Trust {
+    /// Half-widths per coordinate around the region's centre: translation (mm), rotation (rad).
+    Box(f64, f64),
+    /// A thin slab around the predicted path (a segment in the QP variable): half-width (mm,
+    /// in the variable scaled by `reach` for rotations) along and across it.
+    Path(f64),
+}
+
+/// A detected region: every leaf pair that can touch while each tool sphere stays within
+/// `width` mm of where it is on the way from `center` along `sweep` (a ball of radius `width`
+/// about `center` without a sweep) is in the pair list.
+#[derive(Clone, Copy, Debug)]
+struct Region {
+    center: Pose,
+    sweep: Option<Sweep>,
+    /// Largest sphere motion along the sweep, mm (0 without one).
+    length: f64,
+    width: f64,
+}
+
+impl Region {
+    /// The pose at the end of the sweep (the centre without one).
+    fn end(&self) -> Pose {
+        match &self.sweep {
+            None => self.center,
+            Some(s) => Pose::from_translation_rotation(
+                &(self.center.translation() + Vector3::from(s.translation)),
+                &(rotation_exp(&Vector3::from(s.rotation)) * self.center.rotation_matrix()),
+            ),
+        }
+    }
+
+    /// Largest motion of a sphere anywhere in the region from the centre, mm.
+    fn extent(&self) -> f64 {
+        self.length + self.width
+    }
+}
+
 /// Warm-start identity of a pair: (object, tool slot, object slot).
 type PairId = (u32, u32, u32);
 
@@ -223,6 +290,16 @@ pub struct GodObject {
     probe: FreeSpaceProbe,
     /// Node pairs the last finished probe split (its cost, to size the next one's slices).
     probe_splits: usize,
+    /// Where the hand was relative to the graphic tool at the end of the last frame:
+    /// translation `t_h - t_g` (mm) and rotation `log(R_h R_g^T)` (rad, world axes). A hand in
+    /// steady motion keeps it, which predicts where this frame's answer lies.
+    hand_offset: (Vector3<f64>, Vector3<f64>),
+    /// The region whose pairs `self.pairs` holds, and the trust region that keeps iterates in
+    /// it: the geometry is static, so it stays valid in later frames (temporal coherence).
+    cached: Option<(Region, Trust)>,
+    /// How far (mm, largest sphere motion) the answer lay from the predicted pose, recently
+    /// (the last frame's, or slowly forgotten larger ones).
+    prediction_error: f64,
     started: bool,
 }
 
@@ -315,6 +392,9 @@ impl GodObject {
             free_radius: 0.0,
             probe,
             probe_splits: 0,
+            hand_offset: (Vector3::zeros(), Vector3::zeros()),
+            cached: None,
+            prediction_error: 0.0,
             started: false,
         })
     }
@@ -343,6 +423,7 @@ impl GodObject {
     /// Collects pairs at `q` within `margin` into `self.pairs` (at most `max_pairs`; the rest
     /// are counted in `self.dropped`); returns the smallest gap seen (mm, +inf if none).
     fn detect(&mut self, q: &Pose, margin: f64) -> Result<f64, collide::CollideError> {
+        self.cached = None;
         self.pairs.clear();
         self.dropped = 0;
         let pairs = &mut self.pairs;
@@ -363,6 +444,101 @@ impl GodObject {
     /// one, so a large margin (a fast hand) stays cheap. Stores no pair.
     fn any_within(&mut self, q: &Pose, margin: f64) -> Result<bool, collide::CollideError> {
         collide::any_pair_within(&self.tool, q, &self.objects, margin, &mut self.ws)
+    }
+
+    /// [`GodObject::detect`] for a path region: the pairs that come within `margin` (mm) of
+    /// touching along `sweep` from `q`.
+    fn detect_swept(
+        &mut self,
+        q: &Pose,
+        sweep: &Sweep,
+        margin: f64,
+    ) -> Result<f64, collide::CollideError> {
+        self.cached = None;
+        self.pairs.clear();
+        self.dropped = 0;
+        let pairs = &mut self.pairs;
+        let dropped = &mut self.dropped;
+        let mut min_gap = f64::INFINITY;
+        overlap_swept(
+            &self.tool,
+            q,
+            sweep,
+            &self.objects,
+            margin,
+            &mut self.ws,
+            |p| {
+                min_gap = min_gap.min(p.gap);
+                if pairs.len() < pairs.capacity() {
+                    pairs.push(*p);
+                } else {
+                    *dropped += 1;
+                }
+            },
+        )?;
+        Ok(min_gap)
+    }
+
+    /// Where this frame's answer is expected, as a motion from `q_lin`: the hand keeps last
+    /// frame's offset from the graphic tool (`hand_offset`), so the tool moves as the hand
+    /// did. `None` when that motion is shorter than [`MIN_SWEEP_MM`]; scaled down to `cap` mm.
+    /// Returns the sweep and its largest sphere motion (mm).
+    fn predicted_sweep(&self, q_lin: &Pose, q_h: &Pose, cap: f64) -> Option<(Sweep, f64)> {
+        let q_pred = self.predicted_pose(q_h);
+        let v = q_pred.translation() - q_lin.translation();
+        let w = rotation_log(&(q_pred.rotation_matrix() * q_lin.rotation_matrix().transpose()));
+        let length = v.norm() + w.norm() * self.reach;
+        if length.is_nan() || length < MIN_SWEEP_MM {
+            return None;
+        }
+        // Reach a few frames ahead, so later frames reuse the region.
+        let scale = (cap / length).min(PATH_LOOKAHEAD);
+        let sweep = Sweep {
+            translation: (v * scale).into(),
+            rotation: (w * scale).into(),
+        };
+        Some((sweep, length * scale))
+    }
+
+    /// How far (mm, largest sphere motion) the pose `q` (variable `dq` of `lin`) is from
+    /// `region`: from its centre, or from the nearest pose on its path (found in the variable,
+    /// rotations scaled by reach).
+    fn distance_from_region(
+        &self,
+        lin: &Linearization,
+        region: &Region,
+        q: &Pose,
+        dq: &[f64; 6],
+    ) -> f64 {
+        if region.sweep.is_none() {
+            return self.motion_bound(&region.center, q);
+        }
+        let base = lin.variable(&region.center);
+        let end = lin.variable(&region.end());
+        let reach2 = self.reach.max(1e-9).powi(2);
+        let (mut along, mut len2) = (0.0, 0.0);
+        for k in 0..6 {
+            let d = (end[k] - base[k]) * if k < 3 { 1.0 } else { reach2 };
+            along += (dq[k] - base[k]) * d;
+            len2 += (end[k] - base[k]) * d;
+        }
+        let s = if len2 > 0.0 {
+            (along / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let on_path = lin.configuration(&std::array::from_fn(|k| base[k] + s * (end[k] - base[k])));
+        self.motion_bound(&on_path, q)
+    }
+
+    /// Where the graphic tool is expected for the device pose `q_h`: at last frame's offset
+    /// from the hand ([`GodObject::hand_offset`]).
+    fn predicted_pose(&self, q_h: &Pose) -> Pose {
+        let (off_t, off_w) = self.hand_offset;
+        Pose::from_translation_rotation(
+            &(q_h.translation() - off_t),
+            &(rotation_exp(&-off_w) * q_h.rotation_matrix()),
+        )
     }
 
     /// Deepest overlap (mm, >= 0) of the tool at `q`, using `self.pairs` as scratch.
@@ -448,6 +624,8 @@ impl GodObject {
         self.warm_len = 0;
         self.last_motion = 0.0;
         self.last_step = [0.0; 3];
+        self.hand_offset = (Vector3::zeros(), Vector3::zeros());
+        self.cached = None;
         self.free_radius = 0.0;
         self.probe.cancel();
         let mut q = *start;
@@ -487,10 +665,14 @@ impl GodObject {
         })
     }
 
-    /// Fills rows for `self.pairs` from `lin`, plus the trust box when given: half-widths
-    /// `(translation mm, rotation rad)` per coordinate around the variable's value `base` at
-    /// the box's centre. Returns the row count.
-    fn fill_rows(&mut self, lin: &Linearization, trust: Option<((f64, f64), [f64; 6])>) -> usize {
+    /// Fills rows for `self.pairs` from `lin`, plus the trust region when given, about the
+    /// variable's values `base` at the region's centre and `end` at the end of its path.
+    /// Returns the row count.
+    fn fill_rows(
+        &mut self,
+        lin: &Linearization,
+        trust: Option<(Trust, [f64; 6], [f64; 6])>,
+    ) -> usize {
         let mut n = 0;
         for (pair, (row, d)) in self
             .pairs
@@ -502,21 +684,89 @@ impl GodObject {
             *d = rhs;
             n += 1;
         }
-        if let Some(((w_t, w_r), base)) = trust {
-            for k in 0..6 {
-                let w = if k < 3 { w_t } else { w_r };
-                // dq_k >= base_k - w and -dq_k >= -(base_k + w).
-                let mut e = [0.0; 6];
-                e[k] = 1.0;
-                self.rows[n] = e;
-                self.rhs[n] = base[k] - w;
-                e[k] = -1.0;
-                self.rows[n + 1] = e;
-                self.rhs[n + 1] = -(base[k] + w);
-                n += 2;
+        match trust {
+            None => {}
+            Some((Trust::Box(w_t, w_r), base, _)) => {
+                for k in 0..6 {
+                    let w = if k < 3 { w_t } else { w_r };
+                    let mut e = [0.0; 6];
+                    e[k] = 1.0;
+                    n += self.push_slab(n, &e, base[k] - w, base[k] + w);
+                }
+            }
+            Some((Trust::Path(a), base, end)) => {
+                // In the variable scaled by reach for rotations (a sphere's motion is at most
+                // sqrt(2) times the scaled norm): one direction along the path, five across it
+                // (Gram-Schmidt on the unit vectors but the one most along the path).
+                let reach = self.reach.max(1e-9);
+                let scale = |k: usize| if k < 3 { 1.0 } else { reach };
+                let mut d = [0.0; 6];
+                for k in 0..6 {
+                    d[k] = (end[k] - base[k]) * scale(k);
+                }
+                let len = d.iter().map(|v| v * v).sum::<f64>().sqrt();
+                let mut basis = [[0.0; 6]; 6];
+                let skip = if len > 1e-12 {
+                    basis[0] = d.map(|v| v / len);
+                    (0..6)
+                        .max_by(|&i, &j| basis[0][i].abs().total_cmp(&basis[0][j].abs()))
+                        .unwrap_or(0)
+                } else {
+                    basis[0][0] = 1.0;
+                    0
+                };
+                for (m, j) in (1..).zip((0..6).filter(|&j| j != skip)) {
+                    let mut v = [0.0; 6];
+                    v[j] = 1.0;
+                    for b in &basis[..m] {
+                        let dot: f64 = (0..6).map(|k| v[k] * b[k]).sum();
+                        for k in 0..6 {
+                            v[k] -= dot * b[k];
+                        }
+                    }
+                    let nv = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+                    basis[m] = v.map(|x| x / nv);
+                }
+                for (i, u) in basis.iter().enumerate() {
+                    let mut row = [0.0; 6];
+                    for k in 0..6 {
+                        row[k] = u[k] * scale(k);
+                    }
+                    let c: f64 = (0..6).map(|k| row[k] * base[k]).sum();
+                    let far = if i == 0 { len } else { 0.0 };
+                    n += self.push_slab(n, &row, c - a, c + far + a);
+                }
             }
         }
         n
+    }
+
+    /// Writes the two rows `lo <= row . dq <= hi` at `n`; returns 2.
+    fn push_slab(&mut self, n: usize, row: &[f64; 6], lo: f64, hi: f64) -> usize {
+        self.rows[n] = *row;
+        self.rhs[n] = lo;
+        self.rows[n + 1] = row.map(|v| -v);
+        self.rhs[n + 1] = -hi;
+        2
+    }
+
+    /// True when the answer `dq` sits on the trust region's boundary (rows `from..to`): the
+    /// region, not the contact, stopped it.
+    fn trust_binds(&self, trust: Trust, from: usize, to: usize, dq: &[f64; 6]) -> bool {
+        (from..to).any(|i| {
+            let width = match trust {
+                Trust::Box(w_t, w_r) => {
+                    if (i - from) / 2 < 3 {
+                        w_t
+                    } else {
+                        w_r
+                    }
+                }
+                Trust::Path(a) => a,
+            };
+            let value: f64 = (0..6).map(|k| self.rows[i][k] * dq[k]).sum();
+            value - self.rhs[i] <= 1e-3 * width
+        })
     }
 
     /// The trust box for a pass that may move any tool sphere by at most `allowed` mm from
@@ -525,7 +775,7 @@ impl GodObject {
     /// least a fifth, so the constraints can still push the tool out): translation half-width
     /// `a` per axis moves a point by at most `sqrt(3) a`; rotation half-width `b` per coordinate
     /// by at most `sqrt(3) b reach` (rotation vector) or `3 b reach` (Euler increments).
-    fn trust_box(&self, allowed: f64, need_t: f64, need_r: f64) -> (f64, f64) {
+    fn trust_box(&self, allowed: f64, need_t: f64, need_r: f64) -> Trust {
         let need = need_t + need_r;
         let share_t = if need > 0.0 {
             (need_t / need).clamp(0.2, 0.8)
@@ -538,7 +788,7 @@ impl GodObject {
             RotationCoordinates::Euler => 3.0,
         };
         let b = (allowed * (1.0 - share_t) / (per_axis * self.reach.max(1e-9))).min(0.5);
-        (a, b)
+        Trust::Box(a, b)
     }
 
     /// Solves the QP on the first `n` rows; `dq0` is the (feasible when free) start
@@ -624,12 +874,40 @@ impl GodObject {
         // The last answer verified inside its region, and its overlap (for an inexact solver).
         let mut last_answer: Option<(Pose, f64)> = None;
         let mut q_lin = self.q_g;
-        // The detected region: every pair that can touch while no tool sphere moves more than
-        // `radius` from `center` is in `self.pairs`; `boxed` keeps the iterates inside it.
-        let mut center = q_lin;
-        let mut radius = 0.0;
-        let mut boxed: Option<(f64, f64)> = None;
+        // The detected region (its pairs are in `self.pairs`); `boxed` keeps the iterates
+        // inside it.
+        let mut region = Region {
+            center: q_lin,
+            sweep: None,
+            length: 0.0,
+            width: 0.0,
+        };
+        let mut boxed: Option<Trust> = None;
         let mut detect_now = true;
+        // Path regions (along the predicted motion) are tried until one overflows.
+        let mut path_regions = self.params.relinearize > 0
+            && self.params.rotation == RotationCoordinates::RotationVector;
+        // Last frame's region, while the tool and where it is heading are well inside it: no
+        // traversal in this pass.
+        // (A large list costs more to solve again than a small region to detect.)
+        let reusable = path_regions && self.pairs.len() <= REUSE_MAX_PAIRS;
+        if let Some((cached, trust)) = self.cached.filter(|_| reusable) {
+            if let Some(lin) = self.linearization(&q_lin, q_h) {
+                let q_pred = self.predicted_pose(q_h);
+                let inside = |q: &Pose| {
+                    self.distance_from_region(&lin, &cached, q, &lin.variable(q))
+                        <= 0.5 * cached.width
+                };
+                if inside(&q_lin) && inside(&q_pred) {
+                    region = cached;
+                    boxed = Some(trust);
+                    detect_now = false;
+                    out.pairs = self.pairs.len() as u32;
+                    out.margin_mm = cached.width + skin;
+                    self.map_warm_start();
+                }
+            }
+        }
         // Motion allowance of the next detected region, mm: 1.5 times the last frame's motion (a
         // hand in steady motion stays inside it), never below MIN_ALLOW_MM. A region whose
         // box binds grows it; an answer that left its region widens it; an overflowing pair
@@ -667,17 +945,35 @@ impl GodObject {
                 let dense_cap = PAIR_TARGET / self.pairs_per_mm.max(1e-9) - skin;
                 let mut allowed = need.min(allow).min(cap).min(dense_cap.max(MIN_ALLOW_MM));
                 let mut trust = need > allowed;
+                // A hand in motion that the ball cannot follow: a region along the motion
+                // predicted for the tool instead (a sliding contact holds far fewer pairs along
+                // its path than within the path's length all around).
+                let mut sweep = if trust && path_regions {
+                    self.predicted_sweep(&q_lin, q_h, cap)
+                } else {
+                    None
+                };
+                let width = if sweep.is_some() {
+                    (2.0 * self.prediction_error).clamp(PATH_WIDTH_MIN_MM, PATH_WIDTH_MAX_MM)
+                } else {
+                    allowed
+                };
+                let extent = sweep.map_or(0.0, |(_, len)| len) + width;
                 // Free space proven by an earlier empty detection: no pair within
                 // `free_radius` of `free_center`, so none within `m` of q_lin while
                 // `b(free_center, q_lin) + m <= free_radius` (no traversal at all).
                 let free_slack = self.free_radius - self.motion_bound(&self.free_center, &q_lin);
-                let mut detected = if allowed + skin <= free_slack {
+                let mut detected = if extent + skin <= free_slack {
+                    self.cached = None;
                     self.pairs.clear();
                     self.dropped = 0;
                     if pass == 0 {
                         self.tend_probe(&q_lin, free_slack - (allowed + skin));
                     }
                     Ok(f64::INFINITY)
+                } else if let Some((path, _)) = sweep {
+                    self.probe.cancel();
+                    self.detect_swept(&q_lin, &path, width + skin)
                 } else {
                     // A full traversal gives a fresh answer; an unfinished background probe is
                     // dropped.
@@ -710,6 +1006,7 @@ impl GodObject {
                     trust = matches!(near, Ok(true));
                     if !trust {
                         allowed = need;
+                        sweep = None;
                     }
                     detected = near.map(|_| f64::INFINITY);
                 }
@@ -719,9 +1016,11 @@ impl GodObject {
                 }
                 if pass == 0 {
                     out.pairs = self.pairs.len() as u32;
-                    out.margin_mm = allowed + skin;
+                    out.margin_mm = if sweep.is_some() { width } else { allowed } + skin;
                 }
-                if !self.pairs.is_empty() {
+                if sweep.is_some() {
+                    // A path region's count says nothing of the pairs per mm all around.
+                } else if !self.pairs.is_empty() {
                     // Pairs per mm of margin, remembered (slowly forgotten) for the next choice.
                     let density = (self.pairs.len() + self.dropped) as f64 / (allowed + skin);
                     self.pairs_per_mm = density.max(0.9 * self.pairs_per_mm);
@@ -732,6 +1031,11 @@ impl GodObject {
                     // More pairs than the storage holds: the list is not complete, so no answer
                     // from it is proven. Try a smaller region (fewer pairs) next pass.
                     overflowed = true;
+                    if sweep.is_some() {
+                        // Too many pairs even along the path: ball regions from here on.
+                        path_regions = false;
+                        continue;
+                    }
                     allow = 0.25 * allowed;
                     longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
                     if allow < MIN_OVERFLOW_ALLOW_MM {
@@ -739,9 +1043,31 @@ impl GodObject {
                     }
                     continue;
                 }
-                center = q_lin;
-                radius = allowed;
-                boxed = trust.then(|| self.trust_box(allowed, need_t, need_r));
+                region = match sweep {
+                    Some((path, length)) => Region {
+                        center: q_lin,
+                        sweep: Some(path),
+                        length,
+                        width,
+                    },
+                    None => Region {
+                        center: q_lin,
+                        sweep: None,
+                        length: 0.0,
+                        width: allowed,
+                    },
+                };
+                // A path slab of half-width a keeps every sphere within sqrt(12) a of the path.
+                boxed = trust.then(|| match sweep {
+                    Some(_) => Trust::Path(width / 12f64.sqrt()),
+                    None => self.trust_box(allowed, need_t, need_r),
+                });
+                if !self.pairs.is_empty() {
+                    // Reused in later frames with a trust region (even where this pass needs
+                    // none: the hand will have moved).
+                    let keep = boxed.unwrap_or_else(|| self.trust_box(allowed, 1.0, 1.0));
+                    self.cached = Some((region, keep));
+                }
                 detect_now = false;
                 self.map_warm_start();
             }
@@ -752,6 +1078,7 @@ impl GodObject {
                 // tool is the hand, exactly (no rounding through the QP's coordinates).
                 q_safe = *q_h;
                 pen_safe = 0.0;
+                out.contacts = 0;
                 self.warm_len = 0;
                 reached = true;
                 break;
@@ -759,9 +1086,11 @@ impl GodObject {
             let Some(lin) = self.linearization(&q_lin, q_h) else {
                 return self.keep_last_safe(out, q_h, t_start);
             };
-            // The box is about the region's centre, in this pass's coordinates.
-            let box_base = boxed.map(|_| lin.variable(&center));
-            let n = self.fill_rows(&lin, boxed.zip(box_base));
+            // The trust region is about the region's centre (and path), in this pass's
+            // coordinates.
+            let trust =
+                boxed.map(|t| (t, lin.variable(&region.center), lin.variable(&region.end())));
+            let n = self.fill_rows(&lin, trust);
             let solved = self.solve(n, &lin.delta());
             opt += t1.elapsed().as_secs_f64();
             let Some((dq, iters, status, viol)) = solved else {
@@ -783,8 +1112,8 @@ impl GodObject {
                 return self.keep_last_safe(out, q_h, t_start);
             }
             let t2 = Instant::now();
-            let moved = self.motion_bound(&center, &q_new);
-            if moved > radius + skin {
+            let moved = self.distance_from_region(&lin, &region, &q_new, &dq);
+            if moved > region.width + skin {
                 // Pairs that can touch on the way to q_new may be missing: not proven. Detect
                 // again from q_lin with a margin covering the motion (a box if over the cap).
                 allow = (self.motion_bound(&q_lin, &q_new) * 1.25).min(cap);
@@ -796,19 +1125,15 @@ impl GodObject {
             // Every pair that can touch between the region's centre and q_new is listed: their
             // exact gaps at q_new give the deepest overlap, and how far the linearization
             // undershot (an active row whose true gap is open: another pass moves further).
-            let (pen, slack) = self.gaps_at(&q_new, &dq, n_pairs);
+            let (pen, slack, touching) = self.gaps_at(&q_new, &dq, n_pairs);
             cd += t2.elapsed().as_secs_f64();
             last_answer = Some((q_new, pen));
             if pen <= tol {
                 q_safe = q_new;
                 pen_safe = pen;
+                out.contacts = touching;
             }
-            let box_binds = boxed.zip(box_base).is_some_and(|((a, b), base)| {
-                (0..6).any(|k| {
-                    let w = if k < 3 { a } else { b };
-                    (dq[k] - base[k]).abs() >= 0.999 * w
-                })
-            });
+            let box_binds = boxed.is_some_and(|t| self.trust_binds(t, n_pairs, n, &dq));
             longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
             if pen <= tol && slack <= CONVERGED_MM {
                 if !box_binds {
@@ -816,7 +1141,7 @@ impl GodObject {
                     break;
                 }
                 // Safe and as far as this region allows: a larger region from here.
-                allow = (2.0 * radius).max(MIN_ALLOW_MM).min(cap);
+                allow = (2.0 * region.extent()).max(MIN_ALLOW_MM).min(cap);
                 detect_now = true;
             }
             // Penetrating or undershooting: re-linearise at q_new (same pairs).
@@ -840,7 +1165,13 @@ impl GodObject {
         for k in 0..3 {
             self.last_step[k] = q_safe.q[k] - self.q_g.q[k];
         }
+        let error = self.motion_bound(&self.predicted_pose(q_h), &q_safe);
+        self.prediction_error = error.max(0.9 * self.prediction_error);
         self.q_g = q_safe;
+        self.hand_offset = (
+            q_h.translation() - q_safe.translation(),
+            rotation_log(&(q_h.rotation_matrix() * q_safe.rotation_matrix().transpose())),
+        );
         out.penetration_mm = pen_safe;
         out.q_g = q_safe.to_array();
         out.wrench = spring_wrench(&self.params.g, self.params.rotation, &q_safe, q_h);
@@ -853,23 +1184,25 @@ impl GodObject {
     /// At `q` (the answer `dq` of the last solve over the first `n_pairs` rows): the deepest
     /// overlap among the listed pairs (mm, >= 0), and the largest amount by which a row that
     /// the answer holds tight (linearized gap ~0) is in truth still open (mm): the
-    /// linearization's undershoot, zero at a converged pose.
-    fn gaps_at(&self, q: &Pose, dq: &[f64; 6], n_pairs: usize) -> (f64, f64) {
+    /// linearization's undershoot, zero at a converged pose; and how many pairs touch (exact
+    /// gap at most [`TOUCH_MM`]).
+    fn gaps_at(&self, q: &Pose, dq: &[f64; 6], n_pairs: usize) -> (f64, f64, u32) {
         let rot = q.rotation_matrix();
         let t = q.translation();
-        let (mut deepest, mut slack) = (0.0f64, 0.0f64);
+        let (mut deepest, mut slack, mut touching) = (0.0f64, 0.0f64, 0u32);
         for (i, p) in self.pairs.iter().enumerate().take(n_pairs) {
             let c = rot * nalgebra::Vector3::from(p.p_in_tool) + t;
             let o = nalgebra::Vector3::from(p.o_in_world);
             let gap = (c - o).norm() - (p.r_tool + p.r_object);
             deepest = deepest.max(-gap);
+            touching += u32::from(gap <= TOUCH_MM);
             let row = &self.rows[i];
             let lin_gap: f64 = (0..6).map(|k| row[k] * dq[k]).sum::<f64>() - self.rhs[i];
             if lin_gap <= TIGHT_MM {
                 slack = slack.max(gap - lin_gap);
             }
         }
-        (deepest, slack)
+        (deepest, slack, touching)
     }
 
     fn keep_last_safe(&mut self, mut out: FrameOutput, q_h: &Pose, t0: Instant) -> FrameOutput {
