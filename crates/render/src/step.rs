@@ -207,9 +207,9 @@ const MIN_SWEEP_MM: f64 = 0.1;
 /// costs to rebuild, in solving time).
 const REUSE_MAX_PAIRS: usize = 400;
 
-/// A path region reaches this many times the predicted motion ahead (at most `max_margin_mm`),
-/// so that the frames after reuse it.
-const PATH_LOOKAHEAD: f64 = 1.0;
+/// A path region reaches at least this far ahead (mm, largest sphere motion; at most
+/// `max_margin_mm`), so that a slow hand's next frames reuse it.
+const PATH_MIN_MM: f64 = 0.2;
 
 /// How far (mm) the iterates of a path region may stray from the predicted path: twice the
 /// recent prediction error, within these bounds (a tool riding over the bumps of a sphere-tree
@@ -491,8 +491,8 @@ impl GodObject {
         if length.is_nan() || length < MIN_SWEEP_MM {
             return None;
         }
-        // Reach a few frames ahead, so later frames reuse the region.
-        let scale = (cap / length).min(PATH_LOOKAHEAD);
+        // At least PATH_MIN_MM long, so a slow hand's next frames reuse the region.
+        let scale = (PATH_MIN_MM / length).max(1.0).min(cap / length);
         let sweep = Sweep {
             translation: (v * scale).into(),
             rotation: (w * scale).into(),
@@ -770,8 +770,8 @@ impl GodObject {
     }
 
     /// The trust box for a pass that may move any tool sphere by at most `allowed` mm from
-    /// `q_lin`, when reaching `q_h` needs `need_t` mm of translation and `need_r` mm of rotation
-    /// (angle times reach). The budget is shared in proportion to the need (each part keeps at
+    /// `q_lin`, when the motion expected needs `need_t` mm of translation and `need_r` mm of
+    /// rotation (angle times reach). The budget is shared in proportion to the need (each part keeps at
     /// least a fifth, so the constraints can still push the tool out): translation half-width
     /// `a` per axis moves a point by at most `sqrt(3) a`; rotation half-width `b` per coordinate
     /// by at most `sqrt(3) b reach` (rotation vector) or `3 b reach` (Euler increments).
@@ -1060,6 +1060,20 @@ impl GodObject {
                 // A path slab of half-width a keeps every sphere within sqrt(12) a of the path.
                 boxed = trust.then(|| match sweep {
                     Some(_) => Trust::Path(width / 12f64.sqrt()),
+                    None if path_regions => {
+                        // Shared as the predicted motion is (the hand's press into a surface
+                        // is need the tool will not follow), or evenly at rest.
+                        let q_pred = self.predicted_pose(q_h);
+                        let pred_t = (q_pred.translation() - q_lin.translation()).norm();
+                        let pred_r =
+                            rotation_angle(&q_pred.rotation_matrix(), &q_lin.rotation_matrix())
+                                * self.reach;
+                        if pred_t + pred_r > 1e-9 {
+                            self.trust_box(allowed, pred_t, pred_r)
+                        } else {
+                            self.trust_box(allowed, 1.0, 1.0)
+                        }
+                    }
                     None => self.trust_box(allowed, need_t, need_r),
                 });
                 if !self.pairs.is_empty() {
