@@ -328,7 +328,23 @@ pub fn overlap_tree_trees<F: FnMut(&LeafPair)>(
         ws.reserve(tool, o);
     }
     ws.begin(tool, world_from_tool);
-    let m = clean_margin(margin);
+    Ok(descend_all(
+        tool,
+        objects,
+        clean_margin(margin),
+        ws,
+        &mut visit,
+    ))
+}
+
+/// Descends `tool` (posed in `ws`) against every object in turn; the pair count.
+fn descend_all<F: FnMut(&LeafPair)>(
+    tool: &PackedTree,
+    objects: &[PackedTree],
+    m: f64,
+    ws: &mut CollideWorkspace,
+    visit: &mut F,
+) -> usize {
     let mut total = 0;
     for (i, o) in objects.iter().enumerate() {
         total += descend(tool, o, i as u32, m, ws, &mut |p: &LeafPair| {
@@ -336,7 +352,7 @@ pub fn overlap_tree_trees<F: FnMut(&LeafPair)>(
             true
         });
     }
-    Ok(total)
+    total
 }
 
 /// Every leaf pair of `tool` and `objects` that comes within `margin` (mm) of touching at some
@@ -374,14 +390,7 @@ pub fn overlap_swept<F: FnMut(&LeafPair)>(
     ws.begin_swept(tool, world_from_tool, sweep);
     let turn = sweep.angle();
     let m = clean_margin(margin) + 0.5 * tool.reach() * turn * turn;
-    let mut total = 0;
-    for (i, o) in objects.iter().enumerate() {
-        total += descend(tool, o, i as u32, m, ws, &mut |p: &LeafPair| {
-            visit(p);
-            true
-        });
-    }
-    Ok(total)
+    Ok(descend_all(tool, objects, m, ws, &mut visit))
 }
 
 /// True when some leaf pair of `tool` (posed by `world_from_tool`) and `objects` has a gap of

@@ -423,35 +423,15 @@ impl GodObject {
     /// Collects pairs at `q` within `margin` into `self.pairs` (at most `max_pairs`; the rest
     /// are counted in `self.dropped`); returns the smallest gap seen (mm, +inf if none).
     fn detect(&mut self, q: &Pose, margin: f64) -> Result<f64, collide::CollideError> {
-        self.cached = None;
-        self.pairs.clear();
-        self.dropped = 0;
-        let pairs = &mut self.pairs;
-        let dropped = &mut self.dropped;
-        let mut min_gap = f64::INFINITY;
-        overlap_tree_trees(&self.tool, q, &self.objects, margin, &mut self.ws, |p| {
-            min_gap = min_gap.min(p.gap);
-            if pairs.len() < pairs.capacity() {
-                pairs.push(*p);
-            } else {
-                *dropped += 1;
-            }
-        })?;
-        Ok(min_gap)
+        self.detect_along(q, None, margin)
     }
 
-    /// True when some leaf pair is within `margin` (mm) of touching at `q`; stops at the first
-    /// one, so a large margin (a fast hand) stays cheap. Stores no pair.
-    fn any_within(&mut self, q: &Pose, margin: f64) -> Result<bool, collide::CollideError> {
-        collide::any_pair_within(&self.tool, q, &self.objects, margin, &mut self.ws)
-    }
-
-    /// [`GodObject::detect`] for a path region: the pairs that come within `margin` (mm) of
-    /// touching along `sweep` from `q`.
-    fn detect_swept(
+    /// [`GodObject::detect`], or with a sweep for a path region: the pairs that come within
+    /// `margin` (mm) of touching along it from `q`.
+    fn detect_along(
         &mut self,
         q: &Pose,
-        sweep: &Sweep,
+        sweep: Option<&Sweep>,
         margin: f64,
     ) -> Result<f64, collide::CollideError> {
         self.cached = None;
@@ -460,23 +440,33 @@ impl GodObject {
         let pairs = &mut self.pairs;
         let dropped = &mut self.dropped;
         let mut min_gap = f64::INFINITY;
-        overlap_swept(
-            &self.tool,
-            q,
-            sweep,
-            &self.objects,
-            margin,
-            &mut self.ws,
-            |p| {
-                min_gap = min_gap.min(p.gap);
-                if pairs.len() < pairs.capacity() {
-                    pairs.push(*p);
-                } else {
-                    *dropped += 1;
-                }
-            },
-        )?;
+        let collect = |p: &LeafPair| {
+            min_gap = min_gap.min(p.gap);
+            if pairs.len() < pairs.capacity() {
+                pairs.push(*p);
+            } else {
+                *dropped += 1;
+            }
+        };
+        match sweep {
+            None => overlap_tree_trees(&self.tool, q, &self.objects, margin, &mut self.ws, collect),
+            Some(sweep) => overlap_swept(
+                &self.tool,
+                q,
+                sweep,
+                &self.objects,
+                margin,
+                &mut self.ws,
+                collect,
+            ),
+        }?;
         Ok(min_gap)
+    }
+
+    /// True when some leaf pair is within `margin` (mm) of touching at `q`; stops at the first
+    /// one, so a large margin (a fast hand) stays cheap. Stores no pair.
+    fn any_within(&mut self, q: &Pose, margin: f64) -> Result<bool, collide::CollideError> {
+        collide::any_pair_within(&self.tool, q, &self.objects, margin, &mut self.ws)
     }
 
     /// Where this frame's answer is expected, as a motion from `q_lin`: the hand keeps last
@@ -973,7 +963,7 @@ impl GodObject {
                     Ok(f64::INFINITY)
                 } else if let Some((path, _)) = sweep {
                     self.probe.cancel();
-                    self.detect_swept(&q_lin, &path, width + skin)
+                    self.detect_along(&q_lin, Some(&path), width + skin)
                 } else {
                     // A full traversal gives a fresh answer; an unfinished background probe is
                     // dropped.
