@@ -1,5 +1,6 @@
-//! `haptic6d bench [--quick] [--out DIR] [--studies replay,scaling,speed,contact]`: the paper's
-//! experiments, every solver on identical input, plus scaling, hand-speed and contact studies.
+//! `haptic6d bench [--quick] [--out DIR] [--studies replay,scaling,speed,contact,peer]
+//! [--peer]`: the paper's experiments, every solver on identical input, plus scaling,
+//! hand-speed and contact studies, and the comparison with the rapier3d virtual-coupling peer.
 //!
 //! 1. **Replay.** For each scene (`bunny`, `spline`) the scene's device trajectory is recorded
 //!    once and replayed into a fresh god-object per solver (`pqp` as in the paper, the
@@ -14,6 +15,9 @@
 //!    plate and slid at 50–1000 mm/s or turned at 1–10 rad/s ([`crate::bench_speed`]).
 //! 5. **Contact.** Flat on flat and the spline's phases: pairs, times, degraded frames
 //!    ([`crate::bench_contact`]).
+//! 6. **Peer.** haptic6d against virtual coupling on rapier3d on the same device input: frame
+//!    time, mesh-level penetration, tunnelling, drag, jitter, insertion
+//!    ([`crate::bench_peer`]; `--peer` runs it alone).
 //!
 //! Output: a table on stdout, `DIR/bench.json`, `DIR/bench.md`, and the plots
 //! `DIR/bench_pairs_<scene>.png`, `DIR/bench_time_<scene>.png`, `DIR/bench_cost.png`,
@@ -62,13 +66,16 @@ pub struct BenchArgs {
     /// Skip the scaling studies (pairs and depth).
     #[arg(long)]
     pub no_scaling: bool,
-    /// Studies to run (comma-separated): replay, scaling, speed, contact.
+    /// Studies to run (comma-separated): replay, scaling, speed, contact, peer.
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "replay,scaling,speed,contact"
+        default_value = "replay,scaling,speed,contact,peer"
     )]
     pub studies: Vec<String>,
+    /// Only the comparison with the rapier3d virtual-coupling peer (same as `--studies peer`).
+    #[arg(long, conflicts_with = "studies")]
+    pub peer: bool,
     /// Skip the PNG plots.
     #[arg(long)]
     pub no_plots: bool,
@@ -181,13 +188,18 @@ pub struct BenchReport {
     pub speed: Vec<crate::bench_speed::SpeedRow>,
     /// Large and tight contacts: flat on flat, the spline's phases.
     pub contact: Vec<crate::bench_contact::ContactRow>,
+    /// haptic6d against the rapier3d virtual-coupling peer, per case and engine.
+    pub peer: Vec<crate::bench_peer::PeerRow>,
     /// Wall time of the bench, s.
     pub wall_s: f64,
 }
 
 /// Runs `haptic6d bench`.
-pub fn run(args: BenchArgs) -> Result<()> {
+pub fn run(mut args: BenchArgs) -> Result<()> {
     let t0 = Instant::now();
+    if args.peer {
+        args.studies = vec!["peer".into()];
+    }
     for name in &args.scenes {
         if !render::scenes::BUILTIN_NAMES.contains(&name.as_str()) {
             bail!(
@@ -197,8 +209,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
         }
     }
     for study in &args.studies {
-        if !["replay", "scaling", "speed", "contact"].contains(&study.as_str()) {
-            bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact)");
+        if !["replay", "scaling", "speed", "contact", "peer"].contains(&study.as_str()) {
+            bail!(
+                "--studies: no study `{study}` (studies: replay, scaling, speed, contact, peer)"
+            );
         }
     }
     let wants = |name: &str| args.studies.iter().any(|s| s == name);
@@ -305,6 +319,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if wants("contact") {
         eprintln!("bench: contact study (flat on flat, spline phases)");
         report.contact = crate::bench_contact::contact_study(&cache, args.quick)?;
+    }
+    if wants("peer") {
+        eprintln!("bench: peer study (virtual coupling on rapier3d)");
+        report.peer = crate::bench_peer::peer_study(&cache, args.quick)?;
     }
     report.wall_s = t0.elapsed().as_secs_f64();
 
@@ -648,6 +666,13 @@ pub fn markdown(r: &BenchReport) -> String {
     if !r.contact.is_empty() {
         let _ = writeln!(s, "\n## Large and tight contacts (dual)\n");
         s.push_str(&crate::bench_contact::contact_markdown(&r.contact));
+    }
+    if !r.peer.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n## haptic6d against virtual coupling on rapier3d (same device input)\n"
+        );
+        s.push_str(&crate::bench_peer::peer_markdown(&r.peer));
     }
     let _ = writeln!(s, "\nbench wall time: {:.1} s", r.wall_s);
     s

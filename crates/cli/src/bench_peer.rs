@@ -1,0 +1,484 @@
+//! The `peer` study of `haptic6d bench` (`haptic6d bench --peer`): haptic6d side by side with
+//! what users pick instead, 6-DoF virtual coupling on rapier3d ([`peer`]), on the same recorded
+//! device input in the same run.
+//!
+//! Cases (each the device trajectory of a built-in scene or of the plate study):
+//! - **bunny**: the bunny scene's script (slide on the back, the deep base-on-base push);
+//! - **spline**: the splined shaft onto the hub face, turned until the keys align, inserted;
+//! - **plate**: the puck and the ball pressed 1 mm onto the frictionless plate and slid;
+//! - **thin plate**: the ball pushed at a ladder of speeds onto a 1 mm plate, the hand going
+//!   [`THIN_PUSH_MM`] below it (the tunnelling case).
+//!
+//! Per case and engine (haptic6d with the dual solver, the peer with [`PeerParams::tuned`]):
+//! frame time p50 / p99 / max (one thread, frames back to back), the **mesh-level**
+//! penetration ([`peer::MeshPenetration`]: tool and object meshes, the same query for both
+//! engines, so haptic6d's sphere-tree approximation shows too), tunnelling events (thin plate),
+//! drag while sliding (plate), force jitter (p99 of the frame-to-frame |ΔF| in the case's
+//! steady-contact windows) and whether the spline insertion reaches its depth.
+
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use collide::Pose;
+use mesh::TriMesh;
+use peer::{MeshPenetration, ObjectShape, PeerParams, PeerScene, PeerTool, ToolShape};
+use render::cache::TreeCache;
+use render::scene::{Goal, Motion, Scene, SolverKind, TreeParams};
+use render::scenes::plate::{self, PlateTool, SpeedMotion};
+use render::stats::Summary;
+use render::step::{GodObject, StepParams};
+use render::trajectory::{Ease, Script};
+use serde::Serialize;
+
+/// Thickness of the thin plate, mm.
+pub const THIN_PLATE_MM: f64 = 1.0;
+
+/// How far below the thin plate's top face the hand goes, mm (kt × this = the push, N).
+pub const THIN_PUSH_MM: f64 = 10.0;
+
+/// Surface samples per mesh of the penetration measure (beside every vertex).
+const PENETRATION_SAMPLES: usize = 2000;
+
+/// Voxel resolution of the peer's convex decomposition of the tool (parry's default).
+const TOOL_DECOMPOSITION_RESOLUTION: u32 = 64;
+
+/// Frames replayed of the bunny script with `--quick` (approach and the start of the slide).
+const QUICK_BUNNY_FRAMES: usize = 1500;
+
+/// One engine's run of one case.
+#[derive(Serialize, Clone, Debug)]
+pub struct PeerRow {
+    /// The case: scene and motion.
+    pub case: String,
+    /// `haptic6d` or `peer`.
+    pub engine: String,
+    /// Frames replayed.
+    pub frames: usize,
+    /// Frame time, µs (haptic6d: the whole step; peer: the coupling force and one rapier step).
+    pub step_us: Summary,
+    /// Contact rows (haptic6d: leaf pairs of the first pass) or contact points (peer) per frame.
+    pub contacts: Summary,
+    /// Mesh-level penetration per frame, mm.
+    pub penetration_mm: Summary,
+    /// Times the tool went through the thin plate (its centre below the plate's underside).
+    pub tunnelling_events: Option<usize>,
+    /// Mean force opposing the slide at constant speed, N (plate cases).
+    pub drag_n: Option<f64>,
+    /// p99 of |F_k - F_{k-1}| over the steady-contact frames, N.
+    pub jitter_p99_n: Option<f64>,
+    /// Deepest `z` of the tool origin, mm, and whether it reached the insertion target
+    /// (spline).
+    pub insertion: Option<(f64, bool)>,
+}
+
+/// What is measured on a case beside time and penetration.
+#[derive(Clone, Debug, Default)]
+struct Checks {
+    /// Time windows `[t0, t1)` (s) of steady contact, for the jitter.
+    steady: Vec<(f64, f64)>,
+    /// Slide windows (s) and the hand's direction along `x` in each, for the drag.
+    slide: Option<(Vec<(f64, f64)>, Vec<f64>)>,
+    /// Insertion goal.
+    goal: Option<Goal>,
+    /// Thin plate: the tool's centre (tool frame, mm) and the plate's underside `z` (mm).
+    tunnel: Option<([f64; 3], f64)>,
+}
+
+/// A case: a scene with its device motion, how many frames, what to check.
+struct Case {
+    name: String,
+    scene: Scene,
+    frames: usize,
+    checks: Checks,
+}
+
+/// One engine's frames: times (s), tool poses, hand wrenches, frame times, contacts.
+#[derive(Default)]
+struct Track {
+    t: Vec<f64>,
+    q_tool: Vec<[f64; 6]>,
+    wrench: Vec<[f64; 6]>,
+    step_us: Vec<f64>,
+    contacts: Vec<f64>,
+}
+
+fn ours(scene: &Scene, frames: usize) -> Result<Track> {
+    let traj = scene.trajectory();
+    let mut params = StepParams::from_scene(scene);
+    params.solver = SolverKind::Dual;
+    let mut god = GodObject::new(scene, params)?;
+    let first = traj.samples.first().map(|s| Pose::from_array(s.q));
+    god.reset(&first.unwrap_or_default())?;
+    let mut track = Track::default();
+    for s in traj.samples.iter().take(frames) {
+        let out = god.step(&Pose::from_array(s.q));
+        track.t.push(s.t);
+        track.q_tool.push(out.q_g);
+        track.wrench.push(out.wrench);
+        track.step_us.push(out.total_us);
+        track.contacts.push(f64::from(out.pairs));
+    }
+    Ok(track)
+}
+
+/// The scene's meshes as the peer's shapes: the tool decomposed into convex parts, the objects
+/// as fixed triangle meshes.
+fn peer_scene(scene: &Scene) -> Result<PeerScene> {
+    let (tool, objects) = meshes(scene)?;
+    Ok(PeerScene::new(
+        tool,
+        &objects,
+        ToolShape::ConvexDecomposition {
+            resolution: TOOL_DECOMPOSITION_RESOLUTION,
+        },
+        ObjectShape::TriMesh,
+    )?)
+}
+
+fn meshes(scene: &Scene) -> Result<(&TriMesh, Vec<(&TriMesh, Pose)>)> {
+    let tool = scene
+        .tool_mesh
+        .as_ref()
+        .with_context(|| format!("{}: the peer needs the tool mesh", scene.name))?;
+    let objects = scene
+        .object_meshes
+        .iter()
+        .zip(&scene.objects)
+        .map(|(m, (_, pose))| {
+            m.as_ref()
+                .map(|m| (m, *pose))
+                .with_context(|| format!("{}: the peer needs every object mesh", scene.name))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok((tool, objects))
+}
+
+/// The peer's parameters for `scene`: the tuned ones with the scene's coupling and rate.
+pub fn peer_params(scene: &Scene) -> PeerParams {
+    PeerParams {
+        kt_n_per_mm: scene.coupling.kt,
+        kr_nmm_per_rad: scene.coupling.kr,
+        rate_hz: scene.rate_hz,
+        ..PeerParams::tuned()
+    }
+}
+
+fn theirs(scene: &Scene, shapes: &PeerScene, params: PeerParams, frames: usize) -> Result<Track> {
+    let traj = scene.trajectory();
+    let first = traj.samples.first().map(|s| Pose::from_array(s.q));
+    let mut tool = PeerTool::new(shapes, params, &first.unwrap_or_default())?;
+    let mut track = Track::default();
+    for s in traj.samples.iter().take(frames) {
+        let out = tool.step(&Pose::from_array(s.q));
+        track.t.push(s.t);
+        track.q_tool.push(out.q_tool);
+        track.wrench.push(out.wrench);
+        track.step_us.push(out.step_us);
+        track.contacts.push(f64::from(out.contacts));
+    }
+    Ok(track)
+}
+
+fn in_windows(t: f64, windows: &[(f64, f64)]) -> Option<usize> {
+    windows.iter().position(|&(a, b)| t >= a && t < b)
+}
+
+fn force_step(a: &[f64; 6], b: &[f64; 6]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+/// The measures of one engine's track on a case.
+fn measure(
+    case: &str,
+    c: &Checks,
+    engine: &str,
+    track: &Track,
+    depth: &MeshPenetration,
+) -> PeerRow {
+    let penetration = track
+        .q_tool
+        .iter()
+        .map(|q| depth.depth_mm(&Pose::from_array(*q)));
+    let jitter = (!c.steady.is_empty()).then(|| {
+        let steps = (1..track.t.len())
+            .filter(|&k| {
+                in_windows(track.t[k], &c.steady).is_some()
+                    && in_windows(track.t[k - 1], &c.steady).is_some()
+            })
+            .map(|k| force_step(&track.wrench[k], &track.wrench[k - 1]));
+        Summary::of(steps).p99
+    });
+    let drag = c.slide.as_ref().map(|(windows, dirs)| {
+        let along = track
+            .t
+            .iter()
+            .zip(&track.wrench)
+            .filter_map(|(&t, w)| in_windows(t, windows).map(|i| -w[0] * dirs[i]));
+        Summary::of(along).mean
+    });
+    let insertion = c.goal.map(|Goal::InsertZ { target_z_mm, tol_mm }| {
+        let reached = track.q_tool.iter().map(|q| q[2]).fold(f64::INFINITY, f64::min);
+        (reached, reached <= target_z_mm + tol_mm)
+    });
+    let tunnelling = c.tunnel.map(|(centre, underside)| {
+        let mut events = 0;
+        let mut through = false;
+        for q in &track.q_tool {
+            let below = Pose::from_array(*q).transform_point(&centre)[2] < underside;
+            events += usize::from(below && !through);
+            through = below;
+        }
+        events
+    });
+    PeerRow {
+        case: case.into(),
+        engine: engine.into(),
+        frames: track.t.len(),
+        step_us: Summary::of(track.step_us.iter().copied()),
+        contacts: Summary::of(track.contacts.iter().copied()),
+        penetration_mm: Summary::of(penetration),
+        tunnelling_events: tunnelling,
+        drag_n: drag,
+        jitter_p99_n: jitter,
+        insertion,
+    }
+}
+
+/// The thin plate (world frame, top face at `z = 0`), mm.
+fn thin_plate_mesh() -> TriMesh {
+    plate::box_mesh([-40.0, -40.0, -THIN_PLATE_MM], [40.0, 40.0, 0.0])
+}
+
+/// The ball dropped onto the thin plate at `speed` (mm/s): from 10 mm above, down to
+/// [`THIN_PUSH_MM`] below the top face at constant speed, held 0.2 s, back up.
+fn thin_plate_case(cache: &TreeCache, speed: f64) -> Result<Case> {
+    let mut scene = plate::scene(
+        cache,
+        PlateTool::Ball,
+        Script::starting_at([0.0; 6]).hold(0.1),
+    )?;
+    let mesh = thin_plate_mesh();
+    let mut log = Vec::new();
+    let tree = render::scene::tree_for_mesh(
+        &mesh,
+        TreeParams {
+            depth: 4,
+            branching: 8,
+            octree: false,
+        },
+        cache,
+        "thin plate",
+        &mut log,
+    )?;
+    let above = [0.0, 0.0, 10.0, 0.0, 0.0, 0.0];
+    let below = [0.0, 0.0, -THIN_PUSH_MM, 0.0, 0.0, 0.0];
+    let script = Script::starting_at(above)
+        .hold(0.05)
+        .then((10.0 + THIN_PUSH_MM) / speed, below, Ease::Linear)
+        .hold(0.2)
+        .then(0.3, above, Ease::Smooth);
+    scene.name = format!("thin plate (ball, {speed} mm/s)");
+    scene.objects = vec![(tree, Pose::identity())];
+    scene.object_meshes = vec![Some(mesh)];
+    scene.start = Pose::from_array(above);
+    scene.motion = Motion::Script(script);
+    scene.load_log.extend(log);
+    let r = plate::BALL_RADIUS_MM;
+    Ok(Case {
+        name: format!("thin plate, ball pushed at {speed} mm/s"),
+        scene,
+        frames: usize::MAX,
+        checks: Checks {
+            tunnel: Some(([0.0, 0.0, r], -THIN_PLATE_MM)),
+            ..Checks::default()
+        },
+    })
+}
+
+fn plate_case(cache: &TreeCache, tool: PlateTool, speed: f64, quick: bool) -> Result<Case> {
+    let run = plate::speed_script(
+        tool,
+        SpeedMotion::Slide(speed),
+        1000.0,
+        if quick { 0.15 } else { 0.5 },
+    );
+    let scene = plate::scene(cache, tool, run.script.clone())?;
+    Ok(Case {
+        name: format!("plate, {} slid at {speed} mm/s", tool.name()),
+        scene,
+        frames: usize::MAX,
+        checks: Checks {
+            steady: run.steady.clone(),
+            slide: Some((run.steady, run.direction)),
+            ..Checks::default()
+        },
+    })
+}
+
+fn cases(cache: &TreeCache, quick: bool) -> Result<Vec<Case>> {
+    let mut out = Vec::new();
+    let bunny = render::scenes::builtin("bunny", cache)?;
+    let (slide, push) = (
+        render::scenes::bunny::SLIDE_PHASE_S,
+        render::scenes::bunny::PUSH_PHASE_S,
+    );
+    out.push(Case {
+        name: "bunny".into(),
+        scene: bunny,
+        frames: if quick { QUICK_BUNNY_FRAMES } else { usize::MAX },
+        checks: Checks {
+            steady: vec![slide, push],
+            ..Checks::default()
+        },
+    });
+    let spline = render::scenes::builtin("spline", cache)?;
+    let goal = spline.goal;
+    // The script's phases (render::scenes::spline_scene): on the face 0.5-0.7 s, turning
+    // 0.7-1.9 s, resting 1.9-2.1 s.
+    out.push(Case {
+        name: "spline".into(),
+        scene: spline,
+        frames: usize::MAX,
+        checks: Checks {
+            steady: vec![(0.55, 2.1)],
+            goal,
+            ..Checks::default()
+        },
+    });
+    let slides: &[(PlateTool, f64)] = if quick {
+        &[(PlateTool::Puck, 200.0), (PlateTool::Ball, 1000.0)]
+    } else {
+        &[
+            (PlateTool::Puck, 200.0),
+            (PlateTool::Puck, 1000.0),
+            (PlateTool::Ball, 200.0),
+            (PlateTool::Ball, 1000.0),
+        ]
+    };
+    for &(tool, speed) in slides {
+        out.push(plate_case(cache, tool, speed, quick)?);
+    }
+    let speeds: &[f64] = if quick {
+        &[100.0, 2000.0]
+    } else {
+        &[100.0, 500.0, 2000.0]
+    };
+    for &v in speeds {
+        out.push(thin_plate_case(cache, v)?);
+    }
+    Ok(out)
+}
+
+/// Runs the study: every case with haptic6d (dual) and the peer (shorter runs with `quick`).
+pub fn peer_study(cache: &TreeCache, quick: bool) -> Result<Vec<PeerRow>> {
+    let mut rows = Vec::new();
+    for case in cases(cache, quick)? {
+        let t0 = Instant::now();
+        let (tool, objects) = meshes(&case.scene)?;
+        let depth = MeshPenetration::new(tool, &objects, PENETRATION_SAMPLES);
+        let shapes = peer_scene(&case.scene)?;
+        let setup = t0.elapsed().as_secs_f64();
+        let a = ours(&case.scene, case.frames)?;
+        let b = theirs(&case.scene, &shapes, peer_params(&case.scene), case.frames)?;
+        if a.t.len() != b.t.len() {
+            bail!("{}: the two replays differ in length", case.name);
+        }
+        rows.push(measure(&case.name, &case.checks, "haptic6d", &a, &depth));
+        rows.push(measure(&case.name, &case.checks, "peer", &b, &depth));
+        eprintln!(
+            "bench: peer: {}: {} frames, {} convex parts, {:.1} s (setup {setup:.1} s)",
+            case.name,
+            a.t.len(),
+            shapes.tool_parts,
+            t0.elapsed().as_secs_f64()
+        );
+    }
+    Ok(rows)
+}
+
+fn opt(v: Option<f64>, digits: usize) -> String {
+    v.map_or_else(|| "–".into(), |x| format!("{x:.digits$}"))
+}
+
+/// The study as a markdown table.
+pub fn peer_markdown(rows: &[PeerRow]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| case | engine | frames | step µs p50 / p99 / max | contacts p50 / max | mesh pen. mm p99 / max | tunnelling | drag N | jitter p99 N | insertion (deepest z mm) |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
+    for r in rows {
+        let insertion = r.insertion.map_or_else(
+            || "–".into(),
+            |(z, ok)| format!("{} ({z:.2})", if ok { "yes" } else { "no" }),
+        );
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.1} / {:.1} / {:.1} | {:.0} / {:.0} | {:.4} / {:.4} | {} | {} | {} | {} |",
+            r.case,
+            r.engine,
+            r.frames,
+            r.step_us.p50,
+            r.step_us.p99,
+            r.step_us.max,
+            r.contacts.p50,
+            r.contacts.max,
+            r.penetration_mm.p99,
+            r.penetration_mm.max,
+            r.tunnelling_events.map_or_else(|| "–".into(), |n| n.to_string()),
+            opt(r.drag_n, 4),
+            opt(r.jitter_p99_n, 4),
+            insertion,
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thin_plate_is_thin_and_its_script_goes_through_it() {
+        let m = thin_plate_mesh();
+        let (lo, hi) = m.aabb().unwrap();
+        assert!((hi[2] - lo[2] - THIN_PLATE_MM).abs() < 1e-12);
+        let script = Script::starting_at([0.0, 0.0, 10.0, 0.0, 0.0, 0.0])
+            .then(0.01, [0.0, 0.0, -THIN_PUSH_MM, 0.0, 0.0, 0.0], Ease::Linear);
+        assert!(script.sample(0.01)[2] < lo[2]);
+    }
+
+    #[test]
+    fn measures_count_tunnelling_insertion_drag_and_jitter_from_the_track() {
+        let checks = Checks {
+                steady: vec![(0.0, 1.0)],
+                slide: Some((vec![(0.0, 1.0)], vec![1.0])),
+                goal: Some(Goal::InsertZ {
+                    target_z_mm: -5.0,
+                    tol_mm: 0.5,
+                }),
+            tunnel: Some(([0.0, 0.0, 1.0], -2.0)),
+        };
+        // z goes 0, -4, 0, -4.6: the centre (1 mm above the origin) dips below -2 twice.
+        let zs = [0.0, -4.0, 0.0, -4.6];
+        let track = Track {
+            t: vec![0.0, 0.001, 0.002, 0.003],
+            q_tool: zs.iter().map(|&z| [0.0, 0.0, z, 0.0, 0.0, 0.0]).collect(),
+            wrench: [-1.0, -1.5, -1.0, -1.0]
+                .iter()
+                .map(|&fx| [fx, 0.0, 0.0, 0.0, 0.0, 0.0])
+                .collect(),
+            step_us: vec![1.0; 4],
+            contacts: vec![0.0; 4],
+        };
+        let block = plate::box_mesh([-1.0, -1.0, -10.0], [1.0, 1.0, -9.0]);
+        let depth = MeshPenetration::new(&block, &[(&block, Pose::identity())], 0);
+        let row = measure("synthetic", &checks, "test", &track, &depth);
+        assert_eq!(row.tunnelling_events, Some(2));
+        assert_eq!(row.insertion, Some((-4.6, true)));
+        assert!((row.drag_n.unwrap() - 1.125).abs() < 1e-12);
+        assert!((row.jitter_p99_n.unwrap() - 0.5).abs() < 1e-12);
+    }
+}
