@@ -76,6 +76,10 @@ pub struct BenchArgs {
     /// Only the comparison with the rapier3d virtual-coupling peer (same as `--studies peer`).
     #[arg(long, conflicts_with = "studies")]
     pub peer: bool,
+    /// The peer's tuning search instead of the studies: writes peer_tune.md and
+    /// peer_tune.json (minutes).
+    #[arg(long, conflicts_with_all = ["studies", "peer"])]
+    pub peer_tune: bool,
     /// Skip the PNG plots.
     #[arg(long)]
     pub no_plots: bool,
@@ -219,6 +223,15 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     let scenes: &[String] = if wants("replay") { &args.scenes } else { &[] };
     prepare_out_dir(&args.out)?;
     let cache = TreeCache::from_env();
+    if args.peer_tune {
+        let rows = crate::bench_peer::peer_tune(&cache)?;
+        let md = crate::bench_peer::tune_markdown(&rows);
+        render::io::write_atomic(&args.out.join("peer_tune.md"), md.as_bytes())?;
+        let json = serde_json::to_string_pretty(&rows)?;
+        render::io::write_atomic(&args.out.join("peer_tune.json"), json.as_bytes())?;
+        print!("{md}");
+        return Ok(());
+    }
     // Quick mode keeps the device's real speed (every frame) and shortens the run instead:
     // striding frames would make the hand ten times faster and change what is measured.
     let window = if args.quick { QUICK_FRAMES } else { usize::MAX };

@@ -131,7 +131,9 @@ fn peer_scene(scene: &Scene) -> Result<PeerScene> {
         ToolShape::ConvexDecomposition {
             resolution: TOOL_DECOMPOSITION_RESOLUTION,
         },
-        ObjectShape::TriMesh,
+        ObjectShape::TriMesh {
+            fix_internal_edges: true,
+        },
     )?)
 }
 
@@ -394,6 +396,241 @@ pub fn peer_study(cache: &TreeCache, quick: bool) -> Result<Vec<PeerRow>> {
         );
     }
     Ok(rows)
+}
+
+/// One point of the peer's tuning search: its parameters and its rows on the tuning cases.
+#[derive(Serialize, Clone, Debug)]
+pub struct TuneRow {
+    /// 1: the grid over mass, contact frequency and length unit; 2: damping, iterations and
+    /// CCD around the best of stage 1.
+    pub stage: u32,
+    /// Tool mass, kg.
+    pub mass_kg: f64,
+    /// Coupling damping ratio.
+    pub damping_ratio: f64,
+    /// Rapier's length unit (m).
+    pub length_unit: f64,
+    /// Rapier's contact natural frequency, Hz.
+    pub contact_hz: f64,
+    /// Rapier's solver iterations.
+    pub solver_iterations: usize,
+    /// CCD on the tool body.
+    pub ccd: bool,
+    /// The peer's rows on the tuning cases.
+    pub rows: Vec<PeerRow>,
+}
+
+impl TuneRow {
+    /// Deepest mesh penetration over the cases, mm.
+    pub fn worst_penetration_mm(&self) -> f64 {
+        self.rows
+            .iter()
+            .map(|r| r.penetration_mm.max)
+            .fold(0.0, f64::max)
+    }
+
+    /// Largest force jitter over the cases, N (infinite when a run blew up).
+    pub fn worst_jitter_n(&self) -> f64 {
+        self.rows
+            .iter()
+            .filter_map(|r| r.jitter_p99_n)
+            .map(|j| if j.is_finite() { j } else { f64::INFINITY })
+            .fold(0.0, f64::max)
+    }
+
+    /// Whether the spline insertion succeeded.
+    pub fn inserted(&self) -> bool {
+        self.rows
+            .iter()
+            .any(|r| r.insertion.is_some_and(|(_, ok)| ok))
+    }
+
+    /// Tunnelling events over the cases.
+    pub fn tunnels(&self) -> usize {
+        self.rows.iter().filter_map(|r| r.tunnelling_events).sum()
+    }
+
+    /// The order of preference: a stable run (jitter below [`TUNE_JITTER_LIMIT_N`]) first,
+    /// then the spline inserted, then fewer tunnels, then the shallower worst penetration.
+    fn rank(&self) -> (bool, bool, usize, f64) {
+        (
+            self.worst_jitter_n() > TUNE_JITTER_LIMIT_N,
+            !self.inserted(),
+            self.tunnels(),
+            self.worst_penetration_mm(),
+        )
+    }
+}
+
+/// A tuning point whose force jitter (p99 of |ΔF| per frame in steady contact) exceeds this on
+/// some case is unstable for a user's hand, N (haptic6d's own is below 0.6 N on every case).
+pub const TUNE_JITTER_LIMIT_N: f64 = 1.0;
+
+/// The tuning search of the peer (`haptic6d bench --peer-tune`): the peer alone on the bunny
+/// (first 1500 frames), the spline, the ball slid at 1000 mm/s and the thin plate at
+/// 2000 mm/s; stage 1 is a grid over mass × contact frequency × length unit (damping ratio 1,
+/// 4 iterations), stage 2 varies damping, iterations and CCD around stage 1's best.
+pub fn peer_tune(cache: &TreeCache) -> Result<Vec<TuneRow>> {
+    let spline = render::scenes::builtin("spline", cache)?;
+    let goal = spline.goal;
+    let bunny = render::scenes::builtin("bunny", cache)?;
+    let cases = vec![
+        Case {
+            name: "bunny".into(),
+            scene: bunny,
+            frames: QUICK_BUNNY_FRAMES,
+            checks: Checks {
+                steady: vec![render::scenes::bunny::SLIDE_PHASE_S],
+                ..Checks::default()
+            },
+        },
+        Case {
+            name: "spline".into(),
+            scene: spline,
+            frames: usize::MAX,
+            checks: Checks {
+                steady: vec![(0.55, 2.1)],
+                goal,
+                ..Checks::default()
+            },
+        },
+        plate_case(cache, PlateTool::Ball, 1000.0, true)?,
+        thin_plate_case(cache, 2000.0)?,
+    ];
+    let mut prepared = Vec::new();
+    for case in &cases {
+        let (tool, objects) = meshes(&case.scene)?;
+        let depth = MeshPenetration::new(tool, &objects, PENETRATION_SAMPLES);
+        prepared.push((peer_scene(&case.scene)?, depth));
+    }
+    let run = |stage: u32, p: PeerParams| -> Result<TuneRow> {
+        let t0 = Instant::now();
+        let mut rows = Vec::new();
+        for (case, (shapes, depth)) in cases.iter().zip(&prepared) {
+            let params = PeerParams {
+                kt_n_per_mm: case.scene.coupling.kt,
+                kr_nmm_per_rad: case.scene.coupling.kr,
+                rate_hz: case.scene.rate_hz,
+                ..p
+            };
+            let track = theirs(&case.scene, shapes, params, case.frames)?;
+            rows.push(measure(&case.name, &case.checks, "peer", &track, depth));
+        }
+        let row = TuneRow {
+            stage,
+            mass_kg: p.mass_kg,
+            damping_ratio: p.damping_ratio,
+            length_unit: p.length_unit,
+            contact_hz: p.contact_natural_frequency_hz,
+            solver_iterations: p.solver_iterations,
+            ccd: p.ccd,
+            rows,
+        };
+        eprintln!(
+            "bench: peer tune: mass {} kg, zeta {}, length unit {}, contact {} Hz, {} iterations, ccd {}: worst pen. {:.3} mm, jitter {:.3} N, inserted {}, tunnels {} ({:.1} s)",
+            p.mass_kg,
+            p.damping_ratio,
+            p.length_unit,
+            p.contact_natural_frequency_hz,
+            p.solver_iterations,
+            p.ccd,
+            row.worst_penetration_mm(),
+            row.worst_jitter_n(),
+            row.inserted(),
+            row.tunnels(),
+            t0.elapsed().as_secs_f64()
+        );
+        Ok(row)
+    };
+    let mut out = Vec::new();
+    let base = PeerParams {
+        damping_ratio: 1.0,
+        solver_iterations: 4,
+        ccd: false,
+        ..PeerParams::tuned()
+    };
+    for mass_kg in [0.01, 0.05, 0.2] {
+        for contact_natural_frequency_hz in [30.0, 100.0, 300.0] {
+            for length_unit in [1.0, 0.1, 0.01] {
+                out.push(run(
+                    1,
+                    PeerParams {
+                        mass_kg,
+                        contact_natural_frequency_hz,
+                        length_unit,
+                        ..base
+                    },
+                )?);
+            }
+        }
+    }
+    let best = out
+        .iter()
+        .min_by(|a, b| a.rank().partial_cmp(&b.rank()).unwrap_or(std::cmp::Ordering::Equal))
+        .map(|r| PeerParams {
+            mass_kg: r.mass_kg,
+            contact_natural_frequency_hz: r.contact_hz,
+            length_unit: r.length_unit,
+            ..base
+        })
+        .unwrap_or(base);
+    for damping_ratio in [0.3, 0.5, 2.0] {
+        out.push(run(2, PeerParams { damping_ratio, ..best })?);
+    }
+    for solver_iterations in [8, 16] {
+        out.push(run(
+            2,
+            PeerParams {
+                solver_iterations,
+                ..best
+            },
+        )?);
+    }
+    out.push(run(2, PeerParams { ccd: true, ..best })?);
+    Ok(out)
+}
+
+/// The tuning search as a markdown table, best first.
+pub fn tune_markdown(rows: &[TuneRow]) -> String {
+    use std::fmt::Write as _;
+    let mut sorted: Vec<&TuneRow> = rows.iter().collect();
+    sorted.sort_by(|a, b| a.rank().partial_cmp(&b.rank()).unwrap_or(std::cmp::Ordering::Equal));
+    let mut s = String::new();
+    let cases: Vec<&str> = rows
+        .first()
+        .map(|r| r.rows.iter().map(|c| c.case.as_str()).collect())
+        .unwrap_or_default();
+    let _ = write!(
+        s,
+        "| stage | mass kg | ζ | length unit | contact Hz | iterations | CCD | worst pen. mm | worst jitter N | spline inserted | tunnels |"
+    );
+    for c in &cases {
+        let _ = write!(s, " {c}: pen. mm / step µs p50 |");
+    }
+    let _ = writeln!(s);
+    let _ = writeln!(s, "|{}", "---|".repeat(11 + cases.len()));
+    for r in sorted {
+        let _ = write!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {} | {:.3} | {:.3} | {} | {} |",
+            r.stage,
+            r.mass_kg,
+            r.damping_ratio,
+            r.length_unit,
+            r.contact_hz,
+            r.solver_iterations,
+            if r.ccd { "on" } else { "off" },
+            r.worst_penetration_mm(),
+            r.worst_jitter_n(),
+            if r.inserted() { "yes" } else { "no" },
+            r.tunnels(),
+        );
+        for c in &r.rows {
+            let _ = write!(s, " {:.3} / {:.0} |", c.penetration_mm.max, c.step_us.p50);
+        }
+        let _ = writeln!(s);
+    }
+    s
 }
 
 fn opt(v: Option<f64>, digits: usize) -> String {

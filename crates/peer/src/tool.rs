@@ -59,9 +59,12 @@ pub enum ToolShape {
 /// How an object mesh becomes a fixed rapier collider.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ObjectShape {
-    /// The triangle mesh with internal edges fixed (no bumps when sliding over triangle
-    /// edges); a trimesh has no inside, so a tool pulled through its surface stays through.
-    TriMesh,
+    /// The triangle mesh; a trimesh has no inside, so a tool pulled through its surface stays
+    /// through.
+    TriMesh {
+        /// parry's `FIX_INTERNAL_EDGES` (no bumps when sliding over triangle edges).
+        fix_internal_edges: bool,
+    },
     /// VHACD convex decomposition at this voxel resolution.
     ConvexDecomposition {
         /// Voxels along the longest side.
@@ -224,12 +227,13 @@ fn decomposition(mesh: &TriMesh, resolution: u32) -> SharedShape {
     SharedShape::convex_decomposition_with_params(&points_si(mesh), &mesh.triangles, &params)
 }
 
-fn trimesh(mesh: &TriMesh) -> SharedShape {
-    SharedShape::trimesh_with_flags(
-        points_si(mesh),
-        mesh.triangles.clone(),
-        TriMeshFlags::FIX_INTERNAL_EDGES,
-    )
+fn trimesh(mesh: &TriMesh, fix_internal_edges: bool) -> SharedShape {
+    let flags = if fix_internal_edges {
+        TriMeshFlags::FIX_INTERNAL_EDGES
+    } else {
+        TriMeshFlags::empty()
+    };
+    SharedShape::trimesh_with_flags(points_si(mesh), mesh.triangles.clone(), flags)
 }
 
 /// A pose (mm, rad) as an SI isometry.
@@ -269,13 +273,13 @@ impl PeerScene {
                     .ok_or_else(|| PeerError::DegenerateHull { what: "tool".into() })?,
                 1,
             ),
-            ToolShape::TriMesh => (trimesh(tool), tool.triangles.len()),
+            ToolShape::TriMesh => (trimesh(tool, true), tool.triangles.len()),
         };
         let mut shapes = Vec::with_capacity(objects.len());
         for (i, (mesh, pose)) in objects.iter().enumerate() {
             check_mesh(mesh, &format!("object {i}"))?;
             let shape = match object_shape {
-                ObjectShape::TriMesh => trimesh(mesh),
+                ObjectShape::TriMesh { fix_internal_edges } => trimesh(mesh, fix_internal_edges),
                 ObjectShape::ConvexDecomposition { resolution } => decomposition(mesh, resolution),
             };
             shapes.push((shape, iso_si(pose)));
@@ -506,7 +510,9 @@ pub(crate) mod tests {
             &puck,
             &[(&plate, Pose::identity())],
             ToolShape::ConvexHull,
-            ObjectShape::TriMesh,
+            ObjectShape::TriMesh {
+                fix_internal_edges: true,
+            },
         )
         .unwrap();
         let start = Pose::from_array([0.0, 0.0, 30.0, 0.0, 0.0, 0.0]);
@@ -534,7 +540,9 @@ pub(crate) mod tests {
             &puck,
             &[(&plate, Pose::identity())],
             ToolShape::ConvexHull,
-            ObjectShape::TriMesh,
+            ObjectShape::TriMesh {
+                fix_internal_edges: true,
+            },
         )
         .unwrap();
         let start = Pose::from_array([0.0, 0.0, 2.0, 0.0, 0.0, 0.0]);
@@ -558,7 +566,9 @@ pub(crate) mod tests {
             &puck,
             &[(&plate, Pose::identity())],
             ToolShape::ConvexHull,
-            ObjectShape::TriMesh,
+            ObjectShape::TriMesh {
+                fix_internal_edges: true,
+            },
         )
         .unwrap();
         let bad = PeerParams {
@@ -570,7 +580,9 @@ pub(crate) mod tests {
             &TriMesh::default(),
             &[],
             ToolShape::ConvexHull,
-            ObjectShape::TriMesh
+            ObjectShape::TriMesh {
+                fix_internal_edges: true
+            }
         )
         .is_err());
     }
