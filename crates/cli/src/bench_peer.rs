@@ -6,8 +6,8 @@
 //! - **bunny**: the bunny scene's script (slide on the back, the deep base-on-base push);
 //! - **spline**: the splined shaft onto the hub face, turned until the keys align, inserted;
 //! - **plate**: the puck and the ball pressed 1 mm onto the frictionless plate and slid;
-//! - **thin plate**: the ball pushed at a ladder of speeds onto a 1 mm plate, the hand going
-//!   [`THIN_PUSH_MM`] below it (the tunnelling case).
+//! - **thin plate**: the ball pushed at 100 and 2000 mm/s onto a 1 mm plate, the hand going
+//!   10 or 40 mm below it ([`THIN_PUSH_MM`]; the tunnelling case).
 //!
 //! Per case and engine (haptic6d with the dual solver, the peer with [`PeerParams::tuned`]):
 //! frame time p50 / p99 / max (one thread, frames back to back), the **mesh-level**
@@ -33,8 +33,9 @@ use serde::Serialize;
 /// Thickness of the thin plate, mm.
 pub const THIN_PLATE_MM: f64 = 1.0;
 
-/// How far below the thin plate's top face the hand goes, mm (kt × this = the push, N).
-pub const THIN_PUSH_MM: f64 = 10.0;
+/// How far below the thin plate's top face the hand goes, mm (kt × this = the push, N): a
+/// firm push, and a hand pressed through the wall as when a device saturates.
+pub const THIN_PUSH_MM: [f64; 2] = [10.0, 40.0];
 
 /// Surface samples per mesh of the penetration measure (beside every vertex).
 const PENETRATION_SAMPLES: usize = 2000;
@@ -121,14 +122,15 @@ fn ours(scene: &Scene, frames: usize) -> Result<Track> {
     Ok(track)
 }
 
-/// The scene's meshes as the peer's shapes: the tool decomposed into convex parts, the objects
-/// as fixed triangle meshes.
+/// The scene's meshes as the peer's shapes: the tool as its convex hull when it is convex
+/// (puck, ball) or decomposed into convex parts (bunny, spline shaft), the objects as fixed
+/// triangle meshes with fixed internal edges.
 fn peer_scene(scene: &Scene) -> Result<PeerScene> {
     let (tool, objects) = meshes(scene)?;
     Ok(PeerScene::new(
         tool,
         &objects,
-        ToolShape::ConvexDecomposition {
+        ToolShape::HullIfConvex {
             resolution: TOOL_DECOMPOSITION_RESOLUTION,
         },
         ObjectShape::TriMesh {
@@ -251,9 +253,9 @@ fn thin_plate_mesh() -> TriMesh {
     plate::box_mesh([-40.0, -40.0, -THIN_PLATE_MM], [40.0, 40.0, 0.0])
 }
 
-/// The ball dropped onto the thin plate at `speed` (mm/s): from 10 mm above, down to
-/// [`THIN_PUSH_MM`] below the top face at constant speed, held 0.2 s, back up.
-fn thin_plate_case(cache: &TreeCache, speed: f64) -> Result<Case> {
+/// The ball pushed onto the thin plate at `speed` (mm/s): from 10 mm above, down to `push` mm
+/// below the top face at constant speed, held 0.2 s, back up.
+fn thin_plate_case(cache: &TreeCache, speed: f64, push: f64) -> Result<Case> {
     let mut scene = plate::scene(
         cache,
         PlateTool::Ball,
@@ -273,13 +275,13 @@ fn thin_plate_case(cache: &TreeCache, speed: f64) -> Result<Case> {
         &mut log,
     )?;
     let above = [0.0, 0.0, 10.0, 0.0, 0.0, 0.0];
-    let below = [0.0, 0.0, -THIN_PUSH_MM, 0.0, 0.0, 0.0];
+    let below = [0.0, 0.0, -push, 0.0, 0.0, 0.0];
     let script = Script::starting_at(above)
         .hold(0.05)
-        .then((10.0 + THIN_PUSH_MM) / speed, below, Ease::Linear)
+        .then((10.0 + push) / speed, below, Ease::Linear)
         .hold(0.2)
         .then(0.3, above, Ease::Smooth);
-    scene.name = format!("thin plate (ball, {speed} mm/s)");
+    scene.name = format!("thin plate (ball, {speed} mm/s, {push} mm)");
     scene.objects = vec![(tree, Pose::identity())];
     scene.object_meshes = vec![Some(mesh)];
     scene.start = Pose::from_array(above);
@@ -287,7 +289,7 @@ fn thin_plate_case(cache: &TreeCache, speed: f64) -> Result<Case> {
     scene.load_log.extend(log);
     let r = plate::BALL_RADIUS_MM;
     Ok(Case {
-        name: format!("thin plate, ball pushed at {speed} mm/s"),
+        name: format!("thin plate, ball at {speed} mm/s, hand {push} mm below"),
         scene,
         frames: usize::MAX,
         checks: Checks {
@@ -360,13 +362,19 @@ fn cases(cache: &TreeCache, quick: bool) -> Result<Vec<Case>> {
     for &(tool, speed) in slides {
         out.push(plate_case(cache, tool, speed, quick)?);
     }
-    let speeds: &[f64] = if quick {
-        &[100.0, 2000.0]
+    let [firm, through] = THIN_PUSH_MM;
+    let pushes: &[(f64, f64)] = if quick {
+        &[(2000.0, firm), (100.0, through)]
     } else {
-        &[100.0, 500.0, 2000.0]
+        &[
+            (100.0, firm),
+            (2000.0, firm),
+            (100.0, through),
+            (2000.0, through),
+        ]
     };
-    for &v in speeds {
-        out.push(thin_plate_case(cache, v)?);
+    for &(speed, push) in pushes {
+        out.push(thin_plate_case(cache, speed, push)?);
     }
     Ok(out)
 }
@@ -467,8 +475,8 @@ impl TuneRow {
 pub const TUNE_JITTER_LIMIT_N: f64 = 1.0;
 
 /// The tuning search of the peer (`haptic6d bench --peer-tune`): the peer alone on the bunny
-/// (first 1500 frames), the spline, the ball slid at 1000 mm/s and the thin plate at
-/// 2000 mm/s; stage 1 is a grid over mass × contact frequency × length unit (damping ratio 1,
+/// (first 1500 frames), the spline, the ball slid at 1000 mm/s and the thin plate (2000 mm/s
+/// to 10 mm below, 100 mm/s to 40 mm below); stage 1 is a grid over mass × contact frequency × length unit (damping ratio 1,
 /// 4 iterations), stage 2 varies damping, iterations and CCD around stage 1's best.
 pub fn peer_tune(cache: &TreeCache) -> Result<Vec<TuneRow>> {
     let spline = render::scenes::builtin("spline", cache)?;
@@ -495,7 +503,8 @@ pub fn peer_tune(cache: &TreeCache) -> Result<Vec<TuneRow>> {
             },
         },
         plate_case(cache, PlateTool::Ball, 1000.0, true)?,
-        thin_plate_case(cache, 2000.0)?,
+        thin_plate_case(cache, 2000.0, THIN_PUSH_MM[0])?,
+        thin_plate_case(cache, 100.0, THIN_PUSH_MM[1])?,
     ];
     let mut prepared = Vec::new();
     for case in &cases {
@@ -683,7 +692,7 @@ mod tests {
         let (lo, hi) = m.aabb().unwrap();
         assert!((hi[2] - lo[2] - THIN_PLATE_MM).abs() < 1e-12);
         let script = Script::starting_at([0.0, 0.0, 10.0, 0.0, 0.0, 0.0])
-            .then(0.01, [0.0, 0.0, -THIN_PUSH_MM, 0.0, 0.0, 0.0], Ease::Linear);
+            .then(0.01, [0.0, 0.0, -THIN_PUSH_MM[0], 0.0, 0.0, 0.0], Ease::Linear);
         assert!(script.sample(0.01)[2] < lo[2]);
     }
 

@@ -51,6 +51,13 @@ pub enum ToolShape {
     },
     /// One convex hull of the whole mesh (exact for convex tools: the puck, the ball).
     ConvexHull,
+    /// The convex hull when the mesh is convex (its hull holds no more than 0.1 % more volume),
+    /// else the convex decomposition at this resolution: what a careful user picks per tool
+    /// (VHACD splits even a ball into parts that leave dents in its surface).
+    HullIfConvex {
+        /// Voxels along the longest side of the decomposition.
+        resolution: u32,
+    },
     /// The triangle mesh itself (trimesh against trimesh: thousands of contact points at
     /// contact onset, steps of 100+ ms on the bunny).
     TriMesh,
@@ -236,6 +243,22 @@ fn trimesh(mesh: &TriMesh, fix_internal_edges: bool) -> SharedShape {
     SharedShape::trimesh_with_flags(points_si(mesh), mesh.triangles.clone(), flags)
 }
 
+/// Volume enclosed by a closed, outward-oriented mesh, m³ (the divergence theorem over its
+/// triangles).
+fn enclosed_volume_m3(mesh: &TriMesh) -> f64 {
+    let p = points_si(mesh);
+    let sixfold: f64 = mesh
+        .triangles
+        .iter()
+        .filter(|t| t.iter().all(|&k| (k as usize) < p.len()))
+        .map(|t| {
+            let [a, b, c] = t.map(|k| p[k as usize].coords);
+            a.dot(&b.cross(&c))
+        })
+        .sum();
+    sixfold / 6.0
+}
+
 /// A pose (mm, rad) as an SI isometry.
 fn iso_si(q: &Pose) -> Isometry3<f64> {
     let mut iso = q.to_isometry();
@@ -273,6 +296,19 @@ impl PeerScene {
                     .ok_or_else(|| PeerError::DegenerateHull { what: "tool".into() })?,
                 1,
             ),
+            ToolShape::HullIfConvex { resolution } => {
+                let hull = SharedShape::convex_hull(&points_si(tool));
+                let hull_volume = hull
+                    .as_ref()
+                    .map_or(f64::INFINITY, |h| h.mass_properties(1.0).mass());
+                if hull_volume <= enclosed_volume_m3(tool) * 1.001 {
+                    (hull.ok_or_else(|| PeerError::DegenerateHull { what: "tool".into() })?, 1)
+                } else {
+                    let shape = decomposition(tool, resolution);
+                    let parts = shape.as_compound().map_or(1, |c| c.shapes().len());
+                    (shape, parts)
+                }
+            }
             ToolShape::TriMesh => (trimesh(tool, true), tool.triangles.len()),
         };
         let mut shapes = Vec::with_capacity(objects.len());
@@ -557,6 +593,26 @@ pub(crate) mod tests {
         assert!(last.q_tool[2] < 0.01 && last.q_tool[2] > -0.2, "{:?}", last.q_tool);
         assert!((last.wrench[2] - 1.0).abs() < 0.2, "{:?}", last.wrench);
         assert!(last.contacts > 0);
+    }
+
+    #[test]
+    fn a_convex_tool_gets_its_hull_and_a_concave_one_its_parts() {
+        let (plate, puck) = plate_and_puck();
+        let shape = ToolShape::HullIfConvex { resolution: 32 };
+        let objects = [(&plate, Pose::identity())];
+        let fix = ObjectShape::TriMesh {
+            fix_internal_edges: true,
+        };
+        assert_eq!(PeerScene::new(&puck, &objects, shape, fix).unwrap().tool_parts, 1);
+        // An L of two boxes (one closed mesh): concave, so decomposed.
+        let mut ell = box_mesh([0.0, 0.0, 0.0], [30.0, 10.0, 10.0]);
+        let upright = box_mesh([0.0, 10.0, 0.0], [10.0, 30.0, 10.0]);
+        let base = ell.vertices.len() as u32;
+        ell.vertices.extend(upright.vertices);
+        ell.triangles
+            .extend(upright.triangles.iter().map(|t| t.map(|k| k + base)));
+        assert!((enclosed_volume_m3(&ell) - 5e-6).abs() < 1e-12);
+        assert!(PeerScene::new(&ell, &objects, shape, fix).unwrap().tool_parts > 1);
     }
 
     #[test]
