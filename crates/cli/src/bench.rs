@@ -21,7 +21,8 @@
 //!
 //! Output: a table on stdout, `DIR/bench.json`, `DIR/bench.md`, and the plots
 //! `DIR/bench_pairs_<scene>.png`, `DIR/bench_time_<scene>.png`, `DIR/bench_cost.png`,
-//! `DIR/bench_scaling_pairs.png`, `DIR/bench_scaling_depth.png`, `DIR/bench_speed_drag.png`.
+//! `DIR/bench_scaling_pairs.png`, `DIR/bench_scaling_depth.png`, `DIR/bench_speed_drag.png`,
+//! `DIR/bench_peer_<case>.png`.
 //!
 //! Timings are the engine's own per-stage counters (`FrameOutput`), one thread, frames computed
 //! back to back (no pacing), so they measure the work of a frame, not the loop.
@@ -333,9 +334,10 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
         eprintln!("bench: contact study (flat on flat, spline phases)");
         report.contact = crate::bench_contact::contact_study(&cache, args.quick)?;
     }
+    let mut peer_traces = Vec::new();
     if wants("peer") {
         eprintln!("bench: peer study (virtual coupling on rapier3d)");
-        report.peer = crate::bench_peer::peer_study(&cache, args.quick)?;
+        (report.peer, peer_traces) = crate::bench_peer::peer_study(&cache, args.quick)?;
     }
     report.wall_s = t0.elapsed().as_secs_f64();
 
@@ -345,6 +347,7 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     render::io::write_atomic(&args.out.join("bench.md"), md.as_bytes())?;
     if !args.no_plots {
         crate::bench_plot::write_bench_plots(&args.out, &replays, &report)?;
+        crate::bench_peer::write_peer_plots(&args.out, &peer_traces)?;
     }
     if args.json {
         println!("{json}");

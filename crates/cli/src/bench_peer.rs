@@ -198,11 +198,12 @@ fn measure(
     engine: &str,
     track: &Track,
     depth: &MeshPenetration,
-) -> PeerRow {
-    let penetration = track
+) -> (PeerRow, Vec<f64>) {
+    let penetration: Vec<f64> = track
         .q_tool
         .iter()
-        .map(|q| depth.depth_mm(&Pose::from_array(*q)));
+        .map(|q| depth.depth_mm(&Pose::from_array(*q)))
+        .collect();
     let jitter = (!c.steady.is_empty()).then(|| {
         let steps = (1..track.t.len())
             .filter(|&k| {
@@ -234,18 +235,38 @@ fn measure(
         }
         events
     });
-    PeerRow {
+    let row = PeerRow {
         case: case.into(),
         engine: engine.into(),
         frames: track.t.len(),
         step_us: Summary::of(track.step_us.iter().copied()),
         contacts: Summary::of(track.contacts.iter().copied()),
-        penetration_mm: Summary::of(penetration),
+        penetration_mm: Summary::of(penetration.iter().copied()),
         tunnelling_events: tunnelling,
         drag_n: drag,
         jitter_p99_n: jitter,
         insertion,
-    }
+    };
+    (row, penetration)
+}
+
+/// Per-frame series of one case for the plots: per engine, time (s), mesh penetration (mm)
+/// and the force on the hand (N).
+pub struct PeerTrace {
+    /// The case.
+    pub case: String,
+    /// `(engine, [(t, penetration, |F|)])`.
+    pub engines: Vec<(String, Vec<(f64, f64, f64)>)>,
+}
+
+fn trace_of(track: &Track, penetration: &[f64]) -> Vec<(f64, f64, f64)> {
+    track
+        .t
+        .iter()
+        .zip(penetration)
+        .zip(&track.wrench)
+        .map(|((&t, &p), w)| (t, p, (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt()))
+        .collect()
 }
 
 /// The thin plate (world frame, top face at `z = 0`), mm.
@@ -379,9 +400,11 @@ fn cases(cache: &TreeCache, quick: bool) -> Result<Vec<Case>> {
     Ok(out)
 }
 
-/// Runs the study: every case with haptic6d (dual) and the peer (shorter runs with `quick`).
-pub fn peer_study(cache: &TreeCache, quick: bool) -> Result<Vec<PeerRow>> {
+/// Runs the study: every case with haptic6d (dual) and the peer (shorter runs with `quick`):
+/// the rows and, per case, the series for the plots.
+pub fn peer_study(cache: &TreeCache, quick: bool) -> Result<(Vec<PeerRow>, Vec<PeerTrace>)> {
     let mut rows = Vec::new();
+    let mut traces = Vec::new();
     for case in cases(cache, quick)? {
         let t0 = Instant::now();
         let (tool, objects) = meshes(&case.scene)?;
@@ -393,8 +416,17 @@ pub fn peer_study(cache: &TreeCache, quick: bool) -> Result<Vec<PeerRow>> {
         if a.t.len() != b.t.len() {
             bail!("{}: the two replays differ in length", case.name);
         }
-        rows.push(measure(&case.name, &case.checks, "haptic6d", &a, &depth));
-        rows.push(measure(&case.name, &case.checks, "peer", &b, &depth));
+        let (ours_row, ours_pen) = measure(&case.name, &case.checks, "haptic6d", &a, &depth);
+        let (peer_row, peer_pen) = measure(&case.name, &case.checks, "peer", &b, &depth);
+        rows.push(ours_row);
+        rows.push(peer_row);
+        traces.push(PeerTrace {
+            case: case.name.clone(),
+            engines: vec![
+                ("haptic6d".into(), trace_of(&a, &ours_pen)),
+                ("peer (rapier3d)".into(), trace_of(&b, &peer_pen)),
+            ],
+        });
         eprintln!(
             "bench: peer: {}: {} frames, {} convex parts, {:.1} s (setup {setup:.1} s)",
             case.name,
@@ -403,7 +435,7 @@ pub fn peer_study(cache: &TreeCache, quick: bool) -> Result<Vec<PeerRow>> {
             t0.elapsed().as_secs_f64()
         );
     }
-    Ok(rows)
+    Ok((rows, traces))
 }
 
 /// One point of the peer's tuning search: its parameters and its rows on the tuning cases.
@@ -523,7 +555,7 @@ pub fn peer_tune(cache: &TreeCache) -> Result<Vec<TuneRow>> {
                 ..p
             };
             let track = theirs(&case.scene, shapes, params, case.frames)?;
-            rows.push(measure(&case.name, &case.checks, "peer", &track, depth));
+            rows.push(measure(&case.name, &case.checks, "peer", &track, depth).0);
         }
         let row = TuneRow {
             stage,
@@ -642,6 +674,56 @@ pub fn tune_markdown(rows: &[TuneRow]) -> String {
     s
 }
 
+/// Writes `bench_peer_<case>.png` per case into `dir`: mesh penetration (top) and the force on
+/// the hand (bottom) against time, both engines.
+pub fn write_peer_plots(dir: &std::path::Path, traces: &[PeerTrace]) -> Result<()> {
+    use crate::plot::{chart, register_font, render_png, Series};
+    use plotters::prelude::*;
+    register_font();
+    let colors = [RGBColor(44, 160, 44), RGBColor(214, 39, 40)];
+    for trace in traces {
+        let slug: String = trace
+            .case
+            .chars()
+            .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+            .collect::<String>()
+            .split('_')
+            .filter(|w| !w.is_empty())
+            .collect::<Vec<_>>()
+            .join("_");
+        let series = |pick: fn(&(f64, f64, f64)) -> f64| -> Vec<Series<'_>> {
+            trace
+                .engines
+                .iter()
+                .zip(colors)
+                .map(|((name, values), color)| Series {
+                    label: name,
+                    color,
+                    values: values.iter().map(|v| (v.0, pick(v))).collect(),
+                })
+                .collect()
+        };
+        render_png(&dir.join(format!("bench_peer_{slug}.png")), 640, |root| {
+            let (top, bottom) = root.split_vertically(320);
+            chart(
+                &top,
+                &format!("{}: mesh penetration", trace.case),
+                "time s",
+                "mm",
+                &series(|v| v.1),
+            )?;
+            chart(
+                &bottom,
+                &format!("{}: force on the hand", trace.case),
+                "time s",
+                "|F| N",
+                &series(|v| v.2),
+            )
+        })?;
+    }
+    Ok(())
+}
+
 fn opt(v: Option<f64>, digits: usize) -> String {
     v.map_or_else(|| "–".into(), |x| format!("{x:.digits$}"))
 }
@@ -721,7 +803,7 @@ mod tests {
         };
         let block = plate::box_mesh([-1.0, -1.0, -10.0], [1.0, 1.0, -9.0]);
         let depth = MeshPenetration::new(&block, &[(&block, Pose::identity())], 0);
-        let row = measure("synthetic", &checks, "test", &track, &depth);
+        let (row, _) = measure("synthetic", &checks, "test", &track, &depth);
         assert_eq!(row.tunnelling_events, Some(2));
         assert_eq!(row.insertion, Some((-4.6, true)));
         assert!((row.drag_n.unwrap() - 1.125).abs() < 1e-12);
