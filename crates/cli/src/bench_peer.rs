@@ -490,13 +490,17 @@ impl TuneRow {
         self.rows.iter().filter_map(|r| r.tunnelling_events).sum()
     }
 
+    /// Task failures: the spline not inserted, plus tunnelling events.
+    pub fn failures(&self) -> usize {
+        usize::from(!self.inserted()) + self.tunnels()
+    }
+
     /// The order of preference: a stable run (jitter below [`TUNE_JITTER_LIMIT_N`]) first,
-    /// then the spline inserted, then fewer tunnels, then the shallower worst penetration.
-    fn rank(&self) -> (bool, bool, usize, f64) {
+    /// then fewer task failures, then the shallower worst penetration.
+    fn rank(&self) -> (bool, usize, f64) {
         (
             self.worst_jitter_n() > TUNE_JITTER_LIMIT_N,
-            !self.inserted(),
-            self.tunnels(),
+            self.failures(),
             self.worst_penetration_mm(),
         )
     }
