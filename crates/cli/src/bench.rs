@@ -215,9 +215,7 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     }
     for study in &args.studies {
         if !["replay", "scaling", "speed", "contact", "peer"].contains(&study.as_str()) {
-            bail!(
-                "--studies: no study `{study}` (studies: replay, scaling, speed, contact, peer)"
-            );
+            bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact, peer)");
         }
     }
     let wants = |name: &str| args.studies.iter().any(|s| s == name);

@@ -72,13 +72,20 @@ pub struct PeerRow {
     pub insertion: Option<(f64, bool)>,
 }
 
+/// Time windows `[t0, t1)` (s) of a slide at constant speed, and the hand's direction along
+/// `x` (+1 or -1) in each.
+type SlideWindows = (Vec<(f64, f64)>, Vec<f64>);
+
+/// One frame of a plot series: time (s), mesh penetration (mm), force on the hand (N).
+pub type TracePoint = (f64, f64, f64);
+
 /// What is measured on a case beside time and penetration.
 #[derive(Clone, Debug, Default)]
 struct Checks {
     /// Time windows `[t0, t1)` (s) of steady contact, for the jitter.
     steady: Vec<(f64, f64)>,
     /// Slide windows (s) and the hand's direction along `x` in each, for the drag.
-    slide: Option<(Vec<(f64, f64)>, Vec<f64>)>,
+    slide: Option<SlideWindows>,
     /// Insertion goal.
     goal: Option<Goal>,
     /// Thin plate: the tool's centre (tool frame, mm) and the plate's underside `z` (mm).
@@ -221,10 +228,19 @@ fn measure(
             .filter_map(|(&t, w)| in_windows(t, windows).map(|i| -w[0] * dirs[i]));
         Summary::of(along).mean
     });
-    let insertion = c.goal.map(|Goal::InsertZ { target_z_mm, tol_mm }| {
-        let reached = track.q_tool.iter().map(|q| q[2]).fold(f64::INFINITY, f64::min);
-        (reached, reached <= target_z_mm + tol_mm)
-    });
+    let insertion = c.goal.map(
+        |Goal::InsertZ {
+             target_z_mm,
+             tol_mm,
+         }| {
+            let reached = track
+                .q_tool
+                .iter()
+                .map(|q| q[2])
+                .fold(f64::INFINITY, f64::min);
+            (reached, reached <= target_z_mm + tol_mm)
+        },
+    );
     let tunnelling = c.tunnel.map(|(centre, underside)| {
         let mut events = 0;
         let mut through = false;
@@ -255,11 +271,11 @@ fn measure(
 pub struct PeerTrace {
     /// The case.
     pub case: String,
-    /// `(engine, [(t, penetration, |F|)])`.
-    pub engines: Vec<(String, Vec<(f64, f64, f64)>)>,
+    /// `(engine, its frames)`.
+    pub engines: Vec<(String, Vec<TracePoint>)>,
 }
 
-fn trace_of(track: &Track, penetration: &[f64]) -> Vec<(f64, f64, f64)> {
+fn trace_of(track: &Track, penetration: &[f64]) -> Vec<TracePoint> {
     track
         .t
         .iter()
@@ -350,7 +366,11 @@ fn cases(cache: &TreeCache, quick: bool) -> Result<Vec<Case>> {
     out.push(Case {
         name: "bunny".into(),
         scene: bunny,
-        frames: if quick { QUICK_BUNNY_FRAMES } else { usize::MAX },
+        frames: if quick {
+            QUICK_BUNNY_FRAMES
+        } else {
+            usize::MAX
+        },
         checks: Checks {
             steady: vec![slide, push],
             ..Checks::default()
@@ -611,7 +631,11 @@ pub fn peer_tune(cache: &TreeCache) -> Result<Vec<TuneRow>> {
     }
     let best = out
         .iter()
-        .min_by(|a, b| a.rank().partial_cmp(&b.rank()).unwrap_or(std::cmp::Ordering::Equal))
+        .min_by(|a, b| {
+            a.rank()
+                .partial_cmp(&b.rank())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
         .map(|r| PeerParams {
             mass_kg: r.mass_kg,
             contact_natural_frequency_hz: r.contact_hz,
@@ -620,7 +644,13 @@ pub fn peer_tune(cache: &TreeCache) -> Result<Vec<TuneRow>> {
         })
         .unwrap_or(base);
     for damping_ratio in [0.3, 0.5, 2.0] {
-        out.push(run(2, PeerParams { damping_ratio, ..best })?);
+        out.push(run(
+            2,
+            PeerParams {
+                damping_ratio,
+                ..best
+            },
+        )?);
     }
     for solver_iterations in [8, 16] {
         out.push(run(
@@ -639,7 +669,11 @@ pub fn peer_tune(cache: &TreeCache) -> Result<Vec<TuneRow>> {
 pub fn tune_markdown(rows: &[TuneRow]) -> String {
     use std::fmt::Write as _;
     let mut sorted: Vec<&TuneRow> = rows.iter().collect();
-    sorted.sort_by(|a, b| a.rank().partial_cmp(&b.rank()).unwrap_or(std::cmp::Ordering::Equal));
+    sorted.sort_by(|a, b| {
+        a.rank()
+            .partial_cmp(&b.rank())
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
     let mut s = String::new();
     let cases: Vec<&str> = rows
         .first()
@@ -695,7 +729,7 @@ pub fn write_peer_plots(dir: &std::path::Path, traces: &[PeerTrace]) -> Result<(
             .filter(|w| !w.is_empty())
             .collect::<Vec<_>>()
             .join("_");
-        let series = |pick: fn(&(f64, f64, f64)) -> f64| -> Vec<Series<'_>> {
+        let series = |pick: fn(&TracePoint) -> f64| -> Vec<Series<'_>> {
             trace
                 .engines
                 .iter()
@@ -777,20 +811,23 @@ mod tests {
         let m = thin_plate_mesh();
         let (lo, hi) = m.aabb().unwrap();
         assert!((hi[2] - lo[2] - THIN_PLATE_MM).abs() < 1e-12);
-        let script = Script::starting_at([0.0, 0.0, 10.0, 0.0, 0.0, 0.0])
-            .then(0.01, [0.0, 0.0, -THIN_PUSH_MM[0], 0.0, 0.0, 0.0], Ease::Linear);
+        let script = Script::starting_at([0.0, 0.0, 10.0, 0.0, 0.0, 0.0]).then(
+            0.01,
+            [0.0, 0.0, -THIN_PUSH_MM[0], 0.0, 0.0, 0.0],
+            Ease::Linear,
+        );
         assert!(script.sample(0.01)[2] < lo[2]);
     }
 
     #[test]
     fn measures_count_tunnelling_insertion_drag_and_jitter_from_the_track() {
         let checks = Checks {
-                steady: vec![(0.0, 1.0)],
-                slide: Some((vec![(0.0, 1.0)], vec![1.0])),
-                goal: Some(Goal::InsertZ {
-                    target_z_mm: -5.0,
-                    tol_mm: 0.5,
-                }),
+            steady: vec![(0.0, 1.0)],
+            slide: Some((vec![(0.0, 1.0)], vec![1.0])),
+            goal: Some(Goal::InsertZ {
+                target_z_mm: -5.0,
+                tol_mm: 0.5,
+            }),
             tunnel: Some(([0.0, 0.0, 1.0], -2.0)),
         };
         // z goes 0, -4, 0, -4.6: the centre (1 mm above the origin) dips below -2 twice.

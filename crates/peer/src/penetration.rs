@@ -40,9 +40,8 @@ struct Probed {
 
 impl Probed {
     fn new(mesh: &TriMesh, min_samples: usize, seed: u64) -> Self {
-        let samples = min_samples.max(
-            ((surface_area_mm2(mesh) * SAMPLES_PER_MM2) as usize).min(MAX_DENSITY_SAMPLES),
-        );
+        let samples = min_samples
+            .max(((surface_area_mm2(mesh) * SAMPLES_PER_MM2) as usize).min(MAX_DENSITY_SAMPLES));
         let mut points: Vec<Point3<f64>> = mesh
             .vertices
             .iter()
@@ -139,7 +138,10 @@ mod tests {
         // Tilted by 0.1 rad about x: the lowest edge goes deepest, 20 sin(0.1) below the
         // centre of the bottom face.
         let tilted = measure.depth_mm(&Pose::from_array([0.0, 0.0, 1.0, 0.1, 0.0, 0.0]));
-        assert!((tilted - (20.0 * 0.1f64.sin() - 1.0)).abs() < 1e-9, "{tilted}");
+        assert!(
+            (tilted - (20.0 * 0.1f64.sin() - 1.0)).abs() < 1e-9,
+            "{tilted}"
+        );
     }
 
     #[test]

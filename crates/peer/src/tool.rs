@@ -292,8 +292,11 @@ impl PeerScene {
                 (shape, parts)
             }
             ToolShape::ConvexHull => (
-                SharedShape::convex_hull(&points_si(tool))
-                    .ok_or_else(|| PeerError::DegenerateHull { what: "tool".into() })?,
+                SharedShape::convex_hull(&points_si(tool)).ok_or_else(|| {
+                    PeerError::DegenerateHull {
+                        what: "tool".into(),
+                    }
+                })?,
                 1,
             ),
             ToolShape::HullIfConvex { resolution } => {
@@ -302,7 +305,12 @@ impl PeerScene {
                     .as_ref()
                     .map_or(f64::INFINITY, |h| h.mass_properties(1.0).mass());
                 if hull_volume <= enclosed_volume_m3(tool) * 1.001 {
-                    (hull.ok_or_else(|| PeerError::DegenerateHull { what: "tool".into() })?, 1)
+                    (
+                        hull.ok_or_else(|| PeerError::DegenerateHull {
+                            what: "tool".into(),
+                        })?,
+                        1,
+                    )
                 } else {
                     let shape = decomposition(tool, resolution);
                     let parts = shape.as_compound().map_or(1, |c| c.shapes().len());
@@ -442,8 +450,11 @@ impl PeerTool {
         let (hand_v, hand_w) = match &self.last_hand {
             Some(prev) => (
                 (hand.translation.vector - prev.translation.vector) / dt,
-                rotation_log(&(hand.rotation * prev.rotation.inverse()).to_rotation_matrix().into_inner())
-                    / dt,
+                rotation_log(
+                    &(hand.rotation * prev.rotation.inverse())
+                        .to_rotation_matrix()
+                        .into_inner(),
+                ) / dt,
             ),
             None => (Vector3::zeros(), Vector3::zeros()),
         };
@@ -453,8 +464,8 @@ impl PeerTool {
         let kr = self.params.kr_si();
         let body = &mut self.bodies[self.tool];
         let at = *body.position();
-        let force = kt * (hand.translation.vector - at.translation.vector)
-            + c * (hand_v - body.linvel());
+        let force =
+            kt * (hand.translation.vector - at.translation.vector) + c * (hand_v - body.linvel());
         let turn = (hand.rotation * at.rotation.inverse())
             .to_rotation_matrix()
             .into_inner();
@@ -590,7 +601,11 @@ pub(crate) mod tests {
         }
         // The tool rests on the plate (rapier lets it sink by less than its allowed error,
         // 1 mm x length_unit), and the hand 1 mm below feels ~kt x 1 mm upward.
-        assert!(last.q_tool[2] < 0.01 && last.q_tool[2] > -0.2, "{:?}", last.q_tool);
+        assert!(
+            last.q_tool[2] < 0.01 && last.q_tool[2] > -0.2,
+            "{:?}",
+            last.q_tool
+        );
         assert!((last.wrench[2] - 1.0).abs() < 0.2, "{:?}", last.wrench);
         assert!(last.contacts > 0);
     }
@@ -603,7 +618,12 @@ pub(crate) mod tests {
         let fix = ObjectShape::TriMesh {
             fix_internal_edges: true,
         };
-        assert_eq!(PeerScene::new(&puck, &objects, shape, fix).unwrap().tool_parts, 1);
+        assert_eq!(
+            PeerScene::new(&puck, &objects, shape, fix)
+                .unwrap()
+                .tool_parts,
+            1
+        );
         // An L of two boxes (one closed mesh): concave, so decomposed.
         let mut ell = box_mesh([0.0, 0.0, 0.0], [30.0, 10.0, 10.0]);
         let upright = box_mesh([0.0, 10.0, 0.0], [10.0, 30.0, 10.0]);
@@ -612,7 +632,12 @@ pub(crate) mod tests {
         ell.triangles
             .extend(upright.triangles.iter().map(|t| t.map(|k| k + base)));
         assert!((enclosed_volume_m3(&ell) - 5e-6).abs() < 1e-12);
-        assert!(PeerScene::new(&ell, &objects, shape, fix).unwrap().tool_parts > 1);
+        assert!(
+            PeerScene::new(&ell, &objects, shape, fix)
+                .unwrap()
+                .tool_parts
+                > 1
+        );
     }
 
     #[test]
