@@ -120,9 +120,9 @@ impl PeerParams {
             damping_ratio: 1.0,
             mass_kg: 0.05,
             rate_hz: 1000.0,
-            length_unit: 0.1,
-            solver_iterations: 4,
-            contact_natural_frequency_hz: 30.0,
+            length_unit: 0.01,
+            solver_iterations: 8,
+            contact_natural_frequency_hz: 300.0,
             ccd: false,
             friction: 0.0,
         }
