@@ -819,6 +819,37 @@ mod tests {
         assert!(script.sample(0.01)[2] < lo[2]);
     }
 
+    /// The thin plate pressed through by a hand 40 mm below it: haptic6d's tool stays on top
+    /// with no mesh penetration; the peer with rapier's default contact frequency (30 Hz) and a
+    /// light tool goes through (a configuration of the tuning search), the tuned peer does not.
+    #[test]
+    fn thin_plate_holds_haptic6d_and_the_tuned_peer_but_a_soft_peer_tunnels() {
+        let cache = TreeCache::disabled();
+        let case = thin_plate_case(&cache, 100.0, THIN_PUSH_MM[1]).unwrap();
+        let (tool, objects) = meshes(&case.scene).unwrap();
+        let depth = MeshPenetration::new(tool, &objects, PENETRATION_SAMPLES);
+        let shapes = peer_scene(&case.scene).unwrap();
+        let run = |params: PeerParams| {
+            let track = theirs(&case.scene, &shapes, params, case.frames).unwrap();
+            measure(&case.name, &case.checks, "peer", &track, &depth).0
+        };
+        let ours_track = ours(&case.scene, case.frames).unwrap();
+        let (ours_row, _) = measure(&case.name, &case.checks, "haptic6d", &ours_track, &depth);
+        assert_eq!(ours_row.tunnelling_events, Some(0));
+        assert!(ours_row.penetration_mm.max < 0.01, "{ours_row:?}");
+        let tuned = run(peer_params(&case.scene));
+        assert_eq!(tuned.tunnelling_events, Some(0), "{tuned:?}");
+        assert!(tuned.penetration_mm.max > 0.0, "{tuned:?}");
+        let soft = run(PeerParams {
+            mass_kg: 0.01,
+            length_unit: 0.1,
+            solver_iterations: 4,
+            contact_natural_frequency_hz: 30.0,
+            ..peer_params(&case.scene)
+        });
+        assert_eq!(soft.tunnelling_events, Some(1), "{soft:?}");
+    }
+
     #[test]
     fn measures_count_tunnelling_insertion_drag_and_jitter_from_the_track() {
         let checks = Checks {
