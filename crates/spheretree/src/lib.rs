@@ -9,6 +9,9 @@
 //!   toolkit units.
 #![warn(missing_docs)]
 
+// The builders live in `src/builder/`, not `src/build/`: tools and global gitignores take a
+// `build/` directory for build output. The public path stays `spheretree::build`.
+#[path = "builder/mod.rs"]
 pub mod build;
 pub mod eval;
 pub mod sph;
