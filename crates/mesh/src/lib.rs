@@ -8,6 +8,8 @@
 //!   [`TriMesh::check_closed`] for builders that need a closed 2-manifold; [`MeshError`].
 //! - [`MeshQuery`]: closest point, signed distance, inside test.
 //! - [`sample_surface`]: area-weighted seeded surface samples with normals.
+//! - [`generate`]: spheres, tori and boxes of any size, and damaged (open, holed,
+//!   self-intersecting) variants, for tests and studies.
 #![warn(missing_docs)]
 
 mod error;
@@ -19,6 +21,7 @@ pub use error::MeshError;
 pub use input::{read_input, MAX_MESH_BYTES};
 pub use load::{load_mesh, load_mesh_bytes, LoadReport, LoadedMesh, MeshFormat};
 
+pub mod generate;
 pub mod query;
 pub mod sample;
 

@@ -1,0 +1,257 @@
+//! Generated test meshes of any size: spheres, tori, boxes, and the damaged meshes people
+//! bring (open, holed, self-intersecting), for tests and the build-time studies.
+//!
+//! Entry points: [`uv_sphere`], [`torus`], [`grid_box`], [`open_box`], [`two_boxes`],
+//! [`remove_fraction`]. Every mesh is counter-clockwise seen from outside; sizes are in the
+//! mesh's own (arbitrary) units.
+
+use crate::TriMesh;
+use std::f64::consts::PI;
+
+/// A sphere of `radius` centred on the origin with `rings` (≥ 2) latitude bands and
+/// `segments` (≥ 3) longitude segments: `2 · segments · (rings − 1)` triangles, closed.
+pub fn uv_sphere(radius: f64, rings: u32, segments: u32) -> TriMesh {
+    let rings = rings.max(2);
+    let segments = segments.max(3);
+    let mut vertices = vec![[0.0, 0.0, radius]];
+    for i in 1..rings {
+        let theta = PI * i as f64 / rings as f64;
+        for j in 0..segments {
+            let phi = 2.0 * PI * j as f64 / segments as f64;
+            vertices.push([
+                radius * theta.sin() * phi.cos(),
+                radius * theta.sin() * phi.sin(),
+                radius * theta.cos(),
+            ]);
+        }
+    }
+    vertices.push([0.0, 0.0, -radius]);
+    let south = (vertices.len() - 1) as u32;
+    let ring = |i: u32, j: u32| 1 + (i - 1) * segments + j % segments;
+    let mut triangles = Vec::with_capacity(2 * (segments * (rings - 1)) as usize);
+    for j in 0..segments {
+        triangles.push([0, ring(1, j), ring(1, j + 1)]);
+        triangles.push([south, ring(rings - 1, j + 1), ring(rings - 1, j)]);
+    }
+    for i in 1..rings - 1 {
+        for j in 0..segments {
+            let (a, b) = (ring(i, j), ring(i, j + 1));
+            let (c, d) = (ring(i + 1, j), ring(i + 1, j + 1));
+            triangles.push([a, c, d]);
+            triangles.push([a, d, b]);
+        }
+    }
+    TriMesh {
+        vertices,
+        triangles,
+    }
+}
+
+/// A sphere of `radius` with about `triangles` triangles (at least 12; see [`uv_sphere`]).
+pub fn sphere_with_triangles(radius: f64, triangles: usize) -> TriMesh {
+    // 2 · s · (r − 1) triangles with s = 2r: r ≈ sqrt(n / 4).
+    let rings = ((triangles as f64 / 4.0).sqrt().round() as u32).max(2);
+    uv_sphere(radius, rings, 2 * rings)
+}
+
+/// A torus about the z axis: tube centre-line radius `major`, tube radius `minor`
+/// (< `major`), `around` (≥ 3) segments along the ring and `tube` (≥ 3) around the tube:
+/// `2 · around · tube` triangles, closed.
+pub fn torus(major: f64, minor: f64, around: u32, tube: u32) -> TriMesh {
+    let around = around.max(3);
+    let tube = tube.max(3);
+    let mut vertices = Vec::with_capacity((around * tube) as usize);
+    for i in 0..around {
+        let u = 2.0 * PI * i as f64 / around as f64;
+        for j in 0..tube {
+            let v = 2.0 * PI * j as f64 / tube as f64;
+            let r = major + minor * v.cos();
+            vertices.push([r * u.cos(), r * u.sin(), minor * v.sin()]);
+        }
+    }
+    let id = |i: u32, j: u32| (i % around) * tube + j % tube;
+    let mut triangles = Vec::with_capacity(2 * (around * tube) as usize);
+    for i in 0..around {
+        for j in 0..tube {
+            let (a, b) = (id(i, j), id(i + 1, j));
+            let (c, d) = (id(i, j + 1), id(i + 1, j + 1));
+            triangles.push([a, b, d]);
+            triangles.push([a, d, c]);
+        }
+    }
+    TriMesh {
+        vertices,
+        triangles,
+    }
+}
+
+/// A torus (ring radius 1, tube radius 0.35) with about `triangles` triangles (at least 18).
+pub fn torus_with_triangles(triangles: usize) -> TriMesh {
+    // 2 · a · t triangles with a = 3t (the ring is ~3x longer than the tube's girth).
+    let tube = ((triangles as f64 / 6.0).sqrt().round() as u32).max(3);
+    torus(1.0, 0.35, 3 * tube, tube)
+}
+
+/// The closed box `[-hx, hx] × [-hy, hy] × [-hz, hz]` centred on `centre`, each face a grid of
+/// `n × n` squares (`n ≥ 1`, `12 · n²` triangles), vertices shared along the edges.
+pub fn grid_box(centre: [f64; 3], half: [f64; 3], n: u32) -> TriMesh {
+    box_faces(centre, half, n, &[true; 6])
+}
+
+/// [`grid_box`] without its top (+z) face: an open box, `10 · n²` triangles, whose boundary is
+/// the square rim of the missing face.
+pub fn open_box(half: [f64; 3], n: u32) -> TriMesh {
+    box_faces([0.0; 3], half, n, &[true, true, true, true, true, false])
+}
+
+/// Two closed [`grid_box`]es that pass through each other (a self-intersecting,
+/// non-manifold-as-a-whole mesh, as CAD exports of separate parts often are): a 2×1×1 box
+/// and a 1×2×1 box rotated in place, crossing at the origin.
+pub fn two_boxes(n: u32) -> TriMesh {
+    let mut a = grid_box([0.0; 3], [1.0, 0.5, 0.5], n);
+    let b = grid_box([0.0, 0.0, 0.2], [0.5, 1.0, 0.5], n);
+    let offset = a.vertices.len() as u32;
+    a.vertices.extend_from_slice(&b.vertices);
+    a.triangles
+        .extend(b.triangles.iter().map(|t| t.map(|k| k + offset)));
+    a
+}
+
+/// The mesh with a seeded pseudo-random `fraction` (0..=1) of its triangles removed, the
+/// holes scattered over the surface (vertices are kept).
+pub fn remove_fraction(mesh: &TriMesh, fraction: f64, seed: u64) -> TriMesh {
+    // SplitMix64 per triangle index: deterministic and independent of the mesh order of
+    // other triangles.
+    let keep = |i: usize| {
+        let mut z = seed
+            .wrapping_add((i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15))
+            .wrapping_add(0x9e37_79b9_7f4a_7c15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^= z >> 31;
+        (z >> 11) as f64 / (1u64 << 53) as f64 >= fraction
+    };
+    TriMesh {
+        vertices: mesh.vertices.clone(),
+        triangles: mesh
+            .triangles
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| keep(*i))
+            .map(|(_, t)| *t)
+            .collect(),
+    }
+}
+
+/// The faces of a grid box; `faces[k]` says whether face k (−x, +x, −y, +y, −z, +z) is made.
+fn box_faces(centre: [f64; 3], half: [f64; 3], n: u32, faces: &[bool; 6]) -> TriMesh {
+    let n = n.max(1);
+    let mut vertices = Vec::new();
+    let mut index = std::collections::HashMap::new();
+    let mut vertex = |g: [i64; 3]| -> u32 {
+        *index.entry(g).or_insert_with(|| {
+            vertices.push(std::array::from_fn(|k| {
+                centre[k] + half[k] * (2.0 * g[k] as f64 / n as f64 - 1.0)
+            }));
+            (vertices.len() - 1) as u32
+        })
+    };
+    let n = n as i64;
+    let mut triangles = Vec::new();
+    for (face, &made) in faces.iter().enumerate() {
+        if !made {
+            continue;
+        }
+        let axis = face / 2;
+        let high = face % 2 == 1;
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        for i in 0..n {
+            for j in 0..n {
+                let at = |di: i64, dj: i64| {
+                    let mut g = [0i64; 3];
+                    g[axis] = if high { n } else { 0 };
+                    g[u] = i + di;
+                    g[v] = j + dj;
+                    g
+                };
+                let (a, b, c, d) = (
+                    vertex(at(0, 0)),
+                    vertex(at(1, 0)),
+                    vertex(at(1, 1)),
+                    vertex(at(0, 1)),
+                );
+                // (u, v, axis) is right-handed, so a, b, c is counter-clockwise seen from +axis.
+                if high {
+                    triangles.push([a, b, c]);
+                    triangles.push([a, c, d]);
+                } else {
+                    triangles.push([a, c, b]);
+                    triangles.push([a, d, c]);
+                }
+            }
+        }
+    }
+    TriMesh {
+        vertices,
+        triangles,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn closed_shapes_are_closed_with_the_promised_counts() {
+        let s = uv_sphere(2.0, 10, 20);
+        assert_eq!(s.triangles.len(), 2 * 20 * 9);
+        s.check_closed().unwrap();
+        let t = torus(1.0, 0.3, 30, 10);
+        assert_eq!(t.triangles.len(), 600);
+        t.check_closed().unwrap();
+        let b = grid_box([0.0; 3], [1.0, 2.0, 3.0], 4);
+        assert_eq!(b.triangles.len(), 12 * 16);
+        b.check_closed().unwrap();
+        let n = sphere_with_triangles(1.0, 100_000).triangles.len();
+        assert!((90_000..110_000).contains(&n), "{n}");
+        let n = torus_with_triangles(100_000).triangles.len();
+        assert!((90_000..110_000).contains(&n), "{n}");
+    }
+
+    #[test]
+    fn outward_orientation_gives_positive_volume() {
+        let volume = |m: &TriMesh| {
+            m.triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|k| m.vertices[k as usize]);
+                    (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                        + a[2] * (b[0] * c[1] - b[1] * c[0]))
+                        / 6.0
+                })
+                .sum::<f64>()
+        };
+        let v = volume(&grid_box([1.0, 0.0, 0.0], [1.0, 2.0, 3.0], 3));
+        assert!((v - 48.0).abs() < 1e-9, "{v}");
+        let v = volume(&uv_sphere(1.0, 60, 120));
+        assert!((v - 4.0 / 3.0 * PI).abs() < 0.01, "{v}");
+        let v = volume(&torus(1.0, 0.3, 200, 60));
+        assert!((v - 2.0 * PI * PI * 0.09).abs() < 0.01, "{v}");
+    }
+
+    #[test]
+    fn damaged_shapes_are_open() {
+        let o = open_box([1.0; 3], 3);
+        assert_eq!(o.triangles.len(), 90);
+        assert!(o.check_closed().is_err());
+        let s = uv_sphere(1.0, 40, 80);
+        let holed = remove_fraction(&s, 0.05, 7);
+        let removed = s.triangles.len() - holed.triangles.len();
+        let want = 0.05 * s.triangles.len() as f64;
+        assert!((removed as f64 - want).abs() < 0.3 * want, "{removed}");
+        assert!(holed.check_closed().is_err());
+        assert_eq!(holed, remove_fraction(&s, 0.05, 7));
+        let two = two_boxes(2);
+        assert_eq!(two.triangles.len(), 2 * 12 * 4);
+    }
+}
