@@ -5,9 +5,9 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
-use mesh::{load_mesh, LoadedMesh};
+use mesh::{load_mesh, InsideTest, LoadedMesh};
 use serde_json::json;
-use spheretree::build::{build_tree, BuildMethod, BuildParams};
+use spheretree::build::{build_tree_with_report, BuildMethod, BuildParams};
 use spheretree::eval::{evaluate_fit, FitParams, LevelFit, TOOLKIT_SIZE};
 use spheretree::sph::{bbox_centre, read_sph, translate_tree, write_sph};
 use spheretree::{slot_count, SphereTree};
@@ -36,6 +36,39 @@ pub enum Method {
     Tight,
     /// The fast builder (octree cells meeting the surface; loose, full coverage).
     Octree,
+}
+
+/// How inside is told from outside (tight builder and fit measure).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Inside {
+    /// Pseudo-normal on a closed mesh, generalised winding number on an open one.
+    Auto,
+    /// The closest feature's pseudo-normal: exact on a closed mesh whose parts do not cross.
+    PseudoNormal,
+    /// The generalised winding number: open, holed, non-manifold, self-intersecting meshes.
+    WindingNumber,
+}
+
+impl Inside {
+    fn test(self) -> Option<InsideTest> {
+        match self {
+            Inside::Auto => None,
+            Inside::PseudoNormal => Some(InsideTest::PseudoNormal),
+            Inside::WindingNumber => Some(InsideTest::WindingNumber),
+        }
+    }
+}
+
+/// Why the automatic choice fell on the inside test `used` for `mesh`, for the report.
+fn inside_reason(mesh: &mesh::TriMesh, chosen: Inside, used: InsideTest) -> String {
+    if chosen != Inside::Auto {
+        return "as asked".into();
+    }
+    match (used, mesh.check_closed()) {
+        (InsideTest::PseudoNormal, _) => "the mesh is closed".into(),
+        (_, Err(e)) => e.to_string(),
+        (_, Ok(())) => "as asked".into(),
+    }
 }
 
 impl From<Method> for BuildMethod {
@@ -71,6 +104,11 @@ pub struct BuildArgs {
     /// Seed of the builder's random surface samples (same seed, same tree).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Inside test of the tight builder: `auto` (pseudo-normal on a closed mesh, winding
+    /// number on an open one), `pseudo-normal`, or `winding-number` (also for closed meshes
+    /// whose parts pass through each other).
+    #[arg(long, value_enum, default_value_t = Inside::Auto)]
+    pub inside: Inside,
     /// Print a machine-readable summary (JSON) on stdout.
     #[arg(long)]
     pub json: bool,
@@ -94,6 +132,10 @@ pub struct EvalArgs {
     /// Seed of the coverage samples.
     #[arg(long, default_value_t = 2026)]
     pub seed: u64,
+    /// Inside test of the measure: `auto` (pseudo-normal on a closed mesh, winding number on
+    /// an open one), `pseudo-normal` or `winding-number`.
+    #[arg(long, value_enum, default_value_t = Inside::Auto)]
+    pub inside: Inside,
     /// Print a machine-readable summary (JSON) on stdout.
     #[arg(long)]
     pub json: bool,
@@ -148,29 +190,25 @@ fn build(args: &BuildArgs) -> Result<()> {
     check_output(&args.output, &args.mesh)?;
     let loaded = load(&args.mesh)?;
     let mesh = &loaded.mesh;
-    if args.method == Method::Tight {
-        mesh.check_closed().with_context(|| {
-            format!(
-                "{}: the tight builder needs a closed mesh (use --method octree for open ones)",
-                args.mesh.display()
-            )
-        })?;
-    }
     let params = BuildParams {
         depth: args.depth,
         branching: args.branch,
         method: args.method.into(),
         seed: args.seed,
+        inside: args.inside.test(),
         ..BuildParams::default()
     };
 
     let progress = Progress::fraction(params.method.name());
     let start = Instant::now();
-    let built = build_tree(mesh, &params, &|f| progress.set_fraction(f));
+    let built = build_tree_with_report(mesh, &params, &|f| progress.set_fraction(f));
     let seconds = start.elapsed().as_secs_f64();
     progress.finish();
-    let mut tree =
+    let (mut tree, report) =
         built.with_context(|| format!("building a sphere-tree of {}", args.mesh.display()))?;
+    let inside = report
+        .inside
+        .map(|t| (t, inside_reason(mesh, args.inside, t)));
 
     let (lo, hi) = mesh
         .aabb()
@@ -192,6 +230,8 @@ fn build(args: &BuildArgs) -> Result<()> {
             "degenerate_dropped": loaded.report.degenerate_dropped,
             "duplicates_welded": loaded.report.duplicates_welded,
             "method": params.method.name(),
+            "inside_test": inside.as_ref().map(|(t, _)| t.name()),
+            "inside_reason": inside.as_ref().map(|(_, r)| r.as_str()),
             "depth": args.depth,
             "branching": args.branch,
             "levels": tree.levels(),
@@ -206,6 +246,9 @@ fn build(args: &BuildArgs) -> Result<()> {
         });
         println!("{summary}");
     } else {
+        if let Some((test, reason)) = &inside {
+            println!("inside test: {} ({reason})", test.name());
+        }
         println!(
             "wrote {}: {} tree of {} ({} vertices, {} triangles), depth {}, branching {}, \
              spheres per level {}, built in {:.2} s{}",
@@ -332,12 +375,11 @@ fn eval(args: &EvalArgs) -> Result<()> {
     }
     let loaded = load(&args.mesh)?;
     let mesh = &loaded.mesh;
-    mesh.check_closed().with_context(|| {
-        format!(
-            "{}: the fit measure needs a closed mesh to tell inside from outside",
-            args.mesh.display()
-        )
-    })?;
+    let inside = args
+        .inside
+        .test()
+        .unwrap_or_else(|| InsideTest::for_mesh(mesh));
+    let reason = inside_reason(mesh, args.inside, inside);
     let (lo, hi) = mesh
         .aabb()
         .context("the mesh has no vertices (cannot happen after loading)")?;
@@ -356,6 +398,7 @@ fn eval(args: &EvalArgs) -> Result<()> {
     let params = FitParams {
         coverage_samples: args.samples,
         seed: args.seed,
+        inside: Some(inside),
     };
     let progress = Progress::spinner("measuring fit");
     let start = Instant::now();
@@ -372,6 +415,8 @@ fn eval(args: &EvalArgs) -> Result<()> {
             "levels": tree.levels(),
             "branching": tree.branching(),
             "centred": args.centre,
+            "inside_test": inside.name(),
+            "inside_reason": reason,
             "units": "toolkit (mesh longest side = 2000)",
             "parents_contain_children": excess <= 1e-9 * TOOLKIT_SIZE,
             "max_child_excess": excess.max(0.0),
@@ -400,6 +445,7 @@ fn eval(args: &EvalArgs) -> Result<()> {
             "errors in toolkit units (mesh longest side = 2000); coverage over {} surface samples",
             args.samples
         );
+        println!("inside test: {} ({reason})", inside.name());
         print!("{}", table(&fits));
         if excess > 1e-9 * TOOLKIT_SIZE {
             println!(

@@ -6,7 +6,8 @@
 //! - [`TriMesh`]: an indexed triangle mesh in the file's own units.
 //! - [`load_mesh`]: OBJ / STL / PLY file to a validated [`TriMesh`] and a [`LoadReport`];
 //!   [`TriMesh::check_closed`] for builders that need a closed 2-manifold; [`MeshError`].
-//! - [`MeshQuery`]: closest point, signed distance, inside test.
+//! - [`MeshQuery`]: closest point, signed distance, inside test ([`InsideTest`]: pseudo-normal
+//!   for closed meshes, generalised winding number for open or self-intersecting ones).
 //! - [`sample_surface`]: area-weighted seeded surface samples with normals.
 //! - [`generate`]: spheres, tori and boxes of any size, and damaged (open, holed,
 //!   self-intersecting) variants, for tests and studies.
@@ -25,7 +26,7 @@ pub mod generate;
 pub mod query;
 pub mod sample;
 
-pub use query::{ClosestPoint, Feature, MeshQuery};
+pub use query::{ClosestPoint, Feature, InsideTest, MeshQuery};
 pub use sample::{sample_surface, sample_surface_weighted, SurfaceSample};
 
 /// An indexed triangle mesh. Coordinates are in the file's own units (scaled to mm by the

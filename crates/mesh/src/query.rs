@@ -81,8 +81,62 @@ struct Tri {
 pub struct MeshQuery {
     tris: Vec<Tri>,
     nodes: Vec<Node>,
+    /// Per node, the far-field expansion of its triangles' winding number.
+    dipoles: Vec<Dipole>,
     skipped: usize,
+    inside: InsideTest,
 }
+
+/// How [`MeshQuery::signed_distance`] and [`MeshQuery::is_inside`] tell inside from outside.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum InsideTest {
+    /// The angle-weighted pseudo-normal of the closest feature (Bærentzen & Aanæs 2005):
+    /// exact and cheap on a closed, consistently oriented 2-manifold whose parts do not pass
+    /// through each other; only a local guess elsewhere.
+    #[default]
+    PseudoNormal,
+    /// The generalised winding number (Jacobson et al. 2013) at least 1/2: the solid angle
+    /// the surface subtends, summed over the triangles (far clusters by their dipole, as in
+    /// Barill et al. 2018). Robust on open, holed, non-manifold and self-intersecting meshes;
+    /// several times slower.
+    WindingNumber,
+}
+
+impl InsideTest {
+    /// The test suited to `mesh`: [`InsideTest::PseudoNormal`] when it is closed and
+    /// consistently oriented ([`TriMesh::check_closed`]), else [`InsideTest::WindingNumber`].
+    pub fn for_mesh(mesh: &TriMesh) -> Self {
+        if mesh.check_closed().is_ok() {
+            InsideTest::PseudoNormal
+        } else {
+            InsideTest::WindingNumber
+        }
+    }
+
+    /// A short name for reports (`pseudo-normal`, `winding-number`).
+    pub fn name(self) -> &'static str {
+        match self {
+            InsideTest::PseudoNormal => "pseudo-normal",
+            InsideTest::WindingNumber => "winding-number",
+        }
+    }
+}
+
+/// Far-field expansion of a cluster of triangles: seen from farther than `BETA · radius` from
+/// `centre`, their solid angle is that of a dipole `area_normal` at `centre`.
+#[derive(Clone, Copy, Debug, Default)]
+struct Dipole {
+    /// Area-weighted centroid of the triangles.
+    centre: [f64; 3],
+    /// Sum of the triangles' vector areas (half the cross products; outward).
+    area_normal: [f64; 3],
+    /// Largest distance from `centre` to a vertex of the cluster.
+    radius: f64,
+}
+
+/// Clusters farther than this many radii use their dipole (error a few 0.1 % of the
+/// cluster's own solid angle, far below the 1/2 threshold).
+const BETA: f64 = 2.5;
 
 impl MeshQuery {
     /// Builds the query structure for `mesh` (mesh units). Triangles with an out-of-range
@@ -142,10 +196,110 @@ impl MeshQuery {
         let mut q = MeshQuery {
             tris,
             nodes: Vec::new(),
+            dipoles: Vec::new(),
             skipped,
+            inside: InsideTest::PseudoNormal,
         };
         q.build();
+        q.build_dipoles();
         q
+    }
+
+    /// [`MeshQuery::new`] with the given inside test for [`MeshQuery::signed_distance`] and
+    /// [`MeshQuery::is_inside`].
+    pub fn with_inside_test(mesh: &TriMesh, inside: InsideTest) -> Self {
+        let mut q = Self::new(mesh);
+        q.inside = inside;
+        q
+    }
+
+    /// The inside test in use.
+    pub fn inside_test(&self) -> InsideTest {
+        self.inside
+    }
+
+    /// Fills `dipoles` bottom-up (children always come after their parent in `nodes`).
+    fn build_dipoles(&mut self) {
+        let mut d = vec![Dipole::default(); self.nodes.len()];
+        for i in (0..self.nodes.len()).rev() {
+            let node = self.nodes[i];
+            let (centre, area_normal, area) = if node.count > 0 {
+                let s = node.first as usize;
+                let mut c = [0.0; 3];
+                let mut an = [0.0; 3];
+                let mut area = 0.0;
+                for t in &self.tris[s..s + node.count as usize] {
+                    let vec_area = scale_v(cross(sub(t.v[1], t.v[0]), sub(t.v[2], t.v[0])), 0.5);
+                    let a = norm(vec_area);
+                    let centroid = scale_v(add(add(t.v[0], t.v[1]), t.v[2]), 1.0 / 3.0);
+                    c = add(c, scale_v(centroid, a));
+                    an = add(an, vec_area);
+                    area += a;
+                }
+                (c, an, area)
+            } else {
+                let (l, r) = (node.first as usize, node.first as usize + 1);
+                let (al, ar) = (d[l].radius, d[r].radius); // areas, stashed in `radius` below
+                (
+                    add(scale_v(d[l].centre, al), scale_v(d[r].centre, ar)),
+                    add(d[l].area_normal, d[r].area_normal),
+                    al + ar,
+                )
+            };
+            let centre = if area > 0.0 {
+                scale_v(centre, 1.0 / area)
+            } else {
+                scale_v(add(node.lo, node.hi), 0.5)
+            };
+            // The area is kept in `radius` until the parent has read it (second pass below).
+            d[i] = Dipole {
+                centre,
+                area_normal,
+                radius: area,
+            };
+        }
+        // Radius: the farthest box corner bounds the farthest vertex.
+        for (i, node) in self.nodes.iter().enumerate() {
+            let c = d[i].centre;
+            let far: [f64; 3] =
+                std::array::from_fn(|k| (c[k] - node.lo[k]).abs().max((node.hi[k] - c[k]).abs()));
+            d[i].radius = norm(far);
+        }
+        self.dipoles = d;
+    }
+
+    /// The generalised winding number of the surface around `p` (mesh units): 1 inside and 0
+    /// outside a closed, outward-oriented mesh, 2 where two closed parts overlap, in between
+    /// near the holes of an open one. Exact solid angles for nearby triangles, dipoles for
+    /// clusters farther than 2.5 of their radii; `0` without triangles.
+    pub fn winding_number(&self, p: [f64; 3]) -> f64 {
+        if self.nodes.is_empty() {
+            return 0.0;
+        }
+        let mut total = 0.0;
+        let mut stack = [0u32; STACK];
+        let mut sp = 1usize;
+        while sp > 0 {
+            sp -= 1;
+            let i = stack[sp] as usize;
+            let node = &self.nodes[i];
+            let dp = &self.dipoles[i];
+            let r = sub(dp.centre, p);
+            let d2 = norm2(r);
+            if d2 > (BETA * dp.radius).powi(2) {
+                total += dot(r, dp.area_normal) / (d2 * d2.sqrt());
+            } else if node.count > 0 {
+                let s = node.first as usize;
+                for t in &self.tris[s..s + node.count as usize] {
+                    total += solid_angle(p, &t.v);
+                }
+            } else if sp + 2 <= STACK {
+                stack[sp] = node.first;
+                stack[sp + 1] = node.first + 1;
+                sp += 2;
+            }
+        }
+        total / (4.0 * std::f64::consts::PI)
     }
 
     /// Number of input triangles skipped (bad index or zero area).
@@ -230,8 +384,24 @@ impl MeshQuery {
     /// Like [`MeshQuery::closest_point`] but only searches within `max_dist` of `p`; `None`
     /// when no surface point is that close.
     pub fn closest_within(&self, p: [f64; 3], max_dist: f64) -> Option<ClosestPoint> {
+        self.closest_budgeted(p, max_dist, usize::MAX).0
+    }
+
+    /// Like [`MeshQuery::closest_within`] but stops after testing `max_tests` triangles; the
+    /// flag says whether the search completed. When it did not, the point returned is the
+    /// nearest among the triangles tested (nearer subtrees first), so it is a surface point
+    /// within `max_dist` but not necessarily the closest one. Gives the same answer as
+    /// [`MeshQuery::closest_within`] whenever it completes: the cost of a query from a point
+    /// nearly equidistant to many triangles (the centre of a finely tessellated sphere) is
+    /// bounded this way.
+    pub fn closest_budgeted(
+        &self,
+        p: [f64; 3],
+        max_dist: f64,
+        max_tests: usize,
+    ) -> (Option<ClosestPoint>, bool) {
         if self.nodes.is_empty() {
-            return None;
+            return (None, true);
         }
         let mut best_d2 = if max_dist.is_finite() {
             max_dist * max_dist
@@ -241,6 +411,8 @@ impl MeshQuery {
         let mut best: Option<(usize, [f64; 3], Feature)> = None;
         let mut stack = [0u32; STACK];
         let mut sp = 0usize;
+        let mut tests = 0usize;
+        let mut complete = true;
         if box_dist2(&self.nodes[0], p) <= best_d2 {
             stack[0] = 0;
             sp = 1;
@@ -252,7 +424,12 @@ impl MeshQuery {
                 continue;
             }
             if node.count > 0 {
+                if tests >= max_tests {
+                    complete = false;
+                    break;
+                }
                 let s = node.first as usize;
+                tests += node.count as usize;
                 for (i, t) in self.tris[s..s + node.count as usize].iter().enumerate() {
                     let (q, f) = closest_on_triangle(p, &t.v);
                     let d2 = norm2(sub(p, q));
@@ -281,20 +458,23 @@ impl MeshQuery {
                 }
             }
         }
-        let (ti, q, f) = best?;
+        let Some((ti, q, f)) = best else {
+            return (None, complete);
+        };
         let t = &self.tris[ti];
         let normal = match f {
             Feature::Face => t.n,
             Feature::Edge(k) => t.en[k as usize],
             Feature::Vertex(k) => t.vn[k as usize],
         };
-        Some(ClosestPoint {
+        let found = ClosestPoint {
             point: q,
             distance: best_d2.sqrt(),
             triangle: t.id,
             feature: f,
             normal,
-        })
+        };
+        (Some(found), complete)
     }
 
     /// Unsigned distance from `p` to the surface (mesh units); `+inf` without triangles.
@@ -302,12 +482,17 @@ impl MeshQuery {
         self.closest_point(p).map_or(f64::INFINITY, |c| c.distance)
     }
 
-    /// Signed distance from `p` to the surface (mesh units): negative inside the closed mesh,
-    /// positive outside; `+inf` without triangles.
+    /// Signed distance from `p` to the surface (mesh units): negative inside, positive
+    /// outside, the side told by the [`InsideTest`] in use; `+inf` without triangles.
     pub fn signed_distance(&self, p: [f64; 3]) -> f64 {
         match self.closest_point(p) {
             Some(c) => {
-                if dot(sub(p, c.point), c.normal) < 0.0 {
+                let inside = match self.inside {
+                    InsideTest::PseudoNormal => dot(sub(p, c.point), c.normal) < 0.0,
+                    // On the surface itself the winding number jumps: call it outside.
+                    InsideTest::WindingNumber => c.distance > 0.0 && self.winding_number(p) >= 0.5,
+                };
+                if inside {
                     -c.distance
                 } else {
                     c.distance
@@ -317,11 +502,21 @@ impl MeshQuery {
         }
     }
 
-    /// True when `p` is strictly inside the closed mesh (points on the surface count as
-    /// outside).
+    /// True when `p` is strictly inside the mesh by the [`InsideTest`] in use (points on the
+    /// surface count as outside).
     pub fn is_inside(&self, p: [f64; 3]) -> bool {
         self.signed_distance(p) < 0.0
     }
+}
+
+/// Signed solid angle of triangle `v` seen from `p` (Van Oosterom & Strackee 1983): positive
+/// when `p` is on the side its counter-clockwise normal points away from.
+fn solid_angle(p: [f64; 3], v: &[[f64; 3]; 3]) -> f64 {
+    let [a, b, c] = v.map(|x| sub(x, p));
+    let (la, lb, lc) = (norm(a), norm(b), norm(c));
+    let num = dot(a, cross(b, c));
+    let den = la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
+    2.0 * num.atan2(den)
 }
 
 fn bounds(tris: &[Tri]) -> ([f64; 3], [f64; 3]) {
@@ -587,5 +782,65 @@ mod tests {
             assert!((got.abs() - brute).abs() < 1e-12, "{p:?}: {got} vs {brute}");
         }
         assert!(inside > 30, "the sample reaches inside ({inside})");
+    }
+
+    #[test]
+    fn winding_number_is_one_inside_zero_outside_and_matches_brute_force() {
+        let closed = crate::generate::uv_sphere(1.0, 30, 60);
+        let holed = crate::generate::remove_fraction(&closed, 0.05, 3);
+        let open = crate::generate::open_box([1.0; 3], 4);
+        let two = crate::generate::two_boxes(3);
+        let mut state = 7u64;
+        let mut rnd = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) * 3.0 - 1.5
+        };
+        for m in [&closed, &holed, &open, &two] {
+            let q = MeshQuery::with_inside_test(m, InsideTest::WindingNumber);
+            for _ in 0..400 {
+                let p = [rnd(), rnd(), rnd()];
+                let fast = q.winding_number(p);
+                let exact = winding(m, p);
+                assert!((fast - exact).abs() < 0.01, "{p:?}: {fast} vs {exact}");
+            }
+        }
+        let q = MeshQuery::with_inside_test(&closed, InsideTest::WindingNumber);
+        assert!((q.winding_number([0.1, 0.2, 0.3]) - 1.0).abs() < 1e-3);
+        assert!(q.winding_number([1.5, 0.0, 0.0]).abs() < 1e-3);
+        // The open box: its centre sees 5/6 of the sphere of directions covered.
+        let q = MeshQuery::with_inside_test(&open, InsideTest::WindingNumber);
+        assert!((q.winding_number([0.0; 3]) - 5.0 / 6.0).abs() < 1e-3);
+        assert!(q.is_inside([0.0, 0.0, 0.5]));
+        assert!(!q.is_inside([0.0, 0.0, 1.3]));
+        assert!(q.signed_distance([0.0, 0.0, -0.5]) < 0.0);
+        // Two boxes through each other: 2 where both hold the point, and inside for sure;
+        // the pseudo-normal gets that region wrong.
+        let q = MeshQuery::with_inside_test(&two, InsideTest::WindingNumber);
+        let both = [0.3, 0.3, 0.3];
+        assert!((q.winding_number(both) - 2.0).abs() < 1e-3);
+        assert!(q.signed_distance(both) < 0.0);
+        assert!(MeshQuery::new(&two).signed_distance(both) > 0.0);
+        assert_eq!(InsideTest::for_mesh(&closed), InsideTest::PseudoNormal);
+        assert_eq!(InsideTest::for_mesh(&holed), InsideTest::WindingNumber);
+    }
+
+    #[test]
+    fn a_budgeted_query_agrees_when_it_completes() {
+        let m = crate::generate::uv_sphere(1.0, 40, 80);
+        let q = MeshQuery::new(&m);
+        // The centre is equidistant from every triangle: a small budget runs out.
+        let (cut, complete) = q.closest_budgeted([0.0; 3], f64::INFINITY, 16);
+        assert!(!complete);
+        assert!(cut.is_some());
+        let (full, complete) = q.closest_budgeted([0.0; 3], f64::INFINITY, usize::MAX);
+        assert!(complete);
+        assert_eq!(full, q.closest_point([0.0; 3]));
+        let p = [0.3, 0.9, 0.1];
+        assert_eq!(
+            q.closest_budgeted(p, f64::INFINITY, 64),
+            (q.closest_point(p), true)
+        );
     }
 }

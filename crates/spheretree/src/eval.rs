@@ -7,15 +7,16 @@
 //! toolkit's units); the tree, given in the mesh's own frame, is mapped the same way. For each
 //! used sphere, 42 points `c + r·u` (u: the 12 icosahedron vertices and the 30 normalised edge
 //! midpoints) and 162 points (one more subdivision) are tested; the sphere's error is the
-//! largest distance to the surface from a point that lies *outside* the closed mesh (0 if none
-//! does). Coverage is the fraction of seeded random surface samples inside the union of the
+//! largest distance to the surface from a point that lies *outside* the mesh (0 if none
+//! does); outside is told by the pseudo-normal on a closed mesh and by the generalised
+//! winding number on an open one ([`FitParams::inside`]). Coverage is the fraction of seeded random surface samples inside the union of the
 //! level's spheres; the largest gap is the largest distance from an uncovered sample to the
 //! nearest sphere surface.
 
 #![allow(clippy::needless_range_loop)] // xyz loops read better indexed
 
 use crate::{Sphere, SphereTree};
-use mesh::{sample_surface, MeshQuery, TriMesh};
+use mesh::{sample_surface, InsideTest, MeshQuery, TriMesh};
 use rayon::prelude::*;
 use std::sync::OnceLock;
 
@@ -29,6 +30,10 @@ pub struct FitParams {
     pub coverage_samples: usize,
     /// Seed of the coverage samples (ChaCha8; default 2026).
     pub seed: u64,
+    /// How a sphere point is found outside the mesh; `None` (default) picks
+    /// [`InsideTest::for_mesh`] (the pseudo-normal on closed meshes, the generalised winding
+    /// number on open ones, whose coverage is then over the surface that exists).
+    pub inside: Option<InsideTest>,
 }
 
 impl Default for FitParams {
@@ -36,6 +41,7 @@ impl Default for FitParams {
         Self {
             coverage_samples: 100_000,
             seed: 2026,
+            inside: None,
         }
     }
 }
@@ -165,7 +171,8 @@ pub fn evaluate_fit(tree: &SphereTree, mesh: &TriMesh, params: &FitParams) -> Ve
         return Vec::new();
     };
     let m = mesh.scaled_about(centre, s);
-    let q = MeshQuery::new(&m);
+    let inside = params.inside.unwrap_or_else(|| InsideTest::for_mesh(&m));
+    let q = MeshQuery::with_inside_test(&m, inside);
     let spheres: Vec<Sphere> = tree
         .spheres()
         .iter()

@@ -27,7 +27,7 @@ pub use enclose::enclosing_sphere;
 
 use crate::eval::toolkit_frame;
 use crate::{Sphere, SphereTree, TreeError};
-use mesh::TriMesh;
+use mesh::{InsideTest, TriMesh};
 
 /// Version of the builders' output: bumped whenever a builder gives a different tree for the
 /// same [`BuildParams`] (fold it into any cache key of built trees).
@@ -104,6 +104,11 @@ pub struct BuildParams {
     pub refine_passes: usize,
     /// Tight builder: Lloyd (k-means) iterations after each balanced split (default 4).
     pub lloyd_iters: usize,
+    /// Tight builder: how inside is told from outside; `None` (default) picks
+    /// [`InsideTest::for_mesh`]: the pseudo-normal on closed meshes, the generalised winding
+    /// number on open or non-manifold ones. Force [`InsideTest::WindingNumber`] for a closed
+    /// mesh whose parts pass through each other.
+    pub inside: Option<InsideTest>,
 }
 
 impl Default for BuildParams {
@@ -121,6 +126,7 @@ impl Default for BuildParams {
             normal_weight: 0.0,
             lloyd_iters: 4,
             refine_passes: 1,
+            inside: None,
         }
     }
 }
@@ -144,10 +150,18 @@ impl BuildParams {
     }
 }
 
-/// Builds a sphere-tree of `mesh` (mesh units; must be a closed, consistently oriented
-/// 2-manifold for the tight builder's inside test — check with `TriMesh::check_closed`).
-/// `progress` is called with the completed fraction in `0..=1` (from worker threads).
-/// The result is in the mesh's own frame and passes [`SphereTree::validate`].
+/// What [`build_tree_with_report`] did besides the tree.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BuildReport {
+    /// The inside test the tight builder used (`None` for the octree builder, which needs
+    /// none).
+    pub inside: Option<InsideTest>,
+}
+
+/// Builds a sphere-tree of `mesh` (mesh units; open, holed or non-manifold meshes are fine:
+/// see [`BuildParams::inside`]). `progress` is called with the completed fraction in `0..=1`
+/// (from worker threads). The result is in the mesh's own frame and passes
+/// [`SphereTree::validate`].
 ///
 /// Errors on an empty or degenerate mesh, a bad shape, or an octree with `branching < 8`.
 pub fn build_tree(
@@ -155,6 +169,15 @@ pub fn build_tree(
     params: &BuildParams,
     progress: &(dyn Fn(f64) + Sync),
 ) -> Result<SphereTree, TreeError> {
+    build_tree_with_report(mesh, params, progress).map(|(tree, _)| tree)
+}
+
+/// [`build_tree`], also saying which inside test was used.
+pub fn build_tree_with_report(
+    mesh: &TriMesh,
+    params: &BuildParams,
+    progress: &(dyn Fn(f64) + Sync),
+) -> Result<(SphereTree, BuildReport), TreeError> {
     let levels = params.depth.checked_add(1).ok_or(TreeError::Shape {
         levels: u32::MAX,
         branching: params.branching,
@@ -170,9 +193,14 @@ pub fn build_tree(
         ));
     }
     progress(0.0);
+    let mut report = BuildReport { inside: None };
     match params.method {
         BuildMethod::Octree => octree::build(&m, &mut tree, progress)?,
-        BuildMethod::Tight => tight::build(&m, params, &mut tree, progress)?,
+        BuildMethod::Tight => {
+            let inside = params.inside.unwrap_or_else(|| InsideTest::for_mesh(&m));
+            report.inside = Some(inside);
+            tight::build(&m, params, inside, &mut tree, progress)?
+        }
     }
     // Back to the mesh frame. The similarity keeps containment up to rounding; grow parents
     // by that rounding (≤ 1e-12 relative) so validate() holds exactly.
@@ -190,7 +218,7 @@ pub fn build_tree(
     }
     tree.enforce_containment();
     progress(1.0);
-    Ok(tree)
+    Ok((tree, report))
 }
 
 /// Fills every internal used slot bottom-up with a sphere containing its used children

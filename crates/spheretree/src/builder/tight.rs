@@ -24,7 +24,7 @@ use super::enclose::nelder_mead;
 use super::{fill_parents, partition, BuildParams};
 use crate::eval::{dist, dist2, SphereGrid};
 use crate::{Sphere, SphereTree, TreeError};
-use mesh::{sample_surface, sample_surface_weighted, MeshQuery, TriMesh};
+use mesh::{sample_surface, sample_surface_weighted, InsideTest, MeshQuery, TriMesh};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -39,10 +39,16 @@ const FEEDBACK_FLOOR: f64 = 1.0;
 const MIN_CHECK: usize = 200_000;
 /// Largest number of training samples (memory bound for deep trees).
 const MAX_SAMPLES: usize = 4_000_000;
+/// Share of the progress bar taken by the thickness step (one query series per triangle).
+const THICKNESS_SHARE: f64 = 0.15;
+/// Most triangles one closest-point query of the thickness step tests (see
+/// [`shrinking_ball`]); the bundled bunny and spline meshes need at most 1024.
+const QUERY_BUDGET: usize = 2048;
 
 pub(super) fn build(
     m: &TriMesh,
     params: &BuildParams,
+    inside: InsideTest,
     tree: &mut SphereTree,
     progress: &(dyn Fn(f64) + Sync),
 ) -> Result<(), TreeError> {
@@ -51,13 +57,13 @@ pub(super) fn build(
     let leaf_slots = tree.level_range(depth).len();
     let n_train = (leaf_slots * params.samples_per_leaf.max(1)).clamp(1000, MAX_SAMPLES);
     let n_check = (leaf_slots * params.check_samples_per_leaf).clamp(MIN_CHECK, MAX_SAMPLES);
-    let q = MeshQuery::new(m);
+    let q = MeshQuery::with_inside_test(m, inside);
     if q.triangle_count() == 0 {
         return Err(TreeError::Build(
             "every triangle of the mesh is degenerate: give a mesh with area".into(),
         ));
     }
-    let thickness = triangle_thickness(m, &q);
+    let thickness = triangle_thickness(m, &q, &|f| progress(THICKNESS_SHARE * f));
     let gamma = params.adaptivity;
     let mut density: Vec<f64> = thickness
         .iter()
@@ -66,8 +72,8 @@ pub(super) fn build(
     let passes = params.refine_passes + 1;
     let mut pass = 0;
     let (pos, nrm, nodes, mut leaves) = loop {
-        let span = 0.7 / passes as f64;
-        let lo = span * pass as f64;
+        let span = (0.7 - THICKNESS_SHARE) / passes as f64;
+        let lo = THICKNESS_SHARE + span * pass as f64;
         let report = |f: f64| progress(lo + span * f);
         // Feedback passes only estimate errors: a line search and a short polish suffice.
         let polish = if pass + 1 < passes { 16 } else { 100 };
@@ -326,12 +332,19 @@ fn fit_leaf(
 }
 
 /// Per triangle, the radius of the largest ball inside the mesh that touches the triangle's
-/// centroid (shrinking-ball iterations on the closest point; toolkit units).
-fn triangle_thickness(m: &TriMesh, q: &MeshQuery) -> Vec<f64> {
+/// centroid (shrinking-ball iterations on the closest point; toolkit units). `progress` gets
+/// the completed fraction.
+fn triangle_thickness(m: &TriMesh, q: &MeshQuery, progress: &(dyn Fn(f64) + Sync)) -> Vec<f64> {
     let nv = m.vertices.len();
+    let done = AtomicUsize::new(0);
+    let total = m.triangles.len().max(1);
     m.triangles
         .par_iter()
         .map(|t| {
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if d.is_multiple_of(4096) {
+                progress(d as f64 / total as f64);
+            }
             if t.iter().any(|&k| k as usize >= nv) {
                 return THICK_MAX;
             }
@@ -357,13 +370,27 @@ fn triangle_thickness(m: &TriMesh, q: &MeshQuery) -> Vec<f64> {
 /// Radius of the largest ball inside the mesh tangent at surface point `p` (outward normal
 /// `n`), at most `r0`: shrink while the closest surface point to the centre is nearer than
 /// the radius.
+///
+/// Each closest-point query tests at most [`QUERY_BUDGET`] triangles. A centre nearly
+/// equidistant to many triangles (the middle of a finely tessellated sphere or cylinder) would
+/// otherwise cost a scan of the whole mesh per triangle, which made this step quadratic. When
+/// the budget runs out on a ball larger than [`THICK_MAX`] the ball restarts at `THICK_MAX`
+/// (larger thicknesses are clamped to it anyway, and queries that deep stay local); below it,
+/// the nearest triangle found so far still shrinks the ball correctly (any surface point
+/// inside the ball bounds the largest empty ball from above). Every query of the bundled
+/// meshes completes within the budget, so their trees are the same as with exact queries.
 fn shrinking_ball(q: &MeshQuery, p: [f64; 3], n: [f64; 3], r0: f64) -> f64 {
     let mut r = r0;
     for _ in 0..32 {
         let c = inward(p, n, r);
-        let Some(cp) = q.closest_point(c) else {
+        let (found, complete) = q.closest_budgeted(c, f64::INFINITY, QUERY_BUDGET);
+        let Some(cp) = found else {
             return r;
         };
+        if !complete && r > THICK_MAX {
+            r = THICK_MAX;
+            continue;
+        }
         if cp.distance >= r * (1.0 - 1e-6) {
             return r;
         }
