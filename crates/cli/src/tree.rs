@@ -206,9 +206,13 @@ fn build(args: &BuildArgs) -> Result<()> {
     progress.finish();
     let (mut tree, report) =
         built.with_context(|| format!("building a sphere-tree of {}", args.mesh.display()))?;
-    let inside = report
-        .inside
-        .map(|t| (t, inside_reason(mesh, args.inside, t)));
+    let inside = report.inside.map(|t| {
+        let mut reason = inside_reason(mesh, args.inside, t);
+        if report.holes_closed > 0 {
+            reason += &format!("; {} hole(s) closed by fans for it", report.holes_closed);
+        }
+        (t, reason)
+    });
 
     let (lo, hi) = mesh
         .aabb()
@@ -232,6 +236,7 @@ fn build(args: &BuildArgs) -> Result<()> {
             "method": params.method.name(),
             "inside_test": inside.as_ref().map(|(t, _)| t.name()),
             "inside_reason": inside.as_ref().map(|(_, r)| r.as_str()),
+            "holes_closed": report.holes_closed,
             "depth": args.depth,
             "branching": args.branch,
             "levels": tree.levels(),

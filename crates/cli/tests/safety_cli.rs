@@ -261,7 +261,7 @@ fn tree_build_output_must_be_a_regular_file_other_than_the_input() {
 }
 
 #[test]
-fn octree_builds_open_meshes_and_a_single_triangle() {
+fn both_builders_take_open_meshes_and_a_single_triangle() {
     let d = Dir::new("octree");
     let open = CUBE_OBJ.replace("f 2 4 8 6\n", "");
     for (name, text) in [
@@ -269,16 +269,21 @@ fn octree_builds_open_meshes_and_a_single_triangle() {
         ("tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
     ] {
         let mesh = d.write(name, text);
-        for depth in ["1", "2", "3"] {
-            let out = d.path(&format!("{name}.{depth}.sph"));
+        for (method, depth) in [
+            ("octree", "1"),
+            ("octree", "2"),
+            ("octree", "3"),
+            ("tight", "2"),
+        ] {
+            let out = d.path(&format!("{name}.{method}.{depth}.sph"));
             let o = haptic6d(&[
-                "tree", "build", &mesh, "--depth", depth, "--method", "octree", "-o", &out,
+                "tree", "build", &mesh, "--depth", depth, "--method", method, "-o", &out,
             ]);
             success(&o);
             let t = spheretree::sph::read_sph(Path::new(&out)).unwrap();
             assert!(
                 t.leaves().any(|n| t.sphere(n).is_used()),
-                "{name} depth {depth}"
+                "{name} {method} depth {depth}"
             );
         }
     }

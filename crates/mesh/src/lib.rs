@@ -5,7 +5,8 @@
 //! Entry points:
 //! - [`TriMesh`]: an indexed triangle mesh in the file's own units.
 //! - [`load_mesh`]: OBJ / STL / PLY file to a validated [`TriMesh`] and a [`LoadReport`];
-//!   [`TriMesh::check_closed`] for builders that need a closed 2-manifold; [`MeshError`].
+//!   [`TriMesh::check_closed`] for builders that need a closed 2-manifold;
+//!   [`TriMesh::with_holes_closed`] to close an open one for inside queries; [`MeshError`].
 //! - [`MeshQuery`]: closest point, signed distance, inside test ([`InsideTest`]: pseudo-normal
 //!   for closed meshes, generalised winding number for open or self-intersecting ones).
 //! - [`sample_surface`]: area-weighted seeded surface samples with normals.
@@ -14,6 +15,7 @@
 #![warn(missing_docs)]
 
 mod error;
+mod holes;
 pub mod input;
 pub mod load;
 pub mod validate;

@@ -803,25 +803,33 @@ mod tests {
                 let p = [rnd(), rnd(), rnd()];
                 let fast = q.winding_number(p);
                 let exact = winding(m, p);
-                assert!((fast - exact).abs() < 0.01, "{p:?}: {fast} vs {exact}");
+                // First-order far field: a few hundredths at worst, near the surface.
+                assert!((fast - exact).abs() < 0.05, "{p:?}: {fast} vs {exact}");
+                if (exact - 0.5).abs() > 0.05 {
+                    assert_eq!(fast >= 0.5, exact >= 0.5, "{p:?}: {fast} vs {exact}");
+                }
             }
         }
         let q = MeshQuery::with_inside_test(&closed, InsideTest::WindingNumber);
-        assert!((q.winding_number([0.1, 0.2, 0.3]) - 1.0).abs() < 1e-3);
-        assert!(q.winding_number([1.5, 0.0, 0.0]).abs() < 1e-3);
+        assert!((q.winding_number([0.1, 0.2, 0.3]) - 1.0).abs() < 0.03);
+        assert!(q.winding_number([1.5, 0.0, 0.0]).abs() < 0.03);
         // The open box: its centre sees 5/6 of the sphere of directions covered.
         let q = MeshQuery::with_inside_test(&open, InsideTest::WindingNumber);
-        assert!((q.winding_number([0.0; 3]) - 5.0 / 6.0).abs() < 1e-3);
+        assert!((q.winding_number([0.0; 3]) - 5.0 / 6.0).abs() < 0.03);
         assert!(q.is_inside([0.0, 0.0, 0.5]));
         assert!(!q.is_inside([0.0, 0.0, 1.3]));
         assert!(q.signed_distance([0.0, 0.0, -0.5]) < 0.0);
-        // Two boxes through each other: 2 where both hold the point, and inside for sure;
-        // the pseudo-normal gets that region wrong.
+        // Two boxes through each other: 2 where both hold the point; the pseudo-normal gets
+        // the inside of one box wrong next to a face of the other.
         let q = MeshQuery::with_inside_test(&two, InsideTest::WindingNumber);
         let both = [0.3, 0.3, 0.3];
-        assert!((q.winding_number(both) - 2.0).abs() < 1e-3);
+        assert!((q.winding_number(both) - 2.0).abs() < 0.05);
         assert!(q.signed_distance(both) < 0.0);
-        assert!(MeshQuery::new(&two).signed_distance(both) > 0.0);
+        // Inside the long box only, nearest to a face of the other one, from outside it.
+        let one = [0.55, 0.0, 0.0];
+        assert!((q.winding_number(one) - 1.0).abs() < 0.05);
+        assert!(q.signed_distance(one) < 0.0);
+        assert!(MeshQuery::new(&two).signed_distance(one) > 0.0);
         assert_eq!(InsideTest::for_mesh(&closed), InsideTest::PseudoNormal);
         assert_eq!(InsideTest::for_mesh(&holed), InsideTest::WindingNumber);
     }

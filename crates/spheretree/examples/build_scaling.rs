@@ -15,7 +15,16 @@ fn main() {
             _ => mesh::generate::sphere_with_triangles(1.0, n),
         };
         let t0 = Instant::now();
-        let tree = build_tree(&mesh, &BuildParams::default(), &|_| {}).expect("build");
+        // Progress (to stderr): when each tenth of the build was reached.
+        let next = std::sync::atomic::AtomicUsize::new(1);
+        let tree = build_tree(&mesh, &BuildParams::default(), &|f| {
+            let tenth = next.load(std::sync::atomic::Ordering::Relaxed);
+            if f >= tenth as f64 / 10.0 {
+                next.store(tenth + 1, std::sync::atomic::Ordering::Relaxed);
+                eprintln!("  {f:.2} at {:.1} s", t0.elapsed().as_secs_f64());
+            }
+        })
+        .expect("build");
         let secs = t0.elapsed().as_secs_f64();
         let fit = evaluate_fit(&tree, &mesh, &FitParams::default());
         let leaf = fit.last().unwrap();

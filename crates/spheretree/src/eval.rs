@@ -9,7 +9,9 @@
 //! midpoints) and 162 points (one more subdivision) are tested; the sphere's error is the
 //! largest distance to the surface from a point that lies *outside* the mesh (0 if none
 //! does); outside is told by the pseudo-normal on a closed mesh and by the generalised
-//! winding number on an open one ([`FitParams::inside`]). Coverage is the fraction of seeded random surface samples inside the union of the
+//! winding number on an open one ([`FitParams::inside`]), whose holes are first closed by
+//! fans ([`solid_query`]). Coverage is the fraction of seeded random surface samples (of the
+//! surface that exists) inside the union of the
 //! level's spheres; the largest gap is the largest distance from an uncovered sample to the
 //! nearest sphere surface.
 
@@ -172,7 +174,7 @@ pub fn evaluate_fit(tree: &SphereTree, mesh: &TriMesh, params: &FitParams) -> Ve
     };
     let m = mesh.scaled_about(centre, s);
     let inside = params.inside.unwrap_or_else(|| InsideTest::for_mesh(&m));
-    let q = MeshQuery::with_inside_test(&m, inside);
+    let (q, _) = solid_query(&m, inside);
     let spheres: Vec<Sphere> = tree
         .spheres()
         .iter()
@@ -229,6 +231,20 @@ pub fn evaluate_fit(tree: &SphereTree, mesh: &TriMesh, params: &FitParams) -> Ve
             }
         })
         .collect()
+}
+
+/// The query structure telling inside from outside of `mesh` with `inside`, and the number
+/// of holes closed for it. With the winding number the holes are closed first
+/// ([`TriMesh::with_holes_closed`]), so distances (and protrusions) count from the membrane
+/// over a hole as from the missing surface; surface samples still come from `mesh` itself.
+pub fn solid_query(mesh: &TriMesh, inside: InsideTest) -> (MeshQuery, usize) {
+    match inside {
+        InsideTest::PseudoNormal => (MeshQuery::with_inside_test(mesh, inside), 0),
+        InsideTest::WindingNumber => {
+            let (closed, holes) = mesh.with_holes_closed();
+            (MeshQuery::with_inside_test(&closed, inside), holes)
+        }
+    }
 }
 
 /// A uniform grid over a point set that lists, per occupied cell, the spheres touching it.

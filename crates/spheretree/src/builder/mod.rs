@@ -156,6 +156,8 @@ pub struct BuildReport {
     /// The inside test the tight builder used (`None` for the octree builder, which needs
     /// none).
     pub inside: Option<InsideTest>,
+    /// Holes closed by fans for the winding-number queries (0 for a closed mesh).
+    pub holes_closed: usize,
 }
 
 /// Builds a sphere-tree of `mesh` (mesh units; open, holed or non-manifold meshes are fine:
@@ -193,13 +195,16 @@ pub fn build_tree_with_report(
         ));
     }
     progress(0.0);
-    let mut report = BuildReport { inside: None };
+    let mut report = BuildReport {
+        inside: None,
+        holes_closed: 0,
+    };
     match params.method {
         BuildMethod::Octree => octree::build(&m, &mut tree, progress)?,
         BuildMethod::Tight => {
             let inside = params.inside.unwrap_or_else(|| InsideTest::for_mesh(&m));
             report.inside = Some(inside);
-            tight::build(&m, params, inside, &mut tree, progress)?
+            report.holes_closed = tight::build(&m, params, inside, &mut tree, progress)?;
         }
     }
     // Back to the mesh frame. The similarity keeps containment up to rounding; grow parents

@@ -51,13 +51,13 @@ pub(super) fn build(
     inside: InsideTest,
     tree: &mut SphereTree,
     progress: &(dyn Fn(f64) + Sync),
-) -> Result<(), TreeError> {
+) -> Result<usize, TreeError> {
     let b = tree.branching() as usize;
     let depth = tree.depth();
     let leaf_slots = tree.level_range(depth).len();
     let n_train = (leaf_slots * params.samples_per_leaf.max(1)).clamp(1000, MAX_SAMPLES);
     let n_check = (leaf_slots * params.check_samples_per_leaf).clamp(MIN_CHECK, MAX_SAMPLES);
-    let q = MeshQuery::with_inside_test(m, inside);
+    let (q, holes) = crate::eval::solid_query(m, inside);
     if q.triangle_count() == 0 {
         return Err(TreeError::Build(
             "every triangle of the mesh is degenerate: give a mesh with area".into(),
@@ -217,7 +217,7 @@ pub(super) fn build(
         tree.spheres_mut()[0] = leaves[0];
     }
     fill_parents(tree, Some((&q, params.size_weight)));
-    Ok(())
+    Ok(holes)
 }
 
 /// Samples, balanced top-down partition and first leaf fits for a per-triangle sampling

@@ -1,0 +1,135 @@
+//! Closing the holes of an open mesh for inside/outside and distance queries: each connected
+//! set of boundary edges (edges with one triangle) is closed by a fan of triangles to its
+//! centroid. The fans are a membrane over each hole, so a sphere bulging out through a hole
+//! is seen as leaving the solid, as it would through the missing surface.
+
+use crate::TriMesh;
+use std::collections::HashMap;
+
+impl TriMesh {
+    /// The mesh with every hole closed by a fan to the centroid of its boundary, and the
+    /// number of holes closed (0 for a closed mesh: then the mesh is returned unchanged).
+    ///
+    /// A hole is a connected set of boundary edges (edges used by exactly one triangle;
+    /// edges shared by 3 or more triangles are not holes), connected through shared vertices.
+    /// Each boundary edge `a → b` gets the triangle `b, a, centroid`, oriented like the
+    /// missing neighbour. Fans of non-planar or touching holes may cross the surface: query
+    /// the result with the generalised winding number ([`crate::InsideTest::WindingNumber`]),
+    /// which does not mind.
+    pub fn with_holes_closed(&self) -> (TriMesh, usize) {
+        let nv = self.vertices.len();
+        // Undirected edge → (uses, the directed edge of its first use).
+        let mut edges: HashMap<(u32, u32), (u32, (u32, u32))> =
+            HashMap::with_capacity(self.triangles.len() * 3 / 2 + 1);
+        for t in &self.triangles {
+            if t.iter().any(|&k| k as usize >= nv) {
+                continue;
+            }
+            for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+                let e = edges.entry((a.min(b), a.max(b))).or_insert((0, (a, b)));
+                e.0 += 1;
+            }
+        }
+        let mut boundary: Vec<(u32, u32)> = edges
+            .values()
+            .filter(|(uses, _)| *uses == 1)
+            .map(|(_, directed)| *directed)
+            .collect();
+        if boundary.is_empty() {
+            return (self.clone(), 0);
+        }
+        // Deterministic order whatever the hash map's.
+        boundary.sort_unstable();
+        // Union-find over the boundary vertices.
+        let mut parent: HashMap<u32, u32> = HashMap::new();
+        fn find(parent: &mut HashMap<u32, u32>, v: u32) -> u32 {
+            let mut root = v;
+            while let Some(&p) = parent.get(&root) {
+                if p == root {
+                    break;
+                }
+                root = p;
+            }
+            // Path compression.
+            let mut x = v;
+            while x != root {
+                let next = parent[&x];
+                parent.insert(x, root);
+                x = next;
+            }
+            root
+        }
+        for &(a, b) in &boundary {
+            parent.entry(a).or_insert(a);
+            parent.entry(b).or_insert(b);
+            let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+            if ra != rb {
+                parent.insert(ra.max(rb), ra.min(rb));
+            }
+        }
+        // Per hole: the mean of its boundary vertices (each counted once).
+        let mut sums: HashMap<u32, ([f64; 3], usize)> = HashMap::new();
+        let mut vertices: Vec<u32> = parent.keys().copied().collect();
+        vertices.sort_unstable();
+        for v in vertices {
+            let root = find(&mut parent, v);
+            let e = sums.entry(root).or_insert(([0.0; 3], 0));
+            for k in 0..3 {
+                e.0[k] += self.vertices[v as usize][k];
+            }
+            e.1 += 1;
+        }
+        let mut roots: Vec<u32> = sums.keys().copied().collect();
+        roots.sort_unstable();
+        let mut out = self.clone();
+        let mut centre_of: HashMap<u32, u32> = HashMap::with_capacity(roots.len());
+        for root in &roots {
+            let (s, n) = sums[root];
+            out.vertices.push(s.map(|x| x / n as f64));
+            centre_of.insert(*root, (out.vertices.len() - 1) as u32);
+        }
+        for &(a, b) in &boundary {
+            let c = centre_of[&find(&mut parent, a)];
+            out.triangles.push([b, a, c]);
+        }
+        (out, roots.len())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::generate;
+
+    #[test]
+    fn holes_are_closed_and_closed_meshes_untouched() {
+        let closed = generate::uv_sphere(1.0, 12, 24);
+        assert_eq!(closed.with_holes_closed(), (closed.clone(), 0));
+        // The open box gets its lid back: a closed mesh again.
+        let open = generate::open_box([1.0; 3], 3);
+        let (lidded, holes) = open.with_holes_closed();
+        assert_eq!(holes, 1);
+        assert_eq!(lidded.triangles.len(), open.triangles.len() + 12);
+        lidded.check_closed().unwrap();
+        let centre = lidded.vertices.last().unwrap();
+        assert!(centre[0].abs() < 1e-12 && centre[1].abs() < 1e-12 && centre[2] == 1.0);
+        // Scattered holes (neighbouring ones merge, some touch at a vertex, so the result
+        // need not be a manifold): one fan triangle per boundary edge, and the winding number
+        // is back to 1 inside where the holes let it drop.
+        let holed = generate::remove_fraction(&closed, 0.03, 5);
+        let (filled, holes) = holed.with_holes_closed();
+        assert!(holes > 0);
+        let removed = closed.triangles.len() - holed.triangles.len();
+        let added = filled.triangles.len() - holed.triangles.len();
+        assert!(
+            added >= removed && added <= 3 * removed,
+            "{added} vs {removed}"
+        );
+        let wn = crate::InsideTest::WindingNumber;
+        let before = crate::MeshQuery::with_inside_test(&holed, wn).winding_number([0.0; 3]);
+        let after = crate::MeshQuery::with_inside_test(&filled, wn).winding_number([0.0; 3]);
+        assert!(
+            before < 0.99 && (after - 1.0).abs() < 0.03,
+            "{before} {after}"
+        );
+    }
+}
