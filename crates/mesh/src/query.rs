@@ -485,7 +485,20 @@ impl MeshQuery {
     /// Signed distance from `p` to the surface (mesh units): negative inside, positive
     /// outside, the side told by the [`InsideTest`] in use; `+inf` without triangles.
     pub fn signed_distance(&self, p: [f64; 3]) -> f64 {
-        match self.closest_point(p) {
+        self.signed_from(p, self.closest_point(p))
+    }
+
+    /// [`MeshQuery::signed_distance`] if the closest point is found within `max_tests`
+    /// triangle tests (see [`MeshQuery::closest_budgeted`]), else `None`.
+    pub fn signed_distance_budgeted(&self, p: [f64; 3], max_tests: usize) -> Option<f64> {
+        match self.closest_budgeted(p, f64::INFINITY, max_tests) {
+            (found, true) => Some(self.signed_from(p, found)),
+            (_, false) => None,
+        }
+    }
+
+    fn signed_from(&self, p: [f64; 3], closest: Option<ClosestPoint>) -> f64 {
+        match closest {
             Some(c) => {
                 let inside = match self.inside {
                     InsideTest::PseudoNormal => dot(sub(p, c.point), c.normal) < 0.0,

@@ -33,6 +33,11 @@ use mesh::{InsideTest, TriMesh};
 /// same [`BuildParams`] (fold it into any cache key of built trees).
 pub const BUILDER_VERSION: u32 = 2;
 
+/// Most triangles one signed-distance query of a parent fit may test; more than any mesh
+/// of fewer triangles can need, so the bundled meshes (at most 7488 triangles) are fitted
+/// exactly as without a bound.
+const PARENT_QUERY_BUDGET: usize = 8192;
+
 /// Which builder [`build_tree`] runs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum BuildMethod {
@@ -257,9 +262,25 @@ pub(crate) fn fill_parents(tree: &mut SphereTree, q: Option<(&mesh::MeshQuery, f
                         .map(|k| crate::eval::dist(c, k.center) + k.radius)
                         .fold(0.0, f64::max)
                 };
-                let f = |c: [f64; 3]| reach(c) * (1.0 + size_weight) + q.signed_distance(c);
+                // A centre nearly equidistant to a large part of the mesh (the middle of a
+                // fine sphere) makes each signed distance a scan of the mesh: past the budget
+                // the parent keeps the smallest enclosing sphere instead.
+                let cut = std::sync::atomic::AtomicBool::new(false);
+                let f = |c: [f64; 3]| {
+                    if cut.load(std::sync::atomic::Ordering::Relaxed) {
+                        return 0.0;
+                    }
+                    let sd = q.signed_distance_budgeted(c, PARENT_QUERY_BUDGET);
+                    if sd.is_none() {
+                        cut.store(true, std::sync::atomic::Ordering::Relaxed);
+                    }
+                    reach(c) * (1.0 + size_weight) + sd.unwrap_or(0.0)
+                };
                 let c = enclose::nelder_mead(&f, min.center, 0.25 * min.radius, 60, 1e-1);
                 let best = if f(c) < f(min.center) { c } else { min.center };
+                if cut.into_inner() {
+                    return Some(min);
+                }
                 Some(Sphere::new(best, reach(best)))
             })
             .collect();
