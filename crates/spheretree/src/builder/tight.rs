@@ -45,6 +45,14 @@ const THICKNESS_SHARE: f64 = 0.15;
 /// [`shrinking_ball`]); the bundled bunny and spline meshes need at most 1024 (checked for
 /// the bunny by a test).
 const QUERY_BUDGET: usize = 1024;
+/// Fewest triangles one thickness query may test however large the mesh.
+const MIN_QUERY_BUDGET: usize = 64;
+/// Triangle tests the thickness step spends per query series, over all triangles: the
+/// per-query budget is this over the triangle count, within
+/// `MIN_QUERY_BUDGET..=QUERY_BUDGET`, so the step stays linear in the triangle count (exact
+/// queries from a ball of fixed size test more triangles the finer the mesh). Meshes of up
+/// to 16 384 triangles get the full [`QUERY_BUDGET`].
+const THICKNESS_TESTS: usize = 1 << 24;
 
 pub(super) fn build(
     m: &TriMesh,
@@ -339,6 +347,7 @@ fn triangle_thickness(m: &TriMesh, q: &MeshQuery, progress: &(dyn Fn(f64) + Sync
     let nv = m.vertices.len();
     let done = AtomicUsize::new(0);
     let total = m.triangles.len().max(1);
+    let budget = (THICKNESS_TESTS / total).clamp(MIN_QUERY_BUDGET, QUERY_BUDGET);
     m.triangles
         .par_iter()
         .map(|t| {
@@ -363,7 +372,7 @@ fn triangle_thickness(m: &TriMesh, q: &MeshQuery, progress: &(dyn Fn(f64) + Sync
             }
             let n = cr.map(|x| x / l);
             let p = [0, 1, 2].map(|k| (a[k] + b[k] + c[k]) / 3.0);
-            shrinking_ball(q, p, n, 4.0 * THICK_MAX)
+            shrinking_ball(q, p, n, 4.0 * THICK_MAX, budget)
         })
         .collect()
 }
@@ -372,19 +381,21 @@ fn triangle_thickness(m: &TriMesh, q: &MeshQuery, progress: &(dyn Fn(f64) + Sync
 /// `n`), at most `r0`: shrink while the closest surface point to the centre is nearer than
 /// the radius.
 ///
-/// Each closest-point query tests at most [`QUERY_BUDGET`] triangles. A centre nearly
+/// Each closest-point query tests at most `budget` triangles. A centre nearly
 /// equidistant to many triangles (the middle of a finely tessellated sphere or cylinder) would
 /// otherwise cost a scan of the whole mesh per triangle, which made this step quadratic. When
 /// the budget runs out on a ball larger than [`THICK_MAX`] the ball restarts at `THICK_MAX`
 /// (larger thicknesses are clamped to it anyway, and queries that deep stay local); below it,
 /// the nearest triangle found so far still shrinks the ball correctly (any surface point
-/// inside the ball bounds the largest empty ball from above). Every query of the bundled
-/// meshes completes within the budget, so their trees are the same as with exact queries.
-fn shrinking_ball(q: &MeshQuery, p: [f64; 3], n: [f64; 3], r0: f64) -> f64 {
+/// inside the ball bounds the largest empty ball from above; a query cut short may miss a
+/// closer one and overestimate the thickness, which only thins the sampling there a little).
+/// Every query of the bundled meshes completes within the budget, so their trees are the
+/// same as with exact queries.
+fn shrinking_ball(q: &MeshQuery, p: [f64; 3], n: [f64; 3], r0: f64, budget: usize) -> f64 {
     let mut r = r0;
     for _ in 0..32 {
         let c = inward(p, n, r);
-        let (found, complete) = q.closest_budgeted(c, f64::INFINITY, QUERY_BUDGET);
+        let (found, complete) = q.closest_budgeted(c, f64::INFINITY, budget);
         let Some(cp) = found else {
             return r;
         };
