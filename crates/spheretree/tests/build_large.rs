@@ -39,7 +39,10 @@ fn build_large(name: &str, mesh: &TriMesh) {
         reports.len()
     );
     assert!(reports.len() > 100, "{}", reports.len());
-    assert!(longest_silence <= 0.2 * seconds, "{longest_silence} of {seconds}");
+    assert!(
+        longest_silence <= 0.2 * seconds,
+        "{longest_silence} of {seconds}"
+    );
     assert!(leaf.coverage >= 0.999, "{leaf:?}");
     assert_eq!(leaf.count, 4096);
 }

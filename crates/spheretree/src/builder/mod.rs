@@ -30,8 +30,10 @@ use crate::{Sphere, SphereTree, TreeError};
 use mesh::{InsideTest, TriMesh};
 
 /// Version of the builders' output: bumped whenever a builder gives a different tree for the
-/// same [`BuildParams`] (fold it into any cache key of built trees).
-pub const BUILDER_VERSION: u32 = 2;
+/// same [`BuildParams`] (fold it into any cache key of built trees). 3: bounded queries on
+/// large meshes and open meshes in the tight builder (trees of meshes up to 8192 triangles,
+/// the bundled ones included, are unchanged).
+pub const BUILDER_VERSION: u32 = 3;
 
 /// Most triangles one signed-distance query of a parent fit may test; more than any mesh
 /// of fewer triangles can need, so the bundled meshes (at most 7488 triangles) are fitted
