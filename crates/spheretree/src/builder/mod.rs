@@ -30,9 +30,9 @@ use crate::{Sphere, SphereTree, TreeError};
 use mesh::{InsideTest, TriMesh};
 
 /// Version of the builders' output: bumped whenever a builder gives a different tree for the
-/// same [`BuildParams`] (fold it into any cache key of built trees). 3: bounded queries on
-/// large meshes and open meshes in the tight builder (trees of meshes up to 8192 triangles,
-/// the bundled ones included, are unchanged).
+/// same [`BuildParams`] (fold it into any cache key of built trees). 3: bounded queries
+/// (trees of fine meshes change; the bundled bunny's and spline's do not) and open meshes in
+/// the tight builder.
 pub const BUILDER_VERSION: u32 = 3;
 
 /// Most triangles one signed-distance query of a parent fit may test; more than any mesh
