@@ -210,6 +210,7 @@ pub fn build_tree_with_report(
         BuildMethod::Octree => octree::build(&m, &mut tree, progress)?,
         BuildMethod::Tight => {
             let inside = params.inside.unwrap_or_else(|| InsideTest::for_mesh(&m));
+            progress(0.01);
             report.inside = Some(inside);
             report.holes_closed = tight::build(&m, params, inside, &mut tree, progress)?;
         }

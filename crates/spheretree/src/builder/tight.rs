@@ -39,7 +39,9 @@ const FEEDBACK_FLOOR: f64 = 1.0;
 const MIN_CHECK: usize = 200_000;
 /// Largest number of training samples (memory bound for deep trees).
 const MAX_SAMPLES: usize = 4_000_000;
-/// Share of the progress bar taken by the thickness step (one query series per triangle).
+/// Progress when the query structure is built (a serial pass over the triangles).
+const QUERY_READY: f64 = 0.05;
+/// Progress when the thickness step (one query series per triangle) is done.
 const THICKNESS_SHARE: f64 = 0.15;
 /// Most triangles one closest-point query of the thickness step tests (see
 /// [`shrinking_ball`]); the bundled bunny and spline meshes need at most 1024 (checked for
@@ -72,7 +74,10 @@ pub(super) fn build(
             "every triangle of the mesh is degenerate: give a mesh with area".into(),
         ));
     }
-    let thickness = triangle_thickness(m, &q, &|f| progress(THICKNESS_SHARE * f));
+    progress(QUERY_READY);
+    let thickness = triangle_thickness(m, &q, &|f| {
+        progress(QUERY_READY + (THICKNESS_SHARE - QUERY_READY) * f)
+    });
     let gamma = params.adaptivity;
     let mut density: Vec<f64> = thickness
         .iter()
