@@ -316,12 +316,16 @@ impl MeshQuery {
         if self.tris.is_empty() {
             return;
         }
-        let mut centroids: Vec<[f64; 3]> = self
+        // Centroids by input position; `order` is the arrangement being built, applied to
+        // `tris` once at the end (moving whole triangles at every level cost O(n log n)
+        // copies of 240 bytes).
+        let centroids: Vec<[f64; 3]> = self
             .tris
             .iter()
             .map(|t| scale_v(add(add(t.v[0], t.v[1]), t.v[2]), 1.0 / 3.0))
             .collect();
         let n = self.tris.len();
+        let mut order: Vec<u32> = (0..n as u32).collect();
         self.nodes.reserve(2 * n / LEAF_SIZE + 1);
         self.nodes.push(Node {
             lo: [0.0; 3],
@@ -332,7 +336,7 @@ impl MeshQuery {
         // Iterative build: (node index, range start, range end).
         let mut work = vec![(0usize, 0usize, n)];
         while let Some((ni, s, e)) = work.pop() {
-            let (lo, hi) = bounds(&self.tris[s..e]);
+            let (lo, hi) = bounds(order[s..e].iter().map(|&i| &self.tris[i as usize]));
             self.nodes[ni].lo = lo;
             self.nodes[ni].hi = hi;
             if e - s <= LEAF_SIZE {
@@ -341,7 +345,7 @@ impl MeshQuery {
                 continue;
             }
             // Split at the median centroid along the longest axis of the centroid bounds.
-            let (clo, chi) = point_bounds(&centroids[s..e]);
+            let (clo, chi) = point_bounds(order[s..e].iter().map(|&i| &centroids[i as usize]));
             let ext = sub(chi, clo);
             let axis = if ext[0] >= ext[1] && ext[0] >= ext[2] {
                 0
@@ -351,14 +355,9 @@ impl MeshQuery {
                 2
             };
             let mid = (s + e) / 2;
-            let mut idx: Vec<usize> = (s..e).collect();
-            idx.select_nth_unstable_by(mid - s, |&a, &b| {
-                centroids[a][axis].total_cmp(&centroids[b][axis])
+            order[s..e].select_nth_unstable_by(mid - s, |&a, &b| {
+                centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
             });
-            let tri_part: Vec<Tri> = idx.iter().map(|&i| self.tris[i]).collect();
-            let cen_part: Vec<[f64; 3]> = idx.iter().map(|&i| centroids[i]).collect();
-            self.tris[s..e].copy_from_slice(&tri_part);
-            centroids[s..e].copy_from_slice(&cen_part);
             let left = self.nodes.len();
             for _ in 0..2 {
                 self.nodes.push(Node {
@@ -373,6 +372,7 @@ impl MeshQuery {
             work.push((left, s, mid));
             work.push((left + 1, mid, e));
         }
+        self.tris = order.iter().map(|&i| self.tris[i as usize]).collect();
     }
 
     /// The closest point of the surface to `p` (mesh units), with its triangle, feature and
@@ -532,7 +532,7 @@ fn solid_angle(p: [f64; 3], v: &[[f64; 3]; 3]) -> f64 {
     2.0 * num.atan2(den)
 }
 
-fn bounds(tris: &[Tri]) -> ([f64; 3], [f64; 3]) {
+fn bounds<'a>(tris: impl Iterator<Item = &'a Tri>) -> ([f64; 3], [f64; 3]) {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     for t in tris {
@@ -546,7 +546,7 @@ fn bounds(tris: &[Tri]) -> ([f64; 3], [f64; 3]) {
     (lo, hi)
 }
 
-fn point_bounds(ps: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+fn point_bounds<'a>(ps: impl Iterator<Item = &'a [f64; 3]>) -> ([f64; 3], [f64; 3]) {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     for v in ps {
