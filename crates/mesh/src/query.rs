@@ -143,6 +143,12 @@ impl MeshQuery {
     /// index or (near-)zero area are skipped and counted in [`MeshQuery::skipped`]. A mesh with
     /// no usable triangle gives a structure whose queries return `None` / `+inf` / `false`.
     pub fn new(mesh: &TriMesh) -> Self {
+        Self::with_progress(mesh, InsideTest::PseudoNormal, &|_| {})
+    }
+
+    /// [`MeshQuery::with_inside_test`], calling `progress` with the completed fraction
+    /// (`0..=1`) as it goes: a few seconds for millions of triangles.
+    pub fn with_progress(mesh: &TriMesh, inside: InsideTest, progress: &dyn Fn(f64)) -> Self {
         let nv = mesh.vertices.len();
         let scale = mesh.aabb().map(|(lo, hi)| norm(sub(hi, lo))).unwrap_or(0.0);
         let area_eps = (scale * 1e-12).powi(2);
@@ -162,6 +168,7 @@ impl MeshQuery {
             good.push((i as u32, *t, scale_v(cr, 1.0 / len)));
         }
         let skipped = mesh.triangles.len() - good.len();
+        progress(0.1);
 
         // Vertex pseudo-normals (angle-weighted) and edge pseudo-normals (sum of the faces).
         let mut vnorm = vec![[0.0; 3]; nv];
@@ -179,6 +186,7 @@ impl MeshQuery {
                 *e = add(*e, n);
             }
         }
+        progress(0.3);
         let tris: Vec<Tri> = good
             .iter()
             .map(|&(id, t, n)| {
@@ -198,19 +206,19 @@ impl MeshQuery {
             nodes: Vec::new(),
             dipoles: Vec::new(),
             skipped,
-            inside: InsideTest::PseudoNormal,
+            inside,
         };
-        q.build();
+        progress(0.4);
+        q.build(&|f| progress(0.4 + 0.55 * f));
         q.build_dipoles();
+        progress(1.0);
         q
     }
 
     /// [`MeshQuery::new`] with the given inside test for [`MeshQuery::signed_distance`] and
     /// [`MeshQuery::is_inside`].
     pub fn with_inside_test(mesh: &TriMesh, inside: InsideTest) -> Self {
-        let mut q = Self::new(mesh);
-        q.inside = inside;
-        q
+        Self::with_progress(mesh, inside, &|_| {})
     }
 
     /// The inside test in use.
@@ -312,10 +320,12 @@ impl MeshQuery {
         self.tris.len()
     }
 
-    fn build(&mut self) {
+    /// The hierarchy; `progress` gets the fraction of triangles placed in leaves.
+    fn build(&mut self, progress: &dyn Fn(f64)) {
         if self.tris.is_empty() {
             return;
         }
+        let mut placed = 0usize;
         // Centroids by input position; `order` is the arrangement being built, applied to
         // `tris` once at the end (moving whole triangles at every level cost O(n log n)
         // copies of 240 bytes).
@@ -342,6 +352,11 @@ impl MeshQuery {
             if e - s <= LEAF_SIZE {
                 self.nodes[ni].first = s as u32;
                 self.nodes[ni].count = (e - s) as u32;
+                let before = placed;
+                placed += e - s;
+                if placed >> 16 != before >> 16 {
+                    progress(placed as f64 / n as f64);
+                }
                 continue;
             }
             // Split at the median centroid along the longest axis of the centroid bounds.

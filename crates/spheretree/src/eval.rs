@@ -249,11 +249,20 @@ pub fn evaluate_fit(tree: &SphereTree, mesh: &TriMesh, params: &FitParams) -> Ve
 /// ([`TriMesh::with_holes_closed`]), so distances (and protrusions) count from the membrane
 /// over a hole as from the missing surface; surface samples still come from `mesh` itself.
 pub fn solid_query(mesh: &TriMesh, inside: InsideTest) -> (MeshQuery, usize) {
+    solid_query_with_progress(mesh, inside, &|_| {})
+}
+
+/// [`solid_query`], calling `progress` with the completed fraction as it goes.
+pub(crate) fn solid_query_with_progress(
+    mesh: &TriMesh,
+    inside: InsideTest,
+    progress: &dyn Fn(f64),
+) -> (MeshQuery, usize) {
     match inside {
-        InsideTest::PseudoNormal => (MeshQuery::with_inside_test(mesh, inside), 0),
+        InsideTest::PseudoNormal => (MeshQuery::with_progress(mesh, inside, progress), 0),
         InsideTest::WindingNumber => {
             let (closed, holes) = mesh.with_holes_closed();
-            (MeshQuery::with_inside_test(&closed, inside), holes)
+            (MeshQuery::with_progress(&closed, inside, progress), holes)
         }
     }
 }

@@ -27,14 +27,14 @@ fn build_large(name: &str, mesh: &TriMesh) {
     tree.validate(0.0).unwrap();
     let reports = reports.into_inner().unwrap();
     // The progress moves: no silent stretch longer than a fifth of the build.
-    let longest_silence = reports
+    let (longest_silence, from, to) = reports
         .windows(2)
-        .map(|w| w[1].1 - w[0].1)
-        .fold(0.0, f64::max);
+        .map(|w| (w[1].1 - w[0].1, w[0].0, w[1].0))
+        .fold((0.0, 0.0, 0.0), |a, b| if b.0 > a.0 { b } else { a });
     let fit = evaluate_fit(&tree, mesh, &FitParams::default());
     let leaf = fit.last().unwrap();
     eprintln!(
-        "{name}: {} triangles, {seconds:.1} s, {} progress reports (longest silence {longest_silence:.1} s), leaf {leaf:?}",
+        "{name}: {} triangles, {seconds:.1} s, {} progress reports (longest silence {longest_silence:.1} s, from {from:.3} to {to:.3}), leaf {leaf:?}",
         mesh.triangles.len(),
         reports.len()
     );

@@ -39,6 +39,8 @@ const FEEDBACK_FLOOR: f64 = 1.0;
 const MIN_CHECK: usize = 200_000;
 /// Largest number of training samples (memory bound for deep trees).
 const MAX_SAMPLES: usize = 4_000_000;
+/// Progress when the tight builder starts (after the inside test is chosen).
+const QUERY_START: f64 = 0.01;
 /// Progress when the query structure is built (a serial pass over the triangles).
 const QUERY_READY: f64 = 0.05;
 /// Progress when the thickness step (one query series per triangle) is done.
@@ -68,7 +70,9 @@ pub(super) fn build(
     let leaf_slots = tree.level_range(depth).len();
     let n_train = (leaf_slots * params.samples_per_leaf.max(1)).clamp(1000, MAX_SAMPLES);
     let n_check = (leaf_slots * params.check_samples_per_leaf).clamp(MIN_CHECK, MAX_SAMPLES);
-    let (q, holes) = crate::eval::solid_query(m, inside);
+    let (q, holes) = crate::eval::solid_query_with_progress(m, inside, &|f| {
+        progress(QUERY_START + (QUERY_READY - QUERY_START) * f)
+    });
     if q.triangle_count() == 0 {
         return Err(TreeError::Build(
             "every triangle of the mesh is degenerate: give a mesh with area".into(),
