@@ -64,8 +64,18 @@ fn inside_reason(mesh: &mesh::TriMesh, chosen: Inside, used: InsideTest) -> Stri
     if chosen != Inside::Auto {
         return "as asked".into();
     }
+    use mesh::MeshError;
     match (used, mesh.check_closed()) {
         (InsideTest::PseudoNormal, _) => "the mesh is closed".into(),
+        (_, Err(MeshError::BoundaryEdge { a, b, .. })) => {
+            format!("the mesh is open: edge ({a}, {b}) borders a hole")
+        }
+        (_, Err(MeshError::NonManifoldEdge { a, b, count, .. })) => {
+            format!("the mesh is non-manifold: edge ({a}, {b}) has {count} triangles")
+        }
+        (_, Err(MeshError::FlippedEdge { a, b, .. })) => {
+            format!("the mesh is not consistently oriented at edge ({a}, {b})")
+        }
         (_, Err(e)) => e.to_string(),
         (_, Ok(())) => "as asked".into(),
     }
