@@ -39,7 +39,7 @@ use render::report::{tree_infos, TreeInfo};
 use render::rt::StatusCounts;
 use render::scene::{Motion, Scene, SolverKind, TreeParams};
 use render::stats::Summary;
-use render::step::{FrameOutput, GodObject, StepParams};
+use render::step::{FrameOutput, GodObject};
 use serde::Serialize;
 
 /// Arguments of `haptic6d bench`.
@@ -388,9 +388,9 @@ fn replay(
     traj: &[Pose],
     budget_s: f64,
 ) -> Result<Vec<FrameOutput>> {
-    let mut params = StepParams::from_scene(scene);
+    let mut params = scene.engine_config().step_params();
     params.solver = kind;
-    let mut god = GodObject::new(scene, params)?;
+    let mut god = GodObject::new(&scene.tool, &scene.objects, params)?;
     let Some(first) = traj.first() else {
         return Ok(Vec::new());
     };
@@ -465,9 +465,9 @@ fn pairs_study(
     // The frame is fixed; the detection skin grows until the QP holds `target` rows (pairs
     // within the skin are real, inactive constraints: what a larger contact patch adds).
     let pairs_with_skin = |skin: f64| -> Result<u32> {
-        let mut params = StepParams::from_scene(scene);
+        let mut params = scene.engine_config().step_params();
         params.skin_mm = skin;
-        let mut probe = GodObject::new(scene, params)?;
+        let mut probe = GodObject::new(&scene.tool, &scene.objects, params)?;
         probe.reset(&base)?;
         Ok(probe.step(&q_h).pairs)
     };
@@ -487,10 +487,10 @@ fn pairs_study(
             }
         }
         for kind in SOLVERS {
-            let mut params = StepParams::from_scene(scene);
+            let mut params = scene.engine_config().step_params();
             params.solver = kind;
             params.skin_mm = hi;
-            let mut god = GodObject::new(scene, params)?;
+            let mut god = GodObject::new(&scene.tool, &scene.objects, params)?;
             // PQP is O(N^2) per iteration: cap its repetitions at large N so the bench ends.
             let n = if kind == SolverKind::Pqp && target > 1000 {
                 reps.min(5)
@@ -531,7 +531,7 @@ fn depth_study(
         let params = TreeParams {
             depth,
             branching: 8,
-            octree: false,
+            method: spheretree::build::BuildMethod::Tight,
         };
         let tree = render::scene::tree_for_mesh(&mesh, params, cache, "bunny", &mut log)?;
         for line in &log {

@@ -17,7 +17,7 @@ use render::cache::TreeCache;
 use render::scene::{Scene, SolverKind};
 use render::scenes::plate::{self, PlateTool, SpeedMotion};
 use render::stats::Summary;
-use render::step::{FrameOutput, FrameStatus, GodObject, StepParams};
+use render::step::{FrameOutput, FrameStatus, GodObject};
 use serde::Serialize;
 
 /// One row of the contact study.
@@ -49,9 +49,9 @@ pub struct ContactRow {
 /// (s) and every frame's output.
 pub fn replay(scene: &Scene, solver: SolverKind) -> Result<(Vec<f64>, Vec<FrameOutput>)> {
     let traj = scene.trajectory();
-    let mut params = StepParams::from_scene(scene);
+    let mut params = scene.engine_config().step_params();
     params.solver = solver;
-    let mut god = GodObject::new(scene, params)?;
+    let mut god = GodObject::new(&scene.tool, &scene.objects, params)?;
     let first = traj
         .samples
         .first()

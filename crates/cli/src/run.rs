@@ -9,14 +9,15 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use engine::setting::Setting;
+use engine::{ConstraintForm, RotationCoordinates, SolverKind};
 use render::cache::TreeCache;
 use render::config;
 use render::device::ReplayDevice;
 use render::report::{frames_csv, summarize, tree_infos, RunSummary};
 use render::rt::{run_loop, LoopParams};
 use render::safety::Safety;
-use render::scene::{load_scene_file, FormSpec, Motion, Scene, SolverKind};
-use render::step::{GodObject, StepParams};
+use render::scene::{load_scene_file, Motion, Scene};
 use render::trajectory::Trajectory;
 
 use crate::progress::Progress;
@@ -281,13 +282,24 @@ pub fn run(args: RunArgs) -> Result<()> {
             range.check_as(name, v)?;
         }
     }
-    let solver = args.solver.as_deref().map(SolverKind::parse).transpose()?;
-    let form = match args.form.as_deref() {
-        None => None,
-        Some("distance") => Some(FormSpec::Distance),
-        Some("squared") => Some(FormSpec::Squared),
-        Some(other) => bail!("--form {other}: use distance or squared"),
-    };
+    let solver = args
+        .solver
+        .as_deref()
+        .map(SolverKind::parse_setting)
+        .transpose()
+        .context("--solver")?;
+    let form = args
+        .form
+        .as_deref()
+        .map(ConstraintForm::parse_setting)
+        .transpose()
+        .context("--form")?;
+    let rotation = args
+        .rotation
+        .as_deref()
+        .map(RotationCoordinates::parse_setting)
+        .transpose()
+        .context("--rotation")?;
     let trajectory = args
         .trajectory
         .as_deref()
@@ -338,8 +350,8 @@ pub fn run(args: RunArgs) -> Result<()> {
     if let Some(v) = args.budget_us {
         scene.solver.budget_us = v;
     }
-    if let Some(r) = &args.rotation {
-        scene.coupling.rotation = render::scene::RotationSpec::parse(r)?;
+    if let Some(r) = rotation {
+        scene.coupling.rotation = r;
     }
     if let Some(t) = trajectory {
         scene.motion = Motion::Trajectory(t);
@@ -352,7 +364,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         .map(|s| collide::Pose::from_array(s.q))
         .context("the trajectory has no frame")?;
 
-    let mut god = GodObject::new(&scene, StepParams::from_scene(&scene))?;
+    let mut god = scene.god_object()?;
     god.reset(&first)?;
     let mut safety = Safety::new(scene.safety);
     let mut device = ReplayDevice::new(traj.clone());
@@ -367,10 +379,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     let mut summary = summarize(
         &scene.name,
         scene.solver.kind.name(),
-        match scene.solver.form {
-            FormSpec::Distance => "distance",
-            FormSpec::Squared => "squared",
-        },
+        scene.solver.form.setting_name(),
         &report.frames,
         &report.stats,
         scene.goal,

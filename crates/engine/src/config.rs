@@ -2,9 +2,9 @@
 //! a command-line flag, or a struct built through the Rust API.
 //!
 //! Each setting has one [`Range`] (or [`IntRange`]) here, with physically meaningful bounds and
-//! a unit. The scene parser, the command line and the `validate()` methods of
-//! [`SafetyParams`], [`StepParams`] and [`crate::rt::LoopParams`] all check against these same
-//! ranges, so a value refused in one place is refused everywhere. A refused value gives a
+//! a unit. The scene parser, the command line, [`crate::EngineConfig::validate`] and the
+//! `validate()` methods of [`SafetyParams`], [`StepParams`] and the haptic loop's settings all
+//! check against these same ranges, so a value refused in one place is refused everywhere. A refused value gives a
 //! one-line [`SettingError`] naming the key, the value and the accepted range, e.g.
 //! `[safety] max_force_n = NaN: must be a finite number in (0, 100] N`.
 //!
@@ -15,7 +15,6 @@
 use std::fmt;
 
 use crate::safety::SafetyParams;
-use crate::scene::{Coupling, SolverSpec};
 use crate::step::StepParams;
 
 /// A setting outside its accepted range. Displays as one line:
@@ -245,26 +244,6 @@ impl SafetyParams {
     }
 }
 
-impl Coupling {
-    /// Checks `kt` and `kr` ([`KT`], [`KR`]).
-    pub fn validate(&self) -> Result<(), SettingError> {
-        KT.check(self.kt)?;
-        KR.check(self.kr)
-    }
-}
-
-impl SolverSpec {
-    /// Checks the numeric solver settings ([`RELINEARIZE`], [`PENETRATION_TOL_MM`],
-    /// [`SKIN_MM`], [`MAX_MARGIN_MM`], [`BUDGET_US`]).
-    pub fn validate(&self) -> Result<(), SettingError> {
-        RELINEARIZE.check(u64::from(self.relinearize))?;
-        PENETRATION_TOL_MM.check(self.penetration_tol_mm)?;
-        SKIN_MM.check(self.skin_mm)?;
-        MAX_MARGIN_MM.check(self.max_margin_mm)?;
-        BUDGET_US.check(self.budget_us)
-    }
-}
-
 impl StepParams {
     /// Checks the step's parameters with the same ranges as the scene file: `g` holds
     /// `kt` ×3 then `kr` ×3.
@@ -336,7 +315,6 @@ mod tests {
     #[test]
     fn defaults_are_valid() {
         SafetyParams::default().validate().unwrap();
-        Coupling::default().validate().unwrap();
-        SolverSpec::default().validate().unwrap();
+        crate::EngineConfig::default().validate().unwrap();
     }
 }

@@ -4,11 +4,10 @@
 //! The filter works on the wrench `[F; T]` (N, N·mm) sent to the device; the step itself keeps
 //! the graphic tool at its last safe pose when a frame fails (see [`crate::step`]).
 
-use serde::{Deserialize, Serialize};
-
 /// Limits of the device and of the force rendering.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct SafetyParams {
     /// Largest force magnitude sent, N.
     pub max_force_n: f64,
@@ -49,7 +48,8 @@ pub mod flags {
 }
 
 /// Counts of safety events over a run.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct SafetyEvents {
     /// Frames whose force was clamped.
     pub force_clamps: u64,

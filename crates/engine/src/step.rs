@@ -41,10 +41,10 @@ use collide::{
     RotationCoordinates, Sweep,
 };
 use nalgebra::{Matrix3, Vector3};
-use qp::{Problem, Solver, Status};
+use qp::{Problem, Solver, SolverKind, Status};
+use spheretree::SphereTree;
 
-use crate::scene::{Scene, SolverKind};
-use crate::RenderError;
+use crate::EngineError;
 
 /// Parameters of the step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -72,24 +72,6 @@ pub struct StepParams {
     /// Largest number of leaf pairs per pass (storage reserved up front; more are dropped and
     /// counted, never allocated).
     pub max_pairs: usize,
-}
-
-impl StepParams {
-    /// Parameters from a scene's coupling and solver settings.
-    pub fn from_scene(scene: &Scene) -> Self {
-        Self {
-            g: scene.coupling.g(),
-            form: scene.solver.form.form(),
-            rotation: scene.coupling.rotation.coordinates(),
-            solver: scene.solver.kind,
-            relinearize: scene.solver.relinearize,
-            penetration_tol_mm: scene.solver.penetration_tol_mm,
-            skin_mm: scene.solver.skin_mm,
-            max_margin_mm: scene.solver.max_margin_mm,
-            budget_us: scene.solver.budget_us,
-            max_pairs: 16_384,
-        }
-    }
 }
 
 /// How a frame ended.
@@ -338,20 +320,21 @@ pub fn spring_wrench(
 }
 
 impl GodObject {
-    /// Packs the scene's trees and reserves every buffer (allocates; not real-time).
-    pub fn new(scene: &Scene, params: StepParams) -> Result<Self, RenderError> {
+    /// Packs the tool tree (tool frame, mm) and the object trees (object frame, mm, each with
+    /// its fixed pose) and reserves every buffer (allocates; not real-time).
+    pub fn new(
+        tool: &SphereTree,
+        objects: &[(SphereTree, Pose)],
+        params: StepParams,
+    ) -> Result<Self, EngineError> {
         params.validate()?; // the same ranges as the scene file (crate::config)
-        let bad = |what: &str, e: collide::CollideError| RenderError::Scene {
-            file: scene.name.clone(),
-            msg: format!("{what}: {e}"),
-        };
-        let tool = PackedTree::new(&scene.tool).map_err(|e| bad("tool tree", e))?;
-        let objects = scene
-            .objects
+        let bad = |body: String, source: collide::CollideError| EngineError::Tree { body, source };
+        let tool = PackedTree::new(tool).map_err(|e| bad("tool tree".into(), e))?;
+        let objects = objects
             .iter()
             .enumerate()
             .map(|(i, (t, p))| {
-                PackedTree::with_pose(t, p).map_err(|e| bad(&format!("object {}", i + 1), e))
+                PackedTree::with_pose(t, p).map_err(|e| bad(format!("object {}", i + 1), e))
             })
             .collect::<Result<Vec<_>, _>>()?;
         let reach = tool
@@ -364,11 +347,7 @@ impl GodObject {
         let ws = CollideWorkspace::for_trees(&tool, &objects);
         let probe = FreeSpaceProbe::for_trees(&tool, &objects);
         let cap = params.max_pairs;
-        let mut solver = Solver::new(match params.solver {
-            SolverKind::Dual => qp::SolverKind::Dual,
-            SolverKind::ActiveSet => qp::SolverKind::ActiveSet,
-            SolverKind::Pqp => qp::SolverKind::Pqp,
-        });
+        let mut solver = Solver::new(params.solver);
         solver.reserve(cap + 12);
         Ok(Self {
             params,
@@ -418,6 +397,11 @@ impl GodObject {
     /// Largest distance of a tool leaf centre from the tool origin, mm.
     pub fn reach(&self) -> f64 {
         self.reach
+    }
+
+    /// The leaf pairs of the last detected region (empty in free space).
+    pub fn pairs(&self) -> &[LeafPair] {
+        &self.pairs
     }
 
     /// Collects pairs at `q` within `margin` into `self.pairs` (at most `max_pairs`; the rest
@@ -607,9 +591,9 @@ impl GodObject {
     /// Resets the graphic tool for a new run at the device pose `start`: `q_g = start` if it is
     /// free, else the nearest free pose found by repeated projection (each pass: detect at the
     /// current `q`, solve the QP toward `start`, re-measure). Allocation-free after `new`.
-    pub fn reset(&mut self, start: &Pose) -> Result<Pose, RenderError> {
+    pub fn reset(&mut self, start: &Pose) -> Result<Pose, EngineError> {
         if !start.is_finite() {
-            return Err(RenderError::NoFreeStart { searched_mm: 0.0 });
+            return Err(EngineError::NoFreeStart { searched_mm: 0.0 });
         }
         self.warm_len = 0;
         self.last_motion = 0.0;
@@ -650,7 +634,7 @@ impl GodObject {
             }
             q = next;
         }
-        Err(RenderError::NoFreeStart {
+        Err(EngineError::NoFreeStart {
             searched_mm: searched,
         })
     }
@@ -819,9 +803,9 @@ impl GodObject {
     /// Remembers the identities of the active pairs of the last solve.
     fn remember_active(&mut self, n_pairs: usize) {
         let active = match self.solver.kind {
-            qp::SolverKind::Dual => self.solver.dual.active_set(),
-            qp::SolverKind::ActiveSet => self.solver.active_set.active_set(),
-            qp::SolverKind::Pqp => &[],
+            SolverKind::Dual => self.solver.dual.active_set(),
+            SolverKind::ActiveSet => self.solver.active_set.active_set(),
+            SolverKind::Pqp => &[],
         };
         let mut m = 0;
         for &i in active {

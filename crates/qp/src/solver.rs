@@ -31,6 +31,12 @@ impl SolverKind {
             SolverKind::Pqp => "pqp",
         }
     }
+
+    /// True for solvers that return the exact QP optimum (within tolerance); the paper's PQP
+    /// stops early by design.
+    pub fn is_exact(self) -> bool {
+        !matches!(self, SolverKind::Pqp)
+    }
 }
 
 impl std::fmt::Display for SolverKind {

@@ -17,17 +17,16 @@
 #![cfg_attr(not(test), warn(clippy::unwrap_used, clippy::expect_used))]
 
 pub mod cache;
-pub mod config;
 pub mod device;
 pub mod io;
 pub mod report;
 pub mod rt;
-pub mod safety;
 pub mod scene;
 pub mod scenes;
 pub mod stats;
-pub mod step;
 pub mod trajectory;
+
+pub use engine::{config, safety, step};
 
 /// Errors of the render crate. Each message says what to fix.
 #[derive(Debug, thiserror::Error)]
@@ -72,10 +71,13 @@ pub enum RenderError {
     /// same error inside [`RenderError::Scene`].
     #[error("{0}")]
     Setting(#[from] config::SettingError),
-    /// The start configuration is in collision and no free pose was found nearby.
-    #[error("the start pose is in collision and no free pose was found within {searched_mm} mm; move `start` away from the objects")]
-    NoFreeStart {
-        /// Search radius, mm.
-        searched_mm: f64,
+    /// The engine refused the scene (a tree it cannot use, a start in collision).
+    #[error("{file}")]
+    Engine {
+        /// The scene file (or built-in scene name).
+        file: String,
+        /// What the engine said.
+        #[source]
+        source: engine::EngineError,
     },
 }

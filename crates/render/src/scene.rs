@@ -34,14 +34,18 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use collide::{ConstraintForm, Pose, RotationCoordinates};
+use engine::config::SettingError;
+use engine::{Engine, EngineConfig};
 use mesh::TriMesh;
 use serde::{Deserialize, Serialize};
+use spheretree::build::BuildMethod;
 use spheretree::SphereTree;
 
 use crate::cache::{tree_key, CacheOutcome, TreeCache};
 use crate::safety::SafetyParams;
 use crate::trajectory::{Script, Trajectory};
 use crate::RenderError;
+pub use qp::SolverKind;
 
 /// One body of a scene file: where its geometry comes from and how it is placed.
 #[derive(Clone, Debug, Default, PartialEq, Deserialize, Serialize)]
@@ -58,7 +62,8 @@ pub struct BodySpec {
     /// Tree branching when building from a mesh (default 8).
     pub branching: Option<u32>,
     /// Builder (`tight`, the default, or `octree`) when building from a mesh.
-    pub method: Option<String>,
+    #[serde(default, with = "by_name_opt")]
+    pub method: Option<BuildMethod>,
     /// Tool only: start configuration `[x, y, z, gamma, beta, alpha]` (mm, rad).
     pub start: Option<[f64; 6]>,
     /// Objects only: fixed pose `[x, y, z, gamma, beta, alpha]` (mm, rad).
@@ -75,7 +80,8 @@ pub struct Coupling {
     pub kr: f64,
     /// Rotation coordinates of the QP and the spring torque: `rotation-vector` (default; the
     /// physical torque `kr log(R_g R_h^T)`) or `euler` (the paper's angle differences).
-    pub rotation: RotationSpec,
+    #[serde(with = "by_name")]
+    pub rotation: RotationCoordinates,
 }
 
 impl Default for Coupling {
@@ -83,49 +89,7 @@ impl Default for Coupling {
         Self {
             kt: 1.0,
             kr: 1000.0,
-            rotation: RotationSpec::RotationVector,
-        }
-    }
-}
-
-/// Serialisable rotation coordinates (`[coupling] rotation`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum RotationSpec {
-    /// A local rotation vector about the linearisation pose, world axes (default).
-    #[default]
-    RotationVector,
-    /// Euler angle differences, as in the paper (singular at `beta = ±pi/2`).
-    Euler,
-}
-
-impl RotationSpec {
-    /// The collide crate's coordinates.
-    pub fn coordinates(&self) -> RotationCoordinates {
-        match self {
-            Self::RotationVector => RotationCoordinates::RotationVector,
-            Self::Euler => RotationCoordinates::Euler,
-        }
-    }
-
-    /// Parses `rotation-vector` or `euler`.
-    pub fn parse(name: &str) -> Result<Self, RenderError> {
-        match name.trim().to_ascii_lowercase().as_str() {
-            "rotation-vector" | "rotvec" => Ok(Self::RotationVector),
-            "euler" => Ok(Self::Euler),
-            _ => Err(RenderError::Unknown {
-                what: "rotation coordinates",
-                name: name.to_string(),
-                expected: "rotation-vector, euler".into(),
-            }),
-        }
-    }
-
-    /// The name used in scene files and on the command line.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Self::RotationVector => "rotation-vector",
-            Self::Euler => "euler",
+            rotation: RotationCoordinates::RotationVector,
         }
     }
 }
@@ -137,57 +101,16 @@ impl Coupling {
     }
 }
 
-/// Which QP solver the step uses.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum SolverKind {
-    /// Goldfarb–Idnani dual active-set (exact, default).
-    #[default]
-    Dual,
-    /// The paper's parallel QP (multiplicative updates; inexact stop).
-    Pqp,
-    /// The paper's baseline primal active-set method (exact).
-    ActiveSet,
-}
-
-impl SolverKind {
-    /// Parses `dual`, `pqp` or `active-set`.
-    pub fn parse(name: &str) -> Result<Self, RenderError> {
-        match name.trim().to_ascii_lowercase().as_str() {
-            "dual" => Ok(Self::Dual),
-            "pqp" => Ok(Self::Pqp),
-            "active-set" | "activeset" | "active_set" => Ok(Self::ActiveSet),
-            _ => Err(RenderError::Unknown {
-                what: "solver",
-                name: name.to_string(),
-                expected: "dual, pqp, active-set".into(),
-            }),
-        }
-    }
-
-    /// The name used on the command line.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Self::Dual => "dual",
-            Self::Pqp => "pqp",
-            Self::ActiveSet => "active-set",
-        }
-    }
-
-    /// True for solvers that return the exact QP optimum (within tolerance).
-    pub fn is_exact(&self) -> bool {
-        !matches!(self, Self::Pqp)
-    }
-}
-
 /// How the god-object step detects, constrains and solves.
 #[derive(Clone, Copy, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SolverSpec {
-    /// The QP solver.
+    /// The QP solver: `dual` (default), `pqp` or `active-set`.
+    #[serde(with = "by_name")]
     pub kind: SolverKind,
     /// Constraint form: `distance` (default) or `squared` (the paper's).
-    pub form: FormSpec,
+    #[serde(with = "by_name")]
+    pub form: ConstraintForm,
     /// Extra detect + solve passes per frame: from the new `q_g` while the measured penetration
     /// exceeds `penetration_tol_mm`, or while the per-pass motion cap keeps the tool short of
     /// the optimum (0 = the paper's single pass).
@@ -203,32 +126,11 @@ pub struct SolverSpec {
     pub budget_us: f64,
 }
 
-/// Serialisable constraint form.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum FormSpec {
-    /// Signed distance `|c - o| - (r_t + r_o)` (default).
-    #[default]
-    Distance,
-    /// The paper's `|c - o|^2 - (r_t + r_o)^2`.
-    Squared,
-}
-
-impl FormSpec {
-    /// The collide crate's form.
-    pub fn form(&self) -> ConstraintForm {
-        match self {
-            Self::Distance => ConstraintForm::Distance,
-            Self::Squared => ConstraintForm::Squared,
-        }
-    }
-}
-
 impl Default for SolverSpec {
     fn default() -> Self {
         Self {
             kind: SolverKind::Dual,
-            form: FormSpec::Distance,
+            form: ConstraintForm::Distance,
             relinearize: 7,
             penetration_tol_mm: 0.002,
             skin_mm: 0.02,
@@ -312,7 +214,7 @@ impl SceneSpec {
             }
         }
         // Every numeric setting against its one range (crate::config), first bad key named.
-        let setting = |e: crate::config::SettingError| err(e.to_string());
+        let setting = |e: SettingError| err(e.to_string());
         spec.coupling.validate().map_err(setting)?;
         spec.solver.validate().map_err(setting)?;
         spec.safety.validate().map_err(setting)?;
@@ -320,6 +222,59 @@ impl SceneSpec {
             .check(spec.device.rate_hz)
             .map_err(setting)?;
         Ok(spec)
+    }
+}
+
+impl Coupling {
+    /// Checks `kt` and `kr` ([`engine::config::KT`], [`engine::config::KR`]).
+    pub fn validate(&self) -> Result<(), SettingError> {
+        engine::config::KT.check(self.kt)?;
+        engine::config::KR.check(self.kr)
+    }
+}
+
+impl SolverSpec {
+    /// Checks the numeric solver settings against their ranges in [`engine::config`].
+    pub fn validate(&self) -> Result<(), SettingError> {
+        engine::config::RELINEARIZE.check(u64::from(self.relinearize))?;
+        engine::config::PENETRATION_TOL_MM.check(self.penetration_tol_mm)?;
+        engine::config::SKIN_MM.check(self.skin_mm)?;
+        engine::config::MAX_MARGIN_MM.check(self.max_margin_mm)?;
+        engine::config::BUDGET_US.check(self.budget_us)
+    }
+}
+
+/// An enumerated setting written as its name (`kind = "dual"`), through the engine's one name
+/// table ([`engine::setting`]).
+mod by_name {
+    use engine::setting::Setting;
+    use serde::{de::Error, Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer, T: Setting>(v: &T, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(v.setting_name())
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>, T: Setting>(d: D) -> Result<T, D::Error> {
+        let name = String::deserialize(d)?;
+        T::parse_setting(&name).map_err(D::Error::custom)
+    }
+}
+
+/// [`by_name`] for an optional setting.
+mod by_name_opt {
+    use engine::setting::Setting;
+    use serde::{de::Error, Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer, T: Setting>(v: &Option<T>, s: S) -> Result<S::Ok, S::Error> {
+        match v {
+            Some(v) => s.serialize_str(v.setting_name()),
+            None => s.serialize_none(),
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>, T: Setting>(d: D) -> Result<Option<T>, D::Error> {
+        let name = String::deserialize(d)?;
+        T::parse_setting(&name).map(Some).map_err(D::Error::custom)
     }
 }
 
@@ -393,8 +348,8 @@ pub struct TreeParams {
     pub depth: u32,
     /// Branching factor.
     pub branching: u32,
-    /// Use the fast octree builder instead of the tight default.
-    pub octree: bool,
+    /// The builder.
+    pub method: BuildMethod,
 }
 
 /// A loaded scene: everything the step and the loop need, in mm.
@@ -433,7 +388,7 @@ impl Scene {
     /// solver, safety limits, rate, start and object poses. Scene files are checked when
     /// parsed; call this again after changing a loaded scene (command-line overrides, API).
     pub fn validate(&self) -> Result<(), RenderError> {
-        let err = |e: crate::config::SettingError| RenderError::Scene {
+        let err = |e: SettingError| RenderError::Scene {
             file: self.name.clone(),
             msg: e.to_string(),
         };
@@ -447,6 +402,56 @@ impl Scene {
                 .map_err(err)?;
         }
         Ok(())
+    }
+
+    /// The engine's settings from the scene's coupling, solver and safety sections.
+    pub fn engine_config(&self) -> EngineConfig {
+        EngineConfig {
+            kt: self.coupling.kt,
+            kr: self.coupling.kr,
+            rotation: self.coupling.rotation,
+            form: self.solver.form,
+            solver: self.solver.kind,
+            relinearize: self.solver.relinearize,
+            penetration_tol_mm: self.solver.penetration_tol_mm,
+            skin_mm: self.solver.skin_mm,
+            max_margin_mm: self.solver.max_margin_mm,
+            budget_us: self.solver.budget_us,
+            safety: self.safety,
+            ..EngineConfig::default()
+        }
+    }
+
+    /// The scene's engine, reset at the scene's start pose (or the nearest free pose).
+    /// Allocates; call before the haptic loop.
+    pub fn engine(&self) -> Result<Engine, RenderError> {
+        let mut engine =
+            Engine::new(&self.tool, &self.objects, self.engine_config()).map_err(|source| {
+                RenderError::Engine {
+                    file: self.name.clone(),
+                    source,
+                }
+            })?;
+        engine
+            .reset(&self.start)
+            .map_err(|source| RenderError::Engine {
+                file: self.name.clone(),
+                source,
+            })?;
+        Ok(engine)
+    }
+
+    /// The god-object step alone (no safety layer), for tools that measure it.
+    pub fn god_object(&self) -> Result<crate::step::GodObject, RenderError> {
+        crate::step::GodObject::new(
+            &self.tool,
+            &self.objects,
+            self.engine_config().step_params(),
+        )
+        .map_err(|source| RenderError::Engine {
+            file: self.name.clone(),
+            source,
+        })
     }
 
     /// The device trajectory (the script sampled at the scene rate, the recorded one, or the
@@ -471,11 +476,7 @@ pub fn tree_for_mesh(
     label: &str,
     log: &mut Vec<String>,
 ) -> Result<SphereTree, RenderError> {
-    let method = if params.octree {
-        spheretree::build::BuildMethod::Octree
-    } else {
-        spheretree::build::BuildMethod::Tight
-    };
+    let method = params.method;
     let bp = spheretree::build::BuildParams {
         depth: params.depth,
         branching: params.branching,
@@ -565,19 +566,10 @@ fn load_body(
             path.display()
         )));
     }
-    let octree = match b.method.as_deref().map(str::to_ascii_lowercase).as_deref() {
-        None | Some("tight") => false,
-        Some("octree") => true,
-        Some(other) => {
-            return Err(err(format!(
-                "{label}: unknown method `{other}`; use `tight` or `octree`"
-            )))
-        }
-    };
     let params = TreeParams {
         depth: b.depth.unwrap_or(4),
         branching: b.branching.unwrap_or(8),
-        octree,
+        method: b.method.unwrap_or_default(),
     };
     let tree = tree_for_mesh(&mesh, params, cache, label, log).map_err(|e| match e {
         RenderError::Scene { msg, .. } => err(format!("{label}: {msg}")),
@@ -732,13 +724,17 @@ kind = "dual"
     }
 
     #[test]
-    fn solver_names() {
-        for k in [SolverKind::Dual, SolverKind::Pqp, SolverKind::ActiveSet] {
-            assert_eq!(SolverKind::parse(k.name()).unwrap(), k);
-        }
-        assert!(SolverKind::parse("newton")
+    fn scene_file_names_are_the_engine_setting_names() {
+        let text = GOOD.replace(
+            "kind = \"dual\"",
+            "kind = \"active-set\"\nform = \"squared\"",
+        );
+        let s = SceneSpec::parse(&text, "x.toml").unwrap();
+        assert_eq!(s.solver.kind, SolverKind::ActiveSet);
+        assert_eq!(s.solver.form, ConstraintForm::Squared);
+        let e = SceneSpec::parse(&GOOD.replace("\"dual\"", "\"newton\""), "x.toml")
             .unwrap_err()
-            .to_string()
-            .contains("dual, pqp, active-set"));
+            .to_string();
+        assert!(e.contains("dual, pqp, active-set"), "{e}");
     }
 }

@@ -111,7 +111,7 @@ fn ten_thousand_frames_do_not_allocate() {
         if kind == SolverKind::Pqp {
             scene.solver.relinearize = 0;
         }
-        let mut god = GodObject::new(&scene, StepParams::from_scene(&scene)).unwrap();
+        let mut god = scene.god_object().unwrap();
         let mut safety = Safety::new(scene.safety);
         let params = LoopParams::default();
         // Warm-up: workspaces grow to the largest problem of this motion.

@@ -15,7 +15,7 @@ use render::trajectory::Trajectory;
 fn run(scene: &Scene, kind: SolverKind, traj: &Trajectory) -> Vec<FrameRecord> {
     let mut scene = scene.clone();
     scene.solver.kind = kind;
-    let mut god = GodObject::new(&scene, StepParams::from_scene(&scene)).unwrap();
+    let mut god = scene.god_object().unwrap();
     god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
     let mut safety = Safety::new(scene.safety);
     let mut dev = ReplayDevice::new(traj.clone());
@@ -165,7 +165,7 @@ fn a_nan_device_frame_keeps_the_last_safe_pose() {
 #[test]
 fn start_in_collision_moves_to_a_nearby_free_pose() {
     let scene = render::scenes::builtin("bunny", &common::test_cache()).unwrap();
-    let mut god = GodObject::new(&scene, StepParams::from_scene(&scene)).unwrap();
+    let mut god = scene.god_object().unwrap();
     // The tool exactly on the object: deep overlap.
     let inside = Pose::from_array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
     assert!(god.penetration_at(&inside) > 1.0);

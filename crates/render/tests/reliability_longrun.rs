@@ -253,7 +253,7 @@ struct LongRun {
 
 fn long_run(frames: usize, seed: u64) -> LongRun {
     let sc = scene();
-    let mut god = GodObject::new(&sc, StepParams::from_scene(&sc)).unwrap();
+    let mut god = sc.god_object().unwrap();
     god.reset(&sc.start).unwrap();
     let mut safety = Safety::new(sc.safety);
     let params = LoopParams::default();

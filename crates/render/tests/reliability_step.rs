@@ -103,7 +103,7 @@ fn keyed(keys: &[(usize, [f64; 6])]) -> Trajectory {
 }
 
 fn run(scene: &Scene, traj: &Trajectory) -> (Vec<FrameRecord>, LoopStats) {
-    let mut god = GodObject::new(scene, StepParams::from_scene(scene)).unwrap();
+    let mut god = scene.god_object().unwrap();
     god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
     let mut safety = Safety::new(scene.safety);
     let mut dev = ReplayDevice::new(traj.clone());
@@ -421,10 +421,7 @@ fn absurd_stiffness_is_refused_and_the_stiffest_accepted_is_safe() {
         );
         let e = sc.validate().unwrap_err().to_string();
         assert!(e.contains("[coupling] kt"), "{e}");
-        let e = GodObject::new(&sc, StepParams::from_scene(&sc))
-            .err()
-            .expect("refused")
-            .to_string();
+        let e = sc.god_object().err().expect("refused").to_string();
         assert!(e.contains("[coupling] kt"), "{e}");
     }
     // The stiffest coupling accepted, pressed hard: finite, clamped, rate-limited.
@@ -454,7 +451,7 @@ fn absurd_stiffness_is_refused_and_the_stiffest_accepted_is_safe() {
 
 /// Runs `traj` with every solver's iteration cap set to `cap`.
 fn run_capped(scene: &Scene, traj: &Trajectory, cap: u32) -> (Vec<FrameRecord>, LoopStats) {
-    let mut god = GodObject::new(scene, StepParams::from_scene(scene)).unwrap();
+    let mut god = scene.god_object().unwrap();
     god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
     let s = god.solver_mut();
     s.dual.params.max_iterations = cap;

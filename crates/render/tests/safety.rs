@@ -277,7 +277,7 @@ fn check_frames(frames: &[FrameRecord], p: &SafetyParams) -> Result<(), String> 
 /// Runs the press through the public loop; the settings must be valid.
 fn run(s: &Settings, traj: &Trajectory) -> Result<Vec<FrameRecord>, render::RenderError> {
     let sc = scene(s);
-    let mut god = GodObject::new(&sc, StepParams::from_scene(&sc))?;
+    let mut god = sc.god_object()?;
     god.reset(&Pose::from_array(traj.samples[0].q))?;
     let mut safety = Safety::new(sc.safety);
     let mut dev = ReplayDevice::new(traj.clone());
@@ -308,7 +308,7 @@ proptest! {
         let parsed = SceneSpec::parse(&toml(&s), "safety.toml");
         let sc = scene(&s);
         let api = sc.validate();
-        let god = GodObject::new(&sc, StepParams::from_scene(&sc));
+        let god = sc.god_object();
         let safety_ok = Safety::try_new(s.safety).is_ok();
         let loop_ok = LoopParams { rate_hz: s.rate_hz, ..LoopParams::default() }.validate().is_ok();
         if bad.is_empty() {
@@ -403,10 +403,7 @@ fn item3_negative_skin_is_refused() {
         "[solver] skin_mm = -1000: must be a finite number in [0, 10] mm",
     );
     let sc = scene(&s);
-    let e = GodObject::new(&sc, StepParams::from_scene(&sc))
-        .err()
-        .unwrap()
-        .to_string();
+    let e = sc.god_object().err().unwrap().to_string();
     assert!(e.contains("skin_mm = -1000"), "{e}");
 }
 
@@ -456,7 +453,7 @@ fn item5_absurd_rates_are_refused_not_a_panic_or_an_abort() {
     // Duration::from_secs_f64.
     let s = good();
     let sc = scene(&s);
-    let mut god = GodObject::new(&sc, StepParams::from_scene(&sc)).unwrap();
+    let mut god = sc.god_object().unwrap();
     let traj = press(1000.0, 1.0, 0.0);
     god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
     let mut safety = Safety::new(sc.safety);

@@ -48,6 +48,9 @@ pub enum ViewerError {
     /// The recorder's writer thread is gone.
     #[error("the recorder's writer thread stopped unexpectedly; restart `haptic6d serve`")]
     RecorderGone,
+    /// The scene cannot be driven (the engine refused a tree or the start pose).
+    #[error(transparent)]
+    Scene(#[from] render::RenderError),
     /// A setting is unusable (the text names the flag and what is wrong).
     #[error("{0}")]
     Params(String),

@@ -1,30 +1,22 @@
-//! [`RenderSim`]: the real haptic pipeline behind the viewer — render's god-object step
-//! ([`render::step::GodObject`]) followed by its safety filter ([`render::safety::Safety`]),
-//! exactly the frame body of `haptic6d run`, plus an optional probe that lists the contact
-//! pairs for display.
+//! [`RenderSim`]: the real haptic pipeline behind the viewer — the [`engine::Engine`] (the
+//! god-object step followed by the safety filter), exactly the frame body of `haptic6d run`,
+//! and the contact pairs it found, for display.
 
-use collide::{overlap_tree_trees, CollideWorkspace, PackedTree, Pose};
+use collide::{PackedTree, Pose};
+use engine::{Engine, FrameStatus};
 use mesh::TriMesh;
-use render::safety::Safety;
 use render::scene::Scene;
-use render::step::{FrameStatus, GodObject, StepParams};
 
 use crate::error::ViewerError;
 use crate::sim::{ContactPair, FrameState, NamedMesh, SceneGeometry, Simulation};
 
 /// A loaded render scene driven by the viewer.
 pub struct RenderSim {
-    god: GodObject,
-    safety: Safety,
+    engine: Engine,
     geometry: SceneGeometry,
     start: Pose,
-    probe_tool: PackedTree,
-    probe_objects: Vec<PackedTree>,
-    probe_ws: CollideWorkspace,
-    probe_margin: f64,
-    /// Loop time (s) of the first frame of the current engagement (a live input after a
-    /// release); `None` while released. The safety filter's soft start counts from it.
-    engaged_at: Option<f64>,
+    /// Pairs whose gap at the graphic pose is within this (mm) are listed as contacts.
+    contact_margin: f64,
     /// Frames whose step kept the last safe pose (numerical failure), since start.
     pub kept_last_safe: u64,
 }
@@ -33,23 +25,13 @@ impl RenderSim {
     /// Packs the scene's trees, reserves every buffer and seats the god-object at the scene's
     /// start pose (or the nearest free pose). Allocates; call before the loop starts.
     pub fn new(scene: &Scene) -> Result<Self, ViewerError> {
-        let scene_err = |e: render::RenderError| ViewerError::Params(e.to_string());
-        let params = StepParams::from_scene(scene);
-        let mut god = GodObject::new(scene, params).map_err(scene_err)?;
-        let start = god.reset(&scene.start).map_err(scene_err)?;
-        let collide_err = |e: collide::CollideError| ViewerError::Params(e.to_string());
-        let probe_tool = PackedTree::new(&scene.tool).map_err(collide_err)?;
-        let probe_objects = scene
-            .objects
-            .iter()
-            .map(|(t, p)| PackedTree::with_pose(t, p))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(collide_err)?;
-        let probe_ws = CollideWorkspace::for_trees(&probe_tool, &probe_objects);
-        let tool_mesh = scene
-            .tool_mesh
-            .clone()
-            .unwrap_or_else(|| leaves_mesh(&probe_tool));
+        let engine = scene.engine()?;
+        let start = engine.q_g();
+        let tool_mesh = scene.tool_mesh.clone().unwrap_or_else(|| {
+            PackedTree::new(&scene.tool)
+                .map(|p| leaves_mesh(&p))
+                .unwrap_or_default()
+        });
         let objects = scene
             .objects
             .iter()
@@ -78,15 +60,10 @@ impl RenderSim {
             max_force: scene.safety.max_force_n,
         };
         Ok(Self {
-            god,
-            safety: Safety::new(scene.safety),
+            engine,
             geometry,
             start,
-            probe_tool,
-            probe_objects,
-            probe_ws,
-            probe_margin: scene.solver.skin_mm.max(0.05),
-            engaged_at: None,
+            contact_margin: scene.solver.skin_mm.max(0.05),
             kept_last_safe: 0,
         })
     }
@@ -113,58 +90,52 @@ impl Simulation for RenderSim {
     /// rate limit starts from zero, so the force never jumps when a device (re-)engages.
     ///
     /// # Real-time
-    /// [`GodObject::step`] and [`Safety::filter`] (no allocation, bounded); when contacts are
-    /// requested, one more traversal at the graphic pose into the pre-sized contact list.
+    /// [`Engine::step`] (no allocation, bounded); when contacts are requested, the engine's
+    /// pairs within the contact margin at the graphic pose go into the pre-sized contact list.
     fn step(&mut self, device: &Pose, out: &mut FrameState) {
-        let f = self.god.step(device);
         if out.released {
-            // The loop sends zero while released; the filter must start from zero too.
-            self.engaged_at = None;
-            self.safety = Safety::new(*self.safety.params());
+            // The loop sends zero while released; the filter starts again from zero, and its
+            // soft start from the first engaged frame's time.
+            self.engine.restart_safety();
         }
-        let since = if out.released {
-            0.0
-        } else {
-            out.t - *self.engaged_at.get_or_insert(out.t)
-        };
-        let (sent, _flags) = self.safety.filter(since, f.wrench);
+        let f = *self.engine.step(out.t, device);
         if f.status == FrameStatus::KeptLastSafe {
             self.kept_last_safe += 1;
         }
         out.graphic = f.q_g;
-        out.force = [sent[0], sent[1], sent[2]];
-        out.torque = [sent[3], sent[4], sent[5]];
+        out.force = [f.wrench[0], f.wrench[1], f.wrench[2]];
+        out.torque = [f.wrench[3], f.wrench[4], f.wrench[5]];
         out.pairs = f.pairs;
         out.penetration_mm = f.penetration_mm;
         out.cd_us = f.cd_us;
         out.opt_us = f.opt_us;
         if out.contacts_requested {
             let q_g = Pose::from_array(f.q_g);
-            let contacts = &mut *out;
-            let _ = overlap_tree_trees(
-                &self.probe_tool,
-                &q_g,
-                &self.probe_objects,
-                self.probe_margin,
-                &mut self.probe_ws,
-                |p| {
-                    contacts.push_contact(ContactPair {
-                        tool_centre: q_g.transform_point(&p.p_in_tool),
+            for p in self.engine.contacts() {
+                let tool_centre = q_g.transform_point(&p.p_in_tool);
+                let d = (0..3)
+                    .map(|k| (tool_centre[k] - p.o_in_world[k]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                if d - (p.r_tool + p.r_object) <= self.contact_margin {
+                    out.push_contact(ContactPair {
+                        tool_centre,
                         tool_radius: p.r_tool,
                         object_centre: p.o_in_world,
                         object_radius: p.r_object,
                     });
-                },
-            );
+                }
+            }
         }
     }
 
     fn reset(&mut self, pose: &Pose) {
-        if let Ok(p) = self.god.reset(pose) {
-            self.start = p;
+        match self.engine.reset(pose) {
+            Ok(p) => self.start = p,
+            // No free pose near `pose`: the tool stays where it was; the force still restarts
+            // from zero.
+            Err(_) => self.engine.restart_safety(),
         }
-        self.safety = Safety::new(*self.safety.params());
-        self.engaged_at = None;
     }
 }
 

@@ -217,7 +217,7 @@ fn a_recording_replays_through_render_frame_for_frame() {
     // Replay offline through the same frame body (god-object step + safety): the tool ends
     // resting on the floor with an upward force, never penetrating.
     let scene = small_scene();
-    let mut god = GodObject::new(&scene, StepParams::from_scene(&scene)).unwrap();
+    let mut god = scene.god_object().unwrap();
     god.reset(&scene.start).unwrap();
     let mut safety = Safety::new(scene.safety);
     let mut last = None;

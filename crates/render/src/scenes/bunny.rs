@@ -66,7 +66,7 @@ pub fn scene(cache: &TreeCache) -> Result<Scene, RenderError> {
     let params = TreeParams {
         depth: 4,
         branching: 8,
-        octree: false,
+        method: spheretree::build::BuildMethod::Tight,
     };
     let tree = crate::scene::tree_for_mesh(&mesh, params, cache, "bunny", &mut log)?;
     // Slide on top: the tool upright above the object. Push from below: the tool upside down

@@ -247,7 +247,7 @@ pub fn scene(cache: &TreeCache, tool: PlateTool, script: Script) -> Result<Scene
         TreeParams {
             depth: 4,
             branching: 8,
-            octree: false,
+            method: spheretree::build::BuildMethod::Tight,
         },
         cache,
         "plate",
@@ -258,7 +258,7 @@ pub fn scene(cache: &TreeCache, tool: PlateTool, script: Script) -> Result<Scene
         TreeParams {
             depth: tool.depth(),
             branching: 8,
-            octree: false,
+            method: spheretree::build::BuildMethod::Tight,
         },
         cache,
         tool.name(),

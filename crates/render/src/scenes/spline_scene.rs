@@ -29,7 +29,7 @@ pub fn scene(cache: &TreeCache, p: &SplineParams, depth: u32) -> Result<Scene, R
     let params = TreeParams {
         depth,
         branching: 8,
-        octree: false,
+        method: spheretree::build::BuildMethod::Tight,
     };
     let tool = crate::scene::tree_for_mesh(&shaft, params, cache, "spline shaft", &mut log)?;
     let hub_tree = crate::scene::tree_for_mesh(&hub, params, cache, "spline hub", &mut log)?;

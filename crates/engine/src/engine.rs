@@ -1,0 +1,300 @@
+//! [`Engine`]: the god-object step followed by the safety filter, behind one call per frame.
+
+use collide::{ConstraintForm, LeafPair, Pose, RotationCoordinates};
+use qp::SolverKind;
+use spheretree::SphereTree;
+
+use crate::config;
+use crate::safety::{Safety, SafetyEvents, SafetyParams};
+use crate::step::{FrameOutput, FrameStatus, GodObject, StepParams};
+use crate::EngineError;
+
+/// Every setting of the engine, checked once by [`Engine::new`] against the ranges in
+/// [`crate::config`] (the same ranges a scene file's keys are checked against).
+///
+/// [`EngineConfig::default`] is the project's default and a scene file's: stiffness 1 N/mm and
+/// 1000 N·mm/rad, the exact dual solver, distance constraints, rotation-vector coordinates, up
+/// to 7 re-linearisation passes within a 1 ms budget. [`EngineConfig::paper`] is the paper's
+/// method (one pass, PQP, squared constraints, Euler coordinates).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EngineConfig {
+    /// Translational stiffness of the virtual coupling, N/mm.
+    pub kt: f64,
+    /// Rotational stiffness of the virtual coupling, N·mm/rad.
+    pub kr: f64,
+    /// Rotation coordinates of the QP variable and of the spring torque.
+    pub rotation: RotationCoordinates,
+    /// Constraint form: the signed distance (mm) or the paper's squared distance (mm²).
+    pub form: ConstraintForm,
+    /// QP solver.
+    pub solver: SolverKind,
+    /// Extra detect + solve passes per frame (0 = the paper's single pass).
+    pub relinearize: u32,
+    /// Penetration tolerated before another pass, mm.
+    pub penetration_tol_mm: f64,
+    /// Detection skin added to the motion bound, mm.
+    pub skin_mm: f64,
+    /// Largest motion of any tool sphere in one pass, mm (caps the detection margin).
+    pub max_margin_mm: f64,
+    /// Time budget of one frame's step, µs: no pass starts that would end past it.
+    pub budget_us: f64,
+    /// Leaf pairs stored per pass, pairs (reserved up front; more are dropped and counted).
+    pub max_pairs: usize,
+    /// Device limits applied to every wrench sent.
+    pub safety: SafetyParams,
+}
+
+impl Default for EngineConfig {
+    fn default() -> Self {
+        Self {
+            kt: 1.0,
+            kr: 1000.0,
+            rotation: RotationCoordinates::RotationVector,
+            form: ConstraintForm::Distance,
+            solver: SolverKind::Dual,
+            relinearize: 7,
+            penetration_tol_mm: 0.002,
+            skin_mm: 0.02,
+            max_margin_mm: 2.0,
+            budget_us: 1000.0,
+            max_pairs: 16_384,
+            safety: SafetyParams::default(),
+        }
+    }
+}
+
+impl EngineConfig {
+    /// The paper's method: a single pass, the multiplicative-update PQP, squared-distance
+    /// constraints and Euler-angle coordinates; everything else as [`EngineConfig::default`].
+    pub fn paper() -> Self {
+        Self {
+            rotation: RotationCoordinates::Euler,
+            form: ConstraintForm::Squared,
+            solver: SolverKind::Pqp,
+            relinearize: 0,
+            ..Self::default()
+        }
+    }
+
+    /// Checks every numeric setting against its range; the first bad one is named.
+    pub fn validate(&self) -> Result<(), config::SettingError> {
+        self.step_params().validate()?;
+        self.safety.validate()
+    }
+
+    /// The god-object step's parameters (`G = diag(kt, kt, kt, kr, kr, kr)`).
+    pub fn step_params(&self) -> StepParams {
+        StepParams {
+            g: [self.kt, self.kt, self.kt, self.kr, self.kr, self.kr],
+            form: self.form,
+            rotation: self.rotation,
+            solver: self.solver,
+            relinearize: self.relinearize,
+            penetration_tol_mm: self.penetration_tol_mm,
+            skin_mm: self.skin_mm,
+            max_margin_mm: self.max_margin_mm,
+            budget_us: self.budget_us,
+            max_pairs: self.max_pairs,
+        }
+    }
+}
+
+/// One frame's result: what to send to the device, where the graphic tool is, and what the
+/// frame did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Frame {
+    /// Time given to [`Engine::step`], s.
+    pub t: f64,
+    /// Device (hand) configuration `[x, y, z, gamma, beta, alpha]` (mm, rad).
+    pub q_h: [f64; 6],
+    /// Graphic (god-object) tool configuration after the frame (mm, rad): draw the tool here.
+    pub q_g: [f64; 6],
+    /// The wrench to send to the device `[F; T]`, after the safety layer: N and N·mm (world
+    /// axes). Always finite.
+    pub wrench: [f64; 6],
+    /// The spring wrench before the safety layer: N and N·mm.
+    pub raw_wrench: [f64; 6],
+    /// What the safety layer did ([`crate::safety::flags`] bit set; 0 = nothing).
+    pub safety: u8,
+    /// How the step ended.
+    pub status: FrameStatus,
+    /// Leaf pairs in the first pass's QP.
+    pub pairs: u32,
+    /// Solver iterations, summed over passes.
+    pub iterations: u32,
+    /// Passes made (detect + solve).
+    pub passes: u32,
+    /// Time in collision detection, µs.
+    pub cd_us: f64,
+    /// Time building constraint rows and solving, µs.
+    pub opt_us: f64,
+    /// Time of the whole step (without the safety layer), µs.
+    pub total_us: f64,
+    /// Deepest leaf–leaf overlap at `q_g`, mm (0 when free).
+    pub penetration_mm: f64,
+    /// Largest linearised-constraint violation reported by the solver, mm (distance form).
+    pub qp_violation: f64,
+    /// Detection margin of the first pass, mm.
+    pub margin_mm: f64,
+}
+
+impl Frame {
+    /// The frame made of a step's output, the time and the safety layer's result.
+    pub fn new(t: f64, out: &FrameOutput, wrench: [f64; 6], safety: u8) -> Self {
+        Self {
+            t,
+            q_h: out.q_h,
+            q_g: out.q_g,
+            wrench,
+            raw_wrench: out.wrench,
+            safety,
+            status: out.status,
+            pairs: out.pairs,
+            iterations: out.iterations,
+            passes: out.passes,
+            cd_us: out.cd_us,
+            opt_us: out.opt_us,
+            total_us: out.total_us,
+            penetration_mm: out.penetration_mm,
+            qp_violation: out.qp_violation,
+            margin_mm: out.margin_mm,
+        }
+    }
+}
+
+/// Frames counted since [`Engine::reset`] (or [`Engine::new`]), by outcome.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct Counters {
+    /// Frames stepped.
+    pub frames: u64,
+    /// Frames that kept the last safe pose ([`FrameStatus::KeptLastSafe`]).
+    pub kept_last_safe: u64,
+    /// Frames whose pair list overflowed ([`FrameStatus::PairOverflow`]).
+    pub pair_overflows: u64,
+    /// Frames whose QP answer violated a constraint beyond the solver's tolerance
+    /// ([`FrameStatus::Inexact`]).
+    pub inexact: u64,
+    /// Frames that ended short of the optimum, safe ([`FrameStatus::Lagging`]).
+    pub lagging: u64,
+    /// What the safety layer did.
+    pub safety: SafetyEvents,
+}
+
+impl Counters {
+    /// Counts one frame's status.
+    pub fn record(&mut self, status: FrameStatus) {
+        self.frames += 1;
+        match status {
+            FrameStatus::KeptLastSafe => self.kept_last_safe += 1,
+            FrameStatus::PairOverflow => self.pair_overflows += 1,
+            FrameStatus::Inexact => self.inexact += 1,
+            FrameStatus::Lagging => self.lagging += 1,
+            FrameStatus::Ok => {}
+        }
+    }
+
+    /// Counts the statuses of `statuses` (safety events stay zero).
+    pub fn of(statuses: impl IntoIterator<Item = FrameStatus>) -> Self {
+        let mut c = Self::default();
+        statuses.into_iter().for_each(|s| c.record(s));
+        c
+    }
+}
+
+/// The haptic engine: the god-object step (detect, constrain, solve, force) followed by the
+/// safety layer, one call per frame. See the crate docs for a whole integration.
+pub struct Engine {
+    god: GodObject,
+    safety: Safety,
+    config: EngineConfig,
+    frame: Frame,
+    counters: Counters,
+}
+
+impl Engine {
+    /// An engine for the tool tree (tool frame, mm) against the object trees (object frame,
+    /// mm, each with its fixed pose): checks `config`, packs the trees and reserves every
+    /// buffer. Allocates; call before the haptic loop starts. Then call [`Engine::reset`].
+    pub fn new(
+        tool: &SphereTree,
+        objects: &[(SphereTree, Pose)],
+        config: EngineConfig,
+    ) -> Result<Self, EngineError> {
+        config.validate()?;
+        let god = GodObject::new(tool, objects, config.step_params())?;
+        Ok(Self {
+            god,
+            safety: Safety::new(config.safety),
+            config,
+            frame: Frame::default(),
+            counters: Counters::default(),
+        })
+    }
+
+    /// Starts a new run with the device at `start`: the graphic tool is placed at `start`, or
+    /// at the nearest free pose when `start` is in collision (returned); the safety layer's
+    /// soft start and rate limit start again, the counters from zero. Allocation-free.
+    pub fn reset(&mut self, start: &Pose) -> Result<Pose, EngineError> {
+        let q = self.god.reset(start)?;
+        self.restart_safety();
+        self.counters = Counters::default();
+        self.frame = Frame::default();
+        Ok(q)
+    }
+
+    /// Restarts the safety layer alone (e.g. when a device re-engages): the soft start ramps
+    /// again from the next frame and the rate limit starts from a zero wrench.
+    pub fn restart_safety(&mut self) {
+        self.safety = Safety::new(self.config.safety);
+    }
+
+    /// One haptic frame at time `t` (s; the safety layer's soft start counts from the first
+    /// frame's `t`) for the device configuration `q_h`: returns the frame, whose
+    /// [`Frame::wrench`] goes to the device.
+    ///
+    /// # Real-time
+    /// No allocation, no panic, bounded time (at most `1 + relinearize` passes within
+    /// `budget_us`), and a finite wrench within the safety limits whatever `q_h` holds.
+    pub fn step(&mut self, t: f64, q_h: &Pose) -> &Frame {
+        let out = self.god.step(q_h);
+        let (wrench, flags) = self.safety.filter(t, out.wrench);
+        self.frame = Frame::new(t, &out, wrench, flags);
+        self.counters.record(out.status);
+        self.counters.safety = self.safety.events();
+        &self.frame
+    }
+
+    /// The last frame (default before the first [`Engine::step`]).
+    pub fn frame(&self) -> &Frame {
+        &self.frame
+    }
+
+    /// The leaf pairs of the last detected region (for display): every pair within the last
+    /// pass's detection margin, with its gap (mm) at that pass's linearisation pose. Empty in
+    /// free space.
+    pub fn contacts(&self) -> &[LeafPair] {
+        self.god.pairs()
+    }
+
+    /// Frames counted by outcome since the last reset.
+    pub fn counters(&self) -> &Counters {
+        &self.counters
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &EngineConfig {
+        &self.config
+    }
+
+    /// The graphic tool's current configuration.
+    pub fn q_g(&self) -> Pose {
+        self.god.q_g()
+    }
+
+    /// The god-object step inside, for tools that measure it (benches, tests): e.g. its QP
+    /// solver's iteration caps or the penetration at a pose.
+    pub fn god_object_mut(&mut self) -> &mut GodObject {
+        &mut self.god
+    }
+}
