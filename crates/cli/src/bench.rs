@@ -34,9 +34,9 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use collide::Pose;
+use engine::Counters;
 use render::cache::TreeCache;
 use render::report::{tree_infos, TreeInfo};
-use render::rt::StatusCounts;
 use render::scene::{Motion, Scene, SolverKind, TreeParams};
 use render::stats::Summary;
 use render::step::{FrameOutput, GodObject};
@@ -423,7 +423,7 @@ fn replay_row(
             norm3(&e)
         }))
     };
-    let counts = StatusCounts::of(frames);
+    let counts = Counters::of(frames.iter().map(|f| f.status));
     ReplayRow {
         scene: scene.into(),
         solver: kind.name().into(),

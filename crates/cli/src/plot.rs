@@ -139,7 +139,7 @@ pub fn write_plots(dir: &Path, frames: &[FrameRecord], title: &str) -> Result<Ve
             &[Series {
                 label: "pairs",
                 color: BLUE,
-                values: xy(&|r| f64::from(r.out.pairs)),
+                values: xy(&|r| f64::from(r.frame.pairs)),
             }],
         )
     })?;
@@ -156,17 +156,17 @@ pub fn write_plots(dir: &Path, frames: &[FrameRecord], title: &str) -> Result<Ve
                 Series {
                     label: "collision detection",
                     color: RGBColor(230, 120, 0),
-                    values: xy(&|r| r.out.cd_us),
+                    values: xy(&|r| r.frame.cd_us),
                 },
                 Series {
                     label: "optimisation",
                     color: RGBColor(0, 150, 60),
-                    values: xy(&|r| r.out.opt_us),
+                    values: xy(&|r| r.frame.opt_us),
                 },
                 Series {
                     label: "total",
                     color: BLACK,
-                    values: xy(&|r| r.out.total_us),
+                    values: xy(&|r| r.frame.total_us),
                 },
             ],
         )
@@ -185,17 +185,17 @@ pub fn write_plots(dir: &Path, frames: &[FrameRecord], title: &str) -> Result<Ve
                 Series {
                     label: "Fx",
                     color: RED,
-                    values: xy(&|r| r.sent[0]),
+                    values: xy(&|r| r.frame.wrench[0]),
                 },
                 Series {
                     label: "Fy",
                     color: RGBColor(0, 150, 60),
-                    values: xy(&|r| r.sent[1]),
+                    values: xy(&|r| r.frame.wrench[1]),
                 },
                 Series {
                     label: "Fz",
                     color: BLUE,
-                    values: xy(&|r| r.sent[2]),
+                    values: xy(&|r| r.frame.wrench[2]),
                 },
             ],
         )?;
@@ -208,17 +208,17 @@ pub fn write_plots(dir: &Path, frames: &[FrameRecord], title: &str) -> Result<Ve
                 Series {
                     label: "Tx",
                     color: RED,
-                    values: xy(&|r| r.sent[3]),
+                    values: xy(&|r| r.frame.wrench[3]),
                 },
                 Series {
                     label: "Ty",
                     color: RGBColor(0, 150, 60),
-                    values: xy(&|r| r.sent[4]),
+                    values: xy(&|r| r.frame.wrench[4]),
                 },
                 Series {
                     label: "Tz",
                     color: BLUE,
-                    values: xy(&|r| r.sent[5]),
+                    values: xy(&|r| r.frame.wrench[5]),
                 },
             ],
         )

@@ -16,7 +16,6 @@ use render::config;
 use render::device::ReplayDevice;
 use render::report::{frames_csv, summarize, tree_infos, RunSummary};
 use render::rt::{run_loop, LoopParams};
-use render::safety::Safety;
 use render::scene::{load_scene_file, Motion, Scene};
 use render::trajectory::Trajectory;
 
@@ -364,9 +363,13 @@ pub fn run(args: RunArgs) -> Result<()> {
         .map(|s| collide::Pose::from_array(s.q))
         .context("the trajectory has no frame")?;
 
-    let mut god = scene.god_object()?;
-    god.reset(&first)?;
-    let mut safety = Safety::new(scene.safety);
+    let mut engine = scene.engine()?;
+    engine
+        .reset(&first)
+        .map_err(|source| render::RenderError::Engine {
+            file: scene.name.clone(),
+            source,
+        })?;
     let mut device = ReplayDevice::new(traj.clone());
     let params = LoopParams {
         rate_hz: scene.rate_hz,
@@ -374,7 +377,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         rt_priority: if args.no_rt_priority { None } else { Some(50) },
         ..LoopParams::default()
     };
-    let report = run_loop(&mut god, &mut device, &mut safety, &params)?;
+    let report = run_loop(&mut engine, &mut device, &params)?;
 
     let mut summary = summarize(
         &scene.name,

@@ -71,6 +71,12 @@ pub enum RenderError {
     /// same error inside [`RenderError::Scene`].
     #[error("{0}")]
     Setting(#[from] config::SettingError),
+    /// The haptic thread could not be started.
+    #[error("cannot start the haptic thread `haptic6d-rt`")]
+    ThreadStart(#[source] std::io::Error),
+    /// The haptic thread panicked (a bug: the frame is written not to).
+    #[error("the haptic thread `haptic6d-rt` panicked")]
+    ThreadPanicked,
     /// The engine refused the scene (a tree it cannot use, a start in collision).
     #[error("{file}")]
     Engine {

@@ -20,9 +20,9 @@ pub fn frames_csv(frames: &[FrameRecord]) -> String {
     s.push_str(FRAMES_HEADER);
     s.push('\n');
     for f in frames {
-        let o = &f.out;
+        let o = &f.frame;
         let _ = write!(s, "{}", f.t);
-        for v in o.q_h.iter().chain(o.q_g.iter()).chain(f.sent.iter()) {
+        for v in o.q_h.iter().chain(o.q_g.iter()).chain(o.wrench.iter()) {
             let _ = write!(s, ",{v}");
         }
         let _ = writeln!(
@@ -172,8 +172,8 @@ pub fn force_report(frames: &[FrameRecord]) -> ForceReport {
     let mut r = ForceReport::default();
     let mut prev: Option<[f64; 6]> = None;
     for f in frames {
-        let w = f.out.wrench;
-        if !w.iter().all(|v| v.is_finite()) || !f.out.q_g.iter().all(|v| v.is_finite()) {
+        let w = f.frame.raw_wrench;
+        if !w.iter().all(|v| v.is_finite()) || !f.frame.q_g.iter().all(|v| v.is_finite()) {
             r.non_finite_frames += 1;
             continue;
         }
@@ -214,8 +214,8 @@ pub fn summarize(
         } => {
             let reached = frames
                 .iter()
-                .filter(|f| f.out.status != FrameStatus::KeptLastSafe)
-                .map(|f| f.out.q_g[2])
+                .filter(|f| f.frame.status != FrameStatus::KeptLastSafe)
+                .map(|f| f.frame.q_g[2])
                 .fold(f64::INFINITY, f64::min);
             GoalReport {
                 kind: "insert-z".into(),
@@ -230,13 +230,13 @@ pub fn summarize(
         solver: solver.into(),
         form: form.into(),
         frames: frames.len(),
-        cd_us: Summary::of(frames.iter().map(|f| f.out.cd_us)),
-        opt_us: Summary::of(frames.iter().map(|f| f.out.opt_us)),
-        total_us: Summary::of(frames.iter().map(|f| f.out.total_us)),
-        pairs: Summary::of(frames.iter().map(|f| f64::from(f.out.pairs))),
-        iterations: Summary::of(frames.iter().map(|f| f64::from(f.out.iterations))),
-        passes: Summary::of(frames.iter().map(|f| f64::from(f.out.passes))),
-        penetration_mm: Summary::of(frames.iter().map(|f| f.out.penetration_mm)),
+        cd_us: Summary::of(frames.iter().map(|f| f.frame.cd_us)),
+        opt_us: Summary::of(frames.iter().map(|f| f.frame.opt_us)),
+        total_us: Summary::of(frames.iter().map(|f| f.frame.total_us)),
+        pairs: Summary::of(frames.iter().map(|f| f64::from(f.frame.pairs))),
+        iterations: Summary::of(frames.iter().map(|f| f64::from(f.frame.iterations))),
+        passes: Summary::of(frames.iter().map(|f| f64::from(f.frame.passes))),
+        penetration_mm: Summary::of(frames.iter().map(|f| f.frame.penetration_mm)),
         force: force_report(frames),
         loop_stats: loop_stats.clone(),
         goal,

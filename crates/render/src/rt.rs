@@ -1,5 +1,5 @@
-//! The haptic loop: reads the device, steps the god-object, filters the wrench through the
-//! safety layer and sends it, once per frame, on a named thread.
+//! The haptic loop: reads the device, steps the [`Engine`] (god-object step and safety layer)
+//! and sends the wrench, once per frame, on a named thread.
 //!
 //! Two pacing modes:
 //! - **real-time** (`LoopParams::realtime`): frame `i` starts at `start + i / rate_hz`; the
@@ -17,10 +17,11 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
+use engine::{Counters, Engine, Frame};
+
 use crate::device::Device;
-use crate::safety::{Safety, SafetyEvents};
+use crate::safety::SafetyEvents;
 use crate::stats::Summary;
-use crate::step::{FrameOutput, FrameStatus, GodObject};
 use crate::RenderError;
 
 /// Pacing of the loop.
@@ -69,48 +70,12 @@ pub struct FrameRecord {
     pub t: f64,
     /// Wall time since the loop started, s.
     pub t_wall: f64,
-    /// The step's output.
-    pub out: FrameOutput,
-    /// The wrench actually sent (after the safety layer): N, N·mm.
-    pub sent: [f64; 6],
-    /// Safety flags of this frame ([`crate::safety::flags`]).
-    pub safety: u8,
+    /// The engine's frame (its `t` is the safety layer's clock, see [`run_frames`]).
+    pub frame: Frame,
     /// Time since the previous frame started, µs (0 for the first frame).
     pub period_us: f64,
     /// The frame finished after the next frame's deadline.
     pub overrun: bool,
-}
-
-/// Frames counted by the step's status (one count per non-`Ok` outcome that matters); the
-/// same counting feeds [`LoopStats`] and the bench table.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
-pub struct StatusCounts {
-    /// Frames that kept the last safe pose ([`FrameStatus::KeptLastSafe`]).
-    pub kept_last_safe: u64,
-    /// Frames whose pair list overflowed ([`FrameStatus::PairOverflow`]).
-    pub pair_overflows: u64,
-    /// Frames whose QP answer violated a constraint beyond the solver's tolerance
-    /// ([`FrameStatus::Inexact`]).
-    pub inexact: u64,
-    /// Frames that ended short of the optimum, safe ([`FrameStatus::Lagging`]).
-    pub lagging: u64,
-}
-
-impl StatusCounts {
-    /// Counts the statuses of `outputs`.
-    pub fn of<'a>(outputs: impl IntoIterator<Item = &'a FrameOutput>) -> Self {
-        let mut c = Self::default();
-        for o in outputs {
-            match o.status {
-                FrameStatus::KeptLastSafe => c.kept_last_safe += 1,
-                FrameStatus::PairOverflow => c.pair_overflows += 1,
-                FrameStatus::Inexact => c.inexact += 1,
-                FrameStatus::Lagging => c.lagging += 1,
-                FrameStatus::Ok => {}
-            }
-        }
-        c
-    }
 }
 
 /// Statistics of a loop run.
@@ -189,7 +154,7 @@ fn wait_until(deadline: Instant, spin: Duration) {
     }
 }
 
-/// Runs frames on the current thread until the device ends or `records` is full.
+/// Runs frames of `engine` on the current thread until the device ends or `records` is full.
 ///
 /// The safety filter's clock is the loop's own: wall time when paced, `frame / rate_hz` when
 /// not; never the device's time stamps, so a recording whose times are all equal or negative
@@ -199,12 +164,11 @@ fn wait_until(deadline: Instant, spin: Duration) {
 /// outside [`crate::config::RATE_HZ`] is paced at 1 kHz rather than panicking.
 ///
 /// # Real-time
-/// Allocation-free when `records` has spare capacity: the body is [`GodObject::step`],
-/// [`Safety::filter`] and the device calls. No panic, no arithmetic that can overflow.
+/// Allocation-free when `records` has spare capacity: the body is [`Engine::step`] and the
+/// device calls. No panic, no arithmetic that can overflow.
 pub fn run_frames<D: Device + ?Sized>(
-    god: &mut GodObject,
+    engine: &mut Engine,
     device: &mut D,
-    safety: &mut Safety,
     params: &LoopParams,
     records: &mut Vec<FrameRecord>,
 ) -> usize {
@@ -234,14 +198,13 @@ pub fn run_frames<D: Device + ?Sized>(
         let Some(sample) = device.read(frame, t_wall) else {
             break;
         };
-        let out = god.step(&sample.pose);
         let t_rel = if params.realtime {
             t_wall
         } else {
             frame as f64 / rate_hz
         };
-        let (sent, flags) = safety.filter(t_rel, out.wrench);
-        device.send(&sent);
+        let out = *engine.step(t_rel, &sample.pose);
+        device.send(&out.wrench);
         let period_us = last_start.map_or(0.0, |l| (now - l).as_secs_f64() * 1e6);
         last_start = Some(now);
         let mut overrun = false;
@@ -260,9 +223,7 @@ pub fn run_frames<D: Device + ?Sized>(
         records.push(FrameRecord {
             t: sample.t,
             t_wall,
-            out,
-            sent,
-            safety: flags,
+            frame: out,
             period_us,
             overrun,
         });
@@ -274,15 +235,12 @@ pub fn run_frames<D: Device + ?Sized>(
 /// Runs the loop on a named thread (`haptic6d-rt`) and returns every frame and the statistics.
 /// Storage for the records is reserved before the thread starts.
 pub fn run_loop<D: Device>(
-    god: &mut GodObject,
+    engine: &mut Engine,
     device: &mut D,
-    safety: &mut Safety,
     params: &LoopParams,
 ) -> Result<LoopReport, RenderError> {
-    // One validation of every setting before the thread starts (the same ranges as the scene
-    // file): a settings struct built through the API cannot bypass the safety layer.
-    god.params().validate()?;
-    safety.params().validate()?;
+    // The engine checked its settings when made; the loop's own against the same ranges as
+    // the scene file, before the thread starts.
     params.validate()?;
     let mut rt_priority = false;
     let cap = device
@@ -298,21 +256,15 @@ pub fn run_loop<D: Device>(
                 if let Some(p) = params.rt_priority {
                     rt_priority = set_realtime_priority(p);
                 }
-                run_frames(god, device, safety, params, &mut records)
+                run_frames(engine, device, params, &mut records)
             })
-            .map_err(|e| RenderError::Io {
-                path: "<thread haptic6d-rt>".into(),
-                msg: format!("cannot start the haptic thread: {e}"),
-            })?
+            .map_err(RenderError::ThreadStart)?
             .join()
-            .map_err(|_| RenderError::Io {
-                path: "<thread haptic6d-rt>".into(),
-                msg: "the haptic thread panicked".into(),
-            })
+            .map_err(|_| RenderError::ThreadPanicked)
     })?;
     let wall_s = t0.elapsed().as_secs_f64();
     let nominal = 1e6 / params.rate_hz;
-    let counts = StatusCounts::of(records.iter().map(|r| &r.out));
+    let counts = Counters::of(records.iter().map(|r| r.frame.status));
     let stats = LoopStats {
         frames: records.len(),
         realtime: params.realtime,
@@ -330,14 +282,14 @@ pub fn run_loop<D: Device>(
             Summary::default()
         },
         period_us: Summary::of(records.iter().skip(1).map(|r| r.period_us)),
-        safety: safety.events(),
+        safety: engine.counters().safety,
         kept_last_safe: counts.kept_last_safe,
         pair_overflows: counts.pair_overflows,
         inexact: counts.inexact,
         lagging: counts.lagging,
         stalled_frames: records
             .windows(2)
-            .filter(|w| w[1].t == w[0].t && w[1].out.q_h == w[0].out.q_h)
+            .filter(|w| w[1].t == w[0].t && w[1].frame.q_h == w[0].frame.q_h)
             .count() as u64,
         wall_s,
     };

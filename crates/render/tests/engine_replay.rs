@@ -1,7 +1,8 @@
 //! The old path and the new one give the same frames: each built-in scene's trajectory
-//! (bunny, spline, plate) is replayed through `haptic6d run`'s loop as it was (the god-object
-//! step, then the safety filter, as two calls) and through [`engine::Engine::step`], and the
-//! `frames.csv` text is compared without its timing columns.
+//! (bunny, spline, plate) is replayed through `haptic6d run`'s frame body as it was before the
+//! engine (the god-object step, then the safety filter, as two calls) and through the loop as
+//! it is (one [`engine::Engine::step`] per frame), and the `frames.csv` text is compared
+//! without its timing columns.
 //!
 //! The frame budget is raised to its largest value so that no pass is cut by the clock: with
 //! it, a frame's outcome depends on its input only and two runs can be compared byte for byte.
@@ -39,42 +40,43 @@ fn scene(name: &str) -> Scene {
     scene
 }
 
-/// The loop of `haptic6d run` before the engine: `GodObject::step` then `Safety::filter`.
+/// The frame body of `haptic6d run` before the engine, as two calls: `GodObject::step`, then
+/// `Safety::filter` on the loop's clock `frame / rate`.
 fn old_path(scene: &Scene) -> String {
     let traj = scene.trajectory();
     let mut god = scene.god_object().unwrap();
     god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
     let mut safety = Safety::new(scene.safety);
-    let mut device = ReplayDevice::new(traj);
-    let report = run_loop(&mut god, &mut device, &mut safety, &LoopParams::default()).unwrap();
-    without_timings(&frames_csv(&report.frames))
-}
-
-/// The same frames through the engine: one call per frame, the safety clock at
-/// `frame / rate` as the loop's.
-fn new_path(scene: &Scene) -> String {
-    let traj = scene.trajectory();
-    let mut engine = scene.engine().unwrap();
-    engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
     let mut csv = without_timings(render::report::FRAMES_HEADER);
     let rate = LoopParams::default().rate_hz;
     for (i, s) in traj.samples.iter().enumerate() {
-        let f = engine.step(i as f64 / rate, &Pose::from_array(s.q));
+        let out = god.step(&Pose::from_array(s.q));
+        let (sent, _flags) = safety.filter(i as f64 / rate, out.wrench);
         let mut row = format!("{}", s.t);
-        for v in f.q_h.iter().chain(f.q_g.iter()).chain(f.wrench.iter()) {
+        for v in out.q_h.iter().chain(out.q_g.iter()).chain(sent.iter()) {
             row.push_str(&format!(",{v}"));
         }
         row.push_str(&format!(
             ",{},{},{},{},{}\n",
-            f.pairs,
-            f.iterations,
-            f.penetration_mm,
-            f.passes,
-            f.status.name()
+            out.pairs,
+            out.iterations,
+            out.penetration_mm,
+            out.passes,
+            out.status.name()
         ));
         csv.push_str(&row);
     }
     csv
+}
+
+/// `haptic6d run`'s loop now: one [`engine::Engine::step`] per frame, written by `frames_csv`.
+fn new_path(scene: &Scene) -> String {
+    let traj = scene.trajectory();
+    let mut engine = scene.engine().unwrap();
+    engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+    let mut device = ReplayDevice::new(traj);
+    let report = run_loop(&mut engine, &mut device, &LoopParams::default()).unwrap();
+    without_timings(&frames_csv(&report.frames))
 }
 
 fn check(name: &str) {

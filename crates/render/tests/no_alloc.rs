@@ -14,9 +14,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use collide::Pose;
 use render::device::ReplayDevice;
 use render::rt::{run_frames, FrameRecord, LoopParams};
-use render::safety::Safety;
 use render::scene::SolverKind;
-use render::step::{GodObject, StepParams};
 use render::trajectory::Trajectory;
 
 /// Counts (de)allocations made by a thread while it is armed.
@@ -111,34 +109,31 @@ fn ten_thousand_frames_do_not_allocate() {
         if kind == SolverKind::Pqp {
             scene.solver.relinearize = 0;
         }
-        let mut god = scene.god_object().unwrap();
-        let mut safety = Safety::new(scene.safety);
+        let mut engine = scene.engine().unwrap();
         let params = LoopParams::default();
         // Warm-up: workspaces grow to the largest problem of this motion.
-        god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+        engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
         let mut records: Vec<FrameRecord> = Vec::with_capacity(traj.len());
         run_frames(
-            &mut god,
+            &mut engine,
             &mut ReplayDevice::new(traj.clone()),
-            &mut safety,
             &params,
             &mut records,
         );
         assert_eq!(records.len(), frames);
         // Measured pass.
-        god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+        engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
         let mut device = ReplayDevice::new(traj.clone());
         records.clear();
-        let (n, allocs) = count_allocations(|| {
-            run_frames(&mut god, &mut device, &mut safety, &params, &mut records)
-        });
+        let (n, allocs) =
+            count_allocations(|| run_frames(&mut engine, &mut device, &params, &mut records));
         assert_eq!(n, frames, "{kind:?}");
         assert_eq!(
             allocs, 0,
             "{kind:?}: {allocs} (de)allocations in {frames} frames"
         );
         assert!(
-            records.iter().any(|r| r.out.pairs > 100),
+            records.iter().any(|r| r.frame.pairs > 100),
             "{kind:?}: no large contact"
         );
     }

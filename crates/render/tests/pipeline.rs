@@ -7,19 +7,17 @@ use collide::Pose;
 use render::device::ReplayDevice;
 use render::report::{force_report, summarize};
 use render::rt::{run_loop, FrameRecord, LoopParams};
-use render::safety::Safety;
 use render::scene::{Goal, Scene, SolverKind};
-use render::step::{FrameStatus, GodObject, StepParams};
+use render::step::FrameStatus;
 use render::trajectory::Trajectory;
 
 fn run(scene: &Scene, kind: SolverKind, traj: &Trajectory) -> Vec<FrameRecord> {
     let mut scene = scene.clone();
     scene.solver.kind = kind;
-    let mut god = scene.god_object().unwrap();
-    god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
-    let mut safety = Safety::new(scene.safety);
+    let mut engine = scene.engine().unwrap();
+    engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
     let mut dev = ReplayDevice::new(traj.clone());
-    run_loop(&mut god, &mut dev, &mut safety, &LoopParams::default())
+    run_loop(&mut engine, &mut dev, &LoopParams::default())
         .unwrap()
         .frames
 }
@@ -40,20 +38,20 @@ fn bunny_dual_meets_penetration_continuity_and_contact_targets() {
     );
     let pen = frames
         .iter()
-        .map(|r| r.out.penetration_mm)
+        .map(|r| r.frame.penetration_mm)
         .fold(0.0, f64::max);
     assert!(pen <= 0.01, "penetration {pen} mm");
     // Every frame solved, or (at most 0.1 % of frames, the degraded-frame budget) safely short
     // of the optimum when its passes ran out.
     let failed: Vec<(f64, FrameStatus, u32)> = frames
         .iter()
-        .filter(|r| !matches!(r.out.status, FrameStatus::Ok | FrameStatus::Lagging))
-        .map(|r| (r.t, r.out.status, r.out.passes))
+        .filter(|r| !matches!(r.frame.status, FrameStatus::Ok | FrameStatus::Lagging))
+        .map(|r| (r.t, r.frame.status, r.frame.passes))
         .collect();
     assert!(failed.is_empty(), "frames not solved: {failed:?}");
     let lagging = frames
         .iter()
-        .filter(|r| r.out.status == FrameStatus::Lagging)
+        .filter(|r| r.frame.status == FrameStatus::Lagging)
         .count();
     assert!(
         lagging * 1000 <= frames.len(),
@@ -66,15 +64,15 @@ fn bunny_dual_meets_penetration_continuity_and_contact_targets() {
     use render::scenes::bunny::{PUSH_PHASE_S, SLIDE_PHASE_S};
     let mut slide: Vec<u32> = frames
         .iter()
-        .filter(|f| f.t >= SLIDE_PHASE_S.0 && f.t <= SLIDE_PHASE_S.1 && f.out.contacts > 0)
-        .map(|f| f.out.contacts)
+        .filter(|f| f.t >= SLIDE_PHASE_S.0 && f.t <= SLIDE_PHASE_S.1 && f.frame.contacts > 0)
+        .map(|f| f.frame.contacts)
         .collect();
     slide.sort_unstable();
     let slide_median = slide.get(slide.len() / 2).copied().unwrap_or(0);
     let push: Vec<u32> = frames
         .iter()
         .filter(|f| f.t >= PUSH_PHASE_S.0 && f.t <= PUSH_PHASE_S.1)
-        .map(|f| f.out.contacts)
+        .map(|f| f.frame.contacts)
         .collect();
     let (push_min, push_max) = (
         push.iter().copied().min().unwrap_or(0),
@@ -93,7 +91,7 @@ fn bunny_dual_meets_penetration_continuity_and_contact_targets() {
     // The graphic tool ends where the hand is (free space again).
     let last = frames.last().unwrap();
     for k in 0..6 {
-        assert!((last.out.q_g[k] - last.out.q_h[k]).abs() < 1e-9);
+        assert!((last.frame.q_g[k] - last.frame.q_h[k]).abs() < 1e-9);
     }
 }
 
@@ -101,7 +99,7 @@ fn axial_force_at(frames: &[FrameRecord], t: f64) -> f64 {
     frames
         .iter()
         .min_by(|a, b| (a.t - t).abs().total_cmp(&(b.t - t).abs()))
-        .map(|f| f.out.wrench[2])
+        .map(|f| f.frame.raw_wrench[2])
         .unwrap()
 }
 
@@ -156,10 +154,10 @@ fn a_nan_device_frame_keeps_the_last_safe_pose() {
     traj.samples[i].q[1] = f64::NAN;
     let frames = run(&scene, SolverKind::Dual, &traj);
     let bad = &frames[i];
-    assert_eq!(bad.out.status, FrameStatus::KeptLastSafe);
-    assert_eq!(bad.out.q_g, frames[i - 1].out.q_g);
-    assert!(bad.sent.iter().all(|v| v.is_finite()));
-    assert!(frames[i + 1].out.status == FrameStatus::Ok);
+    assert_eq!(bad.frame.status, FrameStatus::KeptLastSafe);
+    assert_eq!(bad.frame.q_g, frames[i - 1].frame.q_g);
+    assert!(bad.frame.wrench.iter().all(|v| v.is_finite()));
+    assert!(frames[i + 1].frame.status == FrameStatus::Ok);
 }
 
 #[test]

@@ -18,9 +18,9 @@ use collide::Pose;
 use mesh::TriMesh;
 use render::device::{Device, DeviceSample};
 use render::rt::{run_frames, FrameRecord, LoopParams};
-use render::safety::{Safety, SafetyParams};
+use render::safety::SafetyParams;
 use render::scene::{Coupling, Motion, Scene, SolverSpec};
-use render::step::{FrameStatus, GodObject, StepParams};
+use render::step::FrameStatus;
 use spheretree::build::{build_tree, BuildParams};
 use spheretree::SphereTree;
 
@@ -253,9 +253,8 @@ struct LongRun {
 
 fn long_run(frames: usize, seed: u64) -> LongRun {
     let sc = scene();
-    let mut god = sc.god_object().unwrap();
-    god.reset(&sc.start).unwrap();
-    let mut safety = Safety::new(sc.safety);
+    let mut engine = sc.engine().unwrap();
+    engine.reset(&sc.start).unwrap();
     let params = LoopParams::default();
     let mut records: Vec<FrameRecord> = Vec::with_capacity(1000);
     let mut dev = RandomDevice::new(seed, frames, sc.start.to_array());
@@ -271,7 +270,7 @@ fn long_run(frames: usize, seed: u64) -> LongRun {
             LIVE.store(0, Ordering::Relaxed);
         }
         ARMED.with(|a| a.set(chunk >= 1));
-        let n = run_frames(&mut god, &mut dev, &mut safety, &params, &mut records);
+        let n = run_frames(&mut engine, &mut dev, &params, &mut records);
         ARMED.with(|a| a.set(false));
         if chunk >= 1 {
             r.allocs_in_loop = ALLOCS.load(Ordering::Relaxed);
@@ -279,26 +278,29 @@ fn long_run(frames: usize, seed: u64) -> LongRun {
         for f in &records {
             let i = r.frames;
             assert!(
-                f.out.penetration_mm <= 0.01,
+                f.frame.penetration_mm <= 0.01,
                 "frame {i}: penetration {} mm at q_h {:?} q_g {:?}",
-                f.out.penetration_mm,
-                f.out.q_h,
-                f.out.q_g
+                f.frame.penetration_mm,
+                f.frame.q_h,
+                f.frame.q_g
             );
             assert!(
-                f.sent.iter().all(|v| v.is_finite()) && f.out.q_g.iter().all(|v| v.is_finite()),
+                f.frame.wrench.iter().all(|v| v.is_finite())
+                    && f.frame.q_g.iter().all(|v| v.is_finite()),
                 "frame {i}: non-finite output {:?}",
-                f.sent
+                f.frame.wrench
             );
-            let fn_ = (f.sent[0].powi(2) + f.sent[1].powi(2) + f.sent[2].powi(2)).sqrt();
+            let fn_ =
+                (f.frame.wrench[0].powi(2) + f.frame.wrench[1].powi(2) + f.frame.wrench[2].powi(2))
+                    .sqrt();
             assert!(fn_ <= sc.safety.max_force_n + 1e-9, "frame {i}: {fn_} N");
-            r.max_penetration_mm = r.max_penetration_mm.max(f.out.penetration_mm);
+            r.max_penetration_mm = r.max_penetration_mm.max(f.frame.penetration_mm);
             r.max_force_n = r.max_force_n.max(fn_);
-            r.max_pairs = r.max_pairs.max(f.out.pairs);
-            r.max_total_us = r.max_total_us.max(f.out.total_us);
-            r.contact_frames += usize::from(f.out.pairs > 0);
-            r.kept_last_safe += usize::from(f.out.status == FrameStatus::KeptLastSafe);
-            r.inexact += usize::from(f.out.status == FrameStatus::Inexact);
+            r.max_pairs = r.max_pairs.max(f.frame.pairs);
+            r.max_total_us = r.max_total_us.max(f.frame.total_us);
+            r.contact_frames += usize::from(f.frame.pairs > 0);
+            r.kept_last_safe += usize::from(f.frame.status == FrameStatus::KeptLastSafe);
+            r.inexact += usize::from(f.frame.status == FrameStatus::Inexact);
             r.frames += 1;
         }
         chunk += 1;

@@ -9,14 +9,16 @@
 //! - Solver faults: absurd stiffness (wrench overflows to infinity) and a QP capped at one
 //!   iteration never reach the device as non-finite or unsafe output.
 
+mod common;
+
 use collide::Pose;
 use mesh::TriMesh;
 use render::device::ReplayDevice;
 use render::report::summarize;
 use render::rt::{run_loop, FrameRecord, LoopParams, LoopStats};
-use render::safety::{Safety, SafetyParams};
+use render::safety::SafetyParams;
 use render::scene::{Coupling, Motion, Scene, SolverKind, SolverSpec};
-use render::step::{FrameStatus, GodObject, StepParams};
+use render::step::FrameStatus;
 use render::trajectory::{TrajSample, Trajectory};
 use spheretree::build::{build_tree, BuildParams};
 use spheretree::{Sphere, SphereTree};
@@ -103,11 +105,10 @@ fn keyed(keys: &[(usize, [f64; 6])]) -> Trajectory {
 }
 
 fn run(scene: &Scene, traj: &Trajectory) -> (Vec<FrameRecord>, LoopStats) {
-    let mut god = scene.god_object().unwrap();
-    god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
-    let mut safety = Safety::new(scene.safety);
+    let mut engine = scene.engine().unwrap();
+    engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
     let mut dev = ReplayDevice::new(traj.clone());
-    let r = run_loop(&mut god, &mut dev, &mut safety, &LoopParams::default()).unwrap();
+    let r = run_loop(&mut engine, &mut dev, &LoopParams::default()).unwrap();
     (r.frames, r.stats)
 }
 
@@ -122,21 +123,27 @@ fn assert_safe_output(frames: &[FrameRecord], p: &SafetyParams) {
     let mut prev = [0.0; 6];
     for (i, f) in frames.iter().enumerate() {
         assert!(
-            f.sent.iter().all(|v| v.is_finite()),
+            f.frame.wrench.iter().all(|v| v.is_finite()),
             "frame {i}: {:?}",
-            f.sent
+            f.frame.wrench
         );
-        assert!(norm3(&f.sent[0..3]) <= p.max_force_n + 1e-9, "frame {i}");
-        assert!(norm3(&f.sent[3..6]) <= p.max_torque_nmm + 1e-6, "frame {i}");
+        assert!(
+            norm3(&f.frame.wrench[0..3]) <= p.max_force_n + 1e-9,
+            "frame {i}"
+        );
+        assert!(
+            norm3(&f.frame.wrench[3..6]) <= p.max_torque_nmm + 1e-6,
+            "frame {i}"
+        );
         let df = norm3(&[
-            f.sent[0] - prev[0],
-            f.sent[1] - prev[1],
-            f.sent[2] - prev[2],
+            f.frame.wrench[0] - prev[0],
+            f.frame.wrench[1] - prev[1],
+            f.frame.wrench[2] - prev[2],
         ]);
         let dt = norm3(&[
-            f.sent[3] - prev[3],
-            f.sent[4] - prev[4],
-            f.sent[5] - prev[5],
+            f.frame.wrench[3] - prev[3],
+            f.frame.wrench[4] - prev[4],
+            f.frame.wrench[5] - prev[5],
         ]);
         assert!(
             df <= p.max_force_step_n + 1e-9,
@@ -146,7 +153,7 @@ fn assert_safe_output(frames: &[FrameRecord], p: &SafetyParams) {
             dt <= p.max_torque_step_nmm + 1e-6,
             "frame {i}: torque step {dt} N·mm"
         );
-        prev = f.sent;
+        prev = f.frame.wrench;
     }
 }
 
@@ -237,21 +244,21 @@ fn fast_motion_through_a_thin_plate_never_tunnels() {
                     // The tool's leaves (radius 2) must stay on the near side of the plate's
                     // mid-plane: the origin above z = 2 mm at least (it rests on the sphere
                     // layer, which is far above).
-                    let zg = f.out.q_g[2];
+                    let zg = f.frame.q_g[2];
                     assert!(
                         zg > 2.0,
                         "{name} ({kind:?}, relinearize {relinearize}) frame {i}: tool at z = {zg} tunnelled (device z = {})",
-                        f.out.q_h[2]
+                        f.frame.q_h[2]
                     );
                     assert!(
-                        f.out.penetration_mm <= 0.01,
+                        f.frame.penetration_mm <= 0.01,
                         "{name} ({kind:?}, relinearize {relinearize}) frame {i}: penetration {} mm",
-                        f.out.penetration_mm
+                        f.frame.penetration_mm
                     );
                 }
                 if *name == "sliding at 2 m/s" && relinearize > 0 {
                     // Frictionless: the tool slid with the hand instead of sticking.
-                    let f = &frames[89].out;
+                    let f = &frames[89].frame;
                     assert!(
                         (f.q_g[0] - f.q_h[0]).abs() < 1.0,
                         "{kind:?}, relinearize {relinearize}: tool at x = {} behind the hand at {}",
@@ -261,15 +268,15 @@ fn fast_motion_through_a_thin_plate_never_tunnels() {
                 }
                 // Pushed below the plate, the tool rests on top of it: pressed, not free.
                 let last = frames.last().unwrap();
-                if last.out.q_h[2] < 0.0 {
+                if last.frame.q_h[2] < 0.0 {
                     // Down on the sphere layer (on a sphere's top or, frictionless, slid into
                     // the dimple between spheres ~2.8 mm lower), not hovering above it.
                     assert!(
-                        last.out.q_g[2] < top + 0.1,
+                        last.frame.q_g[2] < top + 0.1,
                         "{name}: rests at {}",
-                        last.out.q_g[2]
+                        last.frame.q_g[2]
                     );
-                    assert!(last.out.wrench[2] > 1.0, "{name}: no push-back");
+                    assert!(last.frame.raw_wrench[2] > 1.0, "{name}: no push-back");
                 }
             }
         }
@@ -302,10 +309,14 @@ fn nan_device_row_keeps_the_loop_running_with_safe_output() {
     assert_eq!(frames.len(), traj.len());
     assert_safe_output(&frames, &sc.safety);
     for i in [300, 301] {
-        assert_eq!(frames[i].out.status, FrameStatus::KeptLastSafe, "frame {i}");
-        assert_eq!(frames[i].out.q_g, frames[299].out.q_g, "frame {i}");
+        assert_eq!(
+            frames[i].frame.status,
+            FrameStatus::KeptLastSafe,
+            "frame {i}"
+        );
+        assert_eq!(frames[i].frame.q_g, frames[299].frame.q_g, "frame {i}");
     }
-    assert_eq!(frames[302].out.status, FrameStatus::Ok);
+    assert_eq!(frames[302].frame.status, FrameStatus::Ok);
     assert_eq!(stats.kept_last_safe, 2);
     let s = summarize(
         "plate",
@@ -356,19 +367,19 @@ fn jump_of_100_mm_in_one_frame_is_clamped_and_rate_limited() {
     assert_eq!(frames.len(), traj.len());
     assert_safe_output(&frames, &sc.safety);
     // The raw spring force is ~ (100 - 10) N, beyond the 40 N limit: clamped and ramped.
-    assert!(frames[150].out.wrench[2] > sc.safety.max_force_n);
-    assert!((frames[150].sent[2] - sc.safety.max_force_n).abs() < 1e-6);
+    assert!(frames[150].frame.raw_wrench[2] > sc.safety.max_force_n);
+    assert!((frames[150].frame.wrench[2] - sc.safety.max_force_n).abs() < 1e-6);
     assert!(stats.safety.force_clamps > 0 && stats.safety.rate_limits > 0);
     for f in &frames {
         // The tool's 2 mm leaves stay above the plate's mid-plane (it may slide into the
         // dimples between the plate's big leaves, ~2.8 mm below their tops: frictionless).
-        assert!(f.out.q_g[2] > 2.0, "tunnelled: {:?}", f.out.q_g);
+        assert!(f.frame.q_g[2] > 2.0, "tunnelled: {:?}", f.frame.q_g);
     }
     // Released: the output returns to zero (through the rate limit) and stays there.
     assert!(
-        frames[299].sent.iter().all(|v| v.abs() < 1e-9),
+        frames[299].frame.wrench.iter().all(|v| v.abs() < 1e-9),
         "{:?}",
-        frames[299].sent
+        frames[299].frame.wrench
     );
 }
 
@@ -385,10 +396,14 @@ fn stalled_device_keeps_a_steady_force() {
     let (frames, stats) = run(&sc, &traj);
     assert_eq!(frames.len(), traj.len());
     assert_safe_output(&frames, &sc.safety);
-    let f0 = frames[450].sent;
+    let f0 = frames[450].frame.wrench;
     for f in &frames[450..] {
         for k in 0..6 {
-            assert!((f.sent[k] - f0[k]).abs() < 1e-6, "{:?} vs {f0:?}", f.sent);
+            assert!(
+                (f.frame.wrench[k] - f0[k]).abs() < 1e-6,
+                "{:?} vs {f0:?}",
+                f.frame.wrench
+            );
         }
     }
     // The tool rests in the dimple between four big octree leaves (x = y = 0 is a cell
@@ -421,8 +436,12 @@ fn absurd_stiffness_is_refused_and_the_stiffest_accepted_is_safe() {
         );
         let e = sc.validate().unwrap_err().to_string();
         assert!(e.contains("[coupling] kt"), "{e}");
-        let e = sc.god_object().err().expect("refused").to_string();
-        assert!(e.contains("[coupling] kt"), "{e}");
+        // The scene names itself; the engine's reason is the error's source.
+        let e = common::chain(&sc.god_object().err().expect("refused"));
+        assert!(
+            e.starts_with(&sc.name) && e.contains("[coupling] kt"),
+            "{e}"
+        );
     }
     // The stiffest coupling accepted, pressed hard: finite, clamped, rate-limited.
     let stiff = Coupling {
@@ -441,25 +460,32 @@ fn absurd_stiffness_is_refused_and_the_stiffest_accepted_is_safe() {
     ]);
     let (frames, stats) = run(&sc, &deep);
     assert_safe_output(&frames, &sc.safety);
-    assert!(frames[300].out.wrench[2] > 100.0, "{:?}", frames[300].out);
-    assert!((norm3(&frames[300].sent[0..3]) - sc.safety.max_force_n).abs() < 1e-9);
+    assert!(
+        frames[300].frame.raw_wrench[2] > 100.0,
+        "{:?}",
+        frames[300].frame
+    );
+    assert!((norm3(&frames[300].frame.wrench[0..3]) - sc.safety.max_force_n).abs() < 1e-9);
     assert!(stats.safety.force_clamps > 0, "{stats:?}");
     for f in &frames {
-        assert!(f.out.q_g.iter().all(|v| v.is_finite()), "{:?}", f.out.q_g);
+        assert!(
+            f.frame.q_g.iter().all(|v| v.is_finite()),
+            "{:?}",
+            f.frame.q_g
+        );
     }
 }
 
 /// Runs `traj` with every solver's iteration cap set to `cap`.
 fn run_capped(scene: &Scene, traj: &Trajectory, cap: u32) -> (Vec<FrameRecord>, LoopStats) {
-    let mut god = scene.god_object().unwrap();
-    god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
-    let s = god.solver_mut();
+    let mut engine = scene.engine().unwrap();
+    engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+    let s = engine.god_object_mut().solver_mut();
     s.dual.params.max_iterations = cap;
     s.active_set.params.max_iterations = cap;
     s.pqp.params.max_iterations = cap;
-    let mut safety = Safety::new(scene.safety);
     let mut dev = ReplayDevice::new(traj.clone());
-    let r = run_loop(&mut god, &mut dev, &mut safety, &LoopParams::default()).unwrap();
+    let r = run_loop(&mut engine, &mut dev, &LoopParams::default()).unwrap();
     (r.frames, r.stats)
 }
 
@@ -493,11 +519,11 @@ fn qp_iteration_cap_never_reaches_the_device() {
         let bound = if kind == SolverKind::Pqp { 0.3 } else { 0.01 };
         for (i, f) in frames.iter().enumerate() {
             assert!(
-                f.out.penetration_mm <= bound,
+                f.frame.penetration_mm <= bound,
                 "{kind:?} frame {i}: a capped solve reached the device with {} mm penetration",
-                f.out.penetration_mm
+                f.frame.penetration_mm
             );
-            assert!(f.out.q_g[2] > 2.0, "{kind:?} frame {i}: tunnelled");
+            assert!(f.frame.q_g[2] > 2.0, "{kind:?} frame {i}: tunnelled");
         }
         eprintln!(
             "{kind:?}: capped at 0 iterations: {} kept-last-safe, {} inexact of {} frames",
@@ -510,7 +536,7 @@ fn qp_iteration_cap_never_reaches_the_device() {
         // frame of the tilted press, none in free space), and the statistics count exactly
         // the frames that did.
         let kept: Vec<usize> = (0..frames.len())
-            .filter(|&i| frames[i].out.status == FrameStatus::KeptLastSafe)
+            .filter(|&i| frames[i].frame.status == FrameStatus::KeptLastSafe)
             .collect();
         assert_eq!(stats.kept_last_safe, kept.len() as u64, "{kind:?}");
         assert!(
@@ -520,18 +546,18 @@ fn qp_iteration_cap_never_reaches_the_device() {
         );
         for &i in &kept {
             assert!(
-                frames[i].out.pairs > 0,
+                frames[i].frame.pairs > 0,
                 "{kind:?} frame {i}: kept-last-safe without contact"
             );
             assert_eq!(
-                frames[i].out.q_g,
-                frames[i - 1].out.q_g,
+                frames[i].frame.q_g,
+                frames[i - 1].frame.q_g,
                 "{kind:?} frame {i}: a kept frame moved the tool"
             );
         }
         let inexact = frames
             .iter()
-            .filter(|f| f.out.status == FrameStatus::Inexact)
+            .filter(|f| f.frame.status == FrameStatus::Inexact)
             .count();
         assert_eq!(stats.inexact, inexact as u64, "{kind:?}");
         if kind != SolverKind::Pqp {
@@ -602,21 +628,25 @@ fn fast_rotation_swings_a_long_tool_through_the_plate_never_tunnels() {
         assert_safe_output(&frames, &sc.safety);
         for (i, f) in frames.iter().enumerate() {
             // Near side: every leaf of the bar above the plate's mid-plane, and not inside it.
-            let low = lowest(&f.out.q_g);
+            let low = lowest(&f.frame.q_g);
             assert!(
                 low > 0.0,
                 "relinearize {relinearize} frame {i}: the bar reached z = {low} (tunnelled)"
             );
             assert!(
-                f.out.penetration_mm <= 0.01,
+                f.frame.penetration_mm <= 0.01,
                 "relinearize {relinearize} frame {i}: penetration {}",
-                f.out.penetration_mm
+                f.frame.penetration_mm
             );
         }
         // Held pitched: the bar rests on the plate with a restoring torque.
         let held = &frames[59];
-        assert!(held.out.q_g[4] < 1.2 - 0.05, "{:?}", held.out.q_g);
-        assert!(held.out.wrench[4].abs() > 1.0, "{:?}", held.out.wrench);
+        assert!(held.frame.q_g[4] < 1.2 - 0.05, "{:?}", held.frame.q_g);
+        assert!(
+            held.frame.raw_wrench[4].abs() > 1.0,
+            "{:?}",
+            held.frame.raw_wrench
+        );
     }
 }
 
@@ -648,21 +678,21 @@ fn huge_device_readings_keep_the_output_safe() {
     assert_safe_output(&frames, &sc.safety);
     for (i, f) in frames.iter().enumerate() {
         assert!(
-            f.out.q_g.iter().all(|v| v.is_finite()),
+            f.frame.q_g.iter().all(|v| v.is_finite()),
             "frame {i}: {:?}",
-            f.out.q_g
+            f.frame.q_g
         );
         assert!(
-            f.out.q_g[2] > 2.0,
+            f.frame.q_g[2] > 2.0,
             "frame {i}: tunnelled to {:?}",
-            f.out.q_g
+            f.frame.q_g
         );
         assert!(
-            f.out.penetration_mm <= 0.01,
+            f.frame.penetration_mm <= 0.01,
             "frame {i}: {}",
-            f.out.penetration_mm
+            f.frame.penetration_mm
         );
     }
     // Back to normal readings: normal contact again.
-    assert_eq!(frames[traj.len() - 1].out.status, FrameStatus::Ok);
+    assert_eq!(frames[traj.len() - 1].frame.status, FrameStatus::Ok);
 }

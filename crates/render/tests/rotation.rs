@@ -10,7 +10,7 @@ use collide::{rotation_exp, rotation_log, Pose, RotationCoordinates};
 use nalgebra::Vector3;
 use proptest::prelude::*;
 use render::scenes::plate::{self, PlateTool};
-use render::step::{spring_wrench, FrameStatus, GodObject, StepParams};
+use render::step::{spring_wrench, FrameStatus, GodObject};
 use render::trajectory::{Ease, Script};
 
 const G: [f64; 6] = [1.0, 1.0, 1.0, 1000.0, 1000.0, 1000.0];

@@ -9,6 +9,8 @@
 //! scene file and through the API. `FUZZ_CASES=N` sets the proptest cases (default 40: the
 //! suite runs in CI on 2 cores).
 
+mod common;
+
 use collide::Pose;
 use proptest::prelude::*;
 use render::config::{self, Range};
@@ -16,7 +18,6 @@ use render::device::ReplayDevice;
 use render::rt::{run_frames, run_loop, FrameRecord, LoopParams};
 use render::safety::{Safety, SafetyParams};
 use render::scene::{Coupling, Motion, Scene, SceneSpec, SolverSpec};
-use render::step::{GodObject, StepParams};
 use render::trajectory::{TrajSample, Trajectory};
 use spheretree::{Sphere, SphereTree};
 
@@ -235,7 +236,7 @@ fn norm3(v: &[f64]) -> f64 {
 fn check_frames(frames: &[FrameRecord], p: &SafetyParams) -> Result<(), String> {
     let mut prev = [0.0; 6];
     for (i, f) in frames.iter().enumerate() {
-        let w = f.sent;
+        let w = f.frame.wrench;
         if !w.iter().all(|v| v.is_finite()) {
             return Err(format!("frame {i}: non-finite wrench {w:?}"));
         }
@@ -256,10 +257,10 @@ fn check_frames(frames: &[FrameRecord], p: &SafetyParams) -> Result<(), String> 
         // While the hand's tool is inside the ball, the spring pulls it out: along the outward
         // normal at the graphic tool (the ball is convex), never into it. (Outside, a tool
         // that lags a fast hand, in a frame whose passes ran out, may pull it toward the surface.)
-        let h = f.out.q_h;
+        let h = f.frame.q_h;
         // (The tool's 2 mm leaves overlap the ball.)
         let hand_in = norm3(&[h[0] - BALL_C[0], h[1] - BALL_C[1], h[2] - BALL_C[2]]) < BALL_R + 2.0;
-        let g = f.out.q_g;
+        let g = f.frame.q_g;
         let n: Vec<f64> = (0..3).map(|k| g[k] - BALL_C[k]).collect();
         let nn = norm3(&n);
         let into = -(w[0] * n[0] + w[1] * n[1] + w[2] * n[2]) / nn;
@@ -277,15 +278,14 @@ fn check_frames(frames: &[FrameRecord], p: &SafetyParams) -> Result<(), String> 
 /// Runs the press through the public loop; the settings must be valid.
 fn run(s: &Settings, traj: &Trajectory) -> Result<Vec<FrameRecord>, render::RenderError> {
     let sc = scene(s);
-    let mut god = sc.god_object()?;
-    god.reset(&Pose::from_array(traj.samples[0].q))?;
-    let mut safety = Safety::new(sc.safety);
+    let mut engine = sc.engine()?;
+    engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
     let mut dev = ReplayDevice::new(traj.clone());
     let params = LoopParams {
         rate_hz: sc.rate_hz,
         ..LoopParams::default()
     };
-    Ok(run_loop(&mut god, &mut dev, &mut safety, &params)?.frames)
+    Ok(run_loop(&mut engine, &mut dev, &params)?.frames)
 }
 
 fn cases() -> u32 {
@@ -319,7 +319,7 @@ proptest! {
             prop_assert_eq!(frames.len(), 350);
             check_frames(&frames, &s.safety).map_err(TestCaseError::fail)?;
             // The press is felt unless the limits make it tiny: some force reaches the hand.
-            prop_assert!(frames.iter().any(|f| f.sent[2] > 0.0), "no force at all");
+            prop_assert!(frames.iter().any(|f| f.frame.wrench[2] > 0.0), "no force at all");
         } else {
             for e in [parsed.err().map(|e| e.to_string()), api.err().map(|e| e.to_string())] {
                 let e = e.ok_or_else(|| TestCaseError::fail(format!("accepted bad {bad:?}")))?;
@@ -375,8 +375,8 @@ fn item1_nan_max_force_is_refused_not_unclamped() {
     );
     let e = Safety::try_new(s.safety).unwrap_err().to_string();
     assert!(e.contains("max_force_n = NaN"), "{e}");
-    // Through the API anyway: the loop refuses to start; a bare filter sends nothing.
-    let e = run(&s, &press(1000.0, 3.0, 0.0)).unwrap_err().to_string();
+    // Through the API anyway: the engine refuses to start; a bare filter sends nothing.
+    let e = common::chain(&run(&s, &press(1000.0, 3.0, 0.0)).unwrap_err());
     assert!(e.contains("max_force_n"), "{e}");
     let mut f = Safety::new(s.safety);
     assert_eq!(f.filter(1.0, [0.0, 0.0, 110.9, 0.0, 0.0, 0.0]).0, [0.0; 6]);
@@ -403,7 +403,7 @@ fn item3_negative_skin_is_refused() {
         "[solver] skin_mm = -1000: must be a finite number in [0, 10] mm",
     );
     let sc = scene(&s);
-    let e = sc.god_object().err().unwrap().to_string();
+    let e = common::chain(&sc.god_object().err().unwrap());
     assert!(e.contains("skin_mm = -1000"), "{e}");
 }
 
@@ -421,9 +421,13 @@ fn item4_wrapping_relinearize_is_refused_and_cannot_wrap() {
     let frames = run(&s, &press(1000.0, 3.0, 0.2)).unwrap();
     check_frames(&frames, &s.safety).unwrap();
     for f in &frames[..50] {
-        assert!(norm3(&f.sent[0..3]) < 1e-9, "{:?}", f.sent);
+        assert!(norm3(&f.frame.wrench[0..3]) < 1e-9, "{:?}", f.frame.wrench);
     }
-    assert!(frames[250].sent[2] > 1.0, "{:?}", frames[250].sent);
+    assert!(
+        frames[250].frame.wrench[2] > 1.0,
+        "{:?}",
+        frames[250].frame.wrench
+    );
 }
 
 #[test]
@@ -453,10 +457,9 @@ fn item5_absurd_rates_are_refused_not_a_panic_or_an_abort() {
     // Duration::from_secs_f64.
     let s = good();
     let sc = scene(&s);
-    let mut god = sc.god_object().unwrap();
+    let mut engine = sc.engine().unwrap();
     let traj = press(1000.0, 1.0, 0.0);
-    god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
-    let mut safety = Safety::new(sc.safety);
+    engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
     let mut dev = ReplayDevice::new(traj);
     let mut records = Vec::with_capacity(20);
     let params = LoopParams {
@@ -465,10 +468,7 @@ fn item5_absurd_rates_are_refused_not_a_panic_or_an_abort() {
         spin_us: f64::NAN,
         ..LoopParams::default()
     };
-    assert_eq!(
-        run_frames(&mut god, &mut dev, &mut safety, &params, &mut records),
-        20
-    );
+    assert_eq!(run_frames(&mut engine, &mut dev, &params, &mut records), 20);
 }
 
 #[test]
@@ -482,6 +482,10 @@ fn item17_negative_or_equal_timestamps_do_not_zero_the_force() {
         }
         let frames = run(&good(), &traj).unwrap();
         check_frames(&frames, &SafetyParams::default()).unwrap();
-        assert!(frames[250].sent[2] > 1.0, "t = {t}: {:?}", frames[250].sent);
+        assert!(
+            frames[250].frame.wrench[2] > 1.0,
+            "t = {t}: {:?}",
+            frames[250].frame.wrench
+        );
     }
 }

@@ -17,6 +17,9 @@ pub struct RenderSim {
     start: Pose,
     /// Pairs whose gap at the graphic pose is within this (mm) are listed as contacts.
     contact_margin: f64,
+    /// A live input has driven the engine since the last release: the safety layer's soft
+    /// start and rate limit run from the first engaged frame.
+    engaged: bool,
     /// Frames whose step kept the last safe pose (numerical failure), since start.
     pub kept_last_safe: u64,
 }
@@ -64,6 +67,7 @@ impl RenderSim {
             geometry,
             start,
             contact_margin: scene.solver.skin_mm.max(0.05),
+            engaged: false,
             kept_last_safe: 0,
         })
     }
@@ -94,9 +98,12 @@ impl Simulation for RenderSim {
     /// pairs within the contact margin at the graphic pose go into the pre-sized contact list.
     fn step(&mut self, device: &Pose, out: &mut FrameState) {
         if out.released {
-            // The loop sends zero while released; the filter starts again from zero, and its
-            // soft start from the first engaged frame's time.
+            self.engaged = false;
+        } else if !self.engaged {
+            // The loop sent zero while released: the filter starts again from zero, its soft
+            // start from this frame.
             self.engine.restart_safety();
+            self.engaged = true;
         }
         let f = *self.engine.step(out.t, device);
         if f.status == FrameStatus::KeptLastSafe {
@@ -130,12 +137,11 @@ impl Simulation for RenderSim {
     }
 
     fn reset(&mut self, pose: &Pose) {
-        match self.engine.reset(pose) {
-            Ok(p) => self.start = p,
-            // No free pose near `pose`: the tool stays where it was; the force still restarts
-            // from zero.
-            Err(_) => self.engine.restart_safety(),
+        if let Ok(p) = self.engine.reset(pose) {
+            self.start = p;
         }
+        // Whether or not a free pose was found, the force restarts from zero.
+        self.engaged = false;
     }
 }
 

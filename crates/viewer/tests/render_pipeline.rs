@@ -6,7 +6,6 @@ use std::time::{Duration, Instant};
 
 use collide::Pose;
 use render::safety::{Safety, SafetyParams};
-use render::step::{GodObject, StepParams};
 use render::trajectory::Trajectory;
 use viewer::{HapticLoop, InputSource, LoopParams, RenderSim};
 

@@ -18,3 +18,11 @@ pub fn test_cache() -> TreeCache {
         });
     TreeCache::at(dir)
 }
+
+/// An error and its sources on one line, `a: b: c`, as the command line prints them.
+pub fn chain(e: &dyn std::error::Error) -> String {
+    std::iter::successors(Some(e), |e| e.source())
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(": ")
+}
