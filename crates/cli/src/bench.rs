@@ -34,12 +34,13 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use collide::Pose;
+use engine::step::{FrameOutput, GodObject};
 use engine::Counters;
-use render::cache::TreeCache;
-use render::report::{tree_infos, TreeInfo};
-use render::scene::{Motion, Scene, SolverKind, TreeParams};
-use render::stats::Summary;
-use render::step::{FrameOutput, GodObject};
+use engine::SolverKind;
+use scene::cache::TreeCache;
+use scene::report::{tree_infos, TreeInfo};
+use scene::stats::Summary;
+use scene::{Motion, Scene, TreeParams};
 use serde::Serialize;
 
 /// Arguments of `haptic6d bench`.
@@ -206,10 +207,10 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
         args.studies = vec!["peer".into()];
     }
     for name in &args.scenes {
-        if !render::scenes::BUILTIN_NAMES.contains(&name.as_str()) {
+        if !scene::scenes::BUILTIN_NAMES.contains(&name.as_str()) {
             bail!(
                 "--scenes: no built-in scene `{name}` (built-in: {})",
-                render::scenes::BUILTIN_NAMES.join(", ")
+                scene::scenes::BUILTIN_NAMES.join(", ")
             );
         }
     }
@@ -225,9 +226,9 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     if args.peer_tune {
         let rows = crate::bench_peer::peer_tune(&cache)?;
         let md = crate::bench_peer::tune_markdown(&rows);
-        render::io::write_atomic(&args.out.join("peer_tune.md"), md.as_bytes())?;
+        scene::io::write_atomic(&args.out.join("peer_tune.md"), md.as_bytes())?;
         let json = serde_json::to_string_pretty(&rows)?;
-        render::io::write_atomic(&args.out.join("peer_tune.json"), json.as_bytes())?;
+        scene::io::write_atomic(&args.out.join("peer_tune.json"), json.as_bytes())?;
         print!("{md}");
         return Ok(());
     }
@@ -255,7 +256,7 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     let mut bunny: Option<(Scene, Vec<FrameOutput>)> = None;
     let mut replays: Vec<SceneReplays> = Vec::new();
     for name in scenes {
-        let scene = render::scenes::builtin(name, &cache)
+        let scene = scene::scenes::builtin(name, &cache)
             .with_context(|| format!("loading the built-in scene `{name}`"))?;
         let trees = tree_infos(&scene);
         for t in &trees {
@@ -300,7 +301,7 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
         let (scene, dual_frames) = match bunny {
             Some(b) => b,
             None => {
-                let scene = render::scenes::builtin("bunny", &cache)?;
+                let scene = scene::scenes::builtin("bunny", &cache)?;
                 let traj = recorded_trajectory(&scene, window);
                 let frames = replay(&scene, SolverKind::Dual, &traj, f64::INFINITY)?;
                 (scene, frames)
@@ -341,8 +342,8 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
 
     let md = markdown(&report);
     let json = serde_json::to_string_pretty(&report)?;
-    render::io::write_atomic(&args.out.join("bench.json"), json.as_bytes())?;
-    render::io::write_atomic(&args.out.join("bench.md"), md.as_bytes())?;
+    scene::io::write_atomic(&args.out.join("bench.json"), json.as_bytes())?;
+    scene::io::write_atomic(&args.out.join("bench.md"), md.as_bytes())?;
     if !args.no_plots {
         crate::bench_plot::write_bench_plots(&args.out, &replays, &report)?;
         crate::bench_peer::write_peer_plots(&args.out, &peer_traces)?;
@@ -523,7 +524,7 @@ fn depth_study(
     budget: f64,
     cache: &TreeCache,
 ) -> Result<Vec<DepthPoint>> {
-    let mesh = render::scenes::bunny::bunny_mesh_mm()?;
+    let mesh = scene::scenes::bunny::bunny_mesh_mm()?;
     let traj = recorded_trajectory(bunny, window);
     let mut out = Vec::new();
     for &depth in depths {
@@ -533,7 +534,7 @@ fn depth_study(
             branching: 8,
             method: spheretree::build::BuildMethod::Tight,
         };
-        let tree = render::scene::tree_for_mesh(&mesh, params, cache, "bunny", &mut log)?;
+        let tree = scene::tree_for_mesh(&mesh, params, cache, "bunny", &mut log)?;
         for line in &log {
             eprintln!("bench: depth {depth}: {line}");
         }

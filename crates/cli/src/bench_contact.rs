@@ -2,7 +2,7 @@
 //! QP hold hundreds to thousands of pairs.
 //!
 //! - **flat on flat**: the plate scene's puck pressed 1 mm onto the plate, resting, then slid
-//!   at 50 mm/s ([`render::scenes::plate`]).
+//!   at 50 mm/s ([`scene::scenes::plate`]).
 //! - **spline**: the built-in splined shaft and hub, by phase of its script: on the hub's face
 //!   with the keys misaligned, turning until they align, inserting, and the frames inside the
 //!   hole with no pair at all (the tight 1 mm clearance).
@@ -13,11 +13,12 @@
 
 use anyhow::Result;
 use collide::Pose;
-use render::cache::TreeCache;
-use render::scene::{Scene, SolverKind};
-use render::scenes::plate::{self, PlateTool, SpeedMotion};
-use render::stats::Summary;
-use render::step::{FrameOutput, FrameStatus, GodObject};
+use engine::step::{FrameOutput, FrameStatus, GodObject};
+use engine::SolverKind;
+use scene::cache::TreeCache;
+use scene::scenes::plate::{self, PlateTool, SpeedMotion};
+use scene::stats::Summary;
+use scene::Scene;
 use serde::Serialize;
 
 /// One row of the contact study.
@@ -124,9 +125,9 @@ pub fn contact_study(cache: &TreeCache, quick: bool) -> Result<Vec<ContactRow>> 
             .filter(|(ti, _)| run.steady.iter().any(|&(a, b)| **ti >= a && **ti < b))
             .map(|p| p.1),
     ));
-    let scene = render::scenes::builtin("spline", cache)?;
+    let scene = scene::scenes::builtin("spline", cache)?;
     let (t, frames) = replay(&scene, SolverKind::Dual)?;
-    // The script's phases (render::scenes::spline_scene): approach 0.5 s, rest 0.2 s, turn
+    // The script's phases (scene::scenes::spline_scene): approach 0.5 s, rest 0.2 s, turn
     // 1.2 s, rest 0.2 s, insert 1.0 s, rest 0.2 s, withdraw 0.8 s.
     let phase = |a: f64, b: f64| {
         t.iter()

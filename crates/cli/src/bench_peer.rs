@@ -22,12 +22,13 @@ use anyhow::{bail, Context, Result};
 use collide::Pose;
 use mesh::TriMesh;
 use peer::{MeshPenetration, ObjectShape, PeerParams, PeerScene, PeerTool, ToolShape};
-use render::cache::TreeCache;
-use render::scene::{Goal, Motion, Scene, SolverKind, TreeParams};
-use render::scenes::plate::{self, PlateTool, SpeedMotion};
-use render::stats::Summary;
-use render::step::{GodObject, StepParams};
-use render::trajectory::{Ease, Script};
+use scene::cache::TreeCache;
+use engine::SolverKind;
+use scene::{Goal, Motion, Scene, TreeParams};
+use scene::scenes::plate::{self, PlateTool, SpeedMotion};
+use scene::stats::Summary;
+use engine::step::GodObject;
+use scene::trajectory::{Ease, Script};
 use serde::Serialize;
 
 /// Thickness of the thin plate, mm.
@@ -112,9 +113,9 @@ struct Track {
 
 fn ours(scene: &Scene, frames: usize) -> Result<Track> {
     let traj = scene.trajectory();
-    let mut params = StepParams::from_scene(scene);
+    let mut params = scene.engine_config().step_params();
     params.solver = SolverKind::Dual;
-    let mut god = GodObject::new(scene, params)?;
+    let mut god = GodObject::new(&scene.tool, &scene.objects, params)?;
     let first = traj.samples.first().map(|s| Pose::from_array(s.q));
     god.reset(&first.unwrap_or_default())?;
     let mut track = Track::default();
@@ -300,12 +301,12 @@ fn thin_plate_case(cache: &TreeCache, speed: f64, push: f64) -> Result<Case> {
     )?;
     let mesh = thin_plate_mesh();
     let mut log = Vec::new();
-    let tree = render::scene::tree_for_mesh(
+    let tree = scene::tree_for_mesh(
         &mesh,
         TreeParams {
             depth: 4,
             branching: 8,
-            octree: false,
+            method: spheretree::build::BuildMethod::Tight,
         },
         cache,
         "thin plate",
@@ -358,10 +359,10 @@ fn plate_case(cache: &TreeCache, tool: PlateTool, speed: f64, quick: bool) -> Re
 
 fn cases(cache: &TreeCache, quick: bool) -> Result<Vec<Case>> {
     let mut out = Vec::new();
-    let bunny = render::scenes::builtin("bunny", cache)?;
+    let bunny = scene::scenes::builtin("bunny", cache)?;
     let (slide, push) = (
-        render::scenes::bunny::SLIDE_PHASE_S,
-        render::scenes::bunny::PUSH_PHASE_S,
+        scene::scenes::bunny::SLIDE_PHASE_S,
+        scene::scenes::bunny::PUSH_PHASE_S,
     );
     out.push(Case {
         name: "bunny".into(),
@@ -376,9 +377,9 @@ fn cases(cache: &TreeCache, quick: bool) -> Result<Vec<Case>> {
             ..Checks::default()
         },
     });
-    let spline = render::scenes::builtin("spline", cache)?;
+    let spline = scene::scenes::builtin("spline", cache)?;
     let goal = spline.goal;
-    // The script's phases (render::scenes::spline_scene): on the face 0.5-0.7 s, turning
+    // The script's phases (scene::scenes::spline_scene): on the face 0.5-0.7 s, turning
     // 0.7-1.9 s, resting 1.9-2.1 s.
     out.push(Case {
         name: "spline".into(),
@@ -535,16 +536,16 @@ pub const TUNE_JITTER_LIMIT_N: f64 = 1.0;
 /// to 10 mm below, 100 mm/s to 40 mm below); stage 1 is a grid over mass × contact frequency × length unit (damping ratio 1,
 /// 4 iterations), stage 2 varies damping, iterations and CCD around stage 1's best.
 pub fn peer_tune(cache: &TreeCache) -> Result<Vec<TuneRow>> {
-    let spline = render::scenes::builtin("spline", cache)?;
+    let spline = scene::scenes::builtin("spline", cache)?;
     let goal = spline.goal;
-    let bunny = render::scenes::builtin("bunny", cache)?;
+    let bunny = scene::scenes::builtin("bunny", cache)?;
     let cases = vec![
         Case {
             name: "bunny".into(),
             scene: bunny,
             frames: QUICK_BUNNY_FRAMES,
             checks: Checks {
-                steady: vec![render::scenes::bunny::SLIDE_PHASE_S],
+                steady: vec![scene::scenes::bunny::SLIDE_PHASE_S],
                 ..Checks::default()
             },
         },

@@ -5,8 +5,8 @@
 use std::path::Path;
 
 use anyhow::{anyhow, Result};
+use engine::SolverKind;
 use plotters::prelude::*;
-use render::scene::SolverKind;
 
 use crate::bench::{BenchReport, SceneReplays};
 use crate::plot::{chart, register_font, render_png, Series};

@@ -1,5 +1,5 @@
 //! The `speed` study of `haptic6d bench`: how the step follows a fast hand on a frictionless
-//! plate (the built-in plate scene, [`render::scenes::plate`]).
+//! plate (the built-in plate scene, [`scene::scenes::plate`]).
 //!
 //! Each row presses a tool 1 mm into the plate, then slides it along `x` or turns it about the
 //! vertical axis at a constant speed, back and forth. On a frictionless surface the hand should
@@ -16,11 +16,11 @@
 
 use anyhow::Result;
 use collide::{rotation_log, Pose};
-use render::cache::TreeCache;
-use render::scene::SolverKind;
-use render::scenes::plate::{self, PlateTool, SpeedMotion};
-use render::stats::Summary;
-use render::step::FrameStatus;
+use engine::step::FrameStatus;
+use engine::SolverKind;
+use scene::cache::TreeCache;
+use scene::scenes::plate::{self, PlateTool, SpeedMotion};
+use scene::stats::Summary;
 use serde::Serialize;
 
 /// One row of the speed study.
@@ -100,7 +100,7 @@ pub fn speed_study(
 }
 
 fn speed_row(
-    scene: &render::scene::Scene,
+    scene: &scene::Scene,
     tool: PlateTool,
     motion: SpeedMotion,
     run: &plate::SpeedRun,

@@ -7,7 +7,7 @@ use std::sync::Once;
 
 use anyhow::{anyhow, Context, Result};
 use plotters::prelude::*;
-use render::rt::FrameRecord;
+use scene::rt::FrameRecord;
 
 static FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();

@@ -9,15 +9,15 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use engine::config;
 use engine::setting::Setting;
 use engine::{ConstraintForm, RotationCoordinates, SolverKind};
-use render::cache::TreeCache;
-use render::config;
-use render::device::ReplayDevice;
-use render::report::{frames_csv, summarize, tree_infos, RunSummary};
-use render::rt::{run_loop, LoopParams};
-use render::scene::{load_scene_file, Motion, Scene};
-use render::trajectory::Trajectory;
+use scene::cache::TreeCache;
+use scene::device::ReplayDevice;
+use scene::report::{frames_csv, summarize, tree_infos, RunSummary};
+use scene::rt::{run_loop, LoopParams};
+use scene::trajectory::Trajectory;
+use scene::{load_scene_file, Motion, Scene};
 
 use crate::progress::Progress;
 
@@ -79,14 +79,14 @@ pub struct RunArgs {
 
 /// A built-in scene by name, or a scene file (TOML) by path; shared by `run` and `serve`.
 pub(crate) fn load_scene(name: &str, cache: &TreeCache) -> Result<Scene> {
-    if render::scenes::BUILTIN_NAMES.contains(&name) {
-        return Ok(render::scenes::builtin(name, cache)?);
+    if scene::scenes::BUILTIN_NAMES.contains(&name) {
+        return Ok(scene::scenes::builtin(name, cache)?);
     }
     let path = Path::new(name);
     if !path.exists() {
         bail!(
             "no built-in scene or scene file named `{name}` (built-in: {}; files end in .toml)",
-            render::scenes::BUILTIN_NAMES.join(", ")
+            scene::scenes::BUILTIN_NAMES.join(", ")
         );
     }
     Ok(load_scene_file(path, cache)?)
@@ -264,7 +264,7 @@ impl Drop for Staging {
 
 /// Runs `haptic6d run`.
 pub fn run(args: RunArgs) -> Result<()> {
-    // Flags are checked against the same ranges as the scene file's keys (render::config),
+    // Flags are checked against the same ranges as the scene file's keys (engine::config),
     // before anything long starts.
     if let Some(r) = args.rate {
         config::RATE_HZ.check_as("--rate", r)?;
@@ -366,7 +366,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     let mut engine = scene.engine()?;
     engine
         .reset(&first)
-        .map_err(|source| render::RenderError::Engine {
+        .map_err(|source| scene::SceneError::Engine {
             file: scene.name.clone(),
             source,
         })?;
@@ -391,15 +391,15 @@ pub fn run(args: RunArgs) -> Result<()> {
     );
     summary.trees = tree_infos(&scene);
     let dir = staging.dir();
-    render::io::write_atomic(
+    scene::io::write_atomic(
         &dir.join("frames.csv"),
         frames_csv(&report.frames).as_bytes(),
     )?;
     fail_hook("frames.csv")?;
-    render::io::write_atomic(&dir.join("trajectory.csv"), traj.to_csv_string().as_bytes())?;
+    scene::io::write_atomic(&dir.join("trajectory.csv"), traj.to_csv_string().as_bytes())?;
     fail_hook("trajectory.csv")?;
     let json = serde_json::to_string_pretty(&summary)?;
-    render::io::write_atomic(&dir.join("summary.json"), json.as_bytes())?;
+    scene::io::write_atomic(&dir.join("summary.json"), json.as_bytes())?;
     fail_hook("summary.json")?;
     if !args.no_plots {
         crate::plot::write_plots(

@@ -10,7 +10,7 @@ use std::time::Duration;
 use crate::run::load_scene;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use render::cache::TreeCache;
+use scene::cache::TreeCache;
 use viewer::server::{self, WebParams};
 use viewer::{BridgeParams, HapticLoop, LoopParams, RenderSim, UdpBridge};
 

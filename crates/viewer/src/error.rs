@@ -50,7 +50,7 @@ pub enum ViewerError {
     RecorderGone,
     /// The scene cannot be driven (the engine refused a tree or the start pose).
     #[error(transparent)]
-    Scene(#[from] render::RenderError),
+    Scene(#[from] scene::SceneError),
     /// A setting is unusable (the text names the flag and what is wrong).
     #[error("{0}")]
     Params(String),

@@ -104,7 +104,7 @@ impl HapticLoop {
             .name("haptic6d-haptic".into())
             .spawn(move || {
                 if let Some(p) = priority {
-                    realtime.store(render::rt::set_realtime_priority(p), Ordering::Release);
+                    realtime.store(scene::rt::set_realtime_priority(p), Ordering::Release);
                 }
                 frames.run(&stop, spin)
             })

@@ -5,7 +5,7 @@
 use collide::{PackedTree, Pose};
 use engine::{Engine, FrameStatus};
 use mesh::TriMesh;
-use render::scene::Scene;
+use scene::Scene;
 
 use crate::error::ViewerError;
 use crate::sim::{ContactPair, FrameState, NamedMesh, SceneGeometry, Simulation};

@@ -5,8 +5,8 @@
 use std::time::{Duration, Instant};
 
 use collide::Pose;
-use render::safety::{Safety, SafetyParams};
-use render::trajectory::Trajectory;
+use engine::safety::{Safety, SafetyParams};
+use scene::trajectory::Trajectory;
 use viewer::{HapticLoop, InputSource, LoopParams, RenderSim};
 
 mod common;

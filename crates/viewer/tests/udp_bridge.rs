@@ -402,7 +402,7 @@ fn re_engaging_ramps_the_force_from_zero() {
     let (handle, mut frames) = HapticLoop::manual(sim, &LoopParams::default()).unwrap();
     let bridge = bridge_for(&handle, 5000);
     let deep = [0.0, 0.0, -30.0, 0.0, 0.0, 0.0];
-    let max_step = render::safety::SafetyParams::default().max_force_step_n;
+    let max_step = engine::safety::SafetyParams::default().max_force_step_n;
     let norm = |f: [f64; 3]| (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
 
     let mut client = session(&bridge, 5000);

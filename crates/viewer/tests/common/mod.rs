@@ -5,9 +5,9 @@
 #![allow(dead_code)]
 
 use collide::Pose;
+use engine::safety::SafetyParams;
 use mesh::TriMesh;
-use render::safety::SafetyParams;
-use render::scene::{Coupling, Motion, Scene, SolverSpec};
+use scene::{Coupling, Motion, Scene, SolverSpec};
 use spheretree::{Sphere, SphereTree};
 use viewer::{ContactPair, FrameState, NamedMesh, SceneGeometry, Simulation};
 

@@ -4,12 +4,13 @@
 mod common;
 
 use collide::Pose;
-use render::device::ReplayDevice;
-use render::report::{force_report, summarize};
-use render::rt::{run_loop, FrameRecord, LoopParams};
-use render::scene::{Goal, Scene, SolverKind};
-use render::step::FrameStatus;
-use render::trajectory::Trajectory;
+use engine::step::FrameStatus;
+use engine::SolverKind;
+use scene::device::ReplayDevice;
+use scene::report::{force_report, summarize};
+use scene::rt::{run_loop, FrameRecord, LoopParams};
+use scene::trajectory::Trajectory;
+use scene::{Goal, Scene};
 
 fn run(scene: &Scene, kind: SolverKind, traj: &Trajectory) -> Vec<FrameRecord> {
     let mut scene = scene.clone();
@@ -24,7 +25,7 @@ fn run(scene: &Scene, kind: SolverKind, traj: &Trajectory) -> Vec<FrameRecord> {
 
 #[test]
 fn bunny_dual_meets_penetration_continuity_and_contact_targets() {
-    let scene = render::scenes::builtin("bunny", &common::test_cache()).unwrap();
+    let scene = scene::scenes::builtin("bunny", &common::test_cache()).unwrap();
     let traj = scene.trajectory();
     let frames = run(&scene, SolverKind::Dual, &traj);
     assert_eq!(frames.len(), traj.len());
@@ -61,7 +62,7 @@ fn bunny_dual_meets_penetration_continuity_and_contact_targets() {
     // The script's phases: slide (small contact), then push (large contact) with ~10 N. The
     // contact's size is the number of leaf pairs touching at the answer (a region lists more:
     // its size follows its shape, a path along a sliding hand or a ball around a resting one).
-    use render::scenes::bunny::{PUSH_PHASE_S, SLIDE_PHASE_S};
+    use scene::scenes::bunny::{PUSH_PHASE_S, SLIDE_PHASE_S};
     let mut slide: Vec<u32> = frames
         .iter()
         .filter(|f| f.t >= SLIDE_PHASE_S.0 && f.t <= SLIDE_PHASE_S.1 && f.frame.contacts > 0)
@@ -106,7 +107,7 @@ fn axial_force_at(frames: &[FrameRecord], t: f64) -> f64 {
 #[test]
 fn spline_insertion_succeeds_with_every_exact_solver() {
     let cache = common::test_cache();
-    let scene = render::scenes::builtin("spline", &cache).unwrap();
+    let scene = scene::scenes::builtin("spline", &cache).unwrap();
     let traj = scene.trajectory();
     for kind in [SolverKind::Dual, SolverKind::ActiveSet] {
         let frames = run(&scene, kind, &traj);
@@ -148,7 +149,7 @@ fn spline_insertion_succeeds_with_every_exact_solver() {
 
 #[test]
 fn a_nan_device_frame_keeps_the_last_safe_pose() {
-    let scene = render::scenes::builtin("bunny", &common::test_cache()).unwrap();
+    let scene = scene::scenes::builtin("bunny", &common::test_cache()).unwrap();
     let mut traj = scene.trajectory();
     let i = traj.len() / 2;
     traj.samples[i].q[1] = f64::NAN;
@@ -162,7 +163,7 @@ fn a_nan_device_frame_keeps_the_last_safe_pose() {
 
 #[test]
 fn start_in_collision_moves_to_a_nearby_free_pose() {
-    let scene = render::scenes::builtin("bunny", &common::test_cache()).unwrap();
+    let scene = scene::scenes::builtin("bunny", &common::test_cache()).unwrap();
     let mut god = scene.god_object().unwrap();
     // The tool exactly on the object: deep overlap.
     let inside = Pose::from_array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);

@@ -3,7 +3,7 @@
 //! mutations of valid entries, with and without a recomputed content hash) and regressions for
 //! what it found.
 
-use render::cache::{decode, encode, CacheOutcome, Fnv64, TreeCache};
+use scene::cache::{decode, encode, CacheOutcome, Fnv64, TreeCache};
 use spheretree::{Sphere, SphereTree};
 
 const KEY: &str = "0123456789abcdef0123456789abcdef";

@@ -1,16 +1,16 @@
-//! 6-DoF haptic rendering on top of sphere-trees and small QPs: scenes, the god-object step,
-//! devices, the real-time haptic loop and its safety layer.
+//! haptic6d's offline side, around the real-time [`engine`]: scene files and built-in scenes,
+//! sphere-trees built from meshes and cached, device trajectories, the run loop, reports.
 //!
 //! Entry points:
-//! - [`scene::SceneSpec`] / [`scene::Scene`]: the TOML scene file and the loaded scene (trees in
-//!   mm); [`scenes::builtin`] for the built-in `bunny` and `spline` scenes.
+//! - [`SceneSpec`] / [`Scene`]: the TOML scene file and the loaded scene (trees in mm);
+//!   [`Scene::engine`] makes its [`engine::Engine`]; [`scenes::builtin`] gives the built-in
+//!   `bunny`, `spline` and `plate` scenes.
 //! - [`cache::TreeCache`]: trees built from meshes, cached on disk by content hash.
 //! - [`device::Device`]: trajectory replay, scripted motion, and a recorder.
-//! - [`step::GodObject`]: one haptic frame (detect, constrain, solve, force).
-//! - [`safety::Safety`]: force/torque clamp, rate limit, NaN guard, soft start.
-//! - [`config`]: the accepted range of every setting (scene file, command line, API).
-//! - [`rt::run_loop`]: the real-time loop on a named thread, with deadline and jitter stats.
+//! - [`rt::run_loop`]: the haptic loop of `haptic6d run` on a named thread (one
+//!   [`engine::Engine::step`] per frame), with deadline and jitter stats.
 //! - [`trajectory::Trajectory`]: the `t,x,y,z,gamma,beta,alpha` CSV and keyframe scripts.
+//! - [`report`]: `frames.csv` and the run summary.
 #![warn(missing_docs)]
 // Index loops over the 6 coordinates read like the maths they implement.
 #![allow(clippy::needless_range_loop)]
@@ -21,16 +21,19 @@ pub mod device;
 pub mod io;
 pub mod report;
 pub mod rt;
-pub mod scene;
+mod scene;
 pub mod scenes;
 pub mod stats;
 pub mod trajectory;
 
-pub use engine::{config, safety, step};
+pub use scene::{
+    load_scene_file, scale_tree, tree_for_mesh, BodySpec, Coupling, DeviceSpec, Goal, Motion,
+    Scene, SceneSpec, SolverSpec, TreeParams,
+};
 
-/// Errors of the render crate. Each message says what to fix.
+/// Errors of the scene crate. Each message says what to fix.
 #[derive(Debug, thiserror::Error)]
-pub enum RenderError {
+pub enum SceneError {
     /// A file could not be read or written.
     #[error("{path}: {msg}")]
     Io {
@@ -68,9 +71,9 @@ pub enum RenderError {
         expected: String,
     },
     /// A setting (given through the Rust API) is outside its range; scene files report the
-    /// same error inside [`RenderError::Scene`].
+    /// same error inside [`SceneError::Scene`].
     #[error("{0}")]
-    Setting(#[from] config::SettingError),
+    Setting(#[from] engine::config::SettingError),
     /// The haptic thread could not be started.
     #[error("cannot start the haptic thread `haptic6d-rt`")]
     ThreadStart(#[source] std::io::Error),

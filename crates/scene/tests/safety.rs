@@ -12,13 +12,13 @@
 mod common;
 
 use collide::Pose;
+use engine::config::{self, Range};
+use engine::safety::{Safety, SafetyParams};
 use proptest::prelude::*;
-use render::config::{self, Range};
-use render::device::ReplayDevice;
-use render::rt::{run_frames, run_loop, FrameRecord, LoopParams};
-use render::safety::{Safety, SafetyParams};
-use render::scene::{Coupling, Motion, Scene, SceneSpec, SolverSpec};
-use render::trajectory::{TrajSample, Trajectory};
+use scene::device::ReplayDevice;
+use scene::rt::{run_frames, run_loop, FrameRecord, LoopParams};
+use scene::trajectory::{TrajSample, Trajectory};
+use scene::{Coupling, Motion, Scene, SceneSpec, SolverSpec};
 use spheretree::{Sphere, SphereTree};
 
 /// Centre and radius of the object: a ball whose top is at z = 0 (mm).
@@ -276,7 +276,7 @@ fn check_frames(frames: &[FrameRecord], p: &SafetyParams) -> Result<(), String> 
 }
 
 /// Runs the press through the public loop; the settings must be valid.
-fn run(s: &Settings, traj: &Trajectory) -> Result<Vec<FrameRecord>, render::RenderError> {
+fn run(s: &Settings, traj: &Trajectory) -> Result<Vec<FrameRecord>, scene::SceneError> {
     let sc = scene(s);
     let mut engine = sc.engine()?;
     engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();

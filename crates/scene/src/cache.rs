@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 use mesh::TriMesh;
 use spheretree::{Sphere, SphereTree};
 
-use crate::RenderError;
+use crate::SceneError;
 
 /// Version of the cache entry format (the digit in the magic); folded into every key.
 pub const FORMAT_VERSION: u32 = 2;
@@ -253,8 +253,8 @@ pub fn decode(key: &str, bytes: &[u8]) -> Option<SphereTree> {
 }
 
 /// Errors when the cache directory itself is unusable (reported, never fatal for a run).
-pub fn check_writable(dir: &Path) -> Result<(), RenderError> {
-    std::fs::create_dir_all(dir).map_err(|e| RenderError::Io {
+pub fn check_writable(dir: &Path) -> Result<(), SceneError> {
+    std::fs::create_dir_all(dir).map_err(|e| SceneError::Io {
         path: dir.display().to_string(),
         msg: format!("{e}; set HAPTIC6D_CACHE to a writable directory"),
     })

@@ -4,12 +4,12 @@ use std::io::Write;
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use crate::RenderError;
+use crate::SceneError;
 
 /// Writes `bytes` to `path` atomically: a temporary file next to it is written, flushed and
 /// renamed over `path`, so a reader never sees a half-written file and a crash never leaves one.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RenderError> {
-    let io_err = |e: std::io::Error| RenderError::Io {
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SceneError> {
+    let io_err = |e: std::io::Error| SceneError::Io {
         path: path.display().to_string(),
         msg: e.to_string(),
     };

@@ -6,9 +6,9 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use crate::rt::{FrameRecord, LoopStats};
-use crate::scene::Goal;
 use crate::stats::Summary;
-use crate::step::FrameStatus;
+use crate::Goal;
+use engine::step::FrameStatus;
 
 /// The header of `frames.csv`.
 pub const FRAMES_HEADER: &str = "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status";
@@ -107,7 +107,7 @@ impl TreeInfo {
 }
 
 /// The trees of `scene`: the tool's, then each object's.
-pub fn tree_infos(scene: &crate::scene::Scene) -> Vec<TreeInfo> {
+pub fn tree_infos(scene: &crate::Scene) -> Vec<TreeInfo> {
     let info = |role: String, t: &spheretree::SphereTree, from_mesh: bool| TreeInfo {
         role,
         leaves: t.leaves().count(),

@@ -5,7 +5,7 @@
 //!
 //! - `long_run_30_s_in_ci`: 30 000 frames (30 s of haptic time), in CI.
 //! - `long_run_10_min`: 600 000 frames (10 min), `#[ignore]`d; run it with
-//!   `cargo test --release -p render --test reliability_longrun -- --ignored --nocapture`.
+//!   `cargo test --release -p scene --test reliability_longrun -- --ignored --nocapture`.
 //!
 //! Frames run through [`run_frames`] in chunks of 1000 into a reused record buffer, so the
 //! memory of the test itself does not grow with the run length.
@@ -15,12 +15,12 @@ use std::cell::Cell;
 use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
 
 use collide::Pose;
+use engine::safety::SafetyParams;
+use engine::step::FrameStatus;
 use mesh::TriMesh;
-use render::device::{Device, DeviceSample};
-use render::rt::{run_frames, FrameRecord, LoopParams};
-use render::safety::SafetyParams;
-use render::scene::{Coupling, Motion, Scene, SolverSpec};
-use render::step::FrameStatus;
+use scene::device::{Device, DeviceSample};
+use scene::rt::{run_frames, FrameRecord, LoopParams};
+use scene::{Coupling, Motion, Scene, SolverSpec};
 use spheretree::build::{build_tree, BuildParams};
 use spheretree::SphereTree;
 

@@ -7,11 +7,11 @@ mod common;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use collide::{rotation_exp, rotation_log, Pose, RotationCoordinates};
+use engine::step::{spring_wrench, FrameStatus, GodObject};
 use nalgebra::Vector3;
 use proptest::prelude::*;
-use render::scenes::plate::{self, PlateTool};
-use render::step::{spring_wrench, FrameStatus, GodObject};
-use render::trajectory::{Ease, Script};
+use scene::scenes::plate::{self, PlateTool};
+use scene::trajectory::{Ease, Script};
 
 const G: [f64; 6] = [1.0, 1.0, 1.0, 1000.0, 1000.0, 1000.0];
 
@@ -92,7 +92,7 @@ fn ball_turning(index: usize, from: f64, to: f64, secs: f64) -> Vec<Pose> {
         .collect()
 }
 
-fn run(traj: &[Pose], tool: PlateTool) -> Vec<render::step::FrameOutput> {
+fn run(traj: &[Pose], tool: PlateTool) -> Vec<engine::step::FrameOutput> {
     let cache = common::test_cache();
     let scene = plate::scene(&cache, tool, Script::starting_at(traj[0].to_array())).unwrap();
     let mut params = scene.engine_config().step_params();
@@ -182,7 +182,7 @@ fn turning_through_the_euler_singularity_is_uneventful() {
             sphere.center = (ry * Vector3::from(sphere.center)).into();
         }
     }
-    let run_on = |scene: &render::scene::Scene, traj: &[Pose]| {
+    let run_on = |scene: &scene::Scene, traj: &[Pose]| {
         let mut params = scene.engine_config().step_params();
         params.budget_us = 1e6;
         let mut god = GodObject::new(&scene.tool, &scene.objects, params).unwrap();

@@ -17,10 +17,10 @@ use collide::Pose;
 use mesh::TriMesh;
 
 use crate::cache::TreeCache;
-use crate::safety::SafetyParams;
-use crate::scene::{Coupling, Motion, Scene, SolverSpec, TreeParams};
 use crate::trajectory::{Ease, Script};
-use crate::RenderError;
+use crate::SceneError;
+use crate::{Coupling, Motion, Scene, SolverSpec, TreeParams};
+use engine::safety::SafetyParams;
 
 /// Plate size `(x, y, z)`, mm.
 pub const PLATE_SIZE_MM: [f64; 3] = [120.0, 120.0, 10.0];
@@ -238,11 +238,11 @@ pub fn speed_script(
 }
 
 /// The plate scene with `tool` and the device motion `script` (trees from `cache` or built).
-pub fn scene(cache: &TreeCache, tool: PlateTool, script: Script) -> Result<Scene, RenderError> {
+pub fn scene(cache: &TreeCache, tool: PlateTool, script: Script) -> Result<Scene, SceneError> {
     let plate = plate_mesh();
     let tool_mesh = tool.mesh();
     let mut log = Vec::new();
-    let plate_tree = crate::scene::tree_for_mesh(
+    let plate_tree = crate::tree_for_mesh(
         &plate,
         TreeParams {
             depth: 4,
@@ -253,7 +253,7 @@ pub fn scene(cache: &TreeCache, tool: PlateTool, script: Script) -> Result<Scene
         "plate",
         &mut log,
     )?;
-    let tool_tree = crate::scene::tree_for_mesh(
+    let tool_tree = crate::tree_for_mesh(
         &tool_mesh,
         TreeParams {
             depth: tool.depth(),
@@ -283,7 +283,7 @@ pub fn scene(cache: &TreeCache, tool: PlateTool, script: Script) -> Result<Scene
 }
 
 /// The built-in `plate` scene: the puck slid at 200 mm/s, then turned at 3 rad/s.
-pub fn builtin(cache: &TreeCache) -> Result<Scene, RenderError> {
+pub fn builtin(cache: &TreeCache) -> Result<Scene, SceneError> {
     let slide = speed_script(PlateTool::Puck, SpeedMotion::Slide(200.0), 1000.0, 0.5);
     let turn = speed_script(PlateTool::Puck, SpeedMotion::Turn(3.0), 1000.0, 0.5);
     // Slide, then the turn's keyframes after it (both start and end at the same rest pose).

@@ -1,4 +1,4 @@
-//! Fuzzing the render crate's text inputs, the scene TOML and the trajectory CSV: random text
+//! Fuzzing the scene crate's text inputs, the scene TOML and the trajectory CSV: random text
 //! and structured mutations of valid files (truncation, tokens replaced by NaN / inf / huge /
 //! negative / wrong types, lines deleted or duplicated, garbage inserted). The property: the
 //! parser returns (no panic), an error is one line naming the file (and, for the CSV, the
@@ -8,8 +8,8 @@
 //! reproduces exactly. Cases per property: 2000 by default (about a second); `FUZZ_CASES=200000`
 //! runs longer.
 
-use render::scene::SceneSpec;
-use render::trajectory::{Trajectory, TRAJECTORY_HEADER};
+use scene::trajectory::{Trajectory, TRAJECTORY_HEADER};
+use scene::SceneSpec;
 
 fn cases() -> u64 {
     std::env::var("FUZZ_CASES")

@@ -8,10 +8,10 @@
 use collide::Pose;
 
 use crate::cache::TreeCache;
-use crate::safety::SafetyParams;
-use crate::scene::{Coupling, Goal, Motion, Scene, SolverSpec, TreeParams};
 use crate::trajectory::{Ease, Script};
-use crate::RenderError;
+use crate::SceneError;
+use crate::{Coupling, Goal, Motion, Scene, SolverSpec, TreeParams};
+use engine::safety::SafetyParams;
 
 use super::spline::SplineParams;
 
@@ -22,7 +22,7 @@ pub const INSERT_DEPTH_MM: f64 = 20.0;
 pub const PRESS_MM: f64 = 2.0;
 
 /// The `spline` scene with trees of the given depth (5 for the built-in).
-pub fn scene(cache: &TreeCache, p: &SplineParams, depth: u32) -> Result<Scene, RenderError> {
+pub fn scene(cache: &TreeCache, p: &SplineParams, depth: u32) -> Result<Scene, SceneError> {
     let shaft = p.shaft_mesh();
     let hub = p.hub_mesh();
     let mut log = Vec::new();
@@ -31,8 +31,8 @@ pub fn scene(cache: &TreeCache, p: &SplineParams, depth: u32) -> Result<Scene, R
         branching: 8,
         method: spheretree::build::BuildMethod::Tight,
     };
-    let tool = crate::scene::tree_for_mesh(&shaft, params, cache, "spline shaft", &mut log)?;
-    let hub_tree = crate::scene::tree_for_mesh(&hub, params, cache, "spline hub", &mut log)?;
+    let tool = crate::tree_for_mesh(&shaft, params, cache, "spline shaft", &mut log)?;
+    let hub_tree = crate::tree_for_mesh(&hub, params, cache, "spline hub", &mut log)?;
     let misaligned = 0.5 * p.pitch();
     let above = 15.0;
     let start = [0.0, 0.0, above, 0.0, 0.0, misaligned];

@@ -42,10 +42,10 @@ use spheretree::build::BuildMethod;
 use spheretree::SphereTree;
 
 use crate::cache::{tree_key, CacheOutcome, TreeCache};
-use crate::safety::SafetyParams;
 use crate::trajectory::{Script, Trajectory};
-use crate::RenderError;
-pub use qp::SolverKind;
+use crate::SceneError;
+use engine::safety::SafetyParams;
+use engine::SolverKind;
 
 /// One body of a scene file: where its geometry comes from and how it is placed.
 #[derive(Clone, Debug, Default, PartialEq, Deserialize, Serialize)]
@@ -184,12 +184,12 @@ pub struct SceneSpec {
 
 impl SceneSpec {
     /// Parses scene TOML; `source` names the file in errors.
-    pub fn parse(text: &str, source: &str) -> Result<Self, RenderError> {
-        let spec: SceneSpec = toml::from_str(text).map_err(|e| RenderError::Scene {
+    pub fn parse(text: &str, source: &str) -> Result<Self, SceneError> {
+        let spec: SceneSpec = toml::from_str(text).map_err(|e| SceneError::Scene {
             file: source.to_string(),
             msg: one_line(&e.to_string()),
         })?;
-        let err = |msg: String| RenderError::Scene {
+        let err = |msg: String| SceneError::Scene {
             file: source.to_string(),
             msg,
         };
@@ -218,7 +218,7 @@ impl SceneSpec {
         spec.coupling.validate().map_err(setting)?;
         spec.solver.validate().map_err(setting)?;
         spec.safety.validate().map_err(setting)?;
-        crate::config::RATE_HZ
+        engine::config::RATE_HZ
             .check(spec.device.rate_hz)
             .map_err(setting)?;
         Ok(spec)
@@ -310,10 +310,10 @@ fn check_body(b: &BodySpec, name: &str) -> Result<(), String> {
         }
     }
     if let Some(q) = &b.start {
-        crate::config::check_pose(&format!("{name} start"), q).map_err(|e| e.to_string())?;
+        engine::config::check_pose(&format!("{name} start"), q).map_err(|e| e.to_string())?;
     }
     if let Some(q) = &b.pose {
-        crate::config::check_pose(&format!("{name} pose"), q).map_err(|e| e.to_string())?;
+        engine::config::check_pose(&format!("{name} pose"), q).map_err(|e| e.to_string())?;
     }
     Ok(())
 }
@@ -387,18 +387,18 @@ impl Scene {
     /// Checks every setting of the scene against its range ([`crate::config`]): coupling,
     /// solver, safety limits, rate, start and object poses. Scene files are checked when
     /// parsed; call this again after changing a loaded scene (command-line overrides, API).
-    pub fn validate(&self) -> Result<(), RenderError> {
-        let err = |e: SettingError| RenderError::Scene {
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let err = |e: SettingError| SceneError::Scene {
             file: self.name.clone(),
             msg: e.to_string(),
         };
         self.coupling.validate().map_err(err)?;
         self.solver.validate().map_err(err)?;
         self.safety.validate().map_err(err)?;
-        crate::config::RATE_HZ.check(self.rate_hz).map_err(err)?;
-        crate::config::check_pose("[tool] start", &self.start.to_array()).map_err(err)?;
+        engine::config::RATE_HZ.check(self.rate_hz).map_err(err)?;
+        engine::config::check_pose("[tool] start", &self.start.to_array()).map_err(err)?;
         for (i, (_, p)) in self.objects.iter().enumerate() {
-            crate::config::check_pose(&format!("[[object]] #{} pose", i + 1), &p.to_array())
+            engine::config::check_pose(&format!("[[object]] #{} pose", i + 1), &p.to_array())
                 .map_err(err)?;
         }
         Ok(())
@@ -424,17 +424,17 @@ impl Scene {
 
     /// The scene's engine, reset at the scene's start pose (or the nearest free pose).
     /// Allocates; call before the haptic loop.
-    pub fn engine(&self) -> Result<Engine, RenderError> {
+    pub fn engine(&self) -> Result<Engine, SceneError> {
         let mut engine =
             Engine::new(&self.tool, &self.objects, self.engine_config()).map_err(|source| {
-                RenderError::Engine {
+                SceneError::Engine {
                     file: self.name.clone(),
                     source,
                 }
             })?;
         engine
             .reset(&self.start)
-            .map_err(|source| RenderError::Engine {
+            .map_err(|source| SceneError::Engine {
                 file: self.name.clone(),
                 source,
             })?;
@@ -442,13 +442,13 @@ impl Scene {
     }
 
     /// The god-object step alone (no safety layer), for tools that measure it.
-    pub fn god_object(&self) -> Result<crate::step::GodObject, RenderError> {
-        crate::step::GodObject::new(
+    pub fn god_object(&self) -> Result<engine::step::GodObject, SceneError> {
+        engine::step::GodObject::new(
             &self.tool,
             &self.objects,
             self.engine_config().step_params(),
         )
-        .map_err(|source| RenderError::Engine {
+        .map_err(|source| SceneError::Engine {
             file: self.name.clone(),
             source,
         })
@@ -475,7 +475,7 @@ pub fn tree_for_mesh(
     cache: &TreeCache,
     label: &str,
     log: &mut Vec<String>,
-) -> Result<SphereTree, RenderError> {
+) -> Result<SphereTree, SceneError> {
     let method = params.method;
     let bp = spheretree::build::BuildParams {
         depth: params.depth,
@@ -487,7 +487,7 @@ pub fn tree_for_mesh(
     let t0 = Instant::now();
     let (tree, outcome) = cache.get_or_build(&key, || {
         spheretree::build::build_tree(mesh, &bp, &|f| cache.report(label, f)).map_err(|e| {
-            RenderError::Scene {
+            SceneError::Scene {
                 file: label.to_string(),
                 msg: format!("building the sphere-tree failed: {e}"),
             }
@@ -530,9 +530,9 @@ fn load_body(
     label: &str,
     cache: &TreeCache,
     log: &mut Vec<String>,
-) -> Result<(SphereTree, Option<TriMesh>), RenderError> {
+) -> Result<(SphereTree, Option<TriMesh>), SceneError> {
     let scale = b.scale.unwrap_or(1.0);
-    let err = |msg: String| RenderError::Scene {
+    let err = |msg: String| SceneError::Scene {
         file: file.to_string(),
         msg,
     };
@@ -572,7 +572,7 @@ fn load_body(
         method: b.method.unwrap_or_default(),
     };
     let tree = tree_for_mesh(&mesh, params, cache, label, log).map_err(|e| match e {
-        RenderError::Scene { msg, .. } => err(format!("{label}: {msg}")),
+        SceneError::Scene { msg, .. } => err(format!("{label}: {msg}")),
         other => other,
     })?;
     Ok((tree, Some(mesh)))
@@ -580,7 +580,7 @@ fn load_body(
 
 /// Loads a scene file: parses it, loads meshes/trees (relative to the file), builds or fetches
 /// trees, reads the trajectory named in `[device]`.
-pub fn load_scene_file(path: &Path, cache: &TreeCache) -> Result<Scene, RenderError> {
+pub fn load_scene_file(path: &Path, cache: &TreeCache) -> Result<Scene, SceneError> {
     let file = path.display().to_string();
     // Bounded read: a scene file is a few hundred bytes; a device node is refused.
     let text = mesh::read_input(path, 1 << 20)
@@ -588,7 +588,7 @@ pub fn load_scene_file(path: &Path, cache: &TreeCache) -> Result<Scene, RenderEr
             String::from_utf8(b)
                 .map_err(|_| std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8 text"))
         })
-        .map_err(|e| RenderError::Scene {
+        .map_err(|e| SceneError::Scene {
             file: file.clone(),
             msg: format!("cannot read the scene file: {e}"),
         })?;
@@ -613,7 +613,7 @@ pub fn load_scene_file(path: &Path, cache: &TreeCache) -> Result<Scene, RenderEr
     }
     let motion = match &spec.device.trajectory {
         Some(t) => Motion::Trajectory(Trajectory::read_csv(&resolve(base, t)).map_err(|e| {
-            RenderError::Scene {
+            SceneError::Scene {
                 file: file.clone(),
                 msg: format!("[device] trajectory: {e}"),
             }

@@ -5,9 +5,9 @@
 
 use std::path::PathBuf;
 
-use render::cache::TreeCache;
-use render::scene::{load_scene_file, SceneSpec};
-use render::trajectory::{Trajectory, TRAJECTORY_HEADER};
+use scene::cache::TreeCache;
+use scene::trajectory::{Trajectory, TRAJECTORY_HEADER};
+use scene::{load_scene_file, SceneSpec};
 
 #[track_caller]
 fn csv_err(text: &str, line: usize, needle: &str) {

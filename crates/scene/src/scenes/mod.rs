@@ -15,20 +15,20 @@ use collide::{overlap_tree_trees, CollideWorkspace, PackedTree, Pose};
 use mesh::TriMesh;
 
 use crate::cache::TreeCache;
-use crate::scene::Scene;
-use crate::RenderError;
+use crate::Scene;
+use crate::SceneError;
 
 /// Names of the built-in scenes.
 pub const BUILTIN_NAMES: &[&str] = &["bunny", "spline", "plate"];
 
 /// A built-in scene by name (`bunny`, `spline`), trees from `cache` or built.
-pub fn builtin(name: &str, cache: &TreeCache) -> Result<Scene, RenderError> {
+pub fn builtin(name: &str, cache: &TreeCache) -> Result<Scene, SceneError> {
     let scene = match name {
         "bunny" => bunny::scene(cache)?,
         "spline" => spline_scene::scene(cache, &spline::SplineParams::default(), 5)?,
         "plate" => plate::builtin(cache)?,
         _ => {
-            return Err(RenderError::Unknown {
+            return Err(SceneError::Unknown {
                 what: "scene",
                 name: name.to_string(),
                 expected: format!("{} or a scene file (.toml)", BUILTIN_NAMES.join(", ")),
@@ -72,8 +72,8 @@ pub fn distance_to_contact(
     from: &Pose,
     dir: [f64; 3],
     max_mm: f64,
-) -> Result<Option<f64>, RenderError> {
-    let bad = |e: collide::CollideError| RenderError::Scene {
+) -> Result<Option<f64>, SceneError> {
+    let bad = |e: collide::CollideError| SceneError::Scene {
         file: scene.name.clone(),
         msg: e.to_string(),
     };

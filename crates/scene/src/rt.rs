@@ -20,9 +20,9 @@ use serde::Serialize;
 use engine::{Counters, Engine, Frame};
 
 use crate::device::Device;
-use crate::safety::SafetyEvents;
 use crate::stats::Summary;
-use crate::RenderError;
+use crate::SceneError;
+use engine::safety::SafetyEvents;
 
 /// Pacing of the loop.
 #[derive(Clone, Debug, PartialEq)]
@@ -54,12 +54,12 @@ impl Default for LoopParams {
 }
 
 impl LoopParams {
-    /// Checks `rate_hz` ([`crate::config::RATE_HZ`]), `spin_us` and `max_frames` against
+    /// Checks `rate_hz` ([`engine::config::RATE_HZ`]), `spin_us` and `max_frames` against
     /// their ranges; the first bad one is named.
-    pub fn validate(&self) -> Result<(), crate::config::SettingError> {
-        crate::config::RATE_HZ.check(self.rate_hz)?;
-        crate::config::SPIN_US.check(self.spin_us)?;
-        crate::config::MAX_FRAMES.check(self.max_frames as u64)
+    pub fn validate(&self) -> Result<(), engine::config::SettingError> {
+        engine::config::RATE_HZ.check(self.rate_hz)?;
+        engine::config::SPIN_US.check(self.spin_us)?;
+        engine::config::MAX_FRAMES.check(self.max_frames as u64)
     }
 }
 
@@ -161,7 +161,7 @@ fn wait_until(deadline: Instant, spin: Duration) {
 /// still gets its soft start once, at the beginning.
 ///
 /// `params` should have passed [`LoopParams::validate`] ([`run_loop`] checks it); a rate
-/// outside [`crate::config::RATE_HZ`] is paced at 1 kHz rather than panicking.
+/// outside [`engine::config::RATE_HZ`] is paced at 1 kHz rather than panicking.
 ///
 /// # Real-time
 /// Allocation-free when `records` has spare capacity: the body is [`Engine::step`] and the
@@ -172,13 +172,13 @@ pub fn run_frames<D: Device + ?Sized>(
     params: &LoopParams,
     records: &mut Vec<FrameRecord>,
 ) -> usize {
-    let rate_hz = if crate::config::RATE_HZ.contains(params.rate_hz) {
+    let rate_hz = if engine::config::RATE_HZ.contains(params.rate_hz) {
         params.rate_hz
     } else {
         1000.0
     };
     let period = Duration::from_secs_f64(1.0 / rate_hz);
-    let spin_us = if crate::config::SPIN_US.contains(params.spin_us) {
+    let spin_us = if engine::config::SPIN_US.contains(params.spin_us) {
         params.spin_us
     } else {
         0.0
@@ -238,7 +238,7 @@ pub fn run_loop<D: Device>(
     engine: &mut Engine,
     device: &mut D,
     params: &LoopParams,
-) -> Result<LoopReport, RenderError> {
+) -> Result<LoopReport, SceneError> {
     // The engine checked its settings when made; the loop's own against the same ranges as
     // the scene file, before the thread starts.
     params.validate()?;
@@ -258,9 +258,9 @@ pub fn run_loop<D: Device>(
                 }
                 run_frames(engine, device, params, &mut records)
             })
-            .map_err(RenderError::ThreadStart)?
+            .map_err(SceneError::ThreadStart)?
             .join()
-            .map_err(|_| RenderError::ThreadPanicked)
+            .map_err(|_| SceneError::ThreadPanicked)
     })?;
     let wall_s = t0.elapsed().as_secs_f64();
     let nominal = 1e6 / params.rate_hz;

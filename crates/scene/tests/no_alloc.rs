@@ -12,10 +12,10 @@ use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use collide::Pose;
-use render::device::ReplayDevice;
-use render::rt::{run_frames, FrameRecord, LoopParams};
-use render::scene::SolverKind;
-use render::trajectory::Trajectory;
+use engine::SolverKind;
+use scene::device::ReplayDevice;
+use scene::rt::{run_frames, FrameRecord, LoopParams};
+use scene::trajectory::Trajectory;
 
 /// Counts (de)allocations made by a thread while it is armed.
 struct Counting;
@@ -73,7 +73,7 @@ fn the_counter_sees_an_allocation() {
 
 #[test]
 fn ten_thousand_frames_do_not_allocate() {
-    let scene = render::scenes::builtin("bunny", &common::test_cache()).unwrap();
+    let scene = scene::scenes::builtin("bunny", &common::test_cache()).unwrap();
     let one = scene.trajectory();
     // 10 000 frames: the scripted motion, then again backwards (continuous), as needed.
     let mut traj = Trajectory::default();
@@ -93,7 +93,7 @@ fn ten_thousand_frames_do_not_allocate() {
     }
     // PQP costs O(N^2) per iteration and hundreds of iterations (the paper's method), so it is
     // checked on 800 frames from the approach into the large contact, single pass.
-    let push_start = (render::scenes::bunny::PUSH_PHASE_S.0 * 1000.0) as usize - 800;
+    let push_start = (scene::scenes::bunny::PUSH_PHASE_S.0 * 1000.0) as usize - 800;
     let pqp_traj = Trajectory {
         samples: one.samples[push_start..push_start + 800].to_vec(),
     };

@@ -1,9 +1,9 @@
-//! Shared helpers of the render integration tests.
+//! Shared helpers of the scene integration tests.
 #![allow(dead_code)]
 
 use std::path::PathBuf;
 
-use render::cache::TreeCache;
+use scene::cache::TreeCache;
 
 /// A tree cache shared by the tests of one checkout (target dir), so trees are built once.
 pub fn test_cache() -> TreeCache {

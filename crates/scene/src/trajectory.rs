@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::RenderError;
+use crate::SceneError;
 
 /// The header every trajectory CSV starts with.
 pub const TRAJECTORY_HEADER: &str = "t,x,y,z,gamma,beta,alpha";
@@ -45,8 +45,8 @@ impl Trajectory {
     }
 
     /// Parses the CSV text; `source` names the file in errors.
-    pub fn parse_csv(text: &str, source: &str) -> Result<Self, RenderError> {
-        let err = |line: usize, msg: String| RenderError::Trajectory {
+    pub fn parse_csv(text: &str, source: &str) -> Result<Self, SceneError> {
+        let err = |line: usize, msg: String| SceneError::Trajectory {
             file: source.to_string(),
             line,
             msg,
@@ -140,10 +140,10 @@ impl Trajectory {
     }
 
     /// Reads a trajectory CSV file.
-    pub fn read_csv(path: &Path) -> Result<Self, RenderError> {
+    pub fn read_csv(path: &Path) -> Result<Self, SceneError> {
         // Bounded read (a device node or a huge file is refused, not read until memory runs
         // out): 1 GiB is about 10 hours of frames at 1 kHz.
-        let io = |msg: String| RenderError::Io {
+        let io = |msg: String| SceneError::Io {
             path: path.display().to_string(),
             msg,
         };
@@ -170,7 +170,7 @@ impl Trajectory {
     }
 
     /// Writes the CSV atomically (temp file in the same directory, then rename).
-    pub fn write_csv(&self, path: &Path) -> Result<(), RenderError> {
+    pub fn write_csv(&self, path: &Path) -> Result<(), SceneError> {
         crate::io::write_atomic(path, self.to_csv_string().as_bytes())
     }
 }

@@ -10,11 +10,11 @@
 mod common;
 
 use collide::Pose;
-use render::device::ReplayDevice;
-use render::report::frames_csv;
-use render::rt::{run_loop, LoopParams};
-use render::safety::Safety;
-use render::scene::Scene;
+use engine::safety::Safety;
+use scene::device::ReplayDevice;
+use scene::report::frames_csv;
+use scene::rt::{run_loop, LoopParams};
+use scene::Scene;
 
 /// Column indices of `frames.csv` that hold wall-clock times (cd_us, opt_us, total_us).
 const TIMING_COLUMNS: [usize; 3] = [20, 21, 22];
@@ -35,7 +35,7 @@ fn without_timings(csv: &str) -> String {
 }
 
 fn scene(name: &str) -> Scene {
-    let mut scene = render::scenes::builtin(name, &common::test_cache()).unwrap();
+    let mut scene = scene::scenes::builtin(name, &common::test_cache()).unwrap();
     scene.solver.budget_us = engine::config::BUDGET_US.hi;
     scene
 }
@@ -47,7 +47,7 @@ fn old_path(scene: &Scene) -> String {
     let mut god = scene.god_object().unwrap();
     god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
     let mut safety = Safety::new(scene.safety);
-    let mut csv = without_timings(render::report::FRAMES_HEADER);
+    let mut csv = without_timings(scene::report::FRAMES_HEADER);
     let rate = LoopParams::default().rate_hz;
     for (i, s) in traj.samples.iter().enumerate() {
         let out = god.step(&Pose::from_array(s.q));

@@ -12,14 +12,15 @@
 mod common;
 
 use collide::Pose;
+use engine::safety::SafetyParams;
+use engine::step::FrameStatus;
+use engine::SolverKind;
 use mesh::TriMesh;
-use render::device::ReplayDevice;
-use render::report::summarize;
-use render::rt::{run_loop, FrameRecord, LoopParams, LoopStats};
-use render::safety::SafetyParams;
-use render::scene::{Coupling, Motion, Scene, SolverKind, SolverSpec};
-use render::step::FrameStatus;
-use render::trajectory::{TrajSample, Trajectory};
+use scene::device::ReplayDevice;
+use scene::report::summarize;
+use scene::rt::{run_loop, FrameRecord, LoopParams, LoopStats};
+use scene::trajectory::{TrajSample, Trajectory};
+use scene::{Coupling, Motion, Scene, SolverSpec};
 use spheretree::build::{build_tree, BuildParams};
 use spheretree::{Sphere, SphereTree};
 
@@ -28,7 +29,7 @@ const HALF: f64 = 60.0;
 
 /// A closed box mesh `[-hx, hx] x [-hy, hy] x [-hz, hz]` (mm).
 fn box_mesh(hx: f64, hy: f64, hz: f64) -> TriMesh {
-    render::scenes::plate::box_mesh([-hx, -hy, -hz], [hx, hy, hz])
+    scene::scenes::plate::box_mesh([-hx, -hy, -hz], [hx, hy, hz])
 }
 
 /// The plate's sphere-tree (octree builder, depth 3) and the smallest leaf radius, mm.
@@ -445,8 +446,8 @@ fn absurd_stiffness_is_refused_and_the_stiffest_accepted_is_safe() {
     }
     // The stiffest coupling accepted, pressed hard: finite, clamped, rate-limited.
     let stiff = Coupling {
-        kt: render::config::KT.hi,
-        kr: render::config::KR.hi,
+        kt: engine::config::KT.hi,
+        kr: engine::config::KR.hi,
         ..Coupling::default()
     };
     let sc = scene(plate, SolverSpec::default(), stiff);

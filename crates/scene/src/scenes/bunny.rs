@@ -13,10 +13,10 @@ use collide::Pose;
 use mesh::TriMesh;
 
 use crate::cache::TreeCache;
-use crate::safety::SafetyParams;
-use crate::scene::{Coupling, Motion, Scene, SolverSpec, TreeParams};
 use crate::trajectory::{Ease, Script};
-use crate::RenderError;
+use crate::SceneError;
+use crate::{Coupling, Motion, Scene, SolverSpec, TreeParams};
+use engine::safety::SafetyParams;
 
 /// The bundled bunny (OBJ text, mesh units ~ cm).
 pub const BUNNY_OBJ: &str = include_str!("../../assets/bunny.obj");
@@ -40,14 +40,14 @@ pub const PUSH_MM: f64 = 12.8;
 pub const BUNNY_SCALE: f64 = 10.0;
 
 /// The bundled bunny in mm, centred on its bounding box.
-pub fn bunny_mesh_mm() -> Result<TriMesh, RenderError> {
+pub fn bunny_mesh_mm() -> Result<TriMesh, SceneError> {
     let raw = mesh::load_mesh_bytes(BUNNY_OBJ.as_bytes(), std::path::Path::new("bunny.obj"))
-        .map_err(|e| RenderError::Scene {
+        .map_err(|e| SceneError::Scene {
             file: "bunny (assets/bunny.obj)".into(),
             msg: e.to_string(),
         })?
         .mesh;
-    let (lo, hi) = raw.aabb().ok_or_else(|| RenderError::Scene {
+    let (lo, hi) = raw.aabb().ok_or_else(|| SceneError::Scene {
         file: "bunny".into(),
         msg: "empty mesh".into(),
     })?;
@@ -60,7 +60,7 @@ pub fn bunny_mesh_mm() -> Result<TriMesh, RenderError> {
 }
 
 /// The `bunny` scene with its scripted trajectory.
-pub fn scene(cache: &TreeCache) -> Result<Scene, RenderError> {
+pub fn scene(cache: &TreeCache) -> Result<Scene, SceneError> {
     let mesh = bunny_mesh_mm()?;
     let mut log = Vec::new();
     let params = TreeParams {
@@ -68,7 +68,7 @@ pub fn scene(cache: &TreeCache) -> Result<Scene, RenderError> {
         branching: 8,
         method: spheretree::build::BuildMethod::Tight,
     };
-    let tree = crate::scene::tree_for_mesh(&mesh, params, cache, "bunny", &mut log)?;
+    let tree = crate::tree_for_mesh(&mesh, params, cache, "bunny", &mut log)?;
     // Slide on top: the tool upright above the object. Push from below: the tool upside down
     // (gamma = pi) under the object, flat base against flat base.
     let level = std::f64::consts::PI;
@@ -91,7 +91,7 @@ pub fn scene(cache: &TreeCache) -> Result<Scene, RenderError> {
     };
     let contact = |from: &Pose, dir: [f64; 3]| {
         crate::scenes::distance_to_contact(&scene, from, dir, 200.0)?.ok_or_else(|| {
-            RenderError::Scene {
+            SceneError::Scene {
                 file: "bunny".into(),
                 msg: "the tool never reaches the object".into(),
             }
