@@ -29,15 +29,6 @@ pub enum TreeCommand {
     Eval(EvalArgs),
 }
 
-/// Which builder to run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum Method {
-    /// The tightest builder (clustered surface patches, optimised leaf spheres).
-    Tight,
-    /// The fast builder (octree cells meeting the surface; loose, full coverage).
-    Octree,
-}
-
 /// How inside is told from outside (tight builder and fit measure).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Inside {
@@ -81,13 +72,12 @@ fn inside_reason(mesh: &mesh::TriMesh, chosen: Inside, used: InsideTest) -> Stri
     }
 }
 
-impl From<Method> for BuildMethod {
-    fn from(m: Method) -> Self {
-        match m {
-            Method::Tight => BuildMethod::Tight,
-            Method::Octree => BuildMethod::Octree,
-        }
-    }
+/// `--method`: a builder by its name (`tight`, `octree`), through `BuildMethod`'s own names.
+fn parse_method(name: &str) -> Result<BuildMethod, String> {
+    name.trim()
+        .to_ascii_lowercase()
+        .parse()
+        .map_err(|e: spheretree::TreeError| e.to_string())
 }
 
 /// Arguments of `haptic6d tree build`.
@@ -102,8 +92,8 @@ pub struct BuildArgs {
     #[arg(long, default_value_t = 8)]
     pub branch: u32,
     /// Builder: `tight` (default) or `octree` (fast).
-    #[arg(long, value_enum, default_value_t = Method::Tight)]
-    pub method: Method,
+    #[arg(long, default_value = "tight", value_parser = parse_method)]
+    pub method: BuildMethod,
     /// Output .sph file (written atomically; an existing file is replaced only on success).
     #[arg(short = 'o', long = "output", value_name = "OUT.sph")]
     pub output: PathBuf,
@@ -190,7 +180,7 @@ fn build(args: &BuildArgs) -> Result<()> {
             args.branch
         ),
     }
-    if args.method == Method::Octree && args.branch < 8 {
+    if args.method == BuildMethod::Octree && args.branch < 8 {
         bail!(
             "the octree builder needs --branch 8 or more (got {}): use --method tight",
             args.branch
@@ -203,7 +193,7 @@ fn build(args: &BuildArgs) -> Result<()> {
     let params = BuildParams {
         depth: args.depth,
         branching: args.branch,
-        method: args.method.into(),
+        method: args.method,
         seed: args.seed,
         inside: args.inside.test(),
         ..BuildParams::default()

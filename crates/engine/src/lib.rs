@@ -38,7 +38,7 @@
 //! - [`config`]: the accepted range of every numeric setting, shared with scene files and the
 //!   command line.
 //! - [`setting`]: the one name table of each enumerated setting (solver, constraint form,
-//!   rotation coordinates, tree builder).
+//!   rotation coordinates).
 #![warn(missing_docs)]
 // Index loops over the 6 coordinates read like the maths they implement.
 #![allow(clippy::needless_range_loop)]

@@ -1,13 +1,13 @@
-//! The one name table of each enumerated setting: the QP solver ([`SolverKind`]), the
-//! constraint form ([`ConstraintForm`]), the rotation coordinates ([`RotationCoordinates`]) and
-//! the tree builder ([`BuildMethod`]). Scene files, the command line and code all use these
-//! same types and names, so a name accepted in one place is accepted everywhere.
+//! The one name table of each enumerated setting of the engine: the QP solver
+//! ([`SolverKind`]), the constraint form ([`ConstraintForm`]) and the rotation coordinates
+//! ([`RotationCoordinates`]). Scene files, the command line and code all use these same types
+//! and names, so a name accepted in one place is accepted everywhere. (The tree builder's
+//! names live with its type, `spheretree::build::BuildMethod`.)
 
 use std::fmt;
 
 use collide::{ConstraintForm, RotationCoordinates};
 use qp::SolverKind;
-use spheretree::build::BuildMethod;
 
 /// A name that is not one of a setting's values. Displays as one line:
 /// `unknown solver `newton`; expected one of: dual, pqp, active-set`.
@@ -115,14 +115,6 @@ impl Setting for RotationCoordinates {
     }
 }
 
-impl Setting for BuildMethod {
-    const WHAT: &'static str = "build method";
-    const ALL: &'static [Self] = &[BuildMethod::Tight, BuildMethod::Octree];
-    fn setting_name(self) -> &'static str {
-        self.name()
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -142,7 +134,6 @@ mod tests {
         round_trip::<SolverKind>();
         round_trip::<ConstraintForm>();
         round_trip::<RotationCoordinates>();
-        round_trip::<BuildMethod>();
         assert_eq!(
             SolverKind::parse_setting("active_set").unwrap(),
             SolverKind::ActiveSet

@@ -62,7 +62,7 @@ pub struct BodySpec {
     /// Tree branching when building from a mesh (default 8).
     pub branching: Option<u32>,
     /// Builder (`tight`, the default, or `octree`) when building from a mesh.
-    #[serde(default, with = "by_name_opt")]
+    #[serde(default, with = "build_method_name")]
     pub method: Option<BuildMethod>,
     /// Tool only: start configuration `[x, y, z, gamma, beta, alpha]` (mm, rad).
     pub start: Option<[f64; 6]>,
@@ -260,21 +260,26 @@ mod by_name {
     }
 }
 
-/// [`by_name`] for an optional setting.
-mod by_name_opt {
-    use engine::setting::Setting;
+/// The tree builder written as its name (`method = "octree"`), through `BuildMethod`'s own
+/// names.
+mod build_method_name {
     use serde::{de::Error, Deserialize, Deserializer, Serializer};
+    use spheretree::build::BuildMethod;
 
-    pub fn serialize<S: Serializer, T: Setting>(v: &Option<T>, s: S) -> Result<S::Ok, S::Error> {
+    pub fn serialize<S: Serializer>(v: &Option<BuildMethod>, s: S) -> Result<S::Ok, S::Error> {
         match v {
-            Some(v) => s.serialize_str(v.setting_name()),
+            Some(v) => s.serialize_str(v.name()),
             None => s.serialize_none(),
         }
     }
 
-    pub fn deserialize<'de, D: Deserializer<'de>, T: Setting>(d: D) -> Result<Option<T>, D::Error> {
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<BuildMethod>, D::Error> {
         let name = String::deserialize(d)?;
-        T::parse_setting(&name).map(Some).map_err(D::Error::custom)
+        name.trim()
+            .to_ascii_lowercase()
+            .parse()
+            .map(Some)
+            .map_err(D::Error::custom)
     }
 }
 
