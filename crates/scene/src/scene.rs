@@ -120,7 +120,7 @@ pub struct SolverSpec {
     /// Fixed detection skin added to the motion bound, mm.
     pub skin_mm: f64,
     /// Largest motion of any tool sphere in one pass, mm: caps the detection margin (and so
-    /// the pair count) when the hand is far from the graphic tool; see [`crate::step`].
+    /// the pair count) when the hand is far from the graphic tool; see [`engine::step`].
     pub max_margin_mm: f64,
     /// Time budget of one frame's step, µs: no pass starts that would end past it.
     pub budget_us: f64,
@@ -213,7 +213,7 @@ impl SceneSpec {
                 )));
             }
         }
-        // Every numeric setting against its one range (crate::config), first bad key named.
+        // Every numeric setting against its one range (engine::config), first bad key named.
         let setting = |e: SettingError| err(e.to_string());
         spec.coupling.validate().map_err(setting)?;
         spec.solver.validate().map_err(setting)?;
@@ -389,7 +389,7 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Checks every setting of the scene against its range ([`crate::config`]): coupling,
+    /// Checks every setting of the scene against its range ([`engine::config`]): coupling,
     /// solver, safety limits, rate, start and object poses. Scene files are checked when
     /// parsed; call this again after changing a loaded scene (command-line overrides, API).
     pub fn validate(&self) -> Result<(), SceneError> {
