@@ -241,15 +241,7 @@ struct Scenario {
 /// CPU time of this thread (µs): unlike wall time it does not count the time the thread was
 /// preempted, so it stays meaningful on a loaded machine.
 fn thread_cpu_us() -> f64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: clock_gettime writes into the timespec we own; CLOCK_THREAD_CPUTIME_ID is valid
-    // on Linux.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    assert_eq!(rc, 0, "clock_gettime(CLOCK_THREAD_CPUTIME_ID) failed");
-    ts.tv_sec as f64 * 1e6 + ts.tv_nsec as f64 * 1e-3
+    devkit::thread_cpu_time().as_secs_f64() * 1e6
 }
 
 /// Thread CPU time of `iters` calls of `f`, for criterion's `iter_custom`: criterion's

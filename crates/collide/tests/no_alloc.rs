@@ -3,40 +3,13 @@
 
 mod common;
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use collide::{
     collect_pairs, fill_constraints, CollideWorkspace, ConstraintForm, PackedTree, Pose,
 };
 use common::{random_tree, TreeShape};
 
-struct Counting;
-
-thread_local! {
-    static ALLOCS: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
-        System.alloc(layout)
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        System.dealloc(ptr, layout)
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
-        System.realloc(ptr, layout, new_size)
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn allocs() -> usize {
-    ALLOCS.with(|c| c.get())
-}
+static GLOBAL: devkit::CountingAllocator = devkit::CountingAllocator;
 
 #[test]
 fn queries_do_not_allocate() {
@@ -61,33 +34,33 @@ fn queries_do_not_allocate() {
     let mut pairs = Vec::with_capacity(cap);
     let mut rows = vec![[0.0; 6]; cap];
     let mut rhs = vec![0.0; cap];
-    let before = allocs();
-    let mut total = 0;
-    for i in 0..3000 {
-        let s = i as f64 * 0.01;
-        let q_h = Pose::from_array([20.0 * s.sin(), 10.0 * s.cos(), 5.0, s, 0.3 * s, -s]);
-        let q_g = Pose::from_array([20.0 * s.sin() + 0.1, 10.0 * s.cos(), 5.0, s, 0.3 * s, -s]);
-        let n = collect_pairs(&tool, &q_h, &objects, 0.5, &mut ws, &mut pairs).unwrap();
-        fill_constraints(
-            ConstraintForm::Squared,
-            &q_g,
-            &q_h,
-            &pairs,
-            &mut rows,
-            &mut rhs,
-        )
-        .unwrap();
-        total += n;
-    }
-    let after = allocs();
+    let (total, counts) = devkit::count_allocations(|| {
+        let mut total = 0;
+        for i in 0..3000 {
+            let s = i as f64 * 0.01;
+            let q_h = Pose::from_array([20.0 * s.sin(), 10.0 * s.cos(), 5.0, s, 0.3 * s, -s]);
+            let q_g = Pose::from_array([20.0 * s.sin() + 0.1, 10.0 * s.cos(), 5.0, s, 0.3 * s, -s]);
+            let n = collect_pairs(&tool, &q_h, &objects, 0.5, &mut ws, &mut pairs).unwrap();
+            fill_constraints(
+                ConstraintForm::Squared,
+                &q_g,
+                &q_h,
+                &pairs,
+                &mut rows,
+                &mut rhs,
+            )
+            .unwrap();
+            total += n;
+        }
+        total
+    });
     assert!(
         total > 1000,
         "the poses should produce contacts, got {total}"
     );
     assert_eq!(
-        after - before,
-        0,
+        counts.allocations, 0,
         "queries allocated {} times",
-        after - before
+        counts.allocations
     );
 }

@@ -27,27 +27,8 @@ const SET: usize = 16;
 /// This thread's CPU time (Linux: `clock_gettime(CLOCK_THREAD_CPUTIME_ID)`), in ns.
 struct ThreadCpu;
 
-#[repr(C)]
-struct Timespec {
-    tv_sec: i64,
-    tv_nsec: i64,
-}
-
-extern "C" {
-    fn clock_gettime(clock: i32, tp: *mut Timespec) -> i32;
-}
-
-const CLOCK_THREAD_CPUTIME_ID: i32 = 3;
-
 fn thread_cpu_ns() -> f64 {
-    let mut t = Timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `t` is a valid, writable timespec; the call only writes it.
-    let rc = unsafe { clock_gettime(CLOCK_THREAD_CPUTIME_ID, &mut t) };
-    assert_eq!(rc, 0, "clock_gettime(CLOCK_THREAD_CPUTIME_ID) failed");
-    t.tv_sec as f64 * 1e9 + t.tv_nsec as f64
+    devkit::thread_cpu_time().as_secs_f64() * 1e9
 }
 
 impl Measurement for ThreadCpu {

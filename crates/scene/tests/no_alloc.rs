@@ -7,61 +7,19 @@
 
 mod common;
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use collide::Pose;
 use engine::SolverKind;
 use scene::device::ReplayDevice;
 use scene::rt::{run_frames, FrameRecord, LoopParams};
 use scene::trajectory::Trajectory;
 
-/// Counts (de)allocations made by a thread while it is armed.
-struct Counting;
-
-static EVENTS: AtomicUsize = AtomicUsize::new(0);
-
-thread_local! {
-    static ARMED: Cell<bool> = const { Cell::new(false) };
-}
-
-fn note() {
-    if ARMED.try_with(|a| a.get()).unwrap_or(false) {
-        EVENTS.fetch_add(1, Ordering::Relaxed);
-    }
-}
-
-// SAFETY: every call is forwarded unchanged to the system allocator.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        note();
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        note();
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        note();
-        unsafe { System.alloc_zeroed(layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        note();
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static A: Counting = Counting;
+static GLOBAL: devkit::CountingAllocator = devkit::CountingAllocator;
 
-/// Runs `f` with this thread armed; returns its result and the number of (de)allocations.
+/// Runs `f` counted; returns its result and the number of (de)allocations.
 fn count_allocations<T>(f: impl FnOnce() -> T) -> (T, usize) {
-    let before = EVENTS.load(Ordering::Relaxed);
-    ARMED.with(|a| a.set(true));
-    let out = f();
-    ARMED.with(|a| a.set(false));
-    (out, EVENTS.load(Ordering::Relaxed) - before)
+    let (out, counts) = devkit::count_allocations(f);
+    (out, counts.events())
 }
 
 #[test]

@@ -10,10 +10,6 @@
 //! Frames run through [`run_frames`] in chunks of 1000 into a reused record buffer, so the
 //! memory of the test itself does not grow with the run length.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
-
 use collide::Pose;
 use engine::safety::SafetyParams;
 use engine::step::FrameStatus;
@@ -24,54 +20,10 @@ use scene::{Coupling, Motion, Scene, SolverSpec};
 use spheretree::build::{build_tree, BuildParams};
 use spheretree::SphereTree;
 
-/// Counts allocations and live heap bytes made by a thread while it is armed (the test
+/// Counts allocations and live heap bytes of the thread running the frames (the test
 /// harness's own threads, e.g. its "running for over 60 seconds" notice, are not counted).
-struct Counting;
-
-static ALLOCS: AtomicU64 = AtomicU64::new(0);
-static LIVE: AtomicI64 = AtomicI64::new(0);
-
-thread_local! {
-    static ARMED: Cell<bool> = const { Cell::new(false) };
-}
-
-fn armed() -> bool {
-    ARMED.try_with(Cell::get).unwrap_or(false)
-}
-
-// SAFETY: every call is forwarded unchanged to the system allocator.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        if armed() {
-            ALLOCS.fetch_add(1, Ordering::Relaxed);
-            LIVE.fetch_add(layout.size() as i64, Ordering::Relaxed);
-        }
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        if armed() {
-            LIVE.fetch_sub(layout.size() as i64, Ordering::Relaxed);
-        }
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        if armed() {
-            ALLOCS.fetch_add(1, Ordering::Relaxed);
-            LIVE.fetch_add(layout.size() as i64, Ordering::Relaxed);
-        }
-        unsafe { System.alloc_zeroed(layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        if armed() {
-            ALLOCS.fetch_add(1, Ordering::Relaxed);
-            LIVE.fetch_add(new_size as i64 - layout.size() as i64, Ordering::Relaxed);
-        }
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static A: Counting = Counting;
+static GLOBAL: devkit::CountingAllocator = devkit::CountingAllocator;
 
 /// Resident set size of this process, bytes (Linux; 0 elsewhere).
 fn rss_bytes() -> u64 {
@@ -266,14 +218,12 @@ fn long_run(frames: usize, seed: u64) -> LongRun {
         // Counters are read after a warm-up chunk (first contacts size the solver's storage).
         if chunk == 1 {
             r.rss_before = rss_bytes();
-            ALLOCS.store(0, Ordering::Relaxed);
-            LIVE.store(0, Ordering::Relaxed);
         }
-        ARMED.with(|a| a.set(chunk >= 1));
-        let n = run_frames(&mut engine, &mut dev, &params, &mut records);
-        ARMED.with(|a| a.set(false));
+        let (n, counts) =
+            devkit::count_allocations(|| run_frames(&mut engine, &mut dev, &params, &mut records));
         if chunk >= 1 {
-            r.allocs_in_loop = ALLOCS.load(Ordering::Relaxed);
+            r.allocs_in_loop += counts.allocations as u64;
+            r.live_bytes_growth += counts.live_bytes;
         }
         for f in &records {
             let i = r.frames;
@@ -308,7 +258,6 @@ fn long_run(frames: usize, seed: u64) -> LongRun {
             break;
         }
     }
-    r.live_bytes_growth = LIVE.load(Ordering::Relaxed);
     r.rss_after = rss_bytes();
     r.wall_s = t0.elapsed().as_secs_f64();
     r

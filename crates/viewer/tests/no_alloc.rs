@@ -4,49 +4,11 @@
 
 mod common;
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use collide::Pose;
 use viewer::{HapticLoop, InputSource, LoopParams, RenderSim};
 
-struct CountingAllocator;
-
-static COUNT: AtomicUsize = AtomicUsize::new(0);
-
-thread_local! {
-    static COUNTING: Cell<bool> = const { Cell::new(false) };
-}
-
-fn count() {
-    if COUNTING.try_with(Cell::get).unwrap_or(false) {
-        COUNT.fetch_add(1, Ordering::Relaxed);
-    }
-}
-
-// SAFETY: forwards every call unchanged to the system allocator; only counts.
-unsafe impl GlobalAlloc for CountingAllocator {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count();
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        count();
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        count();
-        unsafe { System.alloc_zeroed(layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count();
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: CountingAllocator = CountingAllocator;
+static GLOBAL: devkit::CountingAllocator = devkit::CountingAllocator;
 
 /// Device pose of frame `k` of a 1000-frame cycle: down from 20 mm to 15 mm into the floor and
 /// back up, with a little sideways motion and twist.
@@ -75,20 +37,21 @@ fn a_warmed_up_frame_allocates_nothing() {
             .unwrap();
         frames.step();
     }
-    let before = COUNT.load(Ordering::Relaxed);
+    let mut allocations = 0;
     for k in 0..3000 {
         handle
             .input()
             .submit(InputSource::Script, pose(k), None)
             .unwrap();
-        COUNTING.with(|c| c.set(true));
-        let s = frames.step();
-        COUNTING.with(|c| c.set(false));
-        max_pairs = max_pairs.max(s.pairs);
-        listed = listed.max(s.contacts.len());
-        assert!(s.recording && !s.released);
+        let ((pairs, contacts, recording, released), counts) = devkit::count_allocations(|| {
+            let s = frames.step();
+            (s.pairs, s.contacts.len(), s.recording, s.released)
+        });
+        allocations += counts.events();
+        max_pairs = max_pairs.max(pairs);
+        listed = listed.max(contacts);
+        assert!(recording && !released);
     }
-    let allocations = COUNT.load(Ordering::Relaxed) - before;
     assert_eq!(
         allocations, 0,
         "the haptic frame allocated {allocations} times"
