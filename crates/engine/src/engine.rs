@@ -120,6 +120,8 @@ pub struct Frame {
     pub status: FrameStatus,
     /// Leaf pairs in the first pass's QP.
     pub pairs: u32,
+    /// Leaf pairs touching at `q_g` (gap within [`crate::step::TOUCH_MM`]): the contact's size.
+    pub contacts: u32,
     /// Solver iterations, summed over passes.
     pub iterations: u32,
     /// Passes made (detect + solve).
@@ -150,6 +152,7 @@ impl Frame {
             safety,
             status: out.status,
             pairs: out.pairs,
+            contacts: out.contacts,
             iterations: out.iterations,
             passes: out.passes,
             cd_us: out.cd_us,
