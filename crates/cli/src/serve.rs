@@ -1,4 +1,4 @@
-//! `haptic6d serve [SCENE]`: the interactive viewer. The haptic loop (render's god-object step
+//! `haptic6d serve [SCENE]`: the interactive viewer. The haptic loop (the engine: god-object step
 //! and safety filter) runs at 1 kHz on its own thread; a web server shows the scene live and
 //! takes the device pose from the page (mouse, keys, gamepad) or from the UDP device bridge.
 
@@ -12,7 +12,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use scene::cache::TreeCache;
 use viewer::server::{self, WebParams};
-use viewer::{BridgeParams, HapticLoop, LoopParams, RenderSim, UdpBridge};
+use viewer::{BridgeParams, HapticLoop, LoopParams, SceneSim, UdpBridge};
 
 /// Arguments of `haptic6d serve`.
 #[derive(Args, Debug)]
@@ -180,7 +180,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
     let cache = TreeCache::from_env();
     let scene = load_scene(&args.scene, &cache)
         .with_context(|| format!("cannot load scene `{}`", args.scene))?;
-    let sim = RenderSim::new(&scene).context("cannot set up the haptic step")?;
+    let sim = SceneSim::new(&scene).context("cannot set up the haptic step")?;
     let haptic = HapticLoop::spawn(
         sim,
         &LoopParams {

@@ -7,8 +7,8 @@
 //! client, for its part, renders zero force when no WRENCH arrived within its own timeout.
 //! POSEs drive the loop only inside a session that the client opened with HELLO; a timeout or
 //! BYE ends the session, so a stale or delayed POSE can never re-engage the device: the client
-//! must say HELLO again, and the force then ramps up from zero (the render pipeline's soft
-//! start on every engagement, see [`crate::RenderSim`]).
+//! must say HELLO again, and the force then ramps up from zero (the engine's soft
+//! start on every engagement, see [`crate::SceneSim`]).
 
 use std::io;
 use std::net::{SocketAddr, UdpSocket};

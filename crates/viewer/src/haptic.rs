@@ -13,7 +13,7 @@ use collide::Pose;
 use crate::error::ViewerError;
 use crate::hub::{InputHub, InputReader, InputSource, StateHub, StatePublisher};
 use crate::recorder::{RecordTx, Recorder, RecordingSummary};
-use crate::sim::{FrameState, SceneGeometry, Simulation};
+use crate::simulation::{FrameState, SceneGeometry, Simulation};
 
 /// Haptic loop settings.
 #[derive(Clone, Debug)]

@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use collide::Pose;
 
-use crate::sim::FrameState;
+use crate::simulation::FrameState;
 
 /// Who is driving the device pose.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]

@@ -7,8 +7,8 @@
 //!   `haptic6d-haptic`; device poses go in through [`InputHub`], states come out through
 //!   [`StateHub`], both lock-free on the haptic side; it records trajectories to CSV.
 //!   [`HapticLoop::manual`] gives the same frame body ([`ManualFrames`]) without the thread.
-//! - [`RenderSim`]: the real pipeline (render's god-object step + safety filter) as a
-//!   [`Simulation`].
+//! - [`SceneSim`]: the real pipeline (a scene's [`engine::Engine`]: god-object step + safety
+//!   filter) as a [`Simulation`].
 //! - [`server::router`]: the axum app (page, scene, WebSocket state stream at display rate),
 //!   guarded by [`guard`] (Host/Origin checks) and [`pages`] (one page owns the device).
 //! - [`UdpBridge`] / [`BridgeClient`]: the UDP device bridge ([`protocol`], version 1).
@@ -22,16 +22,16 @@ pub mod hub;
 pub mod pages;
 pub mod protocol;
 pub mod recorder;
-pub mod render_sim;
+pub mod scene_sim;
 pub mod server;
-pub mod sim;
+pub mod simulation;
 
 pub use bridge::{BridgeClient, BridgeParams, BridgeStats, UdpBridge};
 pub use error::ViewerError;
 pub use haptic::{HapticLoop, LoopParams, ManualFrames};
 pub use hub::{DeviceCommand, InputHub, InputSource, Rejected, StateHub};
 pub use recorder::RecordingSummary;
-pub use render_sim::RenderSim;
-pub use sim::{
+pub use scene_sim::SceneSim;
+pub use simulation::{
     ContactPair, FrameState, NamedMesh, SceneGeometry, Simulation, MAX_DISPLAY_CONTACTS,
 };

@@ -37,7 +37,7 @@ use crate::guard::AccessPolicy;
 use crate::haptic::HapticLoop;
 use crate::hub::InputSource;
 use crate::pages::{PageSeats, Role};
-use crate::sim::{FrameState, NamedMesh, SceneGeometry};
+use crate::simulation::{FrameState, NamedMesh, SceneGeometry};
 
 const INDEX_HTML: &str = include_str!("../web/index.html");
 const APP_JS: &str = include_str!("../web/app.js");

@@ -5,7 +5,7 @@
 mod common;
 
 use collide::Pose;
-use viewer::{HapticLoop, InputSource, LoopParams, RenderSim};
+use viewer::{HapticLoop, InputSource, LoopParams, SceneSim};
 
 #[global_allocator]
 static GLOBAL: devkit::CountingAllocator = devkit::CountingAllocator;
@@ -21,7 +21,7 @@ fn pose(k: usize) -> Pose {
 #[test]
 fn a_warmed_up_frame_allocates_nothing() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = RenderSim::new(&common::small_scene()).unwrap();
+    let sim = SceneSim::new(&common::small_scene()).unwrap();
     let (handle, mut frames) = HapticLoop::manual(sim, &LoopParams::default()).unwrap();
     handle.input().want_contacts(true);
     handle

@@ -1,4 +1,4 @@
-//! The viewer driving the real render pipeline ([`viewer::RenderSim`]: god-object step + safety
+//! The viewer driving the real render pipeline ([`viewer::SceneSim`]: god-object step + safety
 //! filter) on a small scene built here: a two-sphere tool above a floor of four spheres. Also
 //! recording from the loop and replaying the CSV through render's trajectory reader and step.
 
@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use collide::Pose;
 use engine::safety::{Safety, SafetyParams};
 use scene::trajectory::Trajectory;
-use viewer::{HapticLoop, InputSource, LoopParams, RenderSim};
+use viewer::{HapticLoop, InputSource, LoopParams, SceneSim};
 
 mod common;
 use common::small_scene;
@@ -50,7 +50,7 @@ fn wait_until(
 
 #[test]
 fn pushing_into_the_floor_gives_an_upward_force_and_no_penetration() {
-    let sim = RenderSim::new(&small_scene()).unwrap();
+    let sim = SceneSim::new(&small_scene()).unwrap();
     let scene = sim.scene_geometry().clone();
     assert_eq!(scene.objects.len(), 1);
     assert!(
@@ -122,7 +122,7 @@ fn pushing_into_the_floor_gives_an_upward_force_and_no_penetration() {
 #[test]
 fn contacts_are_listed_only_when_requested() {
     let haptic = HapticLoop::spawn(
-        RenderSim::new(&small_scene()).unwrap(),
+        SceneSim::new(&small_scene()).unwrap(),
         &LoopParams::default(),
     )
     .unwrap();
@@ -163,7 +163,7 @@ fn a_recording_replays_through_render_frame_for_frame() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("rec.csv");
     let haptic = HapticLoop::spawn(
-        RenderSim::new(&small_scene()).unwrap(),
+        SceneSim::new(&small_scene()).unwrap(),
         &LoopParams::default(),
     )
     .unwrap();

@@ -9,7 +9,7 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use viewer::protocol::{self, flags, Header, Kind, PoseMsg, POSE_LEN};
-use viewer::{BridgeClient, BridgeParams, HapticLoop, LoopParams, RenderSim, UdpBridge};
+use viewer::{BridgeClient, BridgeParams, HapticLoop, LoopParams, SceneSim, UdpBridge};
 
 fn bridge_for(haptic: &HapticLoop, timeout_ms: u64) -> UdpBridge {
     UdpBridge::spawn(
@@ -398,7 +398,7 @@ fn after_a_timeout_no_pose_is_applied_until_a_new_session() {
 /// the client says BYE (released) and, one frame later, opens a new session at the same pose.
 #[test]
 fn re_engaging_ramps_the_force_from_zero() {
-    let sim = RenderSim::new(&common::small_scene()).unwrap();
+    let sim = SceneSim::new(&common::small_scene()).unwrap();
     let (handle, mut frames) = HapticLoop::manual(sim, &LoopParams::default()).unwrap();
     let bridge = bridge_for(&handle, 5000);
     let deep = [0.0, 0.0, -30.0, 0.0, 0.0, 0.0];
@@ -407,7 +407,7 @@ fn re_engaging_ramps_the_force_from_zero() {
 
     let mut client = session(&bridge, 5000);
     // One engagement: the force starts at exactly zero and rises by at most 2 N per frame.
-    let ramp = |client: &mut BridgeClient, frames: &mut viewer::ManualFrames<RenderSim>| {
+    let ramp = |client: &mut BridgeClient, frames: &mut viewer::ManualFrames<SceneSim>| {
         let seq = client.send_pose(deep).unwrap();
         let end = Instant::now() + Duration::from_secs(2);
         while handle.input().last().source != viewer::InputSource::Udp {

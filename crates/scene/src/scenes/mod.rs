@@ -2,12 +2,12 @@
 //!
 //! - [`builtin`]: a built-in scene by name, trees built (or fetched from the cache).
 //! - [`bunny`]: bunny tool against a bunny object, depth 4, ~100 mm.
-//! - [`spline::SplineParams`]: the splined shaft and hub meshes of the `spline` scene.
+//! - [`spline_mesh::SplineParams`]: the splined shaft and hub meshes of the `spline` scene.
 //! - [`plate`]: a puck or ball pressed onto a flat plate and slid or turned at hand speeds.
 
 pub mod bunny;
 pub mod plate;
-pub mod spline;
+pub mod spline_mesh;
 
 use std::path::Path;
 
@@ -25,7 +25,7 @@ pub const BUILTIN_NAMES: &[&str] = &["bunny", "spline", "plate"];
 pub fn builtin(name: &str, cache: &TreeCache) -> Result<Scene, SceneError> {
     let scene = match name {
         "bunny" => bunny::scene(cache)?,
-        "spline" => spline_scene::scene(cache, &spline::SplineParams::default(), 5)?,
+        "spline" => spline_scene::scene(cache, &spline_mesh::SplineParams::default(), 5)?,
         "plate" => plate::builtin(cache)?,
         _ => {
             return Err(SceneError::Unknown {
@@ -39,7 +39,7 @@ pub fn builtin(name: &str, cache: &TreeCache) -> Result<Scene, SceneError> {
     Ok(scene)
 }
 
-/// The `spline` scene assembly (meshes from [`spline`], trees, script).
+/// The `spline` scene assembly (meshes from [`spline_mesh`], trees, script).
 pub mod spline_scene;
 
 /// Loads a mesh file (OBJ, STL, PLY) through the mesh crate's validated loader.

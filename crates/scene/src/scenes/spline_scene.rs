@@ -13,7 +13,7 @@ use crate::SceneError;
 use crate::{Coupling, Goal, Motion, Scene, SolverSpec, TreeParams};
 use engine::safety::SafetyParams;
 
-use super::spline::SplineParams;
+use super::spline_mesh::SplineParams;
 
 /// Depth of the shaft tip below the hub's top face at the end of the insertion, mm.
 pub const INSERT_DEPTH_MM: f64 = 20.0;

@@ -1,4 +1,4 @@
-//! [`RenderSim`]: the real haptic pipeline behind the viewer — the [`engine::Engine`] (the
+//! [`SceneSim`]: the real haptic pipeline behind the viewer — the [`engine::Engine`] (the
 //! god-object step followed by the safety filter), exactly the frame body of `haptic6d run`,
 //! and the contact pairs it found, for display.
 
@@ -8,10 +8,10 @@ use mesh::TriMesh;
 use scene::Scene;
 
 use crate::error::ViewerError;
-use crate::sim::{ContactPair, FrameState, NamedMesh, SceneGeometry, Simulation};
+use crate::simulation::{ContactPair, FrameState, NamedMesh, SceneGeometry, Simulation};
 
-/// A loaded render scene driven by the viewer.
-pub struct RenderSim {
+/// A loaded scene (`scene::Scene`) driven through its engine, for the viewer.
+pub struct SceneSim {
     engine: Engine,
     geometry: SceneGeometry,
     start: Pose,
@@ -24,7 +24,7 @@ pub struct RenderSim {
     pub kept_last_safe: u64,
 }
 
-impl RenderSim {
+impl SceneSim {
     /// Packs the scene's trees, reserves every buffer and seats the god-object at the scene's
     /// start pose (or the nearest free pose). Allocates; call before the loop starts.
     pub fn new(scene: &Scene) -> Result<Self, ViewerError> {
@@ -73,14 +73,14 @@ impl RenderSim {
     }
 }
 
-impl RenderSim {
+impl SceneSim {
     /// The geometry the page draws (meshes in mm; sphere meshes for tree-only bodies).
     pub fn scene_geometry(&self) -> &SceneGeometry {
         &self.geometry
     }
 }
 
-impl Simulation for RenderSim {
+impl Simulation for SceneSim {
     fn scene(&self) -> SceneGeometry {
         self.geometry.clone()
     }
