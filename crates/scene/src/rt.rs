@@ -3,8 +3,9 @@
 //!
 //! Two pacing modes:
 //! - **real-time** (`LoopParams::realtime`): frame `i` starts at `start + i / rate_hz`; the
-//!   thread sleeps until shortly before the deadline, then spins (sleep alone has ~50–100 µs of
-//!   jitter on a loaded Linux box). A frame that ends after the next deadline is an *overrun*;
+//!   thread sleeps until shortly before the deadline, then spins, yielding to other threads
+//!   ([`Pacer`], shared with the viewer; sleep alone has ~50–100 µs of jitter on a loaded
+//!   Linux box). A frame that ends after the next deadline is an *overrun*;
 //!   when the loop falls more than a whole period behind, the schedule is re-based on the
 //!   current time (no burst of catch-up frames).
 //! - **as fast as possible** (default for `haptic6d run`): no waiting; every frame's timings
@@ -46,7 +47,7 @@ impl Default for LoopParams {
         Self {
             rate_hz: 1000.0,
             realtime: false,
-            spin_us: 400.0,
+            spin_us: DEFAULT_SPIN_US,
             max_frames: 10_000_000,
             rt_priority: None,
         }
@@ -139,18 +140,66 @@ pub fn set_realtime_priority(_priority: i32) -> bool {
     false
 }
 
-fn wait_until(deadline: Instant, spin: Duration) {
-    loop {
-        let now = Instant::now();
-        if now >= deadline {
-            return;
+/// How long before a deadline a paced loop stops sleeping and spins, µs: sleep alone wakes
+/// ~50–100 µs late on a loaded Linux box. The default of both haptic loops (`haptic6d run
+/// --realtime` and `haptic6d serve`).
+pub const DEFAULT_SPIN_US: f64 = 400.0;
+
+/// The pacing of a haptic loop, shared by [`run_frames`] and the viewer's loop: frame `i`
+/// starts at its deadline, `start + i` periods; the thread sleeps until `spin` before it, then
+/// spins. A frame that ends after the next deadline is an overrun; a loop more than a whole
+/// period behind re-bases its schedule on the current time (no burst of catch-up frames).
+#[derive(Clone, Copy, Debug)]
+pub struct Pacer {
+    period: Duration,
+    spin: Duration,
+    deadline: Instant,
+}
+
+impl Pacer {
+    /// A schedule of `period` starting now; `spin` before each deadline is spent spinning.
+    pub fn new(period: Duration, spin: Duration) -> Self {
+        Self {
+            period,
+            spin,
+            deadline: Instant::now(),
         }
-        let left = deadline - now;
-        if left > spin {
-            std::thread::sleep(left - spin);
-        } else {
-            std::hint::spin_loop();
+    }
+
+    /// Waits until the current frame's deadline (returns at once when it has passed).
+    ///
+    /// # Real-time
+    /// No allocation; sleeps, then spins.
+    pub fn wait(&self) {
+        loop {
+            let now = Instant::now();
+            if now >= self.deadline {
+                return;
+            }
+            let left = self.deadline - now;
+            if left > self.spin {
+                std::thread::sleep(left - self.spin);
+            } else {
+                // Spins when the core is free; on a busy machine lets other threads run.
+                std::thread::yield_now();
+            }
         }
+    }
+
+    /// Ends the current frame: the next deadline is one period later (deadlines advance by
+    /// addition, no `period * i` that could overflow). Returns true when the frame ended after
+    /// that deadline (an overrun).
+    pub fn end_frame(&mut self) -> bool {
+        let end = Instant::now();
+        let next = self.deadline.checked_add(self.period).unwrap_or(end);
+        self.deadline = next;
+        if end <= next {
+            return false;
+        }
+        if end > next.checked_add(self.period).unwrap_or(end) {
+            self.deadline = end;
+        }
+        true
     }
 }
 
@@ -185,13 +234,12 @@ pub fn run_frames<D: Device + ?Sized>(
     };
     let spin = Duration::from_secs_f64(spin_us * 1e-6);
     let start = Instant::now();
-    // Deadlines advance by one period per frame (no `period * i`, which could overflow).
-    let mut deadline = start;
+    let mut pacer = Pacer::new(period, spin);
     let mut last_start: Option<Instant> = None;
     let mut frame = 0usize;
     while records.len() < records.capacity() {
         if params.realtime {
-            wait_until(deadline, spin);
+            pacer.wait();
         }
         let now = Instant::now();
         let t_wall = (now - start).as_secs_f64();
@@ -207,19 +255,7 @@ pub fn run_frames<D: Device + ?Sized>(
         device.send(&out.wrench);
         let period_us = last_start.map_or(0.0, |l| (now - l).as_secs_f64() * 1e6);
         last_start = Some(now);
-        let mut overrun = false;
-        if params.realtime {
-            let next = deadline.checked_add(period).unwrap_or(now);
-            let end = Instant::now();
-            deadline = next;
-            if end > next {
-                overrun = true;
-                // More than a whole period behind: re-base on now (no burst of catch-up frames).
-                if end > next.checked_add(period).unwrap_or(end) {
-                    deadline = end;
-                }
-            }
-        }
+        let overrun = params.realtime && pacer.end_frame();
         records.push(FrameRecord {
             t: sample.t,
             t_wall,

@@ -22,7 +22,8 @@ pub struct LoopParams {
     /// default.
     pub rate_hz: f64,
     /// How long before a deadline the thread stops sleeping and spins (µs), at most
-    /// [`LoopParams::MAX_SPIN_US`]; trades CPU for timing precision. 150 by default.
+    /// [`LoopParams::MAX_SPIN_US`]; trades CPU for timing precision. By default
+    /// [`scene::rt::DEFAULT_SPIN_US`], as `haptic6d run --realtime`.
     pub spin_us: u64,
     /// Ask for `SCHED_FIFO` at this priority for the haptic thread (best effort, needs the
     /// privilege; see [`HapticLoop::realtime`]). `None` (the default) keeps the normal priority.
@@ -72,7 +73,7 @@ impl Default for LoopParams {
     fn default() -> Self {
         Self {
             rate_hz: 1000.0,
-            spin_us: 150,
+            spin_us: scene::rt::DEFAULT_SPIN_US as u64,
             rt_priority: None,
         }
     }
@@ -327,28 +328,15 @@ impl<S: Simulation> ManualFrames<S> {
         &self.sim
     }
 
-    /// Runs frames paced at the period until `stop` is set: sleep until `spin` before each
-    /// deadline, then yield; a frame more than one period late re-anchors the schedule.
+    /// Runs frames paced at the period until `stop` is set, with the same pacing as
+    /// `haptic6d run --realtime` ([`scene::rt::Pacer`]).
     fn run(mut self, stop: &AtomicBool, spin: Duration) {
-        let mut next = Instant::now();
+        let mut pacer = scene::rt::Pacer::new(self.period, spin);
         while !stop.load(Ordering::Acquire) {
+            pacer.wait();
             self.step();
-            next += self.period;
-            let now = Instant::now();
-            if now > next {
+            if pacer.end_frame() {
                 self.state.overruns += 1;
-                if now > next + self.period {
-                    // More than a whole period late: re-anchor instead of bursting.
-                    next = now;
-                }
-                continue;
-            }
-            let left = next - now;
-            if left > spin {
-                std::thread::sleep(left - spin);
-            }
-            while Instant::now() < next {
-                std::thread::yield_now();
             }
         }
     }

@@ -1,5 +1,5 @@
 //! The `spline` scene: a splined shaft (tool) inserted into a hub with the matching splined
-//! hole (object), both procedurally generated closed meshes ([`crate::scenes::spline`]).
+//! hole (object), both procedurally generated closed meshes ([`crate::scenes::spline_mesh`]).
 //!
 //! Scripted device motion (1 kHz): approach with the keys misaligned by half a pitch, come to
 //! rest on the hub's top face (hand 2 mm below it: ~2 N axial), rotate until the keys align
