@@ -20,15 +20,15 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use collide::Pose;
+use engine::step::GodObject;
+use engine::SolverKind;
 use mesh::TriMesh;
 use peer::{MeshPenetration, ObjectShape, PeerParams, PeerScene, PeerTool, ToolShape};
 use scene::cache::TreeCache;
-use engine::SolverKind;
-use scene::{Goal, Motion, Scene, TreeParams};
 use scene::scenes::plate::{self, PlateTool, SpeedMotion};
 use scene::stats::Summary;
-use engine::step::GodObject;
 use scene::trajectory::{Ease, Script};
+use scene::{Goal, Motion, Scene, TreeParams};
 use serde::Serialize;
 
 /// Thickness of the thin plate, mm.
