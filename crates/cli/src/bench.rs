@@ -27,6 +27,7 @@
 //! Timings are the engine's own per-stage counters (`FrameOutput`), one thread, frames computed
 //! back to back (no pacing), so they measure the work of a frame, not the loop.
 
+use engine::safety::norm3;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -405,10 +406,6 @@ fn replay(
         }
     }
     Ok(frames)
-}
-
-fn norm3(a: &[f64]) -> f64 {
-    a.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
 fn replay_row(

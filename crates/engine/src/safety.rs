@@ -87,7 +87,9 @@ pub struct Safety {
     events: SafetyEvents,
 }
 
-fn norm3(v: &[f64]) -> f64 {
+/// Length of the 3-vector in `v[0..3]` (a force in N, a torque in N·mm): the one magnitude the
+/// safety layer, the reports and the tests share. `v` must hold at least three numbers.
+pub fn norm3(v: &[f64]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 

@@ -1,6 +1,7 @@
 //! What a run writes: `frames.csv` (columns in docs/DESIGN.md §Formats) and the summary behind
 //! `summary.json`.
 
+use engine::safety::norm3;
 use std::fmt::Write as _;
 
 use serde::Serialize;
@@ -161,10 +162,6 @@ pub struct RunSummary {
     /// The trees the run used (leaf counts, builder version); filled by the caller from the
     /// scene ([`tree_infos`]), empty when not known.
     pub trees: Vec<TreeInfo>,
-}
-
-fn norm3(v: &[f64]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
 /// Force extremes and continuity of a run (raw wrench, before safety).

@@ -12,6 +12,7 @@
 mod common;
 
 use collide::Pose;
+use engine::safety::norm3;
 use engine::safety::SafetyParams;
 use engine::step::FrameStatus;
 use engine::SolverKind;
@@ -111,10 +112,6 @@ fn run(scene: &Scene, traj: &Trajectory) -> (Vec<FrameRecord>, LoopStats) {
     let mut dev = ReplayDevice::new(traj.clone());
     let r = run_loop(&mut engine, &mut dev, &LoopParams::default()).unwrap();
     (r.frames, r.stats)
-}
-
-fn norm3(v: &[f64]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
 /// The sent wrench is finite, within the device limits, and changes by at most the rate limit

@@ -13,6 +13,7 @@ mod common;
 
 use collide::Pose;
 use engine::config::{self, Range};
+use engine::safety::norm3;
 use engine::safety::{Safety, SafetyParams};
 use proptest::prelude::*;
 use scene::device::ReplayDevice;
@@ -226,10 +227,6 @@ fn press(rate_hz: f64, depth: f64, jitter: f64) -> Trajectory {
         });
     }
     Trajectory { samples }
-}
-
-fn norm3(v: &[f64]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
 /// The invariants of the sent wrench over a run; `Err` names the frame and what broke.
