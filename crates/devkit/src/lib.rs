@@ -12,6 +12,8 @@
 //!   then wrap the code under test: `let (out, counts) = devkit::count_allocations(|| ...)`.
 //! - [`thread_cpu_time`]: this thread's CPU time, for benches that must not count time the
 //!   thread spent preempted on a loaded machine.
+//! - [`Rng`]: the seeded SplitMix64 generator of the fuzz and long-run tests (a failure replays
+//!   from its seed).
 #![warn(missing_docs)]
 
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -125,6 +127,42 @@ pub fn thread_cpu_time() -> Duration {
     )
 }
 
+/// SplitMix64 (Steele, Lea and Flood, 2014): a tiny seeded generator, plenty for driving
+/// fuzz mutations and random devices; the same seed gives the same sequence everywhere.
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    /// A generator starting from `seed`.
+    pub fn new(seed: u64) -> Self {
+        Self(seed)
+    }
+
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// A number in `0..n` (0 when `n` is 0).
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n.max(1) as u64) as usize
+    }
+
+    /// A number in `[0, 1)` with 53 random bits.
+    pub fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// A number in `[a, b)`.
+    pub fn range(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * self.unit()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -140,6 +178,19 @@ mod tests {
         assert_eq!((c.deallocations, c.live_bytes), (1, -100), "{c:?}");
         let (n, c) = count_allocations(|| std::hint::black_box(2) + 2);
         assert_eq!((n, c.events()), (4, 0));
+    }
+
+    #[test]
+    fn rng_is_seeded_and_in_range() {
+        let (mut a, mut b) = (Rng::new(7), Rng::new(7));
+        assert_eq!(a.next_u64(), b.next_u64());
+        assert_ne!(Rng::new(8).next_u64(), Rng::new(7).next_u64());
+        for _ in 0..1000 {
+            assert!(a.below(10) < 10);
+            let x = a.range(-2.0, 3.0);
+            assert!((-2.0..3.0).contains(&x));
+        }
+        assert_eq!(a.below(0), 0);
     }
 
     #[test]

@@ -8,6 +8,7 @@
 //! reproduces exactly. Cases per property: 2000 by default (about a second); `FUZZ_CASES=200000`
 //! runs longer.
 
+use devkit::Rng;
 use scene::trajectory::{Trajectory, TRAJECTORY_HEADER};
 use scene::SceneSpec;
 
@@ -16,29 +17,6 @@ fn cases() -> u64 {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(2000)
-}
-
-/// SplitMix64: small, seeded, good enough to drive mutations.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        if n == 0 {
-            0
-        } else {
-            (self.next() % n as u64) as usize
-        }
-    }
-    fn pick<'a>(&mut self, items: &[&'a str]) -> &'a str {
-        items[self.below(items.len())]
-    }
 }
 
 const TOKENS: &[&str] = &[
@@ -108,7 +86,7 @@ fn mutate(rng: &mut Rng, text: &str) -> String {
                     } else {
                         String::new()
                     };
-                    toks[k] = format!("{}{sep}", rng.pick(TOKENS));
+                    toks[k] = format!("{}{sep}", TOKENS[rng.below(TOKENS.len())]);
                 }
                 lines[i] = toks.concat();
             }
@@ -123,14 +101,14 @@ fn mutate(rng: &mut Rng, text: &str) -> String {
             4 => {
                 let len = rng.below(24);
                 let s: String = (0..len)
-                    .map(|_| char::from((rng.next() % 128) as u8))
+                    .map(|_| char::from((rng.next_u64() % 128) as u8))
                     .collect();
                 let i = rng.below(n + 1);
                 lines.insert(i, s);
             }
             _ => {
                 let i = rng.below(n + 1);
-                lines.insert(i, rng.pick(TOKENS).to_string());
+                lines.insert(i, TOKENS[rng.below(TOKENS.len())].to_string());
             }
         }
     }
@@ -247,7 +225,7 @@ fn seeds_are_valid() {
 
 #[test]
 fn trajectory_csv_random_and_mutated() {
-    let mut rng = Rng(0x7261_6A65);
+    let mut rng = Rng::new(0x7261_6A65);
     let seed = valid_csv();
     for case in 0..cases() {
         let text = if case % 4 == 0 {
@@ -261,7 +239,7 @@ fn trajectory_csv_random_and_mutated() {
 
 #[test]
 fn scene_toml_random_and_mutated() {
-    let mut rng = Rng(0x7363_656E);
+    let mut rng = Rng::new(0x7363_656E);
     for case in 0..cases() {
         let text = if case % 4 == 0 {
             random_text(

@@ -3,6 +3,7 @@
 //! mutations of valid entries, with and without a recomputed content hash) and regressions for
 //! what it found.
 
+use devkit::Rng;
 use scene::cache::{decode, encode, CacheOutcome, Fnv64, TreeCache};
 use spheretree::{Sphere, SphereTree};
 
@@ -192,21 +193,6 @@ fn corrupt_cache_entry_is_rebuilt() {
     }
 }
 
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
-
 #[test]
 fn fuzz_decode_random_and_mutated_entries() {
     let cases: u64 = std::env::var("FUZZ_CASES")
@@ -223,12 +209,12 @@ fn fuzz_decode_random_and_mutated_entries() {
         0.0,
         -1.0,
     ];
-    let mut r = Rng(0xCAC4E);
+    let mut r = Rng::new(0xCAC4E);
     let (mut resealed_decoded, mut resealed_cases) = (0u64, 0u64);
     for case in 0..cases {
         let random = case % 4 == 0;
         let mut b: Vec<u8> = if random {
-            (0..r.below(400)).map(|_| r.next() as u8).collect()
+            (0..r.below(400)).map(|_| r.next_u64() as u8).collect()
         } else {
             good.clone()
         };
@@ -247,9 +233,9 @@ fn fuzz_decode_random_and_mutated_entries() {
                 3 if n >= shape_at + 8 => {
                     // Levels / branching words.
                     let o = shape_at + 4 * r.below(2);
-                    b[o..o + 4].copy_from_slice(&(r.next() as u32 % 40).to_le_bytes());
+                    b[o..o + 4].copy_from_slice(&(r.next_u64() as u32 % 40).to_le_bytes());
                 }
-                _ => b.extend((0..1 + r.below(40)).map(|_| r.next() as u8)),
+                _ => b.extend((0..1 + r.below(40)).map(|_| r.next_u64() as u8)),
             }
         }
         // Half the mutated entries get a valid hash, so the structural checks are exercised.

@@ -11,6 +11,7 @@
 //! memory of the test itself does not grow with the run length.
 
 use collide::Pose;
+use devkit::Rng;
 use engine::safety::SafetyParams;
 use engine::step::FrameStatus;
 use mesh::TriMesh;
@@ -87,25 +88,6 @@ fn scene() -> Scene {
     }
 }
 
-/// SplitMix64.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.unit()
-    }
-}
-
 /// A seeded random device: it moves toward random waypoints (x, y over the plate and the
 /// block, z from 40 mm above to 15 mm into the objects, angles up to ±0.6 rad) with smooth
 /// starts and stops; one segment in ten is a fast sweep (20–50 ms). Produces frames on the fly
@@ -123,7 +105,7 @@ struct RandomDevice {
 impl RandomDevice {
     fn new(seed: u64, frames: usize, start: [f64; 6]) -> Self {
         let mut d = Self {
-            rng: Rng(seed),
+            rng: Rng::new(seed),
             frame: 0,
             frames,
             from: start,
@@ -154,9 +136,9 @@ impl RandomDevice {
             r.range(-0.6, 0.6),
         ];
         self.seg_len = if r.unit() < 0.1 {
-            20 + (r.next() % 30) as usize
+            20 + (r.next_u64() % 30) as usize
         } else {
-            200 + (r.next() % 800) as usize
+            200 + (r.next_u64() % 800) as usize
         };
         self.seg_start = self.frame;
     }

@@ -8,33 +8,19 @@
 //! reproduces exactly. Cases: 20 000 by default (well under a second); `FUZZ_CASES=2000000`
 //! runs longer.
 
+use devkit::Rng;
 use viewer::protocol::{
     self, decode, encode_bye, encode_hello, Header, Kind, Message, PoseMsg, WrenchMsg, BYE_LEN,
     HEADER_LEN, HELLO_LEN, POSE_LEN, WRENCH_LEN,
 };
 
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
-
 fn header(kind: Kind, r: &mut Rng) -> Header {
     Header {
         kind,
-        flags: r.next() as u16,
-        seq: r.next() as u32,
-        ack: r.next() as u32,
-        time_us: r.next(),
+        flags: r.next_u64() as u16,
+        seq: r.next_u64() as u32,
+        ack: r.next_u64() as u32,
+        time_us: r.next_u64(),
     }
 }
 
@@ -57,19 +43,19 @@ fn valid(r: &mut Rng) -> Vec<u8> {
                 force: [1.0, 2.0, 3.0],
                 torque: [-4.0, 5.0, 6.0],
                 graphic: [0.0; 6],
-                pairs: r.next() as u32,
+                pairs: r.next_u64() as u32,
             }
             .encode(&mut b);
             b.to_vec()
         }
         2 => {
             let mut b = [0u8; BYE_LEN];
-            encode_bye(r.next() as u32, &mut b);
+            encode_bye(r.next_u64() as u32, &mut b);
             b.to_vec()
         }
         _ => {
             let mut b = [0u8; HELLO_LEN];
-            encode_hello(r.next() as u32, r.next(), &mut b);
+            encode_hello(r.next_u64() as u32, r.next_u64(), &mut b);
             b.to_vec()
         }
     }
@@ -91,7 +77,7 @@ fn mutate(r: &mut Rng, mut b: Vec<u8>) -> Vec<u8> {
             0 => b.truncate(r.below(n + 1)),
             1 => {
                 let extra = 1 + r.below(64);
-                b.extend((0..extra).map(|_| r.next() as u8));
+                b.extend((0..extra).map(|_| r.next_u64() as u8));
             }
             2 if n > 0 => {
                 let i = r.below(n);
@@ -103,11 +89,11 @@ fn mutate(r: &mut Rng, mut b: Vec<u8>) -> Vec<u8> {
                 let o = HEADER_LEN + 8 * r.below(fields);
                 b[o..o + 8].copy_from_slice(&SPECIAL[r.below(SPECIAL.len())].to_le_bytes());
             }
-            4 if n > 4 => b[4] = r.next() as u8,
-            5 if n > 5 => b[5] = r.next() as u8,
+            4 if n > 4 => b[4] = r.next_u64() as u8,
+            5 if n > 5 => b[5] = r.next_u64() as u8,
             _ if n > 0 => {
                 let i = r.below(n.min(4));
-                b[i] = r.next() as u8;
+                b[i] = r.next_u64() as u8;
             }
             _ => {}
         }
@@ -151,12 +137,12 @@ fn decode_random_and_mutated_datagrams() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(20_000);
-    let mut r = Rng(0x7564_7066);
+    let mut r = Rng::new(0x7564_7066);
     let (mut accepted, mut rejected) = (0u64, 0u64);
     for case in 0..cases {
         let b = if case % 3 == 0 {
             let len = r.below(300);
-            let mut b: Vec<u8> = (0..len).map(|_| r.next() as u8).collect();
+            let mut b: Vec<u8> = (0..len).map(|_| r.next_u64() as u8).collect();
             // Half of the random ones get a valid magic and version to reach the kind checks.
             if case % 2 == 0 && b.len() >= 5 {
                 b[..4].copy_from_slice(b"H6DB");

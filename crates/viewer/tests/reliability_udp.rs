@@ -6,6 +6,7 @@
 
 mod common;
 
+use devkit::Rng;
 use std::net::UdpSocket;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
@@ -29,45 +30,32 @@ fn raw_pose(seq: u32, q: [f64; 6]) -> [u8; POSE_LEN] {
     buf
 }
 
-/// SplitMix64.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-}
-
 /// One bad datagram, always undecodable: random bytes, or a POSE (with a newer sequence
 /// number) made invalid by a NaN / inf field, truncation, extension, version or kind.
 fn bad_datagram(r: &mut Rng, seq: u32) -> Vec<u8> {
     let mut b = raw_pose(seq, [0.0, 0.0, -80.0, 0.0, 0.0, 0.0]).to_vec();
-    match r.next() % 7 {
+    match r.next_u64() % 7 {
         0 => {
-            let o = 24 + 8 * (r.next() % 6) as usize;
+            let o = 24 + 8 * (r.next_u64() % 6) as usize;
             b[o..o + 8].copy_from_slice(&f64::NAN.to_le_bytes());
         }
         1 => {
-            let o = 24 + 8 * (r.next() % 6) as usize;
+            let o = 24 + 8 * (r.next_u64() % 6) as usize;
             b[o..o + 8].copy_from_slice(&f64::NEG_INFINITY.to_le_bytes());
         }
-        2 => b.truncate((r.next() % POSE_LEN as u64) as usize),
+        2 => b.truncate((r.next_u64() % POSE_LEN as u64) as usize),
         3 => b.extend([0u8; 9]),
         4 => {
             // Any version but the one spoken.
-            b[4] = (r.next() % 255) as u8;
+            b[4] = (r.next_u64() % 255) as u8;
             if b[4] == protocol::VERSION {
                 b[4] = 255;
             }
         }
-        5 => b[5] = [0u8, 4, 9, 255][(r.next() % 4) as usize],
+        5 => b[5] = [0u8, 4, 9, 255][(r.next_u64() % 4) as usize],
         _ => {
-            let len = (r.next() % 1500) as usize;
-            b = (0..len).map(|_| r.next() as u8).collect();
+            let len = (r.next_u64() % 1500) as usize;
+            b = (0..len).map(|_| r.next_u64() as u8).collect();
         }
     }
     assert!(decode(&b).is_err(), "the generator made a valid datagram");
@@ -106,7 +94,7 @@ fn garbage_flood_is_counted_and_never_applied() {
         .unwrap();
     assert_eq!(recv_wrench(&sock).header.ack, 1);
 
-    let mut r = Rng(0xF100D);
+    let mut r = Rng::new(0xF100D);
     let mut sent_bad = 0u64;
     for (round, seq) in (0..20).zip(2u32..) {
         for _ in 0..50 {
