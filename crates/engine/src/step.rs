@@ -1035,18 +1035,25 @@ impl GodObject {
                 boxed = trust.then(|| match sweep {
                     Some(_) => Trust::Path(width / 12f64.sqrt()),
                     None if path_regions => {
-                        // Shared as the predicted motion is (the hand's press into a surface
-                        // is need the tool will not follow), or evenly at rest.
+                        // Each part gets the larger of its shares of the need and of the
+                        // predicted motion (the hand's press into a surface is need the tool
+                        // will not follow; a turn it follows may be a small part of the need).
                         let q_pred = self.predicted_pose(q_h);
                         let pred_t = (q_pred.translation() - q_lin.translation()).norm();
                         let pred_r =
                             rotation_angle(&q_pred.rotation_matrix(), &q_lin.rotation_matrix())
                                 * self.reach;
-                        if pred_t + pred_r > 1e-9 {
-                            self.trust_box(allowed, pred_t, pred_r)
-                        } else {
-                            self.trust_box(allowed, 1.0, 1.0)
-                        }
+                        let share = |t: f64, r: f64| {
+                            if t + r > 0.0 {
+                                (t / (t + r)).clamp(0.2, 0.8)
+                            } else {
+                                0.5
+                            }
+                        };
+                        let (s_need, s_pred) = (share(need_t, need_r), share(pred_t, pred_r));
+                        let t = s_need.max(s_pred);
+                        let r = (1.0 - s_need).max(1.0 - s_pred);
+                        self.trust_box(allowed, t, r)
                     }
                     None => self.trust_box(allowed, need_t, need_r),
                 });
