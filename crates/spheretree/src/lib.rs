@@ -1,6 +1,10 @@
 //! Hierarchical sphere-trees: the flat breadth-first tree type, builders, Bradshaw `.sph` IO
 //! and the fit measure.
 //!
+//! The builders, the fit measure and `.sph` IO are behind the default feature `offline` (they
+//! need `mesh` and `rayon`); the real-time crates use the tree type alone
+//! (`default-features = false`).
+//!
 //! Entry points:
 //! - [`SphereTree`], [`Sphere`]: the tree (flat, breadth-first, branching B, unused slots).
 //! - [`sph`]: the Bradshaw `.sph` format ([`sph::read_sph`], [`sph::write_sph`]).
@@ -11,9 +15,12 @@
 
 // The builders live in `src/builder/`, not `src/build/`: tools and global gitignores take a
 // `build/` directory for build output. The public path stays `spheretree::build`.
+#[cfg(feature = "offline")]
 #[path = "builder/mod.rs"]
 pub mod build;
+#[cfg(feature = "offline")]
 pub mod eval;
+#[cfg(feature = "offline")]
 pub mod sph;
 mod tree;
 

@@ -28,6 +28,15 @@
 //!    `T = kr log(R_g R_h^T)` (N·mm, world axes; the exact gradient of the spring energy
 //!    `kr/2 |log(R_g R_h^T)|^2`), or the paper's `kr (euler_g - euler_h)` in Euler coordinates.
 //!
+//! A hand in motion takes a **path region** instead of a ball: the pairs along the motion
+//! predicted for the tool (it keeps last frame's offset from the hand), with a slab about the
+//! path as its trust region; a detected region is reused by later frames while the tool and
+//! its prediction stay inside it.
+//!
+//! The stages live in their own files: `detect.rs` (regions, prediction, free-space proof),
+//! `constrain.rs` (rows and trust regions), `solve.rs` (the QP and its warm start),
+//! `measure.rs` (exact gaps, the spring wrench); this file holds the state and the pass loop.
+//!
 //! Passes stop at `1 + relinearize` or when the next one would overrun `budget_us`. A frame that
 //! stops before the optimum is **lagging**: it returns the last pose proven free (never a
 //! penetrating one) and says so in [`FrameOutput::status`]. A frame that fails (non-finite input,
@@ -45,6 +54,14 @@ use qp::{Problem, Solver, SolverKind, Status};
 use spheretree::SphereTree;
 
 use crate::EngineError;
+
+mod constrain;
+mod detect;
+mod measure;
+mod solve;
+
+use measure::rotation_angle;
+pub use measure::spring_wrench;
 
 /// Parameters of the step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -285,40 +302,6 @@ pub struct GodObject {
     started: bool,
 }
 
-/// Angle (rad, in `[0, pi]`) of `a b^T`.
-fn rotation_angle(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
-    rotation_log(&(a * b.transpose())).norm()
-}
-
-/// The spring wrench on the hand `[F; T]` (N, N·mm) pulling it from `q_h` toward `q_g`:
-/// `F = kt (t_g - t_h)`; `T = kr log(R_g R_h^T)` (world axes) for rotation vectors, the
-/// paper's `kr (euler_g - euler_h)` for Euler coordinates.
-pub fn spring_wrench(
-    g: &[f64; 6],
-    rotation: RotationCoordinates,
-    q_g: &Pose,
-    q_h: &Pose,
-) -> [f64; 6] {
-    let mut w = [0.0; 6];
-    for k in 0..3 {
-        w[k] = g[k] * (q_g.q[k] - q_h.q[k]);
-    }
-    match rotation {
-        RotationCoordinates::Euler => {
-            for k in 3..6 {
-                w[k] = g[k] * (q_g.q[k] - q_h.q[k]);
-            }
-        }
-        RotationCoordinates::RotationVector => {
-            let v = rotation_log(&(q_g.rotation_matrix() * q_h.rotation_matrix().transpose()));
-            for k in 3..6 {
-                w[k] = g[k] * v[k - 3];
-            }
-        }
-    }
-    w
-}
-
 impl GodObject {
     /// Packs the tool tree (tool frame, mm) and the object trees (object frame, mm, each with
     /// its fixed pose) and reserves every buffer (allocates; not real-time).
@@ -404,190 +387,6 @@ impl GodObject {
         &self.pairs
     }
 
-    /// Collects pairs at `q` within `margin` into `self.pairs` (at most `max_pairs`; the rest
-    /// are counted in `self.dropped`); returns the smallest gap seen (mm, +inf if none).
-    fn detect(&mut self, q: &Pose, margin: f64) -> Result<f64, collide::CollideError> {
-        self.detect_along(q, None, margin)
-    }
-
-    /// [`GodObject::detect`], or with a sweep for a path region: the pairs that come within
-    /// `margin` (mm) of touching along it from `q`.
-    fn detect_along(
-        &mut self,
-        q: &Pose,
-        sweep: Option<&Sweep>,
-        margin: f64,
-    ) -> Result<f64, collide::CollideError> {
-        self.cached = None;
-        self.pairs.clear();
-        self.dropped = 0;
-        let pairs = &mut self.pairs;
-        let dropped = &mut self.dropped;
-        let mut min_gap = f64::INFINITY;
-        let collect = |p: &LeafPair| {
-            min_gap = min_gap.min(p.gap);
-            if pairs.len() < pairs.capacity() {
-                pairs.push(*p);
-            } else {
-                *dropped += 1;
-            }
-        };
-        match sweep {
-            None => overlap_tree_trees(&self.tool, q, &self.objects, margin, &mut self.ws, collect),
-            Some(sweep) => overlap_swept(
-                &self.tool,
-                q,
-                sweep,
-                &self.objects,
-                margin,
-                &mut self.ws,
-                collect,
-            ),
-        }?;
-        Ok(min_gap)
-    }
-
-    /// True when some leaf pair is within `margin` (mm) of touching at `q`; stops at the first
-    /// one, so a large margin (a fast hand) stays cheap. Stores no pair.
-    fn any_within(&mut self, q: &Pose, margin: f64) -> Result<bool, collide::CollideError> {
-        collide::any_pair_within(&self.tool, q, &self.objects, margin, &mut self.ws)
-    }
-
-    /// Where this frame's answer is expected, as a motion from `q_lin`: the hand keeps last
-    /// frame's offset from the graphic tool (`hand_offset`), so the tool moves as the hand
-    /// did. `None` when that motion is shorter than [`MIN_SWEEP_MM`]; scaled down to `cap` mm.
-    /// Returns the sweep and its largest sphere motion (mm).
-    fn predicted_sweep(&self, q_lin: &Pose, q_h: &Pose, cap: f64) -> Option<(Sweep, f64)> {
-        let q_pred = self.predicted_pose(q_h);
-        let v = q_pred.translation() - q_lin.translation();
-        let w = rotation_log(&(q_pred.rotation_matrix() * q_lin.rotation_matrix().transpose()));
-        let length = v.norm() + w.norm() * self.reach;
-        if length.is_nan() || length < MIN_SWEEP_MM {
-            return None;
-        }
-        // At least PATH_MIN_MM long, so a slow hand's next frames reuse the region.
-        let scale = (PATH_MIN_MM / length).max(1.0).min(cap / length);
-        let sweep = Sweep {
-            translation: (v * scale).into(),
-            rotation: (w * scale).into(),
-        };
-        Some((sweep, length * scale))
-    }
-
-    /// How far (mm, largest sphere motion) the pose `q` (variable `dq` of `lin`) is from
-    /// `region`: from its centre, or from the nearest pose on its path (found in the variable,
-    /// rotations scaled by reach).
-    fn distance_from_region(
-        &self,
-        lin: &Linearization,
-        region: &Region,
-        q: &Pose,
-        dq: &[f64; 6],
-    ) -> f64 {
-        if region.sweep.is_none() {
-            return self.motion_bound(&region.center, q);
-        }
-        let base = lin.variable(&region.center);
-        let end = lin.variable(&region.end());
-        let reach2 = self.reach.max(1e-9).powi(2);
-        let (mut along, mut len2) = (0.0, 0.0);
-        for k in 0..6 {
-            let d = (end[k] - base[k]) * if k < 3 { 1.0 } else { reach2 };
-            along += (dq[k] - base[k]) * d;
-            len2 += (end[k] - base[k]) * d;
-        }
-        let s = if len2 > 0.0 {
-            (along / len2).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let on_path = lin.configuration(&std::array::from_fn(|k| base[k] + s * (end[k] - base[k])));
-        self.motion_bound(&on_path, q)
-    }
-
-    /// Where the graphic tool is expected for the device pose `q_h`: at last frame's offset
-    /// from the hand ([`GodObject::hand_offset`]).
-    fn predicted_pose(&self, q_h: &Pose) -> Pose {
-        let (off_t, off_w) = self.hand_offset;
-        Pose::from_translation_rotation(
-            &(q_h.translation() - off_t),
-            &(rotation_exp(&-off_w) * q_h.rotation_matrix()),
-        )
-    }
-
-    /// Deepest overlap (mm, >= 0) of the tool at `q`, using `self.pairs` as scratch.
-    pub fn penetration_at(&mut self, q: &Pose) -> f64 {
-        match self.detect(q, 0.0) {
-            Ok(g) if g.is_finite() => (-g).max(0.0),
-            Ok(_) => 0.0,
-            Err(_) => f64::INFINITY,
-        }
-    }
-
-    /// Keeps the free-space proof ahead of the tool without a long traversal in any one frame:
-    /// when the current proof has only a few frames of slack left (`slack` mm at the tool's
-    /// last motion per frame), a probe starts at `q`; each frame runs one slice of it
-    /// ([`PROBE_SLICE_SPLITS`] node pairs); a finished free probe becomes the proof if it
-    /// leaves more slack at `q` than the current one.
-    fn tend_probe(&mut self, q: &Pose, slack: f64) {
-        // Frames the current proof still lasts at the tool's speed, and the slice that finishes
-        // a probe as long as the last one within them.
-        let frames_left = slack / self.last_motion.max(1e-4);
-        if self.probe.status() == ProbeStatus::Running {
-            let left = self.probe_splits.saturating_sub(self.probe.splits()) as f64;
-            let slice = (left / (frames_left - 1.0).max(1.0))
-                .clamp(PROBE_SLICE_SPLITS as f64, PROBE_MAX_SLICE_SPLITS as f64);
-            self.probe
-                .advance(&self.tool, &self.objects, slice as usize);
-        }
-        match self.probe.status() {
-            ProbeStatus::Free => {
-                self.probe_splits = self.probe.splits();
-                let (_, pose, radius) = self.probe.take();
-                let new_slack = radius - self.motion_bound(&pose, q);
-                let old_slack = self.free_radius - self.motion_bound(&self.free_center, q);
-                if new_slack > old_slack {
-                    self.free_center = pose;
-                    self.free_radius = radius;
-                }
-            }
-            ProbeStatus::Touching => {
-                self.probe.take();
-            }
-            ProbeStatus::Idle => {
-                // Where a whole proof costs less than a slice (open space), renewing it when
-                // it runs out is cheaper than probing ahead.
-                let worth_it = self.probe_splits > PROBE_SLICE_SPLITS;
-                let lead = self.probe_splits as f64 / PROBE_SLICE_SPLITS as f64 + 2.0;
-                if worth_it && frames_left < lead.max(PROBE_LEAD_FRAMES) {
-                    // Probe where the tool will be halfway through the probe's slices (it
-                    // keeps moving as it did last frame), so the answer is fresh on arrival.
-                    let frames = (self.probe_splits as f64 / PROBE_NOMINAL_SLICE_SPLITS as f64)
-                        .clamp(1.0, PROBE_LEAD_FRAMES);
-                    let mut ahead = *q;
-                    for k in 0..3 {
-                        ahead.q[k] += 0.5 * frames * self.last_step[k];
-                    }
-                    let _ = self.probe.start(&self.tool, &ahead, FREE_PROBE_MM);
-                }
-            }
-            ProbeStatus::Running => {}
-        }
-    }
-
-    /// The motion bound (mm) of any tool leaf centre between `a` and `b`:
-    /// `|t_b - t_a| + angle(R_b R_a^T) · reach`.
-    fn motion_bound(&self, a: &Pose, b: &Pose) -> f64 {
-        let dt = (b.translation() - a.translation()).norm();
-        let th = rotation_angle(&b.rotation_matrix(), &a.rotation_matrix());
-        dt + th * self.reach
-    }
-
-    /// The linearization of the current pair list at `q_lin` for the device pose `q_h`.
-    fn linearization(&self, q_lin: &Pose, q_h: &Pose) -> Option<Linearization> {
-        Linearization::with_coordinates(self.params.form, self.params.rotation, q_lin, q_h).ok()
-    }
-
     /// Resets the graphic tool for a new run at the device pose `start`: `q_g = start` if it is
     /// free, else the nearest free pose found by repeated projection (each pass: detect at the
     /// current `q`, solve the QP toward `start`, re-measure). Allocation-free after `new`.
@@ -637,185 +436,6 @@ impl GodObject {
         Err(EngineError::NoFreeStart {
             searched_mm: searched,
         })
-    }
-
-    /// Fills rows for `self.pairs` from `lin`, plus the trust region when given, about the
-    /// variable's values `base` at the region's centre and `end` at the end of its path.
-    /// Returns the row count.
-    fn fill_rows(
-        &mut self,
-        lin: &Linearization,
-        trust: Option<(Trust, [f64; 6], [f64; 6])>,
-    ) -> usize {
-        let mut n = 0;
-        for (pair, (row, d)) in self
-            .pairs
-            .iter()
-            .zip(self.rows.iter_mut().zip(self.rhs.iter_mut()))
-        {
-            let (j, rhs) = lin.row(pair);
-            *row = j;
-            *d = rhs;
-            n += 1;
-        }
-        match trust {
-            None => {}
-            Some((Trust::Box(w_t, w_r), base, _)) => {
-                for k in 0..6 {
-                    let w = if k < 3 { w_t } else { w_r };
-                    let mut e = [0.0; 6];
-                    e[k] = 1.0;
-                    n += self.push_slab(n, &e, base[k] - w, base[k] + w);
-                }
-            }
-            Some((Trust::Path(a), base, end)) => {
-                // In the variable scaled by reach for rotations (a sphere's motion is at most
-                // sqrt(2) times the scaled norm): one direction along the path, five across it
-                // (Gram-Schmidt on the unit vectors but the one most along the path).
-                let reach = self.reach.max(1e-9);
-                let scale = |k: usize| if k < 3 { 1.0 } else { reach };
-                let mut d = [0.0; 6];
-                for k in 0..6 {
-                    d[k] = (end[k] - base[k]) * scale(k);
-                }
-                let len = d.iter().map(|v| v * v).sum::<f64>().sqrt();
-                let mut basis = [[0.0; 6]; 6];
-                let skip = if len > 1e-12 {
-                    basis[0] = d.map(|v| v / len);
-                    (0..6)
-                        .max_by(|&i, &j| basis[0][i].abs().total_cmp(&basis[0][j].abs()))
-                        .unwrap_or(0)
-                } else {
-                    basis[0][0] = 1.0;
-                    0
-                };
-                for (m, j) in (1..).zip((0..6).filter(|&j| j != skip)) {
-                    let mut v = [0.0; 6];
-                    v[j] = 1.0;
-                    for b in &basis[..m] {
-                        let dot: f64 = (0..6).map(|k| v[k] * b[k]).sum();
-                        for k in 0..6 {
-                            v[k] -= dot * b[k];
-                        }
-                    }
-                    let nv = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-                    basis[m] = v.map(|x| x / nv);
-                }
-                for (i, u) in basis.iter().enumerate() {
-                    let mut row = [0.0; 6];
-                    for k in 0..6 {
-                        row[k] = u[k] * scale(k);
-                    }
-                    let c: f64 = (0..6).map(|k| row[k] * base[k]).sum();
-                    let far = if i == 0 { len } else { 0.0 };
-                    n += self.push_slab(n, &row, c - a, c + far + a);
-                }
-            }
-        }
-        n
-    }
-
-    /// Writes the two rows `lo <= row . dq <= hi` at `n`; returns 2.
-    fn push_slab(&mut self, n: usize, row: &[f64; 6], lo: f64, hi: f64) -> usize {
-        self.rows[n] = *row;
-        self.rhs[n] = lo;
-        self.rows[n + 1] = row.map(|v| -v);
-        self.rhs[n + 1] = -hi;
-        2
-    }
-
-    /// True when the answer `dq` sits on the trust region's boundary (rows `from..to`): the
-    /// region, not the contact, stopped it.
-    fn trust_binds(&self, trust: Trust, from: usize, to: usize, dq: &[f64; 6]) -> bool {
-        (from..to).any(|i| {
-            let width = match trust {
-                Trust::Box(w_t, w_r) => {
-                    if (i - from) / 2 < 3 {
-                        w_t
-                    } else {
-                        w_r
-                    }
-                }
-                Trust::Path(a) => a,
-            };
-            let value: f64 = (0..6).map(|k| self.rows[i][k] * dq[k]).sum();
-            value - self.rhs[i] <= 1e-3 * width
-        })
-    }
-
-    /// The trust box for a pass that may move any tool sphere by at most `allowed` mm from
-    /// `q_lin`, when the motion expected needs `need_t` mm of translation and `need_r` mm of
-    /// rotation (angle times reach). The budget is shared in proportion to the need (each part keeps at
-    /// least a fifth, so the constraints can still push the tool out): translation half-width
-    /// `a` per axis moves a point by at most `sqrt(3) a`; rotation half-width `b` per coordinate
-    /// by at most `sqrt(3) b reach` (rotation vector) or `3 b reach` (Euler increments).
-    fn trust_box(&self, allowed: f64, need_t: f64, need_r: f64) -> Trust {
-        let need = need_t + need_r;
-        let share_t = if need > 0.0 {
-            (need_t / need).clamp(0.2, 0.8)
-        } else {
-            0.5
-        };
-        let a = allowed * share_t / 3f64.sqrt();
-        let per_axis = match self.params.rotation {
-            RotationCoordinates::RotationVector => 3f64.sqrt(),
-            RotationCoordinates::Euler => 3.0,
-        };
-        let b = (allowed * (1.0 - share_t) / (per_axis * self.reach.max(1e-9))).min(0.5);
-        Trust::Box(a, b)
-    }
-
-    /// Solves the QP on the first `n` rows; `dq0` is the (feasible when free) start
-    /// `q_lin - q_h` for the primal active-set solver. `None` on a numerical failure.
-    fn solve(&mut self, n: usize, dq0: &[f64; 6]) -> Option<([f64; 6], u32, Status, f64)> {
-        let p = Problem::new(self.params.g, &self.rows[..n], &self.rhs[..n]).ok()?;
-        if self.warm_len > 0 {
-            self.solver
-                .dual
-                .set_warm_start(&self.warm_idx[..self.warm_len]);
-        } else {
-            self.solver.dual.clear_warm_start();
-        }
-        let s = self.solver.solve(&p, dq0);
-        if s.status == Status::NumericalError {
-            return None;
-        }
-        Some((s.dq, s.iterations, s.status, s.kkt.max_violation))
-    }
-
-    /// Maps the remembered active pairs onto the rows of the current pair list.
-    fn map_warm_start(&mut self) {
-        let mut m = 0;
-        for w in 0..self.warm_len {
-            let id = self.warm[w];
-            if let Some(i) = self
-                .pairs
-                .iter()
-                .position(|p| (p.object, p.tool_slot, p.object_slot) == id)
-            {
-                self.warm_idx[m] = i;
-                m += 1;
-            }
-        }
-        self.warm_len = m;
-    }
-
-    /// Remembers the identities of the active pairs of the last solve.
-    fn remember_active(&mut self, n_pairs: usize) {
-        let active = match self.solver.kind {
-            SolverKind::Dual => self.solver.dual.active_set(),
-            SolverKind::ActiveSet => self.solver.active_set.active_set(),
-            SolverKind::Pqp => &[],
-        };
-        let mut m = 0;
-        for &i in active {
-            if i < n_pairs && m < 6 {
-                let p = &self.pairs[i];
-                self.warm[m] = (p.object, p.tool_slot, p.object_slot);
-                m += 1;
-            }
-        }
-        self.warm_len = m;
     }
 
     /// One haptic frame for the device configuration `q_h` (see the module docs).
@@ -1174,30 +794,6 @@ impl GodObject {
         out.opt_us = opt * 1e6;
         out.total_us = t_start.elapsed().as_secs_f64() * 1e6;
         out
-    }
-
-    /// At `q` (the answer `dq` of the last solve over the first `n_pairs` rows): the deepest
-    /// overlap among the listed pairs (mm, >= 0), and the largest amount by which a row that
-    /// the answer holds tight (linearized gap ~0) is in truth still open (mm): the
-    /// linearization's undershoot, zero at a converged pose; and how many pairs touch (exact
-    /// gap at most [`TOUCH_MM`]).
-    fn gaps_at(&self, q: &Pose, dq: &[f64; 6], n_pairs: usize) -> (f64, f64, u32) {
-        let rot = q.rotation_matrix();
-        let t = q.translation();
-        let (mut deepest, mut slack, mut touching) = (0.0f64, 0.0f64, 0u32);
-        for (i, p) in self.pairs.iter().enumerate().take(n_pairs) {
-            let c = rot * nalgebra::Vector3::from(p.p_in_tool) + t;
-            let o = nalgebra::Vector3::from(p.o_in_world);
-            let gap = (c - o).norm() - (p.r_tool + p.r_object);
-            deepest = deepest.max(-gap);
-            touching += u32::from(gap <= TOUCH_MM);
-            let row = &self.rows[i];
-            let lin_gap: f64 = (0..6).map(|k| row[k] * dq[k]).sum::<f64>() - self.rhs[i];
-            if lin_gap <= TIGHT_MM {
-                slack = slack.max(gap - lin_gap);
-            }
-        }
-        (deepest, slack, touching)
     }
 
     fn keep_last_safe(&mut self, mut out: FrameOutput, q_h: &Pose, t0: Instant) -> FrameOutput {

@@ -1,0 +1,137 @@
+//! Constrain: the linearized rows of the listed pairs and the trust region (a box, or a slab
+//! about a path) that keeps a pass inside its detected region.
+
+use super::*;
+
+impl GodObject {
+    /// The linearization of the current pair list at `q_lin` for the device pose `q_h`.
+    pub(super) fn linearization(&self, q_lin: &Pose, q_h: &Pose) -> Option<Linearization> {
+        Linearization::with_coordinates(self.params.form, self.params.rotation, q_lin, q_h).ok()
+    }
+
+    /// Fills rows for `self.pairs` from `lin`, plus the trust region when given, about the
+    /// variable's values `base` at the region's centre and `end` at the end of its path.
+    /// Returns the row count.
+    pub(super) fn fill_rows(
+        &mut self,
+        lin: &Linearization,
+        trust: Option<(Trust, [f64; 6], [f64; 6])>,
+    ) -> usize {
+        let mut n = 0;
+        for (pair, (row, d)) in self
+            .pairs
+            .iter()
+            .zip(self.rows.iter_mut().zip(self.rhs.iter_mut()))
+        {
+            let (j, rhs) = lin.row(pair);
+            *row = j;
+            *d = rhs;
+            n += 1;
+        }
+        match trust {
+            None => {}
+            Some((Trust::Box(w_t, w_r), base, _)) => {
+                for k in 0..6 {
+                    let w = if k < 3 { w_t } else { w_r };
+                    let mut e = [0.0; 6];
+                    e[k] = 1.0;
+                    n += self.push_slab(n, &e, base[k] - w, base[k] + w);
+                }
+            }
+            Some((Trust::Path(a), base, end)) => {
+                // In the variable scaled by reach for rotations (a sphere's motion is at most
+                // sqrt(2) times the scaled norm): one direction along the path, five across it
+                // (Gram-Schmidt on the unit vectors but the one most along the path).
+                let reach = self.reach.max(1e-9);
+                let scale = |k: usize| if k < 3 { 1.0 } else { reach };
+                let mut d = [0.0; 6];
+                for k in 0..6 {
+                    d[k] = (end[k] - base[k]) * scale(k);
+                }
+                let len = d.iter().map(|v| v * v).sum::<f64>().sqrt();
+                let mut basis = [[0.0; 6]; 6];
+                let skip = if len > 1e-12 {
+                    basis[0] = d.map(|v| v / len);
+                    (0..6)
+                        .max_by(|&i, &j| basis[0][i].abs().total_cmp(&basis[0][j].abs()))
+                        .unwrap_or(0)
+                } else {
+                    basis[0][0] = 1.0;
+                    0
+                };
+                for (m, j) in (1..).zip((0..6).filter(|&j| j != skip)) {
+                    let mut v = [0.0; 6];
+                    v[j] = 1.0;
+                    for b in &basis[..m] {
+                        let dot: f64 = (0..6).map(|k| v[k] * b[k]).sum();
+                        for k in 0..6 {
+                            v[k] -= dot * b[k];
+                        }
+                    }
+                    let nv = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+                    basis[m] = v.map(|x| x / nv);
+                }
+                for (i, u) in basis.iter().enumerate() {
+                    let mut row = [0.0; 6];
+                    for k in 0..6 {
+                        row[k] = u[k] * scale(k);
+                    }
+                    let c: f64 = (0..6).map(|k| row[k] * base[k]).sum();
+                    let far = if i == 0 { len } else { 0.0 };
+                    n += self.push_slab(n, &row, c - a, c + far + a);
+                }
+            }
+        }
+        n
+    }
+
+    /// Writes the two rows `lo <= row . dq <= hi` at `n`; returns 2.
+    pub(super) fn push_slab(&mut self, n: usize, row: &[f64; 6], lo: f64, hi: f64) -> usize {
+        self.rows[n] = *row;
+        self.rhs[n] = lo;
+        self.rows[n + 1] = row.map(|v| -v);
+        self.rhs[n + 1] = -hi;
+        2
+    }
+
+    /// True when the answer `dq` sits on the trust region's boundary (rows `from..to`): the
+    /// region, not the contact, stopped it.
+    pub(super) fn trust_binds(&self, trust: Trust, from: usize, to: usize, dq: &[f64; 6]) -> bool {
+        (from..to).any(|i| {
+            let width = match trust {
+                Trust::Box(w_t, w_r) => {
+                    if (i - from) / 2 < 3 {
+                        w_t
+                    } else {
+                        w_r
+                    }
+                }
+                Trust::Path(a) => a,
+            };
+            let value: f64 = (0..6).map(|k| self.rows[i][k] * dq[k]).sum();
+            value - self.rhs[i] <= 1e-3 * width
+        })
+    }
+
+    /// The trust box for a pass that may move any tool sphere by at most `allowed` mm from
+    /// `q_lin`, when the motion expected needs `need_t` mm of translation and `need_r` mm of
+    /// rotation (angle times reach). The budget is shared in proportion to the need (each part keeps at
+    /// least a fifth, so the constraints can still push the tool out): translation half-width
+    /// `a` per axis moves a point by at most `sqrt(3) a`; rotation half-width `b` per coordinate
+    /// by at most `sqrt(3) b reach` (rotation vector) or `3 b reach` (Euler increments).
+    pub(super) fn trust_box(&self, allowed: f64, need_t: f64, need_r: f64) -> Trust {
+        let need = need_t + need_r;
+        let share_t = if need > 0.0 {
+            (need_t / need).clamp(0.2, 0.8)
+        } else {
+            0.5
+        };
+        let a = allowed * share_t / 3f64.sqrt();
+        let per_axis = match self.params.rotation {
+            RotationCoordinates::RotationVector => 3f64.sqrt(),
+            RotationCoordinates::Euler => 3.0,
+        };
+        let b = (allowed * (1.0 - share_t) / (per_axis * self.reach.max(1e-9))).min(0.5);
+        Trust::Box(a, b)
+    }
+}
