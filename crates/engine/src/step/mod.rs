@@ -481,21 +481,20 @@ impl GodObject {
         // Path regions (along the predicted motion) are tried until one overflows.
         let mut path_regions = self.params.relinearize > 0
             && self.params.rotation == RotationCoordinates::RotationVector;
-        // Last frame's region, while the tool and where it is heading are well inside it: no
-        // traversal in this pass.
-        // (A large list costs more to solve again than a small region to detect.)
+        // Last frame's region, while the tool is well inside it: no traversal in this pass. Its
+        // trust region keeps the answer inside; one that binds starts a new region (a wrong
+        // guess costs a small solve, not a traversal). A large list costs more to solve again
+        // than a small region to detect.
         let reusable = path_regions && self.pairs.len() <= REUSE_MAX_PAIRS;
+        let mut reused = false;
         if let Some((cached, trust)) = self.cached.filter(|_| reusable) {
             if let Some(lin) = self.linearization(&q_lin, q_h) {
-                let q_pred = self.predicted_pose(q_h);
-                let inside = |q: &Pose| {
-                    self.distance_from_region(&lin, &cached, q, &lin.variable(q))
-                        <= 0.5 * cached.width
-                };
-                if inside(&q_lin) && inside(&q_pred) {
+                let depth = self.distance_from_region(&lin, &cached, &q_lin, &lin.delta());
+                if depth <= 0.5 * cached.width {
                     region = cached;
                     boxed = Some(trust);
                     detect_now = false;
+                    reused = true;
                     out.pairs = self.pairs.len() as u32;
                     out.margin_mm = cached.width + skin;
                     self.map_warm_start();
@@ -612,11 +611,12 @@ impl GodObject {
                     out.pairs = self.pairs.len() as u32;
                     out.margin_mm = if sweep.is_some() { width } else { allowed } + skin;
                 }
-                if sweep.is_some() {
-                    // A path region's count says nothing of the pairs per mm all around.
-                } else if !self.pairs.is_empty() {
+                if !self.pairs.is_empty() {
                     // Pairs per mm of margin, remembered (slowly forgotten) for the next choice.
-                    let density = (self.pairs.len() + self.dropped) as f64 / (allowed + skin);
+                    // (A path region's count over its width overstates the density all
+                    // around: the safe side, smaller ball regions after it.)
+                    let margin = if sweep.is_some() { width } else { allowed } + skin;
+                    let density = (self.pairs.len() + self.dropped) as f64 / margin;
                     self.pairs_per_mm = density.max(0.9 * self.pairs_per_mm);
                 } else {
                     self.pairs_per_mm *= 0.9;
@@ -755,8 +755,13 @@ impl GodObject {
                     reached = true;
                     break;
                 }
-                // Safe and as far as this region allows: a larger region from here.
-                allow = (2.0 * region.extent()).max(MIN_ALLOW_MM).min(cap);
+                // Safe and as far as this region allows: a larger region from here (a region
+                // reused from an earlier frame was sized for that frame's motion: this frame's
+                // allowance instead).
+                if !reused {
+                    allow = (2.0 * region.extent()).max(MIN_ALLOW_MM).min(cap);
+                }
+                reused = false;
                 detect_now = true;
             }
             // Penetrating or undershooting: re-linearise at q_new (same pairs).
