@@ -114,6 +114,11 @@ impl GodObject {
         self.motion_bound(&on_path, q)
     }
 
+    /// Width (mm) of a path region: twice the recent prediction error, within bounds.
+    pub(super) fn path_width(&self) -> f64 {
+        (2.0 * self.prediction_error).clamp(PATH_WIDTH_MIN_MM, PATH_WIDTH_MAX_MM)
+    }
+
     /// Where the graphic tool is expected for the device pose `q_h`: at last frame's offset
     /// from the hand ([`GodObject::hand_offset`]).
     pub(super) fn predicted_pose(&self, q_h: &Pose) -> Pose {

@@ -206,6 +206,12 @@ const MIN_SWEEP_MM: f64 = 0.1;
 /// costs to rebuild, in solving time).
 const REUSE_MAX_PAIRS: usize = 400;
 
+/// A path region is taken only while its length plus width stays within this many times the
+/// allowance that keeps a ball region near [`PAIR_TARGET`] pairs (measured: at 1, the spline's
+/// worst frame drops under 1 ms but the puck at 1 m/s lags in a third of its frames; at 2,
+/// both hold up; at 3, the spline's worst frame is back over 1 ms).
+const PATH_DENSITY_FACTOR: f64 = 2.0;
+
 /// A path region reaches at least this far ahead (mm, largest sphere motion; at most
 /// `max_margin_mm`), so that a slow hand's next frames reuse it.
 const PATH_MIN_MM: f64 = 0.2;
@@ -541,13 +547,19 @@ impl GodObject {
                 // A hand in motion that the ball cannot follow: a region along the motion
                 // predicted for the tool instead (a sliding contact holds far fewer pairs along
                 // its path than within the path's length all around).
+                // (Within twice the pair-density cap of a ball, length and width together: a
+                // wide path through a dense contact costs more than a second pass.)
+                let path_cap = dense_cap.max(MIN_ALLOW_MM).min(cap);
                 let mut sweep = if trust && path_regions {
-                    self.predicted_sweep(&q_lin, q_h, cap)
+                    self.predicted_sweep(&q_lin, q_h, path_cap)
+                        .filter(|&(_, len)| {
+                            len + self.path_width() <= PATH_DENSITY_FACTOR * path_cap
+                        })
                 } else {
                     None
                 };
                 let width = if sweep.is_some() {
-                    (2.0 * self.prediction_error).clamp(PATH_WIDTH_MIN_MM, PATH_WIDTH_MAX_MM)
+                    self.path_width()
                 } else {
                     allowed
                 };
