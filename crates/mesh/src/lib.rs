@@ -21,7 +21,7 @@ pub mod load;
 pub mod validate;
 
 pub use error::MeshError;
-pub use input::{read_input, MAX_MESH_BYTES};
+pub use input::{read_input, write_atomic, MAX_MESH_BYTES};
 pub use load::{load_mesh, load_mesh_bytes, LoadReport, LoadedMesh, MeshFormat};
 
 pub mod generate;

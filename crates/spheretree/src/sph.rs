@@ -46,7 +46,6 @@
 //! from such a file before using it for pruning.
 
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use crate::{slot_count, Sphere, SphereTree};
@@ -271,56 +270,10 @@ pub fn to_sph_string(tree: &SphereTree) -> Result<String, SphError> {
 /// removed and an existing file at `path` is left as it was.
 pub fn write_sph(tree: &SphereTree, path: &Path) -> Result<(), SphError> {
     let text = to_sph_string(tree)?;
-    write_atomic(path, text.as_bytes()).map_err(|error| SphError::Write {
+    mesh::write_atomic(path, text.as_bytes()).map_err(|error| SphError::Write {
         path: path.to_path_buf(),
         error,
     })
-}
-
-/// Writes `bytes` to a fresh temporary file beside `path`, syncs it, and renames it to `path`.
-fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = path
-        .file_name()
-        .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "no file name"))?
-        .to_string_lossy()
-        .into_owned();
-    let stamp = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_nanos())
-        .unwrap_or(0);
-    let mut attempt = 0u32;
-    let (tmp, mut file) = loop {
-        let tmp = dir.join(format!(
-            ".{name}.tmp-{}-{stamp}-{attempt}",
-            std::process::id()
-        ));
-        match std::fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&tmp)
-        {
-            Ok(f) => break (tmp, f),
-            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && attempt < 100 => {
-                attempt += 1;
-            }
-            Err(e) => return Err(e),
-        }
-    };
-    let result = file
-        .write_all(bytes)
-        .and_then(|()| file.sync_all())
-        .and_then(|()| {
-            drop(file);
-            std::fs::rename(&tmp, path)
-        });
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
 }
 
 /// Moves every used sphere of `tree` by `offset` (same units as the tree). Unused slots are
