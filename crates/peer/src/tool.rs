@@ -550,10 +550,10 @@ pub(crate) mod tests {
         )
     }
 
-    #[test]
-    fn free_tool_follows_the_hand_and_the_hand_feels_no_force_at_rest() {
+    /// The puck's hull against the plate's trimesh (internal edges fixed).
+    fn puck_on_plate() -> PeerScene {
         let (plate, puck) = plate_and_puck();
-        let scene = PeerScene::new(
+        PeerScene::new(
             &puck,
             &[(&plate, Pose::identity())],
             ToolShape::ConvexHull,
@@ -561,7 +561,12 @@ pub(crate) mod tests {
                 fix_internal_edges: true,
             },
         )
-        .unwrap();
+        .unwrap()
+    }
+
+    #[test]
+    fn free_tool_follows_the_hand_and_the_hand_feels_no_force_at_rest() {
+        let scene = puck_on_plate();
         let start = Pose::from_array([0.0, 0.0, 30.0, 0.0, 0.0, 0.0]);
         let mut tool = PeerTool::new(&scene, PeerParams::tuned(), &start).unwrap();
         let goal = Pose::from_array([5.0, -3.0, 40.0, 0.1, -0.05, 0.2]);
@@ -582,16 +587,7 @@ pub(crate) mod tests {
 
     #[test]
     fn pressed_tool_rests_on_the_plate_and_pushes_the_hand_up_with_kt_times_depth() {
-        let (plate, puck) = plate_and_puck();
-        let scene = PeerScene::new(
-            &puck,
-            &[(&plate, Pose::identity())],
-            ToolShape::ConvexHull,
-            ObjectShape::TriMesh {
-                fix_internal_edges: true,
-            },
-        )
-        .unwrap();
+        let scene = puck_on_plate();
         let start = Pose::from_array([0.0, 0.0, 2.0, 0.0, 0.0, 0.0]);
         let mut tool = PeerTool::new(&scene, PeerParams::tuned(), &start).unwrap();
         let pressed = Pose::from_array([0.0, 0.0, -1.0, 0.0, 0.0, 0.0]);
@@ -642,16 +638,7 @@ pub(crate) mod tests {
 
     #[test]
     fn bad_parameters_are_refused() {
-        let (plate, puck) = plate_and_puck();
-        let scene = PeerScene::new(
-            &puck,
-            &[(&plate, Pose::identity())],
-            ToolShape::ConvexHull,
-            ObjectShape::TriMesh {
-                fix_internal_edges: true,
-            },
-        )
-        .unwrap();
+        let scene = puck_on_plate();
         let bad = PeerParams {
             mass_kg: 0.0,
             ..PeerParams::tuned()
