@@ -19,6 +19,7 @@ mod holes;
 pub mod input;
 pub mod load;
 pub mod validate;
+pub mod vec3;
 
 pub use error::MeshError;
 pub use input::{read_input, write_atomic, MAX_MESH_BYTES};

@@ -17,6 +17,7 @@
 
 #![allow(clippy::needless_range_loop)] // xyz loops read better indexed
 
+pub(crate) use crate::vec3::{add, cross, dot, norm, norm2, scale as scale_v, sub};
 use crate::TriMesh;
 
 /// Largest number of triangles in a hierarchy leaf.
@@ -628,38 +629,6 @@ fn closest_on_triangle(p: [f64; 3], v: &[[f64; 3]; 3]) -> ([f64; 3], Feature) {
     (add(a, add(scale_v(ab, s), scale_v(ac, t))), Feature::Face)
 }
 
-#[inline]
-pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-#[inline]
-pub(crate) fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-#[inline]
-pub(crate) fn scale_v(a: [f64; 3], s: f64) -> [f64; 3] {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-#[inline]
-pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-#[inline]
-pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-#[inline]
-fn norm2(a: [f64; 3]) -> f64 {
-    dot(a, a)
-}
-#[inline]
-pub(crate) fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
 fn unit_or(a: [f64; 3], fallback: [f64; 3]) -> [f64; 3] {
     let l = norm(a);
     if l > 0.0 && l.is_finite() {

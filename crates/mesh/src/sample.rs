@@ -3,6 +3,7 @@
 //! Entry point: [`sample_surface`].
 
 use crate::query::{cross, norm, scale_v};
+use crate::vec3::sub as sub3;
 use crate::TriMesh;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -70,11 +71,6 @@ pub fn sample_surface_weighted(
         out.push((p, scale_v(cr, 1.0 / norm(cr))));
     }
     out
-}
-
-#[inline]
-fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 #[cfg(test)]

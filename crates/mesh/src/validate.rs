@@ -14,6 +14,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
+use crate::vec3::{dot, sub};
 use crate::{MeshError, TriMesh};
 
 /// Polygons as read from a file, before validation.
@@ -187,16 +188,6 @@ fn is_degenerate(vertices: &[[f64; 3]], t: [u32; 3]) -> bool {
     // |cross| = longest edge * height; zero area when height <= rel * longest edge.
     let longest_sq = dot(ab, ab).max(dot(ac, ac)).max(dot(bc, bc));
     dot(cross, cross).sqrt() <= ZERO_AREA_REL * longest_sq
-}
-
-#[inline]
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-#[inline]
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 impl TriMesh {

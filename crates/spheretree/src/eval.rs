@@ -18,6 +18,7 @@
 #![allow(clippy::needless_range_loop)] // xyz loops read better indexed
 
 use crate::{Sphere, SphereTree};
+pub(crate) use mesh::vec3::{add, dist, dist2, scale, sub};
 use mesh::{sample_surface, InsideTest, MeshQuery, TriMesh};
 use rayon::prelude::*;
 use std::sync::OnceLock;
@@ -413,27 +414,6 @@ pub(crate) fn coverage(spheres: &[Sphere], samples: &[[f64; 3]]) -> (usize, f64)
     (uncovered.len(), gap)
 }
 
-#[inline]
-pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-#[inline]
-pub(crate) fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-#[inline]
-pub(crate) fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-#[inline]
-pub(crate) fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let d = sub(a, b);
-    d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
-}
-#[inline]
-pub(crate) fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    dist2(a, b).sqrt()
-}
 #[inline]
 pub(crate) fn unit(a: [f64; 3]) -> [f64; 3] {
     let l = dist(a, [0.0; 3]);

@@ -9,6 +9,7 @@
 
 use super::{enclosing_sphere, fill_parents};
 use crate::{Sphere, SphereTree, TreeError};
+use mesh::vec3::{cross, dot, sub};
 use mesh::TriMesh;
 use rayon::prelude::*;
 
@@ -187,23 +188,6 @@ fn tri_box_overlap(t: &[[f64; 3]; 3], centre: [f64; 3], half: f64) -> bool {
     let d = dot(n, v[0]);
     let r = half * (n[0].abs() + n[1].abs() + n[2].abs());
     d.abs() <= r
-}
-
-#[inline]
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-#[inline]
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-#[inline]
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 #[cfg(test)]

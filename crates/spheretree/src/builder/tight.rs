@@ -24,6 +24,7 @@ use super::enclose::nelder_mead;
 use super::{fill_parents, partition, BuildParams};
 use crate::eval::{dist, dist2, SphereGrid};
 use crate::{Sphere, SphereTree, TreeError};
+use mesh::vec3::dot;
 use mesh::{sample_surface, sample_surface_weighted, InsideTest, MeshQuery, TriMesh};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -447,10 +448,6 @@ fn mean_normal(nrm: &[[f64; 3]], idx: &[u32]) -> [f64; 3] {
     } else {
         [0.0; 3]
     }
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 fn surface_area(m: &TriMesh) -> f64 {
