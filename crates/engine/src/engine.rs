@@ -145,22 +145,10 @@ impl Frame {
     pub fn new(t: f64, out: &FrameOutput, wrench: [f64; 6], safety: u8) -> Self {
         Self {
             t,
-            q_h: out.q_h,
-            q_g: out.q_g,
             wrench,
             raw_wrench: out.wrench,
             safety,
-            status: out.status,
-            pairs: out.pairs,
-            contacts: out.contacts,
-            iterations: out.iterations,
-            passes: out.passes,
-            cd_us: out.cd_us,
-            opt_us: out.opt_us,
-            total_us: out.total_us,
-            penetration_mm: out.penetration_mm,
-            qp_violation: out.qp_violation,
-            margin_mm: out.margin_mm,
+            ..*out
         }
     }
 }

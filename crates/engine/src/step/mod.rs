@@ -39,7 +39,7 @@
 //!
 //! Passes stop at `1 + relinearize` or when the next one would overrun `budget_us`. A frame that
 //! stops before the optimum is **lagging**: it returns the last pose proven free (never a
-//! penetrating one) and says so in [`FrameOutput::status`]. A frame that fails (non-finite input,
+//! penetrating one) and says so in its [`Frame::status`](crate::Frame::status). A frame that fails (non-finite input,
 //! solver breakdown, a capped or infeasible QP) keeps the last safe `q_g`.
 
 use std::time::Instant;
@@ -124,43 +124,13 @@ impl FrameStatus {
     }
 }
 
-/// The result of one frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct FrameOutput {
-    /// Device configuration (mm, rad).
-    pub q_h: [f64; 6],
-    /// Graphic tool configuration after the frame (mm, rad).
-    pub q_g: [f64; 6],
-    /// Spring wrench on the hand `[F; T]`: N and N·mm (world axes), before the safety layer.
-    pub wrench: [f64; 6],
-    /// Leaf pairs in the first pass's QP (the detected region's list: its size follows the
-    /// region's shape, not only the contact).
-    pub pairs: u32,
-    /// Leaf pairs touching at the answer (exact gap within [`TOUCH_MM`]): the size of the
-    /// contact itself.
-    pub contacts: u32,
-    /// Solver iterations, summed over passes.
-    pub iterations: u32,
-    /// Passes made (detect + solve).
-    pub passes: u32,
-    /// Time in collision detection (all traversals), µs.
-    pub cd_us: f64,
-    /// Time building rows and solving, µs.
-    pub opt_us: f64,
-    /// Time of the whole step, µs.
-    pub total_us: f64,
-    /// Deepest leaf–leaf overlap at `q_g`, mm (0 when free).
-    pub penetration_mm: f64,
-    /// Largest linearized-constraint violation reported by the solver, mm (distance form).
-    pub qp_violation: f64,
-    /// Detection margin used in the first pass, mm.
-    pub margin_mm: f64,
-    /// Outcome.
-    pub status: FrameStatus,
-}
+/// The result of one step: a [`Frame`](crate::Frame) whose `wrench` and `raw_wrench` are both
+/// the spring wrench (before the safety layer), with `t = 0` and `safety = 0`;
+/// [`Engine::step`](crate::Engine::step) fills in the time and the safety layer's result.
+pub type FrameOutput = crate::Frame;
 
 /// A leaf pair whose exact gap (mm) at the answer is at most this is counted as touching
-/// ([`FrameOutput::contacts`]).
+/// ([`Frame::contacts`](crate::Frame::contacts)).
 pub const TOUCH_MM: f64 = 0.01;
 
 /// A row whose linearized gap at the answer is below this (mm) holds the tool.
@@ -807,6 +777,7 @@ impl GodObject {
         out.penetration_mm = pen_safe;
         out.q_g = q_safe.to_array();
         out.wrench = spring_wrench(&self.params.g, self.params.rotation, &q_safe, q_h);
+        out.raw_wrench = out.wrench;
         out.cd_us = cd * 1e6;
         out.opt_us = opt * 1e6;
         out.total_us = t_start.elapsed().as_secs_f64() * 1e6;
@@ -824,6 +795,7 @@ impl GodObject {
         };
         for k in 0..6 {
             out.wrench[k] = if w[k].is_finite() { w[k] } else { 0.0 };
+            out.raw_wrench[k] = out.wrench[k];
         }
         out.total_us = t0.elapsed().as_secs_f64() * 1e6;
         out
