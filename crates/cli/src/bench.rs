@@ -40,9 +40,10 @@ use engine::Counters;
 use engine::SolverKind;
 use scene::cache::TreeCache;
 use scene::report::{tree_infos, TreeInfo};
+
+use crate::bench_report::{BenchReport, DepthPoint, PairsPoint, ReplayRow, SceneReplays};
 use scene::stats::Summary;
 use scene::{Motion, Scene, TreeParams};
-use serde::Serialize;
 
 /// Arguments of `haptic6d bench`.
 #[derive(Args, Debug)]
@@ -96,110 +97,6 @@ const SOLVERS: [SolverKind; 3] = [SolverKind::Pqp, SolverKind::ActiveSet, Solver
 
 /// Frames replayed per scene in `--quick` mode.
 const QUICK_FRAMES: usize = 1500;
-
-/// A scene's name and each solver's frames.
-pub type SceneReplays = (String, Vec<(SolverKind, Vec<FrameOutput>)>);
-
-/// One solver's replay of one scene.
-#[derive(Serialize, Clone, Debug)]
-pub struct ReplayRow {
-    /// Scene name.
-    pub scene: String,
-    /// Solver name.
-    pub solver: String,
-    /// Frames replayed.
-    pub frames: usize,
-    /// Frames in the trajectory (more than `frames` when the replay hit its time budget).
-    pub planned_frames: usize,
-    /// Collision detection time per frame, µs.
-    pub cd_us: Summary,
-    /// Constraint building + QP time per frame, µs.
-    pub opt_us: Summary,
-    /// Whole frame, µs.
-    pub total_us: Summary,
-    /// Solver iterations per frame (summed over passes).
-    pub iterations: Summary,
-    /// Contact pairs per frame.
-    pub pairs: Summary,
-    /// Deepest leaf–leaf overlap over the run, mm.
-    pub max_penetration_mm: f64,
-    /// |F - F_dual| per frame, N (0 for dual itself).
-    pub force_diff_n: Summary,
-    /// |T - T_dual| per frame, N·mm.
-    pub torque_diff_nmm: Summary,
-    /// Frames whose QP answer violated a constraint beyond the solver's tolerance (the step's
-    /// `FrameStatus::Inexact`, counted as in the loop's `LoopStats::inexact`).
-    pub inexact_frames: u64,
-    /// Frames that kept the last safe pose (the QP was capped, infeasible or failed; counted as
-    /// in `LoopStats::kept_last_safe`).
-    pub kept_last_safe_frames: u64,
-    /// Frames that ended short of the optimum, safe (passes or budget ran out; counted as in
-    /// `LoopStats::lagging`).
-    pub lagging_frames: u64,
-    /// Wall time of the whole replay, s.
-    pub wall_s: f64,
-}
-
-/// One point of the pairs study.
-#[derive(Serialize, Clone, Debug)]
-pub struct PairsPoint {
-    /// Target pair count.
-    pub target: usize,
-    /// Pairs actually found.
-    pub pairs: u32,
-    /// Solver name.
-    pub solver: String,
-    /// Whole frame, µs (cold warm start).
-    pub total_us: Summary,
-    /// Optimisation part, µs.
-    pub opt_us: Summary,
-    /// Iterations.
-    pub iterations: Summary,
-}
-
-/// One point of the depth study.
-#[derive(Serialize, Clone, Debug)]
-pub struct DepthPoint {
-    /// Tree depth (levels - 1).
-    pub depth: u32,
-    /// Leaves per tree.
-    pub leaves: usize,
-    /// Version of the builder that made the trees (`spheretree::build::BUILDER_VERSION`).
-    pub builder_version: u32,
-    /// Solver name.
-    pub solver: String,
-    /// Contact pairs per frame.
-    pub pairs: Summary,
-    /// Whole frame, µs.
-    pub total_us: Summary,
-    /// Deepest overlap over the run, mm.
-    pub max_penetration_mm: f64,
-}
-
-/// Everything the bench measured.
-#[derive(Serialize, Debug, Default)]
-pub struct BenchReport {
-    /// `quick` or `full`.
-    pub mode: String,
-    /// Machine description (cores, CPU model).
-    pub machine: String,
-    /// The trees of each replayed scene: (scene, its trees).
-    pub trees: Vec<(String, Vec<TreeInfo>)>,
-    /// Replays, per scene and solver.
-    pub replay: Vec<ReplayRow>,
-    /// Frame time against pair count.
-    pub scaling_pairs: Vec<PairsPoint>,
-    /// Frame time against tree depth.
-    pub scaling_depth: Vec<DepthPoint>,
-    /// Drag, lag and frame time against hand speed on the plate.
-    pub speed: Vec<crate::bench_speed::SpeedRow>,
-    /// Large and tight contacts: flat on flat, the spline's phases.
-    pub contact: Vec<crate::bench_contact::ContactRow>,
-    /// haptic6d against the rapier3d virtual-coupling peer, per case and engine.
-    pub peer: Vec<crate::bench_peer::PeerRow>,
-    /// Wall time of the bench, s.
-    pub wall_s: f64,
-}
 
 /// Runs `haptic6d bench`.
 pub fn run(mut args: BenchArgs) -> Result<()> {

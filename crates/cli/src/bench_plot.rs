@@ -8,7 +8,7 @@ use anyhow::{anyhow, Result};
 use engine::SolverKind;
 use plotters::prelude::*;
 
-use crate::bench::{BenchReport, SceneReplays};
+use crate::bench_report::{BenchReport, SceneReplays};
 use crate::plot::{chart, register_font, render_png, Series};
 
 /// Colour of a solver in every bench plot.

@@ -9,6 +9,7 @@ mod bench;
 mod bench_contact;
 mod bench_peer;
 mod bench_plot;
+mod bench_report;
 mod bench_speed;
 mod plot;
 mod progress;
