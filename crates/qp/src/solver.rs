@@ -123,4 +123,23 @@ impl Solver {
             SolverKind::Pqp => self.pqp.multipliers(),
         }
     }
+
+    /// Indices of the rows active (held tight) at the answer of the last solve; empty for
+    /// [`SolverKind::Pqp`], which keeps no active set.
+    pub fn active_set(&self) -> &[usize] {
+        match self.kind {
+            SolverKind::Dual => self.dual.active_set(),
+            SolverKind::ActiveSet => self.active_set.active_set(),
+            SolverKind::Pqp => &[],
+        }
+    }
+
+    /// Rows to start the next solve from (the dual solver's warm start; the other kinds
+    /// ignore it). An empty slice clears it.
+    ///
+    /// # Real-time
+    /// No allocation (at most 6 rows are kept), no panic.
+    pub fn set_warm_start(&mut self, rows: &[usize]) {
+        self.dual.set_warm_start(rows);
+    }
 }

@@ -12,13 +12,7 @@ impl GodObject {
         dq0: &[f64; 6],
     ) -> Option<([f64; 6], u32, Status, f64)> {
         let p = Problem::new(self.params.g, &self.rows[..n], &self.rhs[..n]).ok()?;
-        if self.warm_len > 0 {
-            self.solver
-                .dual
-                .set_warm_start(&self.warm_idx[..self.warm_len]);
-        } else {
-            self.solver.dual.clear_warm_start();
-        }
+        self.solver.set_warm_start(&self.warm_idx[..self.warm_len]);
         let s = self.solver.solve(&p, dq0);
         if s.status == Status::NumericalError {
             return None;
@@ -45,13 +39,8 @@ impl GodObject {
 
     /// Remembers the identities of the active pairs of the last solve.
     pub(super) fn remember_active(&mut self, n_pairs: usize) {
-        let active = match self.solver.kind {
-            SolverKind::Dual => self.solver.dual.active_set(),
-            SolverKind::ActiveSet => self.solver.active_set.active_set(),
-            SolverKind::Pqp => &[],
-        };
         let mut m = 0;
-        for &i in active {
+        for &i in self.solver.active_set() {
             if i < n_pairs && m < 6 {
                 let p = &self.pairs[i];
                 self.warm[m] = (p.object, p.tool_slot, p.object_slot);
