@@ -24,7 +24,7 @@ use super::enclose::nelder_mead;
 use super::{fill_parents, partition, BuildParams};
 use crate::eval::{dist, dist2, SphereGrid};
 use crate::{Sphere, SphereTree, TreeError};
-use mesh::vec3::dot;
+use mesh::vec3::{cross, dot, sub};
 use mesh::{sample_surface, sample_surface_weighted, InsideTest, MeshQuery, TriMesh};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -369,13 +369,7 @@ fn triangle_thickness(m: &TriMesh, q: &MeshQuery, progress: &(dyn Fn(f64) + Sync
                 return THICK_MAX;
             }
             let [a, b, c] = t.map(|k| m.vertices[k as usize]);
-            let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-            let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-            let cr = [
-                e1[1] * e2[2] - e1[2] * e2[1],
-                e1[2] * e2[0] - e1[0] * e2[2],
-                e1[0] * e2[1] - e1[1] * e2[0],
-            ];
+            let cr = cross(sub(b, a), sub(c, a));
             let l = dist(cr, [0.0; 3]);
             if l <= 0.0 || !l.is_finite() {
                 return THICK_MAX;
@@ -457,13 +451,7 @@ fn surface_area(m: &TriMesh) -> f64 {
         .filter(|t| t.iter().all(|&k| (k as usize) < nv))
         .map(|t| {
             let [a, b, c] = t.map(|k| m.vertices[k as usize]);
-            let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-            let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-            let cr = [
-                e1[1] * e2[2] - e1[2] * e2[1],
-                e1[2] * e2[0] - e1[0] * e2[2],
-                e1[0] * e2[1] - e1[1] * e2[0],
-            ];
+            let cr = cross(sub(b, a), sub(c, a));
             0.5 * dist(cr, [0.0; 3])
         })
         .sum()
@@ -575,13 +563,7 @@ mod tests {
         let mut queries = 0;
         for t in &m.triangles {
             let [a, b, c] = t.map(|k| m.vertices[k as usize]);
-            let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-            let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-            let cr = [
-                e1[1] * e2[2] - e1[2] * e2[1],
-                e1[2] * e2[0] - e1[0] * e2[2],
-                e1[0] * e2[1] - e1[1] * e2[0],
-            ];
+            let cr = cross(sub(b, a), sub(c, a));
             let n = cr.map(|x| x / dist(cr, [0.0; 3]));
             let p = [0, 1, 2].map(|k| (a[k] + b[k] + c[k]) / 3.0);
             // The exact shrinking ball, checking each query against the budget.
