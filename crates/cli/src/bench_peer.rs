@@ -111,6 +111,18 @@ struct Track {
     contacts: Vec<f64>,
 }
 
+impl Track {
+    /// Records one frame: time (s), tool pose (mm, rad), wrench (N, N·mm), step time (µs),
+    /// contact count.
+    fn push(&mut self, t: f64, q_tool: [f64; 6], wrench: [f64; 6], step_us: f64, contacts: u32) {
+        self.t.push(t);
+        self.q_tool.push(q_tool);
+        self.wrench.push(wrench);
+        self.step_us.push(step_us);
+        self.contacts.push(f64::from(contacts));
+    }
+}
+
 fn ours(scene: &Scene, frames: usize) -> Result<Track> {
     let traj = scene.trajectory();
     let mut params = scene.engine_config().step_params();
@@ -121,11 +133,7 @@ fn ours(scene: &Scene, frames: usize) -> Result<Track> {
     let mut track = Track::default();
     for s in traj.samples.iter().take(frames) {
         let out = god.step(&Pose::from_array(s.q));
-        track.t.push(s.t);
-        track.q_tool.push(out.q_g);
-        track.wrench.push(out.wrench);
-        track.step_us.push(out.total_us);
-        track.contacts.push(f64::from(out.pairs));
+        track.push(s.t, out.q_g, out.wrench, out.total_us, out.pairs);
     }
     Ok(track)
 }
@@ -182,11 +190,7 @@ fn theirs(scene: &Scene, shapes: &PeerScene, params: PeerParams, frames: usize) 
     let mut track = Track::default();
     for s in traj.samples.iter().take(frames) {
         let out = tool.step(&Pose::from_array(s.q));
-        track.t.push(s.t);
-        track.q_tool.push(out.q_tool);
-        track.wrench.push(out.wrench);
-        track.step_us.push(out.step_us);
-        track.contacts.push(f64::from(out.contacts));
+        track.push(s.t, out.q_tool, out.wrench, out.step_us, out.contacts);
     }
     Ok(track)
 }
