@@ -287,7 +287,7 @@ fn replay(
     traj: &[Pose],
     budget_s: f64,
 ) -> Result<Vec<FrameOutput>> {
-    let mut params = scene.engine_config().step_params();
+    let mut params = scene.engine_config();
     params.solver = kind;
     let mut god = GodObject::new(&scene.tool, &scene.objects, params)?;
     let Some(first) = traj.first() else {
@@ -360,7 +360,7 @@ fn pairs_study(
     // The frame is fixed; the detection skin grows until the QP holds `target` rows (pairs
     // within the skin are real, inactive constraints: what a larger contact patch adds).
     let pairs_with_skin = |skin: f64| -> Result<u32> {
-        let mut params = scene.engine_config().step_params();
+        let mut params = scene.engine_config();
         params.skin_mm = skin;
         let mut probe = GodObject::new(&scene.tool, &scene.objects, params)?;
         probe.reset(&base)?;
@@ -382,7 +382,7 @@ fn pairs_study(
             }
         }
         for kind in SOLVERS {
-            let mut params = scene.engine_config().step_params();
+            let mut params = scene.engine_config();
             params.solver = kind;
             params.skin_mm = hi;
             let mut god = GodObject::new(&scene.tool, &scene.objects, params)?;

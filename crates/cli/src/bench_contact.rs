@@ -50,7 +50,7 @@ pub struct ContactRow {
 /// (s) and every frame's output.
 pub fn replay(scene: &Scene, solver: SolverKind) -> Result<(Vec<f64>, Vec<FrameOutput>)> {
     let traj = scene.trajectory();
-    let mut params = scene.engine_config().step_params();
+    let mut params = scene.engine_config();
     params.solver = solver;
     let mut god = GodObject::new(&scene.tool, &scene.objects, params)?;
     let first = traj

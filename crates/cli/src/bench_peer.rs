@@ -125,7 +125,7 @@ impl Track {
 
 fn ours(scene: &Scene, frames: usize) -> Result<Track> {
     let traj = scene.trajectory();
-    let mut params = scene.engine_config().step_params();
+    let mut params = scene.engine_config();
     params.solver = SolverKind::Dual;
     let mut god = GodObject::new(&scene.tool, &scene.objects, params)?;
     let first = traj.samples.first().map(|s| Pose::from_array(s.q));

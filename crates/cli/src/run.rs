@@ -15,7 +15,7 @@ use engine::{ConstraintForm, RotationCoordinates, SolverKind};
 use scene::cache::TreeCache;
 use scene::device::ReplayDevice;
 use scene::report::{frames_csv, summarize, tree_infos, RunSummary};
-use scene::rt::{run_loop, LoopParams};
+use scene::rt::{run_loop, LoopParams, Pacing};
 use scene::trajectory::Trajectory;
 use scene::{load_scene_file, Motion, Scene};
 
@@ -372,9 +372,12 @@ pub fn run(args: RunArgs) -> Result<()> {
         })?;
     let mut device = ReplayDevice::new(traj.clone());
     let params = LoopParams {
-        rate_hz: scene.rate_hz,
+        pacing: Pacing {
+            rate_hz: scene.rate_hz,
+            rt_priority: if args.no_rt_priority { None } else { Some(50) },
+            ..Pacing::default()
+        },
         realtime: args.realtime,
-        rt_priority: if args.no_rt_priority { None } else { Some(50) },
         ..LoopParams::default()
     };
     let report = run_loop(&mut engine, &mut device, &params)?;

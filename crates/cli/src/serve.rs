@@ -12,7 +12,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use scene::cache::TreeCache;
 use viewer::server::{self, WebParams};
-use viewer::{BridgeParams, HapticLoop, LoopParams, SceneSim, UdpBridge};
+use viewer::{BridgeParams, HapticLoop, Pacing, SceneSim, UdpBridge};
 
 /// Arguments of `haptic6d serve`.
 #[derive(Args, Debug)]
@@ -58,7 +58,7 @@ pub struct ServeArgs {
     /// other Host or Origin is refused (403).
     #[arg(long, value_name = "URL")]
     pub allow_origin: Vec<String>,
-    /// Haptic rate, Hz (100 to 10000).
+    /// Haptic rate, Hz (100 to 20000).
     #[arg(long, default_value_t = 1000.0)]
     pub rate: f64,
     /// Run the haptic thread with real-time priority (`SCHED_FIFO` at this priority, 1-99;
@@ -82,6 +82,15 @@ const MAX_DURATION_S: f64 = 30.0 * 86_400.0;
 
 /// Checks every flag before anything starts; the error names the flag and what is wrong.
 /// Returns the run time limit.
+/// The haptic loop's pacing from the flags.
+fn pacing(args: &ServeArgs) -> Pacing {
+    Pacing {
+        rate_hz: args.rate,
+        rt_priority: args.rt_priority,
+        ..Pacing::default()
+    }
+}
+
 fn validate(args: &ServeArgs) -> Result<Option<Duration>> {
     let duration = match args.duration {
         None => None,
@@ -93,12 +102,9 @@ fn validate(args: &ServeArgs) -> Result<Option<Duration>> {
             viewer::error::show_number(d)
         ),
     };
-    LoopParams {
-        rate_hz: args.rate,
-        rt_priority: args.rt_priority,
-        ..LoopParams::default()
-    }
-    .validate()?;
+    // The rate under the flag's name; then the loop's settings as the loop checks them.
+    engine::config::RATE_HZ.check_as("--rate", args.rate)?;
+    pacing(args).validate()?;
     if !args.no_udp {
         BridgeParams {
             addr: SocketAddr::new(args.bind, args.udp_port),
@@ -181,14 +187,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
     let scene = load_scene(&args.scene, &cache)
         .with_context(|| format!("cannot load scene `{}`", args.scene))?;
     let sim = SceneSim::new(&scene).context("cannot set up the haptic step")?;
-    let haptic = HapticLoop::spawn(
-        sim,
-        &LoopParams {
-            rate_hz: args.rate,
-            rt_priority: args.rt_priority,
-            ..LoopParams::default()
-        },
-    )?;
+    let haptic = HapticLoop::spawn(sim, &pacing(&args))?;
     let haptic = Arc::new(haptic);
     let bridge = if args.no_udp {
         None

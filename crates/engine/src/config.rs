@@ -2,8 +2,8 @@
 //! a command-line flag, or a struct built through the Rust API.
 //!
 //! Each setting has one [`Range`] (or [`IntRange`]) here, with physically meaningful bounds and
-//! a unit. The scene parser, the command line, [`crate::EngineConfig::validate`] and the
-//! `validate()` methods of [`SafetyParams`], [`StepParams`] and the haptic loop's settings all
+//! a unit. The scene parser, the command line, [`EngineConfig::validate`] and the
+//! `validate()` methods of [`SafetyParams`] and the haptic loop's settings all
 //! check against these same ranges, so a value refused in one place is refused everywhere. A refused value gives a
 //! one-line [`SettingError`] naming the key, the value and the accepted range, e.g.
 //! `[safety] max_force_n = NaN: must be a finite number in (0, 100] N`.
@@ -15,7 +15,7 @@
 use std::fmt;
 
 use crate::safety::SafetyParams;
-use crate::step::StepParams;
+use crate::EngineConfig;
 
 /// A setting outside its accepted range. Displays as one line:
 /// `KEY = VALUE: must be EXPECTED`.
@@ -244,20 +244,19 @@ impl SafetyParams {
     }
 }
 
-impl StepParams {
-    /// Checks the step's parameters with the same ranges as the scene file: `g` holds
-    /// `kt` ×3 then `kr` ×3.
+impl EngineConfig {
+    /// Checks every numeric setting against its range, with the same ranges as the scene file;
+    /// the first bad one is named.
     pub fn validate(&self) -> Result<(), SettingError> {
-        for k in 0..6 {
-            let r = if k < 3 { KT } else { KR };
-            r.check(self.g[k])?;
-        }
+        KT.check(self.kt)?;
+        KR.check(self.kr)?;
         RELINEARIZE.check(u64::from(self.relinearize))?;
         PENETRATION_TOL_MM.check(self.penetration_tol_mm)?;
         SKIN_MM.check(self.skin_mm)?;
         MAX_MARGIN_MM.check(self.max_margin_mm)?;
         BUDGET_US.check(self.budget_us)?;
-        MAX_PAIRS.check(self.max_pairs as u64)
+        MAX_PAIRS.check(self.max_pairs as u64)?;
+        self.safety.validate()
     }
 }
 

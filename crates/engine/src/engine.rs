@@ -4,9 +4,8 @@ use collide::{ConstraintForm, LeafPair, Pose, RotationCoordinates};
 use qp::SolverKind;
 use spheretree::SphereTree;
 
-use crate::config;
 use crate::safety::{Safety, SafetyEvents, SafetyParams};
-use crate::step::{FrameOutput, FrameStatus, GodObject, StepParams};
+use crate::step::{FrameOutput, FrameStatus, GodObject};
 use crate::EngineError;
 
 /// Every setting of the engine, checked once by [`Engine::new`] against the ranges in
@@ -76,26 +75,10 @@ impl EngineConfig {
         }
     }
 
-    /// Checks every numeric setting against its range; the first bad one is named.
-    pub fn validate(&self) -> Result<(), config::SettingError> {
-        self.step_params().validate()?;
-        self.safety.validate()
-    }
-
-    /// The god-object step's parameters (`G = diag(kt, kt, kt, kr, kr, kr)`).
-    pub fn step_params(&self) -> StepParams {
-        StepParams {
-            g: [self.kt, self.kt, self.kt, self.kr, self.kr, self.kr],
-            form: self.form,
-            rotation: self.rotation,
-            solver: self.solver,
-            relinearize: self.relinearize,
-            penetration_tol_mm: self.penetration_tol_mm,
-            skin_mm: self.skin_mm,
-            max_margin_mm: self.max_margin_mm,
-            budget_us: self.budget_us,
-            max_pairs: self.max_pairs,
-        }
+    /// The diagonal of the coupling stiffness `G = diag(kt, kt, kt, kr, kr, kr)`: N/mm ×3,
+    /// N·mm/rad ×3.
+    pub fn g(&self) -> [f64; 6] {
+        [self.kt, self.kt, self.kt, self.kr, self.kr, self.kr]
     }
 }
 
@@ -212,8 +195,7 @@ impl Engine {
         objects: &[(SphereTree, Pose)],
         config: EngineConfig,
     ) -> Result<Self, EngineError> {
-        config.validate()?;
-        let god = GodObject::new(tool, objects, config.step_params())?;
+        let god = GodObject::new(tool, objects, config)?; // validates the config
         Ok(Self {
             god,
             safety: Safety::new(config.safety),

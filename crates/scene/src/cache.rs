@@ -22,8 +22,6 @@ use std::path::{Path, PathBuf};
 use mesh::TriMesh;
 use spheretree::{Sphere, SphereTree};
 
-use crate::SceneError;
-
 /// Version of the cache entry format (the digit in the magic); folded into every key.
 pub const FORMAT_VERSION: u32 = 2;
 
@@ -250,14 +248,6 @@ pub fn decode(key: &str, bytes: &[u8]) -> Option<SphereTree> {
     let tol = 1e-9 * tree.spheres().first()?.radius.abs().max(1.0);
     tree.validate(tol).ok()?;
     Some(tree)
-}
-
-/// Errors when the cache directory itself is unusable (reported, never fatal for a run).
-pub fn check_writable(dir: &Path) -> Result<(), SceneError> {
-    std::fs::create_dir_all(dir).map_err(|e| SceneError::Io {
-        path: dir.display().to_string(),
-        msg: format!("{e}; set HAPTIC6D_CACHE to a writable directory"),
-    })
 }
 
 #[cfg(test)]

@@ -1,9 +1,10 @@
-//! Haptic devices behind one trait: trajectory replay, scripted motion, and a recorder that
-//! captures what any device did so the run can be replayed into every solver on identical input.
+//! Haptic devices behind one trait: trajectory replay and scripted motion. (Live device poses
+//! are recorded by the viewer's recorder, `haptic6d serve --record`, into the trajectory CSV
+//! that [`ReplayDevice`] replays.)
 
 use collide::Pose;
 
-use crate::trajectory::{Script, TrajSample, Trajectory};
+use crate::trajectory::{Script, Trajectory};
 
 /// One reading of a device: time (s) and configuration (mm, rad).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -92,66 +93,10 @@ impl Device for ScriptedDevice {
     }
 }
 
-/// Wraps a device and records every reading, for replay. Storage is reserved up front; readings
-/// beyond the capacity are counted in [`Recorder::dropped`] rather than allocating in the frame.
-pub struct Recorder<D: Device> {
-    inner: D,
-    samples: Vec<TrajSample>,
-    dropped: usize,
-}
-
-impl<D: Device> Recorder<D> {
-    /// Records `inner`, reserving room for `capacity` readings (or the device's known length
-    /// when larger).
-    pub fn new(inner: D, capacity: usize) -> Self {
-        let cap = capacity.max(inner.frames().unwrap_or(0));
-        Self {
-            inner,
-            samples: Vec::with_capacity(cap),
-            dropped: 0,
-        }
-    }
-
-    /// Readings that did not fit in the reserved storage.
-    pub fn dropped(&self) -> usize {
-        self.dropped
-    }
-
-    /// The recorded trajectory (write it with [`Trajectory::write_csv`]).
-    pub fn trajectory(&self) -> Trajectory {
-        Trajectory {
-            samples: self.samples.clone(),
-        }
-    }
-}
-
-impl<D: Device> Device for Recorder<D> {
-    fn read(&mut self, frame: usize, t: f64) -> Option<DeviceSample> {
-        let s = self.inner.read(frame, t)?;
-        if self.samples.len() < self.samples.capacity() {
-            self.samples.push(TrajSample {
-                t: s.t,
-                q: s.pose.to_array(),
-            });
-        } else {
-            self.dropped += 1;
-        }
-        Some(s)
-    }
-
-    fn send(&mut self, wrench: &[f64; 6]) {
-        self.inner.send(wrench);
-    }
-
-    fn frames(&self) -> Option<usize> {
-        self.inner.frames()
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trajectory::Ease;
+    use crate::trajectory::{Ease, TrajSample};
 
     #[test]
     fn recorded_script_replays_identically() {
@@ -160,16 +105,24 @@ mod tests {
             [5.0, 0.0, 0.0, 0.1, 0.2, 0.3],
             Ease::Smooth,
         );
-        let mut rec = Recorder::new(ScriptedDevice::new(script, 1000.0), 0);
+        let mut scripted = ScriptedDevice::new(script, 1000.0);
         let mut live = Vec::new();
         let mut i = 0;
-        while let Some(s) = rec.read(i, 0.0) {
+        while let Some(s) = scripted.read(i, 0.0) {
             live.push(s);
             i += 1;
         }
         assert_eq!(live.len(), 21);
-        assert_eq!(rec.dropped(), 0);
-        let text = rec.trajectory().to_csv_string();
+        let recorded = Trajectory {
+            samples: live
+                .iter()
+                .map(|s| TrajSample {
+                    t: s.t,
+                    q: s.pose.to_array(),
+                })
+                .collect(),
+        };
+        let text = recorded.to_csv_string();
         let mut replay = ReplayDevice::new(Trajectory::parse_csv(&text, "mem").unwrap());
         for (i, s) in live.iter().enumerate() {
             assert_eq!(replay.read(i, 0.0), Some(*s));

@@ -6,7 +6,7 @@
 //!   [`Scene::engine`] makes its [`engine::Engine`]; [`scenes::builtin`] gives the built-in
 //!   `bunny`, `spline` and `plate` scenes.
 //! - [`cache::TreeCache`]: trees built from meshes, cached on disk by content hash.
-//! - [`device::Device`]: trajectory replay, scripted motion, and a recorder.
+//! - [`device::Device`]: trajectory replay and scripted motion.
 //! - [`rt::run_loop`]: the haptic loop of `haptic6d run` on a named thread (one
 //!   [`engine::Engine::step`] per frame), with deadline and jitter stats.
 //! - [`trajectory::Trajectory`]: the `t,x,y,z,gamma,beta,alpha` CSV and keyframe scripts.
@@ -31,16 +31,18 @@ pub use scene::{
     Scene, SceneSpec, SolverSpec, TreeParams,
 };
 
-/// Errors of the scene crate. Each message says what to fix.
+/// Errors of the scene crate. Each message says what to fix; a wrapped cause is kept as the
+/// [`std::error::Error::source`] (print the chain, e.g. anyhow's `{:#}`, for the whole story).
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
     /// A file could not be read or written.
-    #[error("{path}: {msg}")]
+    #[error("{path}")]
     Io {
         /// The file.
         path: String,
         /// What went wrong.
-        msg: String,
+        #[source]
+        source: std::io::Error,
     },
     /// A trajectory CSV is malformed.
     #[error("{file}:{line}: {msg}")]
@@ -57,8 +59,11 @@ pub enum SceneError {
     Scene {
         /// The scene file (or built-in scene name).
         file: String,
-        /// What is wrong and what is expected.
+        /// What is wrong and what is expected (without the cause's own text).
         msg: String,
+        /// The underlying error (a TOML, mesh, tree, setting or IO error), kept whole.
+        #[source]
+        source: Option<Box<dyn std::error::Error + Send + Sync>>,
     },
     /// An unknown built-in scene or solver name.
     #[error("unknown {what} `{name}`; expected one of: {expected}")]
@@ -89,4 +94,29 @@ pub enum SceneError {
         #[source]
         source: engine::EngineError,
     },
+}
+
+impl SceneError {
+    /// A scene error of `file` with no underlying cause.
+    pub fn scene(file: impl Into<String>, msg: impl Into<String>) -> Self {
+        Self::Scene {
+            file: file.into(),
+            msg: msg.into(),
+            source: None,
+        }
+    }
+
+    /// A scene error of `file` caused by `source`: `msg` says what was being done (the
+    /// cause's own text comes from the chain).
+    pub fn caused(
+        file: impl Into<String>,
+        msg: impl Into<String>,
+        source: impl std::error::Error + Send + Sync + 'static,
+    ) -> Self {
+        Self::Scene {
+            file: file.into(),
+            msg: msg.into(),
+            source: Some(Box::new(source)),
+        }
+    }
 }

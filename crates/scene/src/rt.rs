@@ -25,41 +25,108 @@ use crate::stats::Summary;
 use crate::SceneError;
 use engine::safety::SafetyEvents;
 
-/// Pacing of the loop.
+/// The wall-clock pacing of a haptic loop, shared by `haptic6d run --realtime`
+/// ([`LoopParams::pacing`]) and the viewer's loop (`haptic6d serve`).
 #[derive(Clone, Debug, PartialEq)]
-pub struct LoopParams {
-    /// Frames per second (1000 by default).
+pub struct Pacing {
+    /// Frames per second, Hz ([`engine::config::RATE_HZ`]; 1000 by default).
     pub rate_hz: f64,
-    /// Pace frames on the wall clock (else run as fast as possible).
-    pub realtime: bool,
-    /// How long before a deadline to stop sleeping and start spinning, µs.
+    /// How long before a deadline to stop sleeping and start spinning, µs
+    /// ([`engine::config::SPIN_US`]; [`DEFAULT_SPIN_US`] by default): trades CPU for timing
+    /// precision.
     pub spin_us: f64,
-    /// Most frames to run (storage is reserved for this many, or for the device's length).
-    pub max_frames: usize,
-    /// Ask for a real-time scheduling priority (`SCHED_FIFO`) for the haptic thread (best
-    /// effort: needs the privilege; reported in [`LoopStats`]). `None` (the default) keeps the
-    /// normal priority.
+    /// Ask for a real-time scheduling priority (`SCHED_FIFO`, 1 to 99) for the haptic thread
+    /// (best effort: needs the privilege; reported in [`LoopStats`]). `None` (the default)
+    /// keeps the normal priority.
     pub rt_priority: Option<i32>,
 }
 
-impl Default for LoopParams {
+impl Default for Pacing {
     fn default() -> Self {
         Self {
             rate_hz: 1000.0,
-            realtime: false,
             spin_us: DEFAULT_SPIN_US,
-            max_frames: 10_000_000,
             rt_priority: None,
         }
     }
 }
 
-impl LoopParams {
-    /// Checks `rate_hz` ([`engine::config::RATE_HZ`]), `spin_us` and `max_frames` against
-    /// their ranges; the first bad one is named.
+/// Accepted `SCHED_FIFO` priorities (Linux's range).
+pub const RT_PRIORITY: engine::config::IntRange = engine::config::IntRange {
+    key: "--rt-priority",
+    lo: 1,
+    hi: 99,
+    unit: "",
+};
+
+impl Pacing {
+    /// Checks `rate_hz`, `spin_us` and `rt_priority` against their ranges; the first bad one
+    /// is named.
     pub fn validate(&self) -> Result<(), engine::config::SettingError> {
         engine::config::RATE_HZ.check(self.rate_hz)?;
         engine::config::SPIN_US.check(self.spin_us)?;
+        match self.rt_priority {
+            Some(p) if p < 1 => Err(engine::config::SettingError {
+                key: RT_PRIORITY.key.into(),
+                value: p.to_string(),
+                expected: format!("an integer in [{}, {}]", RT_PRIORITY.lo, RT_PRIORITY.hi),
+            }),
+            Some(p) => RT_PRIORITY.check(p as u64),
+            None => Ok(()),
+        }
+    }
+
+    /// The frame period at [`Pacing::effective_rate_hz`] (a bad rate cannot panic in
+    /// `Duration`).
+    pub fn period(&self) -> Duration {
+        Duration::from_secs_f64(1.0 / self.effective_rate_hz())
+    }
+
+    /// `rate_hz`, or 1000 Hz when it is outside its range (a validated pacing never is).
+    pub fn effective_rate_hz(&self) -> f64 {
+        if engine::config::RATE_HZ.contains(self.rate_hz) {
+            self.rate_hz
+        } else {
+            1000.0
+        }
+    }
+
+    /// The spin before each deadline; none when `spin_us` is outside its range.
+    pub fn spin(&self) -> Duration {
+        let spin_us = if engine::config::SPIN_US.contains(self.spin_us) {
+            self.spin_us
+        } else {
+            0.0
+        };
+        Duration::from_secs_f64(spin_us * 1e-6)
+    }
+}
+
+/// Settings of [`run_loop`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoopParams {
+    /// Rate, spin and priority. The rate is also the device clock when not `realtime`.
+    pub pacing: Pacing,
+    /// Pace frames on the wall clock (else run as fast as possible).
+    pub realtime: bool,
+    /// Most frames to run (storage is reserved for this many, or for the device's length).
+    pub max_frames: usize,
+}
+
+impl Default for LoopParams {
+    fn default() -> Self {
+        Self {
+            pacing: Pacing::default(),
+            realtime: false,
+            max_frames: 10_000_000,
+        }
+    }
+}
+
+impl LoopParams {
+    /// Checks the pacing and `max_frames` against their ranges; the first bad one is named.
+    pub fn validate(&self) -> Result<(), engine::config::SettingError> {
+        self.pacing.validate()?;
         engine::config::MAX_FRAMES.check(self.max_frames as u64)
     }
 }
@@ -221,20 +288,10 @@ pub fn run_frames<D: Device + ?Sized>(
     params: &LoopParams,
     records: &mut Vec<FrameRecord>,
 ) -> usize {
-    let rate_hz = if engine::config::RATE_HZ.contains(params.rate_hz) {
-        params.rate_hz
-    } else {
-        1000.0
-    };
-    let period = Duration::from_secs_f64(1.0 / rate_hz);
-    let spin_us = if engine::config::SPIN_US.contains(params.spin_us) {
-        params.spin_us
-    } else {
-        0.0
-    };
-    let spin = Duration::from_secs_f64(spin_us * 1e-6);
+    let period = params.pacing.period();
+    let rate_hz = params.pacing.effective_rate_hz();
     let start = Instant::now();
-    let mut pacer = Pacer::new(period, spin);
+    let mut pacer = Pacer::new(period, params.pacing.spin());
     let mut last_start: Option<Instant> = None;
     let mut frame = 0usize;
     while records.len() < records.capacity() {
@@ -289,7 +346,7 @@ pub fn run_loop<D: Device>(
         std::thread::Builder::new()
             .name("haptic6d-rt".into())
             .spawn_scoped(s, || {
-                if let Some(p) = params.rt_priority {
+                if let Some(p) = params.pacing.rt_priority {
                     rt_priority = set_realtime_priority(p);
                 }
                 run_frames(engine, device, params, &mut records)
@@ -299,13 +356,13 @@ pub fn run_loop<D: Device>(
             .map_err(|_| SceneError::ThreadPanicked)
     })?;
     let wall_s = t0.elapsed().as_secs_f64();
-    let nominal = 1e6 / params.rate_hz;
+    let nominal = 1e6 / params.pacing.rate_hz;
     let counts = Counters::of(records.iter().map(|r| r.frame.status));
     let stats = LoopStats {
         frames: records.len(),
         realtime: params.realtime,
         rt_priority,
-        rate_hz: params.rate_hz,
+        rate_hz: params.pacing.rate_hz,
         overruns: records.iter().filter(|r| r.overrun).count() as u64,
         period_error_us: if params.realtime {
             Summary::of(

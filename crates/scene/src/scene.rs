@@ -185,14 +185,9 @@ pub struct SceneSpec {
 impl SceneSpec {
     /// Parses scene TOML; `source` names the file in errors.
     pub fn parse(text: &str, source: &str) -> Result<Self, SceneError> {
-        let spec: SceneSpec = toml::from_str(text).map_err(|e| SceneError::Scene {
-            file: source.to_string(),
-            msg: one_line(&e.to_string()),
-        })?;
-        let err = |msg: String| SceneError::Scene {
-            file: source.to_string(),
-            msg,
-        };
+        let spec: SceneSpec = toml::from_str(text)
+            .map_err(|e| SceneError::caused(source, "invalid scene file", TomlError(e)))?;
+        let err = |msg: String| SceneError::scene(source, msg);
         if spec.object.is_empty() {
             return Err(err(
                 "no [[object]]: add at least one object to collide with".into(),
@@ -283,8 +278,26 @@ mod build_method_name {
     }
 }
 
-fn one_line(s: &str) -> String {
-    s.split_whitespace().collect::<Vec<_>>().join(" ")
+/// A TOML parse error shown on one line (toml's own display draws the line with a caret
+/// below it), with the original kept as its source.
+#[derive(Debug)]
+struct TomlError(toml::de::Error);
+
+impl std::fmt::Display for TomlError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let text = self.0.to_string();
+        let mut words = text.split_whitespace();
+        if let Some(w) = words.next() {
+            f.write_str(w)?;
+        }
+        words.try_for_each(|w| write!(f, " {w}"))
+    }
+}
+
+impl std::error::Error for TomlError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        None // the text above is the whole of it
+    }
 }
 
 fn check_body(b: &BodySpec, name: &str) -> Result<(), String> {
@@ -393,10 +406,7 @@ impl Scene {
     /// solver, safety limits, rate, start and object poses. Scene files are checked when
     /// parsed; call this again after changing a loaded scene (command-line overrides, API).
     pub fn validate(&self) -> Result<(), SceneError> {
-        let err = |e: SettingError| SceneError::Scene {
-            file: self.name.clone(),
-            msg: e.to_string(),
-        };
+        let err = |e: SettingError| SceneError::caused(&self.name, "setting out of range", e);
         self.coupling.validate().map_err(err)?;
         self.solver.validate().map_err(err)?;
         self.safety.validate().map_err(err)?;
@@ -448,15 +458,12 @@ impl Scene {
 
     /// The god-object step alone (no safety layer), for tools that measure it.
     pub fn god_object(&self) -> Result<engine::step::GodObject, SceneError> {
-        engine::step::GodObject::new(
-            &self.tool,
-            &self.objects,
-            self.engine_config().step_params(),
+        engine::step::GodObject::new(&self.tool, &self.objects, self.engine_config()).map_err(
+            |source| SceneError::Engine {
+                file: self.name.clone(),
+                source,
+            },
         )
-        .map_err(|source| SceneError::Engine {
-            file: self.name.clone(),
-            source,
-        })
     }
 
     /// The device trajectory (the script sampled at the scene rate, the recorded one, or the
@@ -491,12 +498,8 @@ pub fn tree_for_mesh(
     let key = tree_key(mesh, &format!("{bp:?}"));
     let t0 = Instant::now();
     let (tree, outcome) = cache.get_or_build(&key, || {
-        spheretree::build::build_tree(mesh, &bp, &|f| cache.report(label, f)).map_err(|e| {
-            SceneError::Scene {
-                file: label.to_string(),
-                msg: format!("building the sphere-tree failed: {e}"),
-            }
-        })
+        spheretree::build::build_tree(mesh, &bp, &|f| cache.report(label, f))
+            .map_err(|e| SceneError::caused(label, "building the sphere-tree failed", e))
     })?;
     let dt = t0.elapsed().as_secs_f64();
     log.push(match outcome {
@@ -537,14 +540,16 @@ fn load_body(
     log: &mut Vec<String>,
 ) -> Result<(SphereTree, Option<TriMesh>), SceneError> {
     let scale = b.scale.unwrap_or(1.0);
-    let err = |msg: String| SceneError::Scene {
-        file: file.to_string(),
-        msg,
-    };
+    let err = |msg: String| SceneError::scene(file, msg);
     if let Some(t) = &b.tree {
         let path = resolve(base, t);
-        let mut tree = spheretree::sph::read_sph(&path)
-            .map_err(|e| err(format!("{label}: cannot read tree {}: {e}", path.display())))?;
+        let mut tree = spheretree::sph::read_sph(&path).map_err(|e| {
+            SceneError::caused(
+                file,
+                format!("{label}: cannot read tree {}", path.display()),
+                e,
+            )
+        })?;
         scale_tree(&mut tree, scale);
         let finite = tree
             .spheres()
@@ -562,8 +567,13 @@ fn load_body(
     }
     let m = b.mesh.as_deref().unwrap_or_default();
     let path = resolve(base, m);
-    let raw = crate::scenes::load_mesh_file(&path)
-        .map_err(|e| err(format!("{label}: cannot load mesh {}: {e}", path.display())))?;
+    let raw = crate::scenes::load_mesh_file(&path).map_err(|e| {
+        SceneError::caused(
+            file,
+            format!("{label}: cannot load mesh {}", path.display()),
+            e,
+        )
+    })?;
     let mesh = raw.scaled_about([0.0; 3], scale);
     if !mesh.vertices.iter().flatten().all(|c| c.is_finite()) {
         return Err(err(format!(
@@ -577,7 +587,11 @@ fn load_body(
         method: b.method.unwrap_or_default(),
     };
     let tree = tree_for_mesh(&mesh, params, cache, label, log).map_err(|e| match e {
-        SceneError::Scene { msg, .. } => err(format!("{label}: {msg}")),
+        SceneError::Scene { msg, source, .. } => SceneError::Scene {
+            file: file.to_string(),
+            msg: format!("{label}: {msg}"),
+            source,
+        },
         other => other,
     })?;
     Ok((tree, Some(mesh)))
@@ -593,10 +607,7 @@ pub fn load_scene_file(path: &Path, cache: &TreeCache) -> Result<Scene, SceneErr
             String::from_utf8(b)
                 .map_err(|_| std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8 text"))
         })
-        .map_err(|e| SceneError::Scene {
-            file: file.clone(),
-            msg: format!("cannot read the scene file: {e}"),
-        })?;
+        .map_err(|e| SceneError::caused(&file, "cannot read the scene file", e))?;
     let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
     let spec = SceneSpec::parse(text, &file)?;
     let base = path.parent().unwrap_or(Path::new("."));
@@ -617,12 +628,10 @@ pub fn load_scene_file(path: &Path, cache: &TreeCache) -> Result<Scene, SceneErr
         object_meshes.push(m);
     }
     let motion = match &spec.device.trajectory {
-        Some(t) => Motion::Trajectory(Trajectory::read_csv(&resolve(base, t)).map_err(|e| {
-            SceneError::Scene {
-                file: file.clone(),
-                msg: format!("[device] trajectory: {e}"),
-            }
-        })?),
+        Some(t) => Motion::Trajectory(
+            Trajectory::read_csv(&resolve(base, t))
+                .map_err(|e| SceneError::caused(&file, "[device] trajectory", e))?,
+        ),
         None => Motion::Hold,
     };
     Ok(Scene {
@@ -676,6 +685,17 @@ kind = "dual"
         assert_eq!(s.coupling.g(), [1.0, 1.0, 1.0, 1000.0, 1000.0, 1000.0]);
     }
 
+    /// The error and its causes on one line, as the command line prints them.
+    fn chain(err: &dyn std::error::Error) -> String {
+        let mut e = err.to_string();
+        let mut cause = err.source();
+        while let Some(c) = cause {
+            e = format!("{e}: {c}");
+            cause = c.source();
+        }
+        e
+    }
+
     #[test]
     fn errors_are_one_line_and_name_the_file() {
         let cases = [
@@ -704,9 +724,8 @@ kind = "dual"
             ("[tool\n".to_string(), ""),
         ];
         for (text, needle) in cases {
-            let e = SceneSpec::parse(&text, "scenes/my.toml")
-                .unwrap_err()
-                .to_string();
+            let e = chain(&SceneSpec::parse(&text, "scenes/my.toml").unwrap_err());
+
             assert!(e.starts_with("scenes/my.toml: "), "{e}");
             assert!(!e.contains('\n'), "{e}");
             assert!(e.contains(needle), "`{needle}` not in: {e}");
@@ -737,9 +756,9 @@ kind = "dual"
         let s = SceneSpec::parse(&text, "x.toml").unwrap();
         assert_eq!(s.solver.kind, SolverKind::ActiveSet);
         assert_eq!(s.solver.form, ConstraintForm::Squared);
-        let e = SceneSpec::parse(&GOOD.replace("\"dual\"", "\"newton\""), "x.toml")
-            .unwrap_err()
-            .to_string();
+        let e = chain(
+            &SceneSpec::parse(&GOOD.replace("\"dual\"", "\"newton\""), "x.toml").unwrap_err(),
+        );
         assert!(e.contains("dual, pqp, active-set"), "{e}");
     }
 }

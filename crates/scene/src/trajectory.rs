@@ -143,13 +143,17 @@ impl Trajectory {
     pub fn read_csv(path: &Path) -> Result<Self, SceneError> {
         // Bounded read (a device node or a huge file is refused, not read until memory runs
         // out): 1 GiB is about 10 hours of frames at 1 kHz.
-        let io = |msg: String| SceneError::Io {
+        let io = |source: std::io::Error| SceneError::Io {
             path: path.display().to_string(),
-            msg,
+            source,
         };
-        let bytes = mesh::read_input(path, 1 << 30).map_err(|e| io(e.to_string()))?;
-        let text = String::from_utf8(bytes)
-            .map_err(|_| io("not UTF-8 text; expected a CSV file".into()))?;
+        let bytes = mesh::read_input(path, 1 << 30).map_err(io)?;
+        let text = String::from_utf8(bytes).map_err(|_| {
+            io(std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                "not UTF-8 text; expected a CSV file",
+            ))
+        })?;
         Self::parse_csv(&text, &path.display().to_string())
     }
 

@@ -48,7 +48,7 @@ fn old_path(scene: &Scene) -> String {
     god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
     let mut safety = Safety::new(scene.safety);
     let mut csv = without_timings(scene::report::FRAMES_HEADER);
-    let rate = LoopParams::default().rate_hz;
+    let rate = LoopParams::default().pacing.rate_hz;
     for (i, s) in traj.samples.iter().enumerate() {
         let out = god.step(&Pose::from_array(s.q));
         let (sent, _flags) = safety.filter(i as f64 / rate, out.wrench);

@@ -3,6 +3,8 @@
 //! the line, for the CSV and for TOML syntax errors) and never panics; a scene whose numbers
 //! would overflow downstream (huge scale on huge trees) is refused or stays finite.
 
+mod common;
+
 use std::path::PathBuf;
 
 use scene::cache::TreeCache;
@@ -112,7 +114,7 @@ fn scene(extra: &str) -> String {
 fn scene_err(text: &str, needle: &str) -> String {
     let e = match SceneSpec::parse(text, "s.toml") {
         Ok(s) => panic!("accepted {text:?}: {s:?}"),
-        Err(e) => e.to_string(),
+        Err(e) => common::chain(&e),
     };
     assert!(!e.contains('\n'), "{e:?}");
     assert!(e.starts_with("s.toml: "), "{e}");
@@ -222,17 +224,15 @@ fn scene_file_errors_name_the_scene_and_the_bad_file_and_line() {
     ];
     for (name, text, needle) in cases {
         let p = d.write(name, text);
-        let e = load_scene_file(&p, &cache).unwrap_err().to_string();
+        let e = common::chain(&load_scene_file(&p, &cache).unwrap_err());
         assert!(!e.contains('\n'), "{e:?}");
         assert!(e.contains(name), "{name}: scene not named: {e}");
         assert!(e.contains(needle), "{name}: `{needle}` not in {e}");
     }
     // A missing scene file and a directory given as the scene.
-    let e = load_scene_file(&d.0.join("none.toml"), &cache)
-        .unwrap_err()
-        .to_string();
+    let e = common::chain(&load_scene_file(&d.0.join("none.toml"), &cache).unwrap_err());
     assert!(!e.contains('\n') && e.contains("none.toml"), "{e}");
-    let e = load_scene_file(&d.0, &cache).unwrap_err().to_string();
+    let e = common::chain(&load_scene_file(&d.0, &cache).unwrap_err());
     assert!(!e.contains('\n'), "{e}");
 }
 

@@ -432,7 +432,7 @@ fn absurd_stiffness_is_refused_and_the_stiffest_accepted_is_safe() {
                 ..Coupling::default()
             },
         );
-        let e = sc.validate().unwrap_err().to_string();
+        let e = common::chain(&sc.validate().unwrap_err());
         assert!(e.contains("[coupling] kt"), "{e}");
         // The scene names itself; the engine's reason is the error's source.
         let e = common::chain(&sc.god_object().err().expect("refused"));

@@ -95,7 +95,7 @@ fn ball_turning(index: usize, from: f64, to: f64, secs: f64) -> Vec<Pose> {
 fn run(traj: &[Pose], tool: PlateTool) -> Vec<engine::step::FrameOutput> {
     let cache = common::test_cache();
     let scene = plate::scene(&cache, tool, Script::starting_at(traj[0].to_array())).unwrap();
-    let mut params = scene.engine_config().step_params();
+    let mut params = scene.engine_config();
     // Algorithmic behaviour, not timing: no pass is cut by a busy machine (the frames of two
     // runs are compared exactly).
     params.budget_us = 1e6;
@@ -183,7 +183,7 @@ fn turning_through_the_euler_singularity_is_uneventful() {
         }
     }
     let run_on = |scene: &scene::Scene, traj: &[Pose]| {
-        let mut params = scene.engine_config().step_params();
+        let mut params = scene.engine_config();
         params.budget_us = 1e6;
         let mut god = GodObject::new(&scene.tool, &scene.objects, params).unwrap();
         god.reset(&traj[0]).unwrap();

@@ -17,7 +17,7 @@ use engine::safety::norm3;
 use engine::safety::{Safety, SafetyParams};
 use proptest::prelude::*;
 use scene::device::ReplayDevice;
-use scene::rt::{run_frames, run_loop, FrameRecord, LoopParams};
+use scene::rt::{run_frames, run_loop, FrameRecord, LoopParams, Pacing};
 use scene::trajectory::{TrajSample, Trajectory};
 use scene::{Coupling, Motion, Scene, SceneSpec, SolverSpec};
 use spheretree::{Sphere, SphereTree};
@@ -279,7 +279,10 @@ fn run(s: &Settings, traj: &Trajectory) -> Result<Vec<FrameRecord>, scene::Scene
     engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
     let mut dev = ReplayDevice::new(traj.clone());
     let params = LoopParams {
-        rate_hz: sc.rate_hz,
+        pacing: Pacing {
+            rate_hz: sc.rate_hz,
+            ..Pacing::default()
+        },
         ..LoopParams::default()
     };
     Ok(run_loop(&mut engine, &mut dev, &params)?.frames)
@@ -307,7 +310,7 @@ proptest! {
         let api = sc.validate();
         let god = sc.god_object();
         let safety_ok = Safety::try_new(s.safety).is_ok();
-        let loop_ok = LoopParams { rate_hz: s.rate_hz, ..LoopParams::default() }.validate().is_ok();
+        let loop_ok = Pacing { rate_hz: s.rate_hz, ..Pacing::default() }.validate().is_ok();
         if bad.is_empty() {
             prop_assert!(parsed.is_ok(), "{:?}", parsed.err().map(|e| e.to_string()));
             prop_assert!(api.is_ok() && god.is_ok() && safety_ok && loop_ok);
@@ -318,7 +321,7 @@ proptest! {
             // The press is felt unless the limits make it tiny: some force reaches the hand.
             prop_assert!(frames.iter().any(|f| f.frame.wrench[2] > 0.0), "no force at all");
         } else {
-            for e in [parsed.err().map(|e| e.to_string()), api.err().map(|e| e.to_string())] {
+            for e in [parsed.err().map(|e| common::chain(&e)), api.err().map(|e| common::chain(&e))] {
                 let e = e.ok_or_else(|| TestCaseError::fail(format!("accepted bad {bad:?}")))?;
                 prop_assert!(e.starts_with("safety.toml: "), "{}", e);
                 prop_assert!(!e.contains('\n'), "{}", e);
@@ -353,12 +356,12 @@ fn good() -> Settings {
 /// The scene file and the API both refuse `s`, naming `key` and its value.
 #[track_caller]
 fn refused(s: &Settings, needle: &str) {
-    let e = SceneSpec::parse(&toml(s), "scene.toml")
-        .expect_err("the scene file accepted it")
-        .to_string();
+    let e = common::chain(
+        &SceneSpec::parse(&toml(s), "scene.toml").expect_err("the scene file accepted it"),
+    );
     assert!(e.starts_with("scene.toml: ") && e.contains(needle), "{e}");
     assert!(!e.contains('\n'), "{e}");
-    let e = scene(s).validate().unwrap_err().to_string();
+    let e = common::chain(&scene(s).validate().unwrap_err());
     assert!(e.contains(needle), "{e}");
 }
 
@@ -441,9 +444,9 @@ fn item5_absurd_rates_are_refused_not_a_panic_or_an_abort() {
             &s,
             &format!("[device] rate_hz = {shown}: must be a finite number in [100, 20000] Hz"),
         );
-        let e = LoopParams {
+        let e = Pacing {
             rate_hz: rate,
-            ..LoopParams::default()
+            ..Pacing::default()
         }
         .validate()
         .unwrap_err()
@@ -460,9 +463,12 @@ fn item5_absurd_rates_are_refused_not_a_panic_or_an_abort() {
     let mut dev = ReplayDevice::new(traj);
     let mut records = Vec::with_capacity(20);
     let params = LoopParams {
-        rate_hz: 1e-30,
+        pacing: Pacing {
+            rate_hz: 1e-30,
+            spin_us: f64::NAN,
+            rt_priority: None,
+        },
         realtime: true,
-        spin_us: f64::NAN,
         ..LoopParams::default()
     };
     assert_eq!(run_frames(&mut engine, &mut dev, &params, &mut records), 20);

@@ -54,6 +54,9 @@ pub enum ViewerError {
     /// A setting is unusable (the text names the flag and what is wrong).
     #[error("{0}")]
     Params(String),
+    /// A setting is outside its range (the haptic rate, spin or priority).
+    #[error(transparent)]
+    Setting(#[from] engine::config::SettingError),
     /// Serving failed.
     #[error("web server failed: {0}")]
     Serve(std::io::Error),

@@ -14,70 +14,7 @@ use crate::error::ViewerError;
 use crate::hub::{InputHub, InputReader, InputSource, StateHub, StatePublisher};
 use crate::recorder::{RecordTx, Recorder, RecordingSummary};
 use crate::simulation::{FrameState, SceneGeometry, Simulation};
-
-/// Haptic loop settings.
-#[derive(Clone, Debug)]
-pub struct LoopParams {
-    /// Frame rate (Hz), [`LoopParams::MIN_RATE_HZ`] ..= [`LoopParams::MAX_RATE_HZ`]; 1000 by
-    /// default.
-    pub rate_hz: f64,
-    /// How long before a deadline the thread stops sleeping and spins (µs), at most
-    /// [`LoopParams::MAX_SPIN_US`]; trades CPU for timing precision. By default
-    /// [`scene::rt::DEFAULT_SPIN_US`], as `haptic6d run --realtime`.
-    pub spin_us: u64,
-    /// Ask for `SCHED_FIFO` at this priority for the haptic thread (best effort, needs the
-    /// privilege; see [`HapticLoop::realtime`]). `None` (the default) keeps the normal priority.
-    pub rt_priority: Option<i32>,
-}
-
-impl LoopParams {
-    /// Lowest haptic rate accepted (Hz): below it a stiff contact cannot be rendered stably.
-    pub const MIN_RATE_HZ: f64 = 100.0;
-    /// Highest haptic rate accepted (Hz): ten times the usual 1 kHz; beyond it a frame's step
-    /// (tens of µs) no longer fits the period.
-    pub const MAX_RATE_HZ: f64 = 10_000.0;
-    /// Longest spin before a deadline (µs): 10 ms.
-    pub const MAX_SPIN_US: u64 = 10_000;
-
-    /// Checks the settings; the error names the CLI flag and the accepted range.
-    pub fn validate(&self) -> Result<(), ViewerError> {
-        if !(self.rate_hz.is_finite()
-            && (Self::MIN_RATE_HZ..=Self::MAX_RATE_HZ).contains(&self.rate_hz))
-        {
-            return Err(ViewerError::Params(format!(
-                "--rate must be between {} and {} Hz, got {}",
-                Self::MIN_RATE_HZ,
-                Self::MAX_RATE_HZ,
-                crate::error::show_number(self.rate_hz)
-            )));
-        }
-        if self.spin_us > Self::MAX_SPIN_US {
-            return Err(ViewerError::Params(format!(
-                "spin must be at most {} µs, got {}",
-                Self::MAX_SPIN_US,
-                self.spin_us
-            )));
-        }
-        if let Some(p) = self.rt_priority {
-            if !(1..=99).contains(&p) {
-                return Err(ViewerError::Params(format!(
-                    "--rt-priority must be between 1 and 99, got {p}"
-                )));
-            }
-        }
-        Ok(())
-    }
-}
-
-impl Default for LoopParams {
-    fn default() -> Self {
-        Self {
-            rate_hz: 1000.0,
-            spin_us: scene::rt::DEFAULT_SPIN_US as u64,
-            rt_priority: None,
-        }
-    }
-}
+use scene::rt::Pacing;
 
 /// A running haptic loop: the thread, its input and output hubs, and the recorder.
 pub struct HapticLoop {
@@ -95,10 +32,10 @@ pub struct HapticLoop {
 impl HapticLoop {
     /// Starts the haptic thread (named `haptic6d-haptic`) stepping `sim`. The device starts
     /// released at the simulation's start pose.
-    pub fn spawn<S: Simulation>(sim: S, params: &LoopParams) -> Result<Self, ViewerError> {
+    pub fn spawn<S: Simulation>(sim: S, params: &Pacing) -> Result<Self, ViewerError> {
         let (mut handle, frames) = Self::manual(sim, params)?;
         let stop = handle.stop.clone();
-        let spin = Duration::from_micros(params.spin_us);
+        let spin = params.spin();
         let priority = params.rt_priority;
         let realtime = handle.realtime.clone();
         let thread = std::thread::Builder::new()
@@ -118,12 +55,10 @@ impl HapticLoop {
     /// one frame per call on the caller's thread, unpaced. For tests and offline drivers.
     pub fn manual<S: Simulation>(
         mut sim: S,
-        params: &LoopParams,
+        params: &Pacing,
     ) -> Result<(Self, ManualFrames<S>), ViewerError> {
         params.validate()?;
-        // In range after validation: 100 µs ..= 10 ms.
-        let period = Duration::try_from_secs_f64(1.0 / params.rate_hz)
-            .map_err(|e| ViewerError::Params(format!("--rate {}: {e}", params.rate_hz)))?;
+        let period = params.period();
         let scene = Arc::new(sim.scene());
         let start = sim.start_pose();
         sim.reset(&start);
@@ -169,7 +104,7 @@ impl HapticLoop {
     }
 
     /// True when the haptic thread obtained the real-time priority it asked for
-    /// ([`LoopParams::rt_priority`]); set once the thread has started.
+    /// ([`Pacing::rt_priority`]); set once the thread has started.
     pub fn realtime(&self) -> bool {
         self.realtime.load(Ordering::Acquire)
     }

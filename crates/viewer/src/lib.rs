@@ -28,9 +28,10 @@ pub mod simulation;
 
 pub use bridge::{BridgeClient, BridgeParams, BridgeStats, UdpBridge};
 pub use error::ViewerError;
-pub use haptic::{HapticLoop, LoopParams, ManualFrames};
+pub use haptic::{HapticLoop, ManualFrames};
 pub use hub::{DeviceCommand, InputHub, InputSource, Rejected, StateHub};
 pub use recorder::RecordingSummary;
+pub use scene::rt::Pacing;
 pub use scene_sim::SceneSim;
 pub use simulation::{
     ContactPair, FrameState, NamedMesh, SceneGeometry, Simulation, MAX_DISPLAY_CONTACTS,

@@ -5,7 +5,7 @@
 mod common;
 
 use collide::Pose;
-use viewer::{HapticLoop, InputSource, LoopParams, SceneSim};
+use viewer::{HapticLoop, InputSource, Pacing, SceneSim};
 
 #[global_allocator]
 static GLOBAL: devkit::CountingAllocator = devkit::CountingAllocator;
@@ -22,7 +22,7 @@ fn pose(k: usize) -> Pose {
 fn a_warmed_up_frame_allocates_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let sim = SceneSim::new(&common::small_scene()).unwrap();
-    let (handle, mut frames) = HapticLoop::manual(sim, &LoopParams::default()).unwrap();
+    let (handle, mut frames) = HapticLoop::manual(sim, &Pacing::default()).unwrap();
     handle.input().want_contacts(true);
     handle
         .start_recording(&dir.path().join("rec.csv"), false)

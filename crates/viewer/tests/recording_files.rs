@@ -7,7 +7,7 @@ mod common;
 use std::path::Path;
 use std::time::Duration;
 
-use viewer::{HapticLoop, LoopParams, ViewerError};
+use viewer::{HapticLoop, Pacing, ViewerError};
 
 fn partials(dir: &Path) -> Vec<String> {
     std::fs::read_dir(dir)
@@ -22,7 +22,7 @@ fn an_existing_file_is_refused_and_kept() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("precious.csv");
     std::fs::write(&path, "my data\n").unwrap();
-    let haptic = HapticLoop::spawn(common::Floor::new(), &LoopParams::default()).unwrap();
+    let haptic = HapticLoop::spawn(common::Floor::new(), &Pacing::default()).unwrap();
     let e = haptic.start_recording(&path, false).unwrap_err();
     assert!(matches!(e, ViewerError::RecordExists { .. }), "{e}");
     assert!(e.to_string().contains("--force"), "{e}");
@@ -38,7 +38,7 @@ fn overwriting_replaces_the_file_only_when_the_recording_ends() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("take.csv");
     std::fs::write(&path, "old take\n").unwrap();
-    let haptic = HapticLoop::spawn(common::Floor::new(), &LoopParams::default()).unwrap();
+    let haptic = HapticLoop::spawn(common::Floor::new(), &Pacing::default()).unwrap();
     haptic.start_recording(&path, true).unwrap();
     std::thread::sleep(Duration::from_millis(200));
     // While recording, the old file is untouched and the rows go to one temporary file, which
@@ -68,7 +68,7 @@ fn overwriting_replaces_the_file_only_when_the_recording_ends() {
 fn a_file_that_appears_during_the_recording_is_not_overwritten() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("late.csv");
-    let haptic = HapticLoop::spawn(common::Floor::new(), &LoopParams::default()).unwrap();
+    let haptic = HapticLoop::spawn(common::Floor::new(), &Pacing::default()).unwrap();
     haptic.start_recording(&path, false).unwrap();
     std::thread::sleep(Duration::from_millis(50));
     std::fs::write(&path, "someone else's\n").unwrap();

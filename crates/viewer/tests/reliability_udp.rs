@@ -12,7 +12,7 @@ use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use viewer::protocol::{self, decode, Header, Kind, PoseMsg, POSE_LEN};
-use viewer::{BridgeParams, HapticLoop, LoopParams, UdpBridge};
+use viewer::{BridgeParams, HapticLoop, Pacing, UdpBridge};
 
 fn raw_pose(seq: u32, q: [f64; 6]) -> [u8; POSE_LEN] {
     let mut buf = [0u8; POSE_LEN];
@@ -64,7 +64,7 @@ fn bad_datagram(r: &mut Rng, seq: u32) -> Vec<u8> {
 
 #[test]
 fn garbage_flood_is_counted_and_never_applied() {
-    let haptic = HapticLoop::spawn(common::Floor::new(), &LoopParams::default()).unwrap();
+    let haptic = HapticLoop::spawn(common::Floor::new(), &Pacing::default()).unwrap();
     let bridge = UdpBridge::spawn(
         &BridgeParams {
             addr: "127.0.0.1:0".parse().unwrap(),

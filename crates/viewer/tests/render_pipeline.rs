@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use collide::Pose;
 use engine::safety::{Safety, SafetyParams};
 use scene::trajectory::Trajectory;
-use viewer::{HapticLoop, InputSource, LoopParams, SceneSim};
+use viewer::{HapticLoop, InputSource, Pacing, SceneSim};
 
 mod common;
 use common::small_scene;
@@ -57,7 +57,7 @@ fn pushing_into_the_floor_gives_an_upward_force_and_no_penetration() {
         !scene.tool.mesh.triangles.is_empty(),
         "tree-only bodies get a sphere mesh"
     );
-    let haptic = HapticLoop::spawn(sim, &LoopParams::default()).unwrap();
+    let haptic = HapticLoop::spawn(sim, &Pacing::default()).unwrap();
     // Free space first: device = graphic, zero force.
     let seq = haptic
         .input()
@@ -121,11 +121,8 @@ fn pushing_into_the_floor_gives_an_upward_force_and_no_penetration() {
 
 #[test]
 fn contacts_are_listed_only_when_requested() {
-    let haptic = HapticLoop::spawn(
-        SceneSim::new(&small_scene()).unwrap(),
-        &LoopParams::default(),
-    )
-    .unwrap();
+    let haptic =
+        HapticLoop::spawn(SceneSim::new(&small_scene()).unwrap(), &Pacing::default()).unwrap();
     for k in 0..=30 {
         let seq = haptic
             .input()
@@ -162,11 +159,8 @@ fn contacts_are_listed_only_when_requested() {
 fn a_recording_replays_through_render_frame_for_frame() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("rec.csv");
-    let haptic = HapticLoop::spawn(
-        SceneSim::new(&small_scene()).unwrap(),
-        &LoopParams::default(),
-    )
-    .unwrap();
+    let haptic =
+        HapticLoop::spawn(SceneSim::new(&small_scene()).unwrap(), &Pacing::default()).unwrap();
     haptic.start_recording(&path, false).unwrap();
     let mut sent = Vec::new();
     for k in 0..=40 {

@@ -9,7 +9,7 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use viewer::protocol::{self, flags, Header, Kind, PoseMsg, POSE_LEN};
-use viewer::{BridgeClient, BridgeParams, HapticLoop, LoopParams, SceneSim, UdpBridge};
+use viewer::{BridgeClient, BridgeParams, HapticLoop, Pacing, SceneSim, UdpBridge};
 
 fn bridge_for(haptic: &HapticLoop, timeout_ms: u64) -> UdpBridge {
     UdpBridge::spawn(
@@ -24,7 +24,7 @@ fn bridge_for(haptic: &HapticLoop, timeout_ms: u64) -> UdpBridge {
 }
 
 fn start(timeout_ms: u64) -> (HapticLoop, UdpBridge) {
-    let haptic = HapticLoop::spawn(common::Floor::new(), &LoopParams::default()).unwrap();
+    let haptic = HapticLoop::spawn(common::Floor::new(), &Pacing::default()).unwrap();
     let bridge = bridge_for(&haptic, timeout_ms);
     (haptic, bridge)
 }
@@ -98,7 +98,7 @@ fn client_seq_upper_bound() -> u32 {
 #[test]
 fn the_first_frame_checked_after_the_timeout_is_released_and_none_before() {
     let (handle, mut frames) =
-        HapticLoop::manual(common::Floor::new(), &LoopParams::default()).unwrap();
+        HapticLoop::manual(common::Floor::new(), &Pacing::default()).unwrap();
     let bridge = bridge_for(&handle, 100);
     let mut client = session(&bridge, 100);
     client.send_pose([0.0, 0.0, -8.0, 0.0, 0.0, 0.0]).unwrap();
@@ -399,7 +399,7 @@ fn after_a_timeout_no_pose_is_applied_until_a_new_session() {
 #[test]
 fn re_engaging_ramps_the_force_from_zero() {
     let sim = SceneSim::new(&common::small_scene()).unwrap();
-    let (handle, mut frames) = HapticLoop::manual(sim, &LoopParams::default()).unwrap();
+    let (handle, mut frames) = HapticLoop::manual(sim, &Pacing::default()).unwrap();
     let bridge = bridge_for(&handle, 5000);
     let deep = [0.0, 0.0, -30.0, 0.0, 0.0, 0.0];
     let max_step = engine::safety::SafetyParams::default().max_force_step_n;

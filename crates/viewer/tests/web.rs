@@ -13,7 +13,7 @@ use futures_util::{SinkExt, StreamExt};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio_tungstenite::tungstenite::Message;
 use viewer::server::{self, WebParams};
-use viewer::{HapticLoop, LoopParams, SceneSim};
+use viewer::{HapticLoop, Pacing, SceneSim};
 
 async fn start(
     record_dir: &std::path::Path,
@@ -26,7 +26,7 @@ async fn start(
     let haptic = Arc::new(
         HapticLoop::spawn(
             SceneSim::new(&common::small_scene()).unwrap(),
-            &LoopParams::default(),
+            &Pacing::default(),
         )
         .unwrap(),
     );

@@ -46,14 +46,14 @@ use std::time::Instant;
 
 use collide::{
     overlap_swept, overlap_tree_trees, rotation_exp, rotation_log, CollideWorkspace,
-    ConstraintForm, FreeSpaceProbe, LeafPair, Linearization, PackedTree, Pose, ProbeStatus,
-    RotationCoordinates, Sweep,
+    FreeSpaceProbe, LeafPair, Linearization, PackedTree, Pose, ProbeStatus, RotationCoordinates,
+    Sweep,
 };
 use nalgebra::{Matrix3, Vector3};
-use qp::{Problem, Solver, SolverKind, Status};
+use qp::{Problem, Solver, Status};
 use spheretree::SphereTree;
 
-use crate::EngineError;
+use crate::{EngineConfig, EngineError};
 
 mod constrain;
 mod detect;
@@ -62,34 +62,6 @@ mod solve;
 
 use measure::rotation_angle;
 pub use measure::spring_wrench;
-
-/// Parameters of the step.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct StepParams {
-    /// Diagonal of `G`: kt (N/mm) ×3, kr (N·mm/rad) ×3.
-    pub g: [f64; 6],
-    /// Constraint form.
-    pub form: ConstraintForm,
-    /// Rotation coordinates of the QP variable and of the spring torque.
-    pub rotation: RotationCoordinates,
-    /// QP solver.
-    pub solver: SolverKind,
-    /// Maximum extra passes per frame (advancing through the trust box, or re-linearising).
-    pub relinearize: u32,
-    /// Penetration (mm) above which another pass is made.
-    pub penetration_tol_mm: f64,
-    /// Skin added to the detection margin, mm.
-    pub skin_mm: f64,
-    /// Largest motion of any tool sphere in one pass, mm (bounds the detection margin and so
-    /// the pair count; a faster hand takes more passes).
-    pub max_margin_mm: f64,
-    /// Time budget of the step, µs: no pass starts that would end past it (by the longest pass
-    /// of the frame so far).
-    pub budget_us: f64,
-    /// Largest number of leaf pairs per pass (storage reserved up front; more are dropped and
-    /// counted, never allocated).
-    pub max_pairs: usize,
-}
 
 /// How a frame ended.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -237,7 +209,8 @@ type PairId = (u32, u32, u32);
 
 /// The god-object: owns the packed trees, all scratch memory and the graphic configuration.
 pub struct GodObject {
-    params: StepParams,
+    /// The settings ([`EngineConfig`]; the step reads all but the safety limits).
+    params: EngineConfig,
     tool: PackedTree,
     objects: Vec<PackedTree>,
     ws: CollideWorkspace,
@@ -284,7 +257,7 @@ impl GodObject {
     pub fn new(
         tool: &SphereTree,
         objects: &[(SphereTree, Pose)],
-        params: StepParams,
+        params: EngineConfig,
     ) -> Result<Self, EngineError> {
         params.validate()?; // the same ranges as the scene file (crate::config)
         let bad = |body: String, source: collide::CollideError| EngineError::Tree { body, source };
@@ -337,8 +310,8 @@ impl GodObject {
         })
     }
 
-    /// The parameters.
-    pub fn params(&self) -> &StepParams {
+    /// The settings.
+    pub fn params(&self) -> &EngineConfig {
         &self.params
     }
 
@@ -776,7 +749,7 @@ impl GodObject {
         );
         out.penetration_mm = pen_safe;
         out.q_g = q_safe.to_array();
-        out.wrench = spring_wrench(&self.params.g, self.params.rotation, &q_safe, q_h);
+        out.wrench = spring_wrench(&self.params.g(), self.params.rotation, &q_safe, q_h);
         out.raw_wrench = out.wrench;
         out.cd_us = cd * 1e6;
         out.opt_us = opt * 1e6;
@@ -789,7 +762,7 @@ impl GodObject {
         out.q_g = self.q_g.to_array();
         self.warm_len = 0;
         let w = if q_h.is_finite() {
-            spring_wrench(&self.params.g, self.params.rotation, &self.q_g, q_h)
+            spring_wrench(&self.params.g(), self.params.rotation, &self.q_g, q_h)
         } else {
             [0.0; 6]
         };

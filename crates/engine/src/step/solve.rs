@@ -11,7 +11,7 @@ impl GodObject {
         n: usize,
         dq0: &[f64; 6],
     ) -> Option<([f64; 6], u32, Status, f64)> {
-        let p = Problem::new(self.params.g, &self.rows[..n], &self.rhs[..n]).ok()?;
+        let p = Problem::new(self.params.g(), &self.rows[..n], &self.rhs[..n]).ok()?;
         self.solver.set_warm_start(&self.warm_idx[..self.warm_len]);
         let s = self.solver.solve(&p, dq0);
         if s.status == Status::NumericalError {

@@ -42,15 +42,11 @@ pub const BUNNY_SCALE: f64 = 10.0;
 /// The bundled bunny in mm, centred on its bounding box.
 pub fn bunny_mesh_mm() -> Result<TriMesh, SceneError> {
     let raw = mesh::load_mesh_bytes(BUNNY_OBJ.as_bytes(), std::path::Path::new("bunny.obj"))
-        .map_err(|e| SceneError::Scene {
-            file: "bunny (assets/bunny.obj)".into(),
-            msg: e.to_string(),
-        })?
+        .map_err(|e| SceneError::caused("bunny (assets/bunny.obj)", "cannot load the mesh", e))?
         .mesh;
-    let (lo, hi) = raw.aabb().ok_or_else(|| SceneError::Scene {
-        file: "bunny".into(),
-        msg: "empty mesh".into(),
-    })?;
+    let (lo, hi) = raw
+        .aabb()
+        .ok_or_else(|| SceneError::scene("bunny", "empty mesh"))?;
     let c = [
         0.5 * (lo[0] + hi[0]),
         0.5 * (lo[1] + hi[1]),
@@ -90,12 +86,8 @@ pub fn scene(cache: &TreeCache) -> Result<Scene, SceneError> {
         load_log: log,
     };
     let contact = |from: &Pose, dir: [f64; 3]| {
-        crate::scenes::distance_to_contact(&scene, from, dir, 200.0)?.ok_or_else(|| {
-            SceneError::Scene {
-                file: "bunny".into(),
-                msg: "the tool never reaches the object".into(),
-            }
-        })
+        crate::scenes::distance_to_contact(&scene, from, dir, 200.0)?
+            .ok_or_else(|| SceneError::scene("bunny", "the tool never reaches the object"))
     };
     let y_top = start.q[1] - contact(&start, [0.0, -1.0, 0.0])?;
     let y_bottom = below.q[1] + contact(&below, [0.0, 1.0, 0.0])?;

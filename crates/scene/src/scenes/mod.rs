@@ -43,10 +43,8 @@ pub fn builtin(name: &str, cache: &TreeCache) -> Result<Scene, SceneError> {
 pub mod spline_scene;
 
 /// Loads a mesh file (OBJ, STL, PLY) through the mesh crate's validated loader.
-pub fn load_mesh_file(path: &Path) -> Result<TriMesh, String> {
-    mesh::load_mesh(path)
-        .map(|m| m.mesh)
-        .map_err(|e| e.to_string())
+pub fn load_mesh_file(path: &Path) -> Result<TriMesh, mesh::MeshError> {
+    mesh::load_mesh(path).map(|m| m.mesh)
 }
 
 /// Smallest gap (mm) between the tool at `q` and the objects, with pairs searched up to
@@ -73,10 +71,7 @@ pub fn distance_to_contact(
     dir: [f64; 3],
     max_mm: f64,
 ) -> Result<Option<f64>, SceneError> {
-    let bad = |e: collide::CollideError| SceneError::Scene {
-        file: scene.name.clone(),
-        msg: e.to_string(),
-    };
+    let bad = |e: collide::CollideError| SceneError::caused(&scene.name, "unusable tree", e);
     let tool = PackedTree::new(&scene.tool).map_err(bad)?;
     let objects = scene
         .objects
