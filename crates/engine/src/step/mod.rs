@@ -148,11 +148,11 @@ const MIN_SWEEP_MM: f64 = 0.1;
 /// costs to rebuild, in solving time).
 const REUSE_MAX_PAIRS: usize = 400;
 
-/// A path region is taken only while its length plus width stays within this many times the
-/// allowance that keeps a ball region near [`PAIR_TARGET`] pairs (measured: at 1, the spline's
-/// worst frame drops under 1 ms but the puck at 1 m/s lags in a third of its frames; at 2,
-/// both hold up; at 3, the spline's worst frame is back over 1 ms).
-const PATH_DENSITY_FACTOR: f64 = 2.0;
+/// Most leaf pairs of a path region: its query stops there and the frame goes on with ball
+/// regions. (A path along a surface holds pairs within its width, a few hundred even flat on
+/// flat; one into a dense contact would hold thousands. Measured on the puck at 1 m/s: a
+/// path region's list peaks near 800 pairs.)
+const PATH_MAX_PAIRS: usize = 1500;
 
 /// A path region reaches at least this far ahead (mm, largest sphere motion; at most
 /// `max_margin_mm`), so that a slow hand's next frames reuse it.
@@ -488,16 +488,11 @@ impl GodObject {
                 let mut allowed = need.min(allow).min(cap).min(dense_cap.max(MIN_ALLOW_MM));
                 let mut trust = need > allowed;
                 // A hand in motion that the ball cannot follow: a region along the motion
-                // predicted for the tool instead (a sliding contact holds far fewer pairs along
-                // its path than within the path's length all around).
-                // (Within twice the pair-density cap of a ball, length and width together: a
-                // wide path through a dense contact costs more than a second pass.)
-                let path_cap = dense_cap.max(MIN_ALLOW_MM).min(cap);
+                // predicted for the tool instead, its whole length (a sliding contact holds far
+                // fewer pairs along its path than within the path's length all around; the
+                // pair density of ball regions does not limit it, PATH_MAX_PAIRS does).
                 let mut sweep = if trust && path_regions {
-                    self.predicted_sweep(&q_lin, q_h, path_cap)
-                        .filter(|&(_, len)| {
-                            len + self.path_width() <= PATH_DENSITY_FACTOR * path_cap
-                        })
+                    self.predicted_sweep(&q_lin, q_h, cap)
                 } else {
                     None
                 };
