@@ -154,6 +154,10 @@ const REUSE_MAX_PAIRS: usize = 400;
 /// path region's list peaks near 800 pairs.)
 const PATH_MAX_PAIRS: usize = 1500;
 
+/// Frames without path regions after one overflowed [`PATH_MAX_PAIRS`] (a dense contact lasts
+/// longer than a frame; 50 ms at 1 kHz).
+const PATH_PAUSE_FRAMES: u32 = 50;
+
 /// A path region reaches at least this far ahead (mm, largest sphere motion; at most
 /// `max_margin_mm`), so that a slow hand's next frames reuse it.
 const PATH_MIN_MM: f64 = 0.2;
@@ -248,6 +252,8 @@ pub struct GodObject {
     /// How far (mm, largest sphere motion) the answer lay from the predicted pose, recently
     /// (the last frame's, or slowly forgotten larger ones).
     prediction_error: f64,
+    /// Frames left before path regions are tried again (after one overflowed).
+    path_pause: u32,
     started: bool,
 }
 
@@ -306,6 +312,7 @@ impl GodObject {
             hand_offset: (Vector3::zeros(), Vector3::zeros()),
             cached: None,
             prediction_error: 0.0,
+            path_pause: 0,
             started: false,
         })
     }
@@ -347,6 +354,10 @@ impl GodObject {
         self.last_motion = 0.0;
         self.last_step = [0.0; 3];
         self.hand_offset = (Vector3::zeros(), Vector3::zeros());
+        // A new run: nothing learnt from the last one (prediction, pair density) carries over.
+        self.prediction_error = 0.0;
+        self.pairs_per_mm = 0.0;
+        self.path_pause = 0;
         self.cached = None;
         self.free_radius = 0.0;
         self.probe.cancel();
@@ -427,14 +438,17 @@ impl GodObject {
         };
         let mut boxed: Option<Trust> = None;
         let mut detect_now = true;
-        // Path regions (along the predicted motion) are tried until one overflows.
-        let mut path_regions = self.params.relinearize > 0
+        // Path regions (along the predicted motion) are tried until one overflows; then not
+        // for the next PATH_PAUSE_FRAMES frames.
+        let path_allowed = self.params.relinearize > 0
             && self.params.rotation == RotationCoordinates::RotationVector;
+        let mut path_regions = path_allowed && self.path_pause == 0;
+        self.path_pause = self.path_pause.saturating_sub(1);
         // Last frame's region, while the tool is well inside it: no traversal in this pass. Its
         // trust region keeps the answer inside; one that binds starts a new region (a wrong
         // guess costs a small solve, not a traversal). A large list costs more to solve again
         // than a small region to detect.
-        let reusable = path_regions && self.pairs.len() <= REUSE_MAX_PAIRS;
+        let reusable = path_allowed && self.pairs.len() <= REUSE_MAX_PAIRS;
         let mut reused = false;
         if let Some((cached, trust)) = self.cached.filter(|_| reusable) {
             if let Some(lin) = self.linearization(&q_lin, q_h) {
@@ -572,14 +586,17 @@ impl GodObject {
                     self.pairs_per_mm *= 0.9;
                 }
                 if self.dropped > 0 {
+                    if sweep.is_some() {
+                        // Too many pairs along the path (a dense contact; the query stopped at
+                        // PATH_MAX_PAIRS): ball regions from here on, and for a while.
+                        path_regions = false;
+                        self.path_pause = PATH_PAUSE_FRAMES;
+                        longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
+                        continue;
+                    }
                     // More pairs than the storage holds: the list is not complete, so no answer
                     // from it is proven. Try a smaller region (fewer pairs) next pass.
                     overflowed = true;
-                    if sweep.is_some() {
-                        // Too many pairs even along the path: ball regions from here on.
-                        path_regions = false;
-                        continue;
-                    }
                     allow = 0.25 * allowed;
                     longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
                     if allow < MIN_OVERFLOW_ALLOW_MM {
@@ -604,7 +621,7 @@ impl GodObject {
                 // A path slab of half-width a keeps every sphere within sqrt(12) a of the path.
                 boxed = trust.then(|| match sweep {
                     Some(_) => Trust::Path(width / 12f64.sqrt()),
-                    None if path_regions => {
+                    None if path_allowed => {
                         // Each part gets the larger of its shares of the need and of the
                         // predicted motion (the hand's press into a surface is need the tool
                         // will not follow; a turn it follows may be a small part of the need).
