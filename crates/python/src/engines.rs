@@ -1,0 +1,153 @@
+//! Engines made from a scene (built-in or TOML file, as `haptic6d run` loads it) or from trees
+//! given one by one, with keyword settings on top ([`EngineOptions`]).
+
+use std::path::Path;
+
+use collide::Pose;
+use engine::Engine;
+use scene::cache::TreeCache;
+use scene::trajectory::Trajectory;
+use scene::{load_scene_file, Scene};
+use spheretree::SphereTree;
+
+use crate::options::{check_pose, EngineOptions, Settings};
+use crate::{Failure, FailureKind};
+
+/// An engine and what the door keeps beside it.
+pub struct Made {
+    /// The engine, reset at the start pose (or the nearest free pose).
+    pub engine: Engine,
+    /// Its settings and frame rate.
+    pub settings: Settings,
+    /// The scene name or `trees`, for messages.
+    pub label: String,
+    /// The scene's device trajectory (scenes only).
+    pub trajectory: Option<Trajectory>,
+    /// How each tree was obtained (one line each).
+    pub load_log: Vec<String>,
+}
+
+/// A built-in scene by name, or a scene file by path, as `haptic6d run` takes it (same
+/// messages); trees from `cache`.
+pub fn load_scene(name: &str, cache: &TreeCache) -> Result<Scene, Failure> {
+    if scene::scenes::BUILTIN_NAMES.contains(&name) {
+        return Ok(scene::scenes::builtin(name, cache)?);
+    }
+    let path = Path::new(name);
+    if !path.exists() {
+        return Err(Failure::file(format!(
+            "no built-in scene or scene file named `{name}` (built-in: {}; files end in .toml)",
+            scene::scenes::BUILTIN_NAMES.join(", ")
+        )));
+    }
+    Ok(load_scene_file(path, cache)?)
+}
+
+/// Wraps an engine error under `label`, as a scene's engine errors read.
+fn engine_error(label: &str, source: engine::EngineError) -> Failure {
+    Failure::from(scene::SceneError::Engine {
+        file: label.to_string(),
+        source,
+    })
+}
+
+/// The engine of `scene` with `options` over the scene's own settings; refused settings are
+/// named after the scene, as `haptic6d run`'s flags are (`bunny: [solver] budget_us = 0: ...`).
+pub fn from_scene(scene: Scene, options: &EngineOptions) -> Result<Made, Failure> {
+    let settings = options
+        .apply(scene.engine_config(), scene.rate_hz)
+        .map_err(|f| Failure {
+            kind: f.kind,
+            message: format!("{}: {}", scene.name, f.message),
+        })?;
+    let mut engine = Engine::new(&scene.tool, &scene.objects, settings.config)
+        .map_err(|e| engine_error(&scene.name, e))?;
+    engine
+        .reset(&scene.start)
+        .map_err(|e| engine_error(&scene.name, e))?;
+    Ok(Made {
+        engine,
+        settings,
+        trajectory: Some(scene.trajectory()),
+        load_log: scene.load_log.clone(),
+        label: scene.name,
+    })
+}
+
+/// The engine of `tool` against `objects` (trees in mm, each object with its fixed pose),
+/// with `options` over [`engine::EngineConfig::default`] at 1 kHz, reset at `start`.
+pub fn from_trees(
+    tool: &SphereTree,
+    objects: &[(SphereTree, Pose)],
+    start: [f64; 6],
+    options: &EngineOptions,
+    load_log: Vec<String>,
+) -> Result<Made, Failure> {
+    let settings = options.apply(engine::EngineConfig::default(), 1000.0)?;
+    if objects.is_empty() {
+        return Err(Failure::value(
+            "objects: no object given; pass at least one tree, .sph file or mesh",
+        ));
+    }
+    for (i, (_, pose)) in objects.iter().enumerate() {
+        check_pose(&format!("objects[{i}] pose"), &pose.to_array())?;
+    }
+    check_pose("start", &start)?;
+    let mut engine = Engine::new(tool, objects, settings.config)
+        .map_err(|e| Failure::chain(FailureKind::Value, &e))?;
+    engine
+        .reset(&Pose::from_array(start))
+        .map_err(|e| Failure::chain(FailureKind::Value, &e))?;
+    Ok(Made {
+        engine,
+        settings,
+        label: "trees".into(),
+        trajectory: None,
+        load_log,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_unknown_scene_is_a_file_error_naming_the_built_in_ones() {
+        let e = load_scene("nothere.toml", &TreeCache::disabled()).err().unwrap();
+        assert_eq!(e.kind, FailureKind::File);
+        assert_eq!(
+            e.message,
+            "no built-in scene or scene file named `nothere.toml` (built-in: bunny, spline, plate; files end in .toml)"
+        );
+    }
+
+    #[test]
+    fn a_malformed_scene_file_is_a_value_error_naming_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("bad.toml");
+        std::fs::write(&p, "[tool\n").unwrap();
+        let e = load_scene(p.to_str().unwrap(), &TreeCache::disabled())
+            .err()
+            .unwrap();
+        assert_eq!(e.kind, FailureKind::Value);
+        assert!(e.message.starts_with(&p.display().to_string()), "{}", e.message);
+        assert!(!e.message.contains('\n'));
+    }
+
+    #[test]
+    fn trees_need_an_object_and_finite_poses() {
+        use spheretree::Sphere;
+        let tool = SphereTree::from_slots(1, 2, vec![Sphere::new([0.0; 3], 5.0)]).unwrap();
+        let object = SphereTree::from_slots(1, 2, vec![Sphere::new([0.0; 3], 20.0)]).unwrap();
+        let o = EngineOptions::default();
+        let e = from_trees(&tool, &[], [0.0; 6], &o, vec![]).err().unwrap();
+        assert!(e.message.starts_with("objects: no object"), "{}", e.message);
+        let mut start = [0.0, 0.0, 40.0, 0.0, 0.0, 0.0];
+        start[3] = f64::NAN;
+        let objs = [(object, Pose::identity())];
+        let e = from_trees(&tool, &objs, start, &o, vec![]).err().unwrap();
+        assert!(e.message.starts_with("start = "), "{}", e.message);
+        let made = from_trees(&tool, &objs, [0.0, 0.0, 40.0, 0.0, 0.0, 0.0], &o, vec![]);
+        assert!(made.is_ok());
+    }
+}

@@ -1,0 +1,199 @@
+//! The keyword settings of `Engine.from_trees` and `Engine.from_scene`, mapped onto an
+//! [`EngineConfig`] and checked against the same ranges as scene files and command-line flags
+//! ([`engine::config`]), so a value refused there is refused here with the same message.
+
+use engine::config::{self, SettingError};
+use engine::setting::Setting;
+use engine::{ConstraintForm, EngineConfig, RotationCoordinates, SolverKind};
+
+use crate::Failure;
+
+/// Keyword settings; `None` keeps the base value (the scene's, or [`EngineConfig::default`]).
+/// Integers are signed so that a negative value gets the setting's own message.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct EngineOptions {
+    /// Translational stiffness, N/mm.
+    pub kt: Option<f64>,
+    /// Rotational stiffness, N·mm/rad.
+    pub kr: Option<f64>,
+    /// QP solver name: `dual`, `pqp`, `active-set`.
+    pub solver: Option<String>,
+    /// Constraint form name: `distance`, `squared`.
+    pub form: Option<String>,
+    /// Rotation coordinates name: `rotation-vector`, `euler`.
+    pub rotation: Option<String>,
+    /// Extra detect + solve passes per frame.
+    pub relinearize: Option<i64>,
+    /// Penetration tolerated before another pass, mm.
+    pub penetration_tol_mm: Option<f64>,
+    /// Detection skin, mm.
+    pub skin_mm: Option<f64>,
+    /// Largest motion of a tool sphere per pass, mm.
+    pub max_margin_mm: Option<f64>,
+    /// Time budget of a frame's step, µs.
+    pub budget_us: Option<f64>,
+    /// Leaf pairs stored per pass.
+    pub max_pairs: Option<i64>,
+    /// Largest force sent, N.
+    pub max_force_n: Option<f64>,
+    /// Largest torque sent, N·mm.
+    pub max_torque_nmm: Option<f64>,
+    /// Largest force change per frame, N.
+    pub max_force_step_n: Option<f64>,
+    /// Largest torque change per frame, N·mm.
+    pub max_torque_step_nmm: Option<f64>,
+    /// Soft-start ramp, s.
+    pub soft_start_s: Option<f64>,
+    /// Haptic rate, Hz: the safety layer's clock advances `1 / rate_hz` s per frame.
+    pub rate_hz: Option<f64>,
+}
+
+/// The settings after [`EngineOptions::apply`]: the engine's and the frame rate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// The engine's settings (checked).
+    pub config: EngineConfig,
+    /// Frames per second, Hz (checked).
+    pub rate_hz: f64,
+}
+
+/// Parses `name` as a setting of type `S`, naming the keyword in the error:
+/// `solver: unknown solver `newton`; expected one of: dual, pqp, active-set`.
+fn parse<S: Setting>(keyword: &str, name: &str) -> Result<S, Failure> {
+    S::parse_setting(name).map_err(|e| Failure::value(format!("{keyword}: {e}")))
+}
+
+/// A signed integer setting checked against `range` (a negative value is refused with the
+/// range's message).
+fn count(range: config::IntRange, v: i64) -> Result<u64, SettingError> {
+    match u64::try_from(v) {
+        Ok(u) => range.check(u).map(|()| u),
+        Err(_) => Err(SettingError {
+            key: range.key.to_string(),
+            value: v.to_string(),
+            expected: format!("an integer in {}..={} {}", range.lo, range.hi, range.unit),
+        }),
+    }
+}
+
+impl EngineOptions {
+    /// `base` and `base_rate_hz` with the given settings replaced, every setting checked
+    /// ([`EngineConfig::validate`], [`config::RATE_HZ`]). A refused value gives the scene
+    /// file's message, e.g. `[coupling] kt = 0: must be a finite number in [0.001, 100] N/mm`.
+    pub fn apply(&self, base: EngineConfig, base_rate_hz: f64) -> Result<Settings, Failure> {
+        let mut c = base;
+        if let Some(s) = &self.solver {
+            c.solver = parse::<SolverKind>("solver", s)?;
+        }
+        if let Some(s) = &self.form {
+            c.form = parse::<ConstraintForm>("form", s)?;
+        }
+        if let Some(s) = &self.rotation {
+            c.rotation = parse::<RotationCoordinates>("rotation", s)?;
+        }
+        let setting = |e: SettingError| Failure::value(e.to_string());
+        let set = |slot: &mut f64, v: Option<f64>| {
+            if let Some(v) = v {
+                *slot = v;
+            }
+        };
+        set(&mut c.kt, self.kt);
+        set(&mut c.kr, self.kr);
+        set(&mut c.penetration_tol_mm, self.penetration_tol_mm);
+        set(&mut c.skin_mm, self.skin_mm);
+        set(&mut c.max_margin_mm, self.max_margin_mm);
+        set(&mut c.budget_us, self.budget_us);
+        set(&mut c.safety.max_force_n, self.max_force_n);
+        set(&mut c.safety.max_torque_nmm, self.max_torque_nmm);
+        set(&mut c.safety.max_force_step_n, self.max_force_step_n);
+        set(&mut c.safety.max_torque_step_nmm, self.max_torque_step_nmm);
+        set(&mut c.safety.soft_start_s, self.soft_start_s);
+        if let Some(n) = self.relinearize {
+            // In range means at most 16: the cast cannot truncate.
+            c.relinearize = count(config::RELINEARIZE, n).map_err(setting)? as u32;
+        }
+        if let Some(n) = self.max_pairs {
+            c.max_pairs = usize::try_from(count(config::MAX_PAIRS, n).map_err(setting)?)
+                .map_err(|_| Failure::value(format!("max_pairs = {n}: too large")))?;
+        }
+        c.validate().map_err(setting)?;
+        let rate_hz = self.rate_hz.unwrap_or(base_rate_hz);
+        config::RATE_HZ.check(rate_hz).map_err(setting)?;
+        Ok(Settings { config: c, rate_hz })
+    }
+}
+
+/// Checks a pose given from Python: six finite numbers within the accepted range (mm, rad);
+/// `what` names it in the error (`q_h`, `start`, `trajectory row 3`).
+pub fn check_pose(what: &str, q: &[f64; 6]) -> Result<(), Failure> {
+    config::check_pose(what, q).map_err(|e| Failure::value(e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nothing_given_keeps_the_base() {
+        let s = EngineOptions::default()
+            .apply(EngineConfig::paper(), 500.0)
+            .unwrap();
+        assert_eq!(s.config, EngineConfig::paper());
+        assert_eq!(s.rate_hz, 500.0);
+    }
+
+    #[test]
+    fn settings_are_replaced_and_names_parsed() {
+        let o = EngineOptions {
+            kt: Some(2.0),
+            solver: Some("Active_Set".into()),
+            form: Some("squared".into()),
+            rotation: Some("euler".into()),
+            relinearize: Some(3),
+            budget_us: Some(1e6),
+            max_force_n: Some(10.0),
+            max_pairs: Some(100),
+            ..Default::default()
+        };
+        let s = o.apply(EngineConfig::default(), 1000.0).unwrap();
+        assert_eq!(s.config.kt, 2.0);
+        assert_eq!(s.config.solver, SolverKind::ActiveSet);
+        assert_eq!(s.config.form, ConstraintForm::Squared);
+        assert_eq!(s.config.rotation, RotationCoordinates::Euler);
+        assert_eq!(s.config.relinearize, 3);
+        assert_eq!(s.config.budget_us, 1e6);
+        assert_eq!(s.config.safety.max_force_n, 10.0);
+        assert_eq!(s.config.max_pairs, 100);
+    }
+
+    #[test]
+    fn refusals_carry_the_scene_file_messages() {
+        let bad = |o: EngineOptions| {
+            o.apply(EngineConfig::default(), 1000.0)
+                .unwrap_err()
+                .message
+        };
+        assert_eq!(
+            bad(EngineOptions {
+                solver: Some("newton".into()),
+                ..Default::default()
+            }),
+            "solver: unknown solver `newton`; expected one of: dual, pqp, active-set"
+        );
+        assert!(bad(EngineOptions {
+            kt: Some(f64::NAN),
+            ..Default::default()
+        })
+        .starts_with("[coupling] kt = NaN: must be"));
+        assert!(bad(EngineOptions {
+            relinearize: Some(-1),
+            ..Default::default()
+        })
+        .starts_with("[solver] relinearize = -1: must be an integer in 0..=16"));
+        assert!(bad(EngineOptions {
+            rate_hz: Some(0.0),
+            ..Default::default()
+        })
+        .starts_with("[device] rate_hz = 0"));
+    }
+}
