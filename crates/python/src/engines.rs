@@ -51,15 +51,10 @@ fn engine_error(label: &str, source: engine::EngineError) -> Failure {
     })
 }
 
-/// The engine of `scene` with `options` over the scene's own settings; refused settings are
-/// named after the scene, as `haptic6d run`'s flags are (`bunny: [solver] budget_us = 0: ...`).
+/// The engine of `scene` with `options` over the scene's own settings; a refused keyword is
+/// named as `haptic6d run` names its flags (`budget_us = 0: must be ...`).
 pub fn from_scene(scene: Scene, options: &EngineOptions) -> Result<Made, Failure> {
-    let settings = options
-        .apply(scene.engine_config(), scene.rate_hz)
-        .map_err(|f| Failure {
-            kind: f.kind,
-            message: format!("{}: {}", scene.name, f.message),
-        })?;
+    let settings = options.apply(scene.engine_config(), scene.rate_hz)?;
     let mut engine = Engine::new(&scene.tool, &scene.objects, settings.config)
         .map_err(|e| engine_error(&scene.name, e))?;
     engine
@@ -113,7 +108,9 @@ mod tests {
 
     #[test]
     fn an_unknown_scene_is_a_file_error_naming_the_built_in_ones() {
-        let e = load_scene("nothere.toml", &TreeCache::disabled()).err().unwrap();
+        let e = load_scene("nothere.toml", &TreeCache::disabled())
+            .err()
+            .unwrap();
         assert_eq!(e.kind, FailureKind::File);
         assert_eq!(
             e.message,
@@ -130,7 +127,11 @@ mod tests {
             .err()
             .unwrap();
         assert_eq!(e.kind, FailureKind::Value);
-        assert!(e.message.starts_with(&p.display().to_string()), "{}", e.message);
+        assert!(
+            e.message.starts_with(&p.display().to_string()),
+            "{}",
+            e.message
+        );
         assert!(!e.message.contains('\n'));
     }
 

@@ -63,13 +63,13 @@ fn parse<S: Setting>(keyword: &str, name: &str) -> Result<S, Failure> {
     S::parse_setting(name).map_err(|e| Failure::value(format!("{keyword}: {e}")))
 }
 
-/// A signed integer setting checked against `range` (a negative value is refused with the
-/// range's message).
-fn count(range: config::IntRange, v: i64) -> Result<u64, SettingError> {
+/// A signed integer setting checked against `range` under `key` (a negative value is refused
+/// with the range's message).
+fn count(key: &str, range: config::IntRange, v: i64) -> Result<u64, SettingError> {
     match u64::try_from(v) {
-        Ok(u) => range.check(u).map(|()| u),
+        Ok(u) => range.check_as(key, u).map(|()| u),
         Err(_) => Err(SettingError {
-            key: range.key.to_string(),
+            key: key.to_string(),
             value: v.to_string(),
             expected: format!("an integer in {}..={} {}", range.lo, range.hi, range.unit),
         }),
@@ -78,8 +78,9 @@ fn count(range: config::IntRange, v: i64) -> Result<u64, SettingError> {
 
 impl EngineOptions {
     /// `base` and `base_rate_hz` with the given settings replaced, every setting checked
-    /// ([`EngineConfig::validate`], [`config::RATE_HZ`]). A refused value gives the scene
-    /// file's message, e.g. `[coupling] kt = 0: must be a finite number in [0.001, 100] N/mm`.
+    /// ([`EngineConfig::validate`], [`config::RATE_HZ`]). A refused value is named by its
+    /// keyword, as the command line names its flags:
+    /// `kt = 0: must be a finite number in [0.001, 100] N/mm`.
     pub fn apply(&self, base: EngineConfig, base_rate_hz: f64) -> Result<Settings, Failure> {
         let mut c = base;
         if let Some(s) = &self.solver {
@@ -92,32 +93,84 @@ impl EngineOptions {
             c.rotation = parse::<RotationCoordinates>("rotation", s)?;
         }
         let setting = |e: SettingError| Failure::value(e.to_string());
-        let set = |slot: &mut f64, v: Option<f64>| {
-            if let Some(v) = v {
+        // Each given value is checked under its keyword's name first, as the command line
+        // checks its flags (`budget_us = 0: must be ...`); then the whole, as a scene's.
+        let reals: [(&str, config::Range, Option<f64>, &mut f64); 11] = [
+            ("kt", config::KT, self.kt, &mut c.kt),
+            ("kr", config::KR, self.kr, &mut c.kr),
+            (
+                "penetration_tol_mm",
+                config::PENETRATION_TOL_MM,
+                self.penetration_tol_mm,
+                &mut c.penetration_tol_mm,
+            ),
+            ("skin_mm", config::SKIN_MM, self.skin_mm, &mut c.skin_mm),
+            (
+                "max_margin_mm",
+                config::MAX_MARGIN_MM,
+                self.max_margin_mm,
+                &mut c.max_margin_mm,
+            ),
+            (
+                "budget_us",
+                config::BUDGET_US,
+                self.budget_us,
+                &mut c.budget_us,
+            ),
+            (
+                "max_force_n",
+                config::MAX_FORCE_N,
+                self.max_force_n,
+                &mut c.safety.max_force_n,
+            ),
+            (
+                "max_torque_nmm",
+                config::MAX_TORQUE_NMM,
+                self.max_torque_nmm,
+                &mut c.safety.max_torque_nmm,
+            ),
+            (
+                "max_force_step_n",
+                config::MAX_FORCE_STEP_N,
+                self.max_force_step_n,
+                &mut c.safety.max_force_step_n,
+            ),
+            (
+                "max_torque_step_nmm",
+                config::MAX_TORQUE_STEP_NMM,
+                self.max_torque_step_nmm,
+                &mut c.safety.max_torque_step_nmm,
+            ),
+            (
+                "soft_start_s",
+                config::SOFT_START_S,
+                self.soft_start_s,
+                &mut c.safety.soft_start_s,
+            ),
+        ];
+        for (key, range, value, slot) in reals {
+            if let Some(v) = value {
+                range.check_as(key, v).map_err(setting)?;
                 *slot = v;
             }
-        };
-        set(&mut c.kt, self.kt);
-        set(&mut c.kr, self.kr);
-        set(&mut c.penetration_tol_mm, self.penetration_tol_mm);
-        set(&mut c.skin_mm, self.skin_mm);
-        set(&mut c.max_margin_mm, self.max_margin_mm);
-        set(&mut c.budget_us, self.budget_us);
-        set(&mut c.safety.max_force_n, self.max_force_n);
-        set(&mut c.safety.max_torque_nmm, self.max_torque_nmm);
-        set(&mut c.safety.max_force_step_n, self.max_force_step_n);
-        set(&mut c.safety.max_torque_step_nmm, self.max_torque_step_nmm);
-        set(&mut c.safety.soft_start_s, self.soft_start_s);
+        }
         if let Some(n) = self.relinearize {
             // In range means at most 16: the cast cannot truncate.
-            c.relinearize = count(config::RELINEARIZE, n).map_err(setting)? as u32;
+            c.relinearize = count("relinearize", config::RELINEARIZE, n).map_err(setting)? as u32;
         }
         if let Some(n) = self.max_pairs {
-            c.max_pairs = usize::try_from(count(config::MAX_PAIRS, n).map_err(setting)?)
+            let n = count("max_pairs", config::MAX_PAIRS, n).map_err(setting)?;
+            c.max_pairs = usize::try_from(n)
                 .map_err(|_| Failure::value(format!("max_pairs = {n}: too large")))?;
         }
         c.validate().map_err(setting)?;
-        let rate_hz = self.rate_hz.unwrap_or(base_rate_hz);
+        let rate_hz = match self.rate_hz {
+            Some(r) => {
+                config::RATE_HZ.check_as("rate_hz", r).map_err(setting)?;
+                r
+            }
+            None => base_rate_hz,
+        };
         config::RATE_HZ.check(rate_hz).map_err(setting)?;
         Ok(Settings { config: c, rate_hz })
     }
@@ -184,16 +237,16 @@ mod tests {
             kt: Some(f64::NAN),
             ..Default::default()
         })
-        .starts_with("[coupling] kt = NaN: must be"));
+        .starts_with("kt = NaN: must be"));
         assert!(bad(EngineOptions {
             relinearize: Some(-1),
             ..Default::default()
         })
-        .starts_with("[solver] relinearize = -1: must be an integer in 0..=16"));
+        .starts_with("relinearize = -1: must be an integer in 0..=16"));
         assert!(bad(EngineOptions {
             rate_hz: Some(0.0),
             ..Default::default()
         })
-        .starts_with("[device] rate_hz = 0"));
+        .starts_with("rate_hz = 0"));
     }
 }

@@ -70,7 +70,10 @@ fn add_errors(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     let file = make(
         "FileError",
-        PyTuple::new(py, [base.bind(py).as_any().clone(), builtins.getattr("OSError")?])?,
+        PyTuple::new(
+            py,
+            [base.bind(py).as_any().clone(), builtins.getattr("OSError")?],
+        )?,
         "A file that cannot be found, read or written.",
     )?;
     // A second import of the module in one process keeps the first classes.
@@ -142,7 +145,10 @@ fn path_arg(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<PathBuf> {
     obj.extract::<PathBuf>().map_err(|_| {
         input_error(
             obj.py(),
-            format!("{what}: expected a path (str or os.PathLike), got {}", describe(obj)),
+            format!(
+                "{what}: expected a path (str or os.PathLike), got {}",
+                describe(obj)
+            ),
         )
     })
 }
@@ -150,21 +156,30 @@ fn path_arg(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<PathBuf> {
 /// A real keyword value.
 fn real(key: &str, v: &Bound<'_, PyAny>) -> PyResult<f64> {
     v.extract::<f64>().map_err(|_| {
-        input_error(v.py(), format!("{key}: expected a number, got {}", describe(v)))
+        input_error(
+            v.py(),
+            format!("{key}: expected a number, got {}", describe(v)),
+        )
     })
 }
 
 /// An integer keyword value.
 fn integer(key: &str, v: &Bound<'_, PyAny>) -> PyResult<i64> {
     v.extract::<i64>().map_err(|_| {
-        input_error(v.py(), format!("{key}: expected an integer, got {}", describe(v)))
+        input_error(
+            v.py(),
+            format!("{key}: expected an integer, got {}", describe(v)),
+        )
     })
 }
 
 /// A name keyword value.
 fn name(key: &str, v: &Bound<'_, PyAny>) -> PyResult<String> {
     v.extract::<String>().map_err(|_| {
-        input_error(v.py(), format!("{key}: expected a name (str), got {}", describe(v)))
+        input_error(
+            v.py(),
+            format!("{key}: expected a name (str), got {}", describe(v)),
+        )
     })
 }
 
@@ -288,7 +303,9 @@ impl PyTree {
     #[staticmethod]
     fn load(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<Self> {
         let path = path_arg("path", path)?;
-        let tree = py.detach(|| trees::read_tree(&path)).map_err(|f| raise(py, f))?;
+        let tree = py
+            .detach(|| trees::read_tree(&path))
+            .map_err(|f| raise(py, f))?;
         Ok(Self {
             tree,
             info: None,
@@ -493,6 +510,25 @@ fn trajectory_values(obj: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
         .collect())
 }
 
+/// The status names as a numpy string array, made by indexing the few distinct names with a
+/// code per frame (a list of one Python string per frame costs ten times more).
+fn status_array<'py>(py: Python<'py>, names: &[&'static str]) -> PyResult<Bound<'py, PyAny>> {
+    let mut distinct: Vec<&'static str> = Vec::new();
+    let mut codes = Vec::with_capacity(names.len());
+    for &n in names {
+        let code = match distinct.iter().position(|&d| d == n) {
+            Some(i) => i,
+            None => {
+                distinct.push(n);
+                distinct.len() - 1
+            }
+        };
+        codes.push(code as i64);
+    }
+    let table = numpy(py)?.call_method1("array", (distinct,))?;
+    table.call_method1("take", (i64_array(py, &codes)?,))
+}
+
 /// A trajectory as an array of shape (N, 7).
 fn trajectory_array<'py>(py: Python<'py>, t: &Trajectory) -> PyResult<Bound<'py, PyAny>> {
     let flat: Vec<f64> = t
@@ -518,7 +554,9 @@ impl PyEngine {
         let options = engine_options(settings)?;
         let cache = TreeCache::from_env();
         let made = py
-            .detach(|| engines::load_scene(&name, &cache).and_then(|s| engines::from_scene(s, &options)))
+            .detach(|| {
+                engines::load_scene(&name, &cache).and_then(|s| engines::from_scene(s, &options))
+            })
             .map_err(|f| raise(py, f))?;
         Ok(Self::new(made))
     }
@@ -551,7 +589,10 @@ impl PyEngine {
         let tool_tree = tree_arg(tool, "tool", &cache, &mut log)?;
         let mut objs = Vec::new();
         let items = objects.try_iter().map_err(|_| {
-            input_error(py, format!("objects: expected a list, got {}", describe(objects)))
+            input_error(
+                py,
+                format!("objects: expected a list, got {}", describe(objects)),
+            )
         })?;
         for (i, item) in items.enumerate() {
             let item = item?;
@@ -577,7 +618,11 @@ impl PyEngine {
     /// Starts a new run with the device at `q` (x, y, z mm; gamma, beta, alpha rad): the
     /// graphic tool is placed at `q`, or at the nearest free pose when `q` is in collision
     /// (returned); the safety layer's soft start and the counters start again.
-    fn reset<'py>(&mut self, py: Python<'py>, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyTuple>> {
+    fn reset<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
         let q = pose_arg("q", q)?;
         let placed = self
             .made
@@ -602,7 +647,12 @@ impl PyEngine {
         let q = pose_arg("q_h", q_h)?;
         let t = match t {
             Some(t) if t.is_finite() => t,
-            Some(t) => return Err(input_error(py, format!("t = {t}: must be a finite time in s"))),
+            Some(t) => {
+                return Err(input_error(
+                    py,
+                    format!("t = {t}: must be a finite time in s"),
+                ))
+            }
             None => self.frames as f64 / self.made.settings.rate_hz,
         };
         let f = *self.made.engine.step(t, &Pose::from_array(q));
@@ -664,7 +714,7 @@ impl PyEngine {
             let arr = match col {
                 Column::Real(v) => f64_array(py, &v)?,
                 Column::Count(v) => i64_array(py, &v)?,
-                Column::Status(v) => numpy(py)?.call_method1("array", (v,))?,
+                Column::Status(v) => status_array(py, &v)?,
             };
             out.set_item(name, arr)?;
         }
@@ -829,19 +879,22 @@ fn eval_tree<'py>(
     centre: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mesh_path = path_arg("mesh", mesh)?;
-    let (t, label) = match tree.cast::<PyTree>() {
-        Ok(t) => (t.get().tree.clone(), t.get().source.clone()),
-        Err(_) => {
-            let p = path_arg("tree", tree)?;
-            let t = py.detach(|| trees::read_tree(&p)).map_err(|f| raise(py, f))?;
-            (t, p.display().to_string())
-        }
-    };
     let o = EvalOptions {
         samples,
         seed,
         inside: inside.to_string(),
         centre,
+    };
+    trees::check_eval(&o).map_err(|f| raise(py, f))?;
+    let (t, label) = match tree.cast::<PyTree>() {
+        Ok(t) => (t.get().tree.clone(), t.get().source.clone()),
+        Err(_) => {
+            let p = path_arg("tree", tree)?;
+            let t = py
+                .detach(|| trees::read_tree(&p))
+                .map_err(|f| raise(py, f))?;
+            (t, p.display().to_string())
+        }
     };
     let r = py
         .detach(|| trees::eval(&t, &label, &mesh_path, &o))

@@ -34,7 +34,7 @@ pub fn column_names() -> impl Iterator<Item = &'static str> {
 /// checked as a trajectory file is: at least one row, every value finite, time never going
 /// backwards, poses within the accepted range.
 pub fn trajectory_from_rows(values: &[f64]) -> Result<Trajectory, Failure> {
-    if values.is_empty() || values.len() % 7 != 0 {
+    if values.is_empty() || !values.chunks_exact(7).remainder().is_empty() {
         return Err(Failure::value(format!(
             "trajectory: {} values; expected an array of shape (N, 7) with N >= 1 ({TRAJECTORY_HEADER})",
             values.len()
@@ -143,7 +143,12 @@ mod tests {
     fn engine() -> Engine {
         let tool = SphereTree::from_slots(1, 2, vec![Sphere::new([0.0; 3], 5.0)]).unwrap();
         let object = SphereTree::from_slots(1, 2, vec![Sphere::new([0.0; 3], 20.0)]).unwrap();
-        Engine::new(&tool, &[(object, Pose::identity())], EngineConfig::default()).unwrap()
+        Engine::new(
+            &tool,
+            &[(object, Pose::identity())],
+            EngineConfig::default(),
+        )
+        .unwrap()
     }
 
     /// The hand moves down through the sphere; the tool rests on it.
@@ -194,8 +199,7 @@ mod tests {
         let traj = trajectory_from_rows(&rows).unwrap();
         b.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
         let mut device = ReplayDevice::new(traj);
-        let theirs =
-            scene::rt::run_loop(&mut b, &mut device, &LoopParams::default()).unwrap();
+        let theirs = scene::rt::run_loop(&mut b, &mut device, &LoopParams::default()).unwrap();
         let strip = |r: &FrameRecord| {
             let mut f = r.frame;
             (f.cd_us, f.opt_us, f.total_us) = (0.0, 0.0, 0.0);
@@ -215,7 +219,10 @@ mod tests {
         let mut rows = press();
         rows[7 * 5] = -1.0;
         let e = trajectory_from_rows(&rows).unwrap_err().message;
-        assert!(e.starts_with("trajectory row 5: time -1 goes backwards"), "{e}");
+        assert!(
+            e.starts_with("trajectory row 5: time -1 goes backwards"),
+            "{e}"
+        );
         let e = trajectory_from_rows(&[0.0; 6]).unwrap_err().message;
         assert!(e.contains("shape (N, 7)"), "{e}");
         let e = trajectory_from_rows(&[]).unwrap_err().message;

@@ -289,14 +289,9 @@ fn containment_excess(tree: &SphereTree) -> f64 {
     worst
 }
 
-/// Measures how tightly `tree` fits the mesh at `path`, as `haptic6d tree eval` does. `label`
-/// names the tree in errors.
-pub fn eval(
-    tree: &SphereTree,
-    label: &str,
-    path: &Path,
-    o: &EvalOptions,
-) -> Result<EvalReport, Failure> {
+/// Checks the measure's options as `haptic6d tree eval` checks its flags, before any work:
+/// the sample count and the inside test.
+pub fn check_eval(o: &EvalOptions) -> Result<(usize, Option<InsideTest>), Failure> {
     let samples = usize::try_from(o.samples)
         .ok()
         .filter(|s| (1..=MAX_SAMPLES).contains(s))
@@ -306,7 +301,18 @@ pub fn eval(
                 o.samples
             ))
         })?;
-    let chosen = parse_inside(&o.inside)?;
+    Ok((samples, parse_inside(&o.inside)?))
+}
+
+/// Measures how tightly `tree` fits the mesh at `path`, as `haptic6d tree eval` does. `label`
+/// names the tree in errors.
+pub fn eval(
+    tree: &SphereTree,
+    label: &str,
+    path: &Path,
+    o: &EvalOptions,
+) -> Result<EvalReport, Failure> {
+    let (samples, chosen) = check_eval(o)?;
     if !tree.spheres().iter().any(|s| s.is_used()) {
         return Err(Failure::value(format!(
             "{label}: the tree has no used sphere (every radius is negative); nothing to measure"
