@@ -831,6 +831,12 @@ impl PyEngine {
     }
 }
 
+/// A random seed: 0 or more (taken as signed so that a negative one gets this message rather
+/// than an overflow).
+fn seed_arg(py: Python<'_>, seed: i64) -> PyResult<u64> {
+    u64::try_from(seed).map_err(|_| input_error(py, format!("seed={seed}: must be 0 or more")))
+}
+
 /// Builds a sphere-tree of a mesh (OBJ, STL, PLY) as `haptic6d tree build` does; the GIL is
 /// released during the build.
 #[pyfunction]
@@ -842,11 +848,12 @@ fn build_tree(
     depth: i64,
     branching: i64,
     method: &str,
-    seed: u64,
+    seed: i64,
     inside: &str,
     bradshaw_frame: bool,
 ) -> PyResult<PyTree> {
     let path = path_arg("mesh", mesh)?;
+    let seed = seed_arg(py, seed)?;
     let o = BuildOptions {
         depth,
         branching,
@@ -874,11 +881,12 @@ fn eval_tree<'py>(
     tree: &Bound<'py, PyAny>,
     mesh: &Bound<'py, PyAny>,
     samples: i64,
-    seed: u64,
+    seed: i64,
     inside: &str,
     centre: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mesh_path = path_arg("mesh", mesh)?;
+    let seed = seed_arg(py, seed)?;
     let o = EvalOptions {
         samples,
         seed,

@@ -67,6 +67,8 @@ def test_bad_build_arguments_read_as_the_command_line_flags(tmp_path):
         haptic6d.build_tree(BUNNY_OBJ, method="fast")
     with pytest.raises(haptic6d.InputError, match="unknown inside test `inner`"):
         haptic6d.build_tree(BUNNY_OBJ, inside="inner")
+    with pytest.raises(haptic6d.InputError, match=r"^seed=-1: must be 0 or more$"):
+        haptic6d.build_tree(BUNNY_OBJ, seed=-1)
     with pytest.raises(haptic6d.FileError, match="nothere.obj"):
         haptic6d.build_tree(tmp_path / "nothere.obj")
     with pytest.raises(haptic6d.InputError, match=r"^samples=0"):
