@@ -443,6 +443,8 @@ impl GodObject {
         let path_allowed = self.params.relinearize > 0
             && self.params.rotation == RotationCoordinates::RotationVector;
         let mut path_regions = path_allowed && self.path_pause == 0;
+        // A path that overflows is tried once more at the narrowest width before ball regions.
+        let mut path_width_cap = f64::INFINITY;
         self.path_pause = self.path_pause.saturating_sub(1);
         // Last frame's region, while the tool is well inside it: no traversal in this pass. Its
         // trust region keeps the answer inside; one that binds starts a new region (a wrong
@@ -511,7 +513,7 @@ impl GodObject {
                     None
                 };
                 let width = if sweep.is_some() {
-                    self.path_width()
+                    self.path_width().min(path_width_cap)
                 } else {
                     allowed
                 };
@@ -587,11 +589,16 @@ impl GodObject {
                 }
                 if self.dropped > 0 {
                     if sweep.is_some() {
-                        // Too many pairs along the path (a dense contact; the query stopped at
-                        // PATH_MAX_PAIRS): ball regions from here on, and for a while.
+                        longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
+                        if width > PATH_WIDTH_MIN_MM {
+                            // Too many pairs along a wide path: the same path, narrowest.
+                            path_width_cap = PATH_WIDTH_MIN_MM;
+                            continue;
+                        }
+                        // Too many pairs even along a narrow path (a dense contact; the query
+                        // stopped at PATH_MAX_PAIRS): ball regions from here on, and for a while.
                         path_regions = false;
                         self.path_pause = PATH_PAUSE_FRAMES;
-                        longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
                         continue;
                     }
                     // More pairs than the storage holds: the list is not complete, so no answer
