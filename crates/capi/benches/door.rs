@@ -5,14 +5,20 @@
 //! - `bunny`: the bunny scene's whole trajectory (approach, contacts, slides; 8601 frames)
 //!   from a reset per iteration; per frame = the time / 8601 (criterion's throughput line).
 //!
-//! `cargo bench -p haptic6d-capi --bench door`; medians in
+//! - `paired` (printed first): both engines step the bunny trajectory in lockstep, each frame
+//!   timed on both sides (alternating which goes first); the median of the per-frame
+//!   differences. Load on a shared machine hits both sides of a pair alike, where it can hit
+//!   one criterion bench and not the other.
+//!
+//! `cargo bench -p haptic6d-capi --bench door`; criterion's medians in
 //! `target/criterion/door-*/*/new/estimates.json` (`median.point_estimate`, ns).
 
 use std::ffi::CString;
 use std::hint::black_box;
 use std::ptr::null_mut;
+use std::time::Instant;
 
-use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use criterion::{criterion_group, Criterion, Throughput};
 use engine::{Engine, Pose};
 use haptic6d::{h6d_engine_destroy, h6d_engine_reset, h6d_engine_step, h6d_scene_destroy};
 use haptic6d::{h6d_scene_engine, h6d_scene_load, last_error, H6dEngine, H6dFrameInfo};
@@ -120,6 +126,69 @@ fn bench(c: &mut Criterion) {
     unsafe { h6d_engine_destroy(door) };
 }
 
+/// The paired measurement: median and quartiles of `c - rust` per frame, ns, over `rounds`
+/// replays of the bunny trajectory.
+fn paired(rounds: usize) {
+    let (mut rust, door, poses) = engines();
+    let mut w = [0.0; 6];
+    let mut q_g = [0.0; 6];
+    let mut info = H6dFrameInfo::default();
+    let mut diffs = Vec::with_capacity(rounds * poses.len());
+    let mut rust_ns = Vec::with_capacity(rounds * poses.len());
+    for _ in 0..rounds {
+        rust.reset(&Pose::from_array(poses[0])).unwrap();
+        // SAFETY: live engine, valid pointers.
+        unsafe { h6d_engine_reset(door, poses[0].as_ptr(), null_mut()) };
+        for (i, q) in poses.iter().enumerate() {
+            let t = i as f64 * 1e-3;
+            let mut time_rust = || {
+                let t0 = Instant::now();
+                black_box(rust.step(t, &Pose::from_array(*q)).wrench);
+                t0.elapsed().as_nanos() as f64
+            };
+            let mut time_c = || {
+                let t0 = Instant::now();
+                // SAFETY: live engine, valid pointers.
+                unsafe {
+                    h6d_engine_step(
+                        door,
+                        t,
+                        q.as_ptr(),
+                        w.as_mut_ptr(),
+                        q_g.as_mut_ptr(),
+                        &mut info,
+                    )
+                };
+                black_box(w);
+                t0.elapsed().as_nanos() as f64
+            };
+            let (r, c) = if i % 2 == 0 {
+                let r = time_rust();
+                (r, time_c())
+            } else {
+                let c = time_c();
+                (time_rust(), c)
+            };
+            diffs.push(c - r);
+            rust_ns.push(r);
+        }
+    }
+    // SAFETY: live engine, freed once.
+    unsafe { h6d_engine_destroy(door) };
+    let q = |v: &mut Vec<f64>, p: f64| {
+        v.sort_by(f64::total_cmp);
+        v[((v.len() - 1) as f64 * p) as usize]
+    };
+    println!(
+        "door-paired: {} frames; Engine::step median {:.0} ns; h6d_engine_step - Engine::step per frame: median {:.0} ns (quartiles {:.0} / {:.0} ns)",
+        diffs.len(),
+        q(&mut rust_ns, 0.5),
+        q(&mut diffs, 0.5),
+        q(&mut diffs, 0.25),
+        q(&mut diffs, 0.75),
+    );
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default()
@@ -128,4 +197,11 @@ criterion_group! {
         .measurement_time(std::time::Duration::from_secs(3));
     targets = bench
 }
-criterion_main!(benches);
+fn main() {
+    // `cargo bench --no-run` builds this; `cargo test --benches` runs it once with `--bench`
+    // absent: keep that quick.
+    let full = std::env::args().any(|a| a == "--bench");
+    paired(if full { 5 } else { 1 });
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}
