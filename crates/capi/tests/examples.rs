@@ -18,7 +18,7 @@ use std::process::{Command, Output};
 use scene::cache::TreeCache;
 use scene::device::ReplayDevice;
 use scene::report::frames_csv;
-use scene::rt::{run_loop, LoopParams};
+use scene::rt::{run_loop, LoopParams, Pacing};
 use scene::trajectory::Trajectory;
 use scene::Motion;
 
@@ -168,15 +168,14 @@ fn reference() -> Reference {
     engine
         .reset(&engine::Pose::from_array(traj.samples[0].q))
         .unwrap();
-    let report = run_loop(
-        &mut engine,
-        &mut ReplayDevice::new(traj),
-        &LoopParams {
-            rt_priority: None,
-            ..LoopParams::default()
+    let params = LoopParams {
+        pacing: Pacing {
+            rate_hz: scene.rate_hz,
+            ..Pacing::default()
         },
-    )
-    .unwrap();
+        ..LoopParams::default()
+    };
+    let report = run_loop(&mut engine, &mut ReplayDevice::new(traj), &params).unwrap();
     let frames = rows(&frames_csv(&report.frames), "haptic6d run (in process)");
     assert!(frames.len() > 1000, "too few frames: {}", frames.len());
     assert!(
@@ -192,10 +191,49 @@ fn reference() -> Reference {
     }
 }
 
-/// The `haptic6d` binary of this target folder's profile, when built.
+/// The `haptic6d` binary of this target folder's profile, when built and newer than every
+/// source file of the crates it is made of (a binary left from before a change to them would
+/// be compared with today's library; `cargo test --workspace` rebuilds it first).
 fn haptic6d_binary() -> Option<PathBuf> {
     let p = profile_dir().join(format!("haptic6d{}", std::env::consts::EXE_SUFFIX));
-    p.is_file().then_some(p)
+    let built = std::fs::metadata(&p).and_then(|m| m.modified()).ok()?;
+    let crates = repo().join("crates");
+    let newest = [
+        "cli",
+        "scene",
+        "engine",
+        "collide",
+        "qp",
+        "spheretree",
+        "mesh",
+    ]
+    .iter()
+    .filter_map(|c| newest_source(&crates.join(c).join("src")))
+    .max()?;
+    if newest > built {
+        eprintln!(
+            "note: {} is older than its sources; compared with haptic6d run in process only",
+            p.display()
+        );
+        return None;
+    }
+    Some(p)
+}
+
+/// The latest modification time of the files under `dir`.
+fn newest_source(dir: &Path) -> Option<std::time::SystemTime> {
+    std::fs::read_dir(dir)
+        .ok()?
+        .filter_map(Result::ok)
+        .filter_map(|e| {
+            let path = e.path();
+            if path.is_dir() {
+                newest_source(&path)
+            } else {
+                e.metadata().and_then(|m| m.modified()).ok()
+            }
+        })
+        .max()
 }
 
 fn check_example(exe: &Path, what: &str, env: &[(&str, &str)]) {
