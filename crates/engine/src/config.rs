@@ -229,6 +229,47 @@ pub const MAX_FRAMES: IntRange = IntRange {
     hi: 100_000_000,
     unit: "frames",
 };
+/// `[device] timeout_s`: a device that delivers no pose for this long is released (the wrench
+/// goes to zero through the rate limit), s.
+pub const DEVICE_TIMEOUT_S: Range = open("[device] timeout_s", 0.0, 10.0, "s");
+/// `[device] calibration.scale`: scene mm per device mm (workspace scaling).
+pub const CAL_SCALE: Range = closed(
+    "[device] calibration.scale",
+    1e-3,
+    1e3,
+    "scene mm per device mm",
+);
+/// `[device] calibration.rotation`: each component of the device-to-scene rotation vector, rad.
+pub const CAL_ROTATION: Range = closed(
+    "[device] calibration.rotation",
+    -std::f64::consts::TAU,
+    std::f64::consts::TAU,
+    "rad",
+);
+/// `[device] calibration.offset`: each component of the scene position of the device origin, mm.
+pub const CAL_OFFSET_MM: Range = closed("[device] calibration.offset", -1e6, 1e6, "mm");
+/// `[device.emulator] mass_kg`: moving mass of the emulated device and hand, kg.
+pub const EMU_MASS_KG: Range = closed("[device.emulator] mass_kg", 0.005, 10.0, "kg");
+/// `[device.emulator] hand_stiffness_n_per_mm`: stiffness of the emulated hand's grip toward its
+/// target, N/mm.
+pub const EMU_HAND_STIFFNESS: Range = closed(
+    "[device.emulator] hand_stiffness_n_per_mm",
+    0.0,
+    10.0,
+    "N/mm",
+);
+/// `[device.emulator] hand_damping_ns_per_mm`: damping of the emulated hand, N·s/mm.
+pub const EMU_HAND_DAMPING: Range = closed(
+    "[device.emulator] hand_damping_ns_per_mm",
+    0.0,
+    1.0,
+    "N·s/mm",
+);
+/// `[device.emulator] push_n`: each component of the emulated hand's push, N.
+pub const EMU_PUSH_N: Range = closed("[device.emulator] push_n", -100.0, 100.0, "N");
+/// `[device.emulator] push_after_s`: when the emulated hand starts pushing, s.
+pub const EMU_PUSH_AFTER_S: Range = closed("[device.emulator] push_after_s", 0.0, 1e4, "s");
+
 /// Largest `|coordinate|` of a start or object pose, mm or rad (the step refuses device
 /// readings beyond it too).
 pub const POSE_ABS: f64 = 1e6;

@@ -222,6 +222,36 @@ impl Engine {
         self.safety = Safety::new(self.config.safety);
     }
 
+    /// Starts the safety layer's soft start again, keeping its rate limit's memory of the last
+    /// wrench sent (a device that answers again after a timeout): the wrench ramps back from
+    /// where it is, never by a step larger than the rate limit. Allocation-free.
+    pub fn restart_soft_start(&mut self) {
+        self.safety.restart_soft_start();
+    }
+
+    /// One frame at time `t` (s) without a device reading (the device timed out): the graphic
+    /// tool stays where it is and the wrench sent goes to zero through the safety layer's rate
+    /// limit, never by a larger step. The frame's `q_h` is the last one given to
+    /// [`Engine::step`]; its raw wrench is zero.
+    ///
+    /// # Real-time
+    /// No allocation, no panic, constant time.
+    pub fn release(&mut self, t: f64) -> &Frame {
+        let (wrench, flags) = self.safety.filter(t, [0.0; 6]);
+        self.frame = Frame {
+            t,
+            q_h: self.frame.q_h,
+            q_g: self.god.q_g().to_array(),
+            wrench,
+            raw_wrench: [0.0; 6],
+            safety: flags,
+            ..Frame::default()
+        };
+        self.counters.record(FrameStatus::Ok);
+        self.counters.safety = self.safety.events();
+        &self.frame
+    }
+
     /// One haptic frame at time `t` (s; the safety layer's soft start counts from the first
     /// frame's `t`) for the device configuration `q_h`: returns the frame, whose
     /// [`Frame::wrench`] goes to the device.

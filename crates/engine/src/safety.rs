@@ -137,6 +137,13 @@ impl Safety {
         self.events
     }
 
+    /// Starts the soft start again from the next filtered frame, keeping the rate limit's
+    /// memory of the last output (e.g. when a device answers again after a timeout): the
+    /// wrench ramps up from where it is, never by a step larger than the rate limit.
+    pub fn restart_soft_start(&mut self) {
+        self.t0 = None;
+    }
+
     /// Filters the raw wrench `[F (N); T (N·mm)]` of the frame at time `t` (s; the soft start
     /// counts from the first frame's `t`) and returns the wrench to send plus the flags of what
     /// was done.
@@ -256,6 +263,34 @@ mod tests {
             let (w, f) = s.filter(t0 + 0.02, [10.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
             assert_eq!((w[0], f), (10.0, 0), "t0 = {t0}");
         }
+    }
+
+    #[test]
+    fn restarted_soft_start_ramps_from_the_last_output_without_a_step() {
+        let p = SafetyParams {
+            soft_start_s: 0.01,
+            max_force_step_n: 1.0,
+            ..SafetyParams::default()
+        };
+        let mut s = Safety::new(p);
+        for k in 0..30 {
+            s.filter(k as f64 * 1e-3, [5.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        }
+        s.restart_soft_start();
+        let mut last = 5.0;
+        let mut saw_ramp = false;
+        for k in 30..60 {
+            let (w, f) = s.filter(k as f64 * 1e-3, [5.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+            assert!(
+                (w[0] - last).abs() <= 1.0 + 1e-12,
+                "step {} at frame {k}",
+                w[0] - last
+            );
+            saw_ramp |= f & flags::SOFT_START != 0;
+            last = w[0];
+        }
+        assert!(saw_ramp);
+        assert!((last - 5.0).abs() < 1e-12);
     }
 
     #[test]

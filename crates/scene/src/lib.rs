@@ -23,6 +23,7 @@ pub mod report;
 pub mod rt;
 mod scene;
 pub mod scenes;
+pub mod stability;
 pub mod stats;
 pub mod trajectory;
 

@@ -20,7 +20,7 @@ use serde::Serialize;
 
 use engine::{Counters, Engine, Frame};
 
-use crate::device::Device;
+use crate::device::{Device, DeviceLink, DeviceSettings, LinkRead, LinkStats};
 use crate::stats::Summary;
 use crate::SceneError;
 use engine::safety::SafetyEvents;
@@ -111,6 +111,8 @@ pub struct LoopParams {
     pub realtime: bool,
     /// Most frames to run (storage is reserved for this many, or for the device's length).
     pub max_frames: usize,
+    /// The device's calibration and timeout.
+    pub device: DeviceSettings,
 }
 
 impl Default for LoopParams {
@@ -119,6 +121,7 @@ impl Default for LoopParams {
             pacing: Pacing::default(),
             realtime: false,
             max_frames: 10_000_000,
+            device: DeviceSettings::default(),
         }
     }
 }
@@ -127,6 +130,7 @@ impl LoopParams {
     /// Checks the pacing and `max_frames` against their ranges; the first bad one is named.
     pub fn validate(&self) -> Result<(), engine::config::SettingError> {
         self.pacing.validate()?;
+        self.device.validate()?;
         engine::config::MAX_FRAMES.check(self.max_frames as u64)
     }
 }
@@ -144,6 +148,9 @@ pub struct FrameRecord {
     pub period_us: f64,
     /// The frame finished after the next frame's deadline.
     pub overrun: bool,
+    /// What the device link did ([`crate::device::link_flags`]: held, released, resumed,
+    /// masked axes).
+    pub link: u8,
 }
 
 /// Statistics of a loop run.
@@ -178,6 +185,10 @@ pub struct LoopStats {
     pub stalled_frames: u64,
     /// Wall time of the whole loop, s.
     pub wall_s: f64,
+    /// The device's name (`replay`, `emulator`, ...).
+    pub device: String,
+    /// What the device link did: held and released frames, timeouts, masked axes.
+    pub link: LinkStats,
 }
 
 /// The result of a loop run: every frame and the statistics.
@@ -272,6 +283,12 @@ impl Pacer {
 
 /// Runs frames of `engine` on the current thread until the device ends or `records` is full.
 ///
+/// Each frame reads the device through a [`DeviceLink`] (calibration to the scene frame; a
+/// missing reading holds the last pose up to [`DeviceSettings::timeout_s`], then releases the
+/// wrench with [`Engine::release`], and the first reading after that restarts the soft start),
+/// steps the engine and writes the wrench back through the link (to the device frame, axes the
+/// device cannot render zeroed). Returns the frames run and the link's counts.
+///
 /// The safety filter's clock is the loop's own: wall time when paced, `frame / rate_hz` when
 /// not; never the device's time stamps, so a recording whose times are all equal or negative
 /// still gets its soft start once, at the beginning.
@@ -287,42 +304,50 @@ pub fn run_frames<D: Device + ?Sized>(
     device: &mut D,
     params: &LoopParams,
     records: &mut Vec<FrameRecord>,
-) -> usize {
+) -> (usize, LinkStats) {
     let period = params.pacing.period();
     let rate_hz = params.pacing.effective_rate_hz();
     let start = Instant::now();
     let mut pacer = Pacer::new(period, params.pacing.spin());
     let mut last_start: Option<Instant> = None;
     let mut frame = 0usize;
+    let mut link = DeviceLink::new(device, params.device);
     while records.len() < records.capacity() {
         if params.realtime {
             pacer.wait();
         }
         let now = Instant::now();
         let t_wall = (now - start).as_secs_f64();
-        let Some(sample) = device.read(frame, t_wall) else {
-            break;
-        };
         let t_rel = if params.realtime {
             t_wall
         } else {
             frame as f64 / rate_hz
         };
-        let out = *engine.step(t_rel, &sample.pose);
-        device.send(&out.wrench);
+        let (t_dev, out) = match link.read(frame, t_rel) {
+            LinkRead::Ended => break,
+            LinkRead::Step { sample, flags } => {
+                if flags & crate::device::link_flags::RESUMED != 0 {
+                    engine.restart_soft_start();
+                }
+                (sample.t, *engine.step(t_rel, &sample.pose))
+            }
+            LinkRead::Release => (t_rel, *engine.release(t_rel)),
+        };
+        link.write(&out.wrench);
         let period_us = last_start.map_or(0.0, |l| (now - l).as_secs_f64() * 1e6);
         last_start = Some(now);
         let overrun = params.realtime && pacer.end_frame();
         records.push(FrameRecord {
-            t: sample.t,
+            t: t_dev,
             t_wall,
             frame: out,
             period_us,
             overrun,
+            link: link.flags(),
         });
         frame = frame.saturating_add(1);
     }
-    frame
+    (frame, *link.stats())
 }
 
 /// Runs the loop on a named thread (`haptic6d-rt`) and returns every frame and the statistics.
@@ -341,7 +366,9 @@ pub fn run_loop<D: Device>(
         .unwrap_or(params.max_frames)
         .min(params.max_frames);
     let mut records = Vec::with_capacity(cap);
+    device.open()?;
     let t0 = Instant::now();
+    let mut link = LinkStats::default();
     std::thread::scope(|s| {
         std::thread::Builder::new()
             .name("haptic6d-rt".into())
@@ -349,12 +376,13 @@ pub fn run_loop<D: Device>(
                 if let Some(p) = params.pacing.rt_priority {
                     rt_priority = set_realtime_priority(p);
                 }
-                run_frames(engine, device, params, &mut records)
+                link = run_frames(engine, device, params, &mut records).1;
             })
             .map_err(SceneError::ThreadStart)?
             .join()
             .map_err(|_| SceneError::ThreadPanicked)
     })?;
+    device.close();
     let wall_s = t0.elapsed().as_secs_f64();
     let nominal = 1e6 / params.pacing.rate_hz;
     let counts = Counters::of(records.iter().map(|r| r.frame.status));
@@ -385,6 +413,8 @@ pub fn run_loop<D: Device>(
             .filter(|w| w[1].t == w[0].t && w[1].frame.q_h == w[0].frame.q_h)
             .count() as u64,
         wall_s,
+        device: device.name().to_string(),
+        link,
     };
     Ok(LoopReport {
         frames: records,

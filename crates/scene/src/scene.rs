@@ -28,6 +28,16 @@
 //! [device]
 //! trajectory = "path.csv"  # optional; else the device holds the start pose
 //! rate_hz = 1000.0
+//! kind = "replay"          # replay | emulator
+//! calibration = { scale = 1.0, rotation = [0, 0, 0], offset = [0, 0, 0] }
+//! timeout_s = 0.1
+//!
+//! [device.emulator]        # the emulated hand, with kind = "emulator"
+//! mass_kg = 0.1
+//! hand_stiffness_n_per_mm = 0.3
+//! hand_damping_ns_per_mm = 0.002
+//! push_n = [0, 0, -1]
+//! push_after_s = 0.3
 //! ```
 
 use std::path::{Path, PathBuf};
@@ -42,6 +52,7 @@ use spheretree::build::BuildMethod;
 use spheretree::SphereTree;
 
 use crate::cache::{tree_key, CacheOutcome, TreeCache};
+use crate::device::{Calibration, DeviceConfig, DeviceKind, DeviceSettings, EmulatorParams};
 use crate::trajectory::{Script, Trajectory};
 use crate::SceneError;
 use engine::safety::SafetyParams;
@@ -144,17 +155,46 @@ impl Default for SolverSpec {
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DeviceSpec {
-    /// Trajectory CSV to replay (relative to the scene file); none = hold the start pose.
+    /// Which device: `replay` (default) or `emulator`.
+    #[serde(with = "by_name")]
+    pub kind: DeviceKind,
+    /// Trajectory CSV to replay (relative to the scene file); none = hold the start pose. With
+    /// `kind = "emulator"`, the emulated hand's intention.
     pub trajectory: Option<String>,
     /// Haptic rate, Hz.
     pub rate_hz: f64,
+    /// Device frame to scene frame: `{ scale = 1.0, rotation = [0, 0, 0], offset = [0, 0, 0] }`
+    /// (scene mm per device mm, rotation vector in rad, mm).
+    pub calibration: Calibration,
+    /// No pose for this long releases the wrench (to zero through the rate limit), s.
+    pub timeout_s: f64,
+    /// The emulated hand (`[device.emulator]`).
+    pub emulator: EmulatorParams,
 }
 
 impl Default for DeviceSpec {
     fn default() -> Self {
         Self {
+            kind: DeviceKind::Replay,
             trajectory: None,
             rate_hz: 1000.0,
+            calibration: Calibration::default(),
+            timeout_s: DeviceSettings::default().timeout_s,
+            emulator: EmulatorParams::default(),
+        }
+    }
+}
+
+impl DeviceSpec {
+    /// The device settings of the section.
+    pub fn config(&self) -> DeviceConfig {
+        DeviceConfig {
+            kind: self.kind,
+            settings: DeviceSettings {
+                calibration: self.calibration,
+                timeout_s: self.timeout_s,
+            },
+            emulator: self.emulator,
         }
     }
 }
@@ -216,6 +256,7 @@ impl SceneSpec {
         engine::config::RATE_HZ
             .check(spec.device.rate_hz)
             .map_err(setting)?;
+        spec.device.config().validate().map_err(setting)?;
         Ok(spec)
     }
 }
@@ -397,6 +438,8 @@ pub struct Scene {
     pub motion: Motion,
     /// Expected outcome, if any.
     pub goal: Option<Goal>,
+    /// The device: kind, calibration, timeout, emulator.
+    pub device: DeviceConfig,
     /// How each tree was obtained (one line each: cache hit, built in N s, read from file).
     pub load_log: Vec<String>,
 }
@@ -411,6 +454,7 @@ impl Scene {
         self.solver.validate().map_err(err)?;
         self.safety.validate().map_err(err)?;
         engine::config::RATE_HZ.check(self.rate_hz).map_err(err)?;
+        self.device.validate().map_err(err)?;
         engine::config::check_pose("[tool] start", &self.start.to_array()).map_err(err)?;
         for (i, (_, p)) in self.objects.iter().enumerate() {
             engine::config::check_pose(&format!("[[object]] #{} pose", i + 1), &p.to_array())
@@ -647,6 +691,7 @@ pub fn load_scene_file(path: &Path, cache: &TreeCache) -> Result<Scene, SceneErr
         rate_hz: spec.device.rate_hz,
         motion,
         goal: None,
+        device: spec.device.config(),
         load_log: log,
     })
 }

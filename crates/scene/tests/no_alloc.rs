@@ -84,7 +84,7 @@ fn ten_thousand_frames_do_not_allocate() {
         let mut device = ReplayDevice::new(traj.clone());
         records.clear();
         let (n, allocs) =
-            count_allocations(|| run_frames(&mut engine, &mut device, &params, &mut records));
+            count_allocations(|| run_frames(&mut engine, &mut device, &params, &mut records).0);
         assert_eq!(n, frames, "{kind:?}");
         assert_eq!(
             allocs, 0,

@@ -15,7 +15,7 @@ use devkit::Rng;
 use engine::safety::SafetyParams;
 use engine::step::FrameStatus;
 use mesh::TriMesh;
-use scene::device::{Device, DeviceSample};
+use scene::device::{Device, DeviceSample, Reading};
 use scene::rt::{run_frames, FrameRecord, LoopParams};
 use scene::{Coupling, Motion, Scene, SolverSpec};
 use spheretree::build::{build_tree, BuildParams};
@@ -84,6 +84,7 @@ fn scene() -> Scene {
         rate_hz: 1000.0,
         motion: Motion::Hold,
         goal: None,
+        device: Default::default(),
         load_log: Vec::new(),
     }
 }
@@ -145,9 +146,13 @@ impl RandomDevice {
 }
 
 impl Device for RandomDevice {
-    fn read(&mut self, _frame: usize, _t: f64) -> Option<DeviceSample> {
+    fn name(&self) -> &str {
+        "random"
+    }
+
+    fn read(&mut self, _frame: usize, _t: f64) -> Reading {
         if self.frame >= self.frames {
-            return None;
+            return Reading::Ended;
         }
         if self.frame >= self.seg_start + self.seg_len {
             self.next_segment();
@@ -160,10 +165,7 @@ impl Device for RandomDevice {
         }
         let t = self.frame as f64 * 1e-3;
         self.frame += 1;
-        Some(DeviceSample {
-            t,
-            pose: Pose::from_array(q),
-        })
+        Reading::Pose(DeviceSample::new(t, Pose::from_array(q)))
     }
 }
 
@@ -201,8 +203,9 @@ fn long_run(frames: usize, seed: u64) -> LongRun {
         if chunk == 1 {
             r.rss_before = rss_bytes();
         }
-        let (n, counts) =
-            devkit::count_allocations(|| run_frames(&mut engine, &mut dev, &params, &mut records));
+        let (n, counts) = devkit::count_allocations(|| {
+            run_frames(&mut engine, &mut dev, &params, &mut records).0
+        });
         if chunk >= 1 {
             r.allocs_in_loop += counts.allocations as u64;
             r.live_bytes_growth += counts.live_bytes;

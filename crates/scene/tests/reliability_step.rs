@@ -68,6 +68,7 @@ fn scene(object: SphereTree, solver: SolverSpec, coupling: Coupling) -> Scene {
         rate_hz: 1000.0,
         motion: Motion::Hold,
         goal: None,
+        device: Default::default(),
         load_log: Vec::new(),
     }
 }

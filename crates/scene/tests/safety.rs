@@ -63,6 +63,7 @@ fn scene(s: &Settings) -> Scene {
         rate_hz: s.rate_hz,
         motion: Motion::Hold,
         goal: None,
+        device: Default::default(),
         load_log: Vec::new(),
     }
 }
@@ -471,7 +472,10 @@ fn item5_absurd_rates_are_refused_not_a_panic_or_an_abort() {
         realtime: true,
         ..LoopParams::default()
     };
-    assert_eq!(run_frames(&mut engine, &mut dev, &params, &mut records), 20);
+    assert_eq!(
+        run_frames(&mut engine, &mut dev, &params, &mut records).0,
+        20
+    );
 }
 
 #[test]

@@ -83,6 +83,7 @@ pub fn scene(cache: &TreeCache) -> Result<Scene, SceneError> {
         rate_hz: 1000.0,
         motion: Motion::Hold,
         goal: None,
+        device: Default::default(),
         load_log: log,
     };
     let contact = |from: &Pose, dir: [f64; 3]| {

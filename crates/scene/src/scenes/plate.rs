@@ -278,6 +278,7 @@ pub fn scene(cache: &TreeCache, tool: PlateTool, script: Script) -> Result<Scene
         rate_hz: 1000.0,
         motion: Motion::Script(script),
         goal: None,
+        device: Default::default(),
         load_log: log,
     })
 }

@@ -61,6 +61,7 @@ pub fn scene(cache: &TreeCache, p: &SplineParams, depth: u32) -> Result<Scene, S
             target_z_mm: -INSERT_DEPTH_MM,
             tol_mm: 0.5,
         }),
+        device: Default::default(),
         load_log: log,
     })
 }

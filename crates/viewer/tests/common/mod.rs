@@ -121,6 +121,7 @@ pub fn small_scene() -> Scene {
         rate_hz: 1000.0,
         motion: Motion::Hold,
         goal: None,
+        device: Default::default(),
         load_log: Vec::new(),
     }
 }
