@@ -15,6 +15,7 @@ mod plot;
 mod progress;
 mod run;
 mod serve;
+mod stability;
 mod tree;
 
 use std::process::ExitCode;
@@ -40,6 +41,8 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Interactive viewer: the haptic loop at 1 kHz, a web page and a UDP device bridge.
     Serve(serve::ServeArgs),
+    /// Closed-loop stability with the emulated hand: the largest stable coupling stiffness per scene and rate.
+    Stability(stability::StabilityArgs),
 }
 
 fn dispatch(cli: Cli) -> anyhow::Result<()> {
@@ -48,6 +51,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::Run(args) => run::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Serve(args) => serve::run(args),
+        Command::Stability(args) => stability::run(args),
     }
 }
 

@@ -13,7 +13,7 @@ use engine::config;
 use engine::setting::Setting;
 use engine::{ConstraintForm, RotationCoordinates, SolverKind};
 use scene::cache::TreeCache;
-use scene::device::ReplayDevice;
+use scene::device::DeviceKind;
 use scene::report::{frames_csv, summarize, tree_infos, RunSummary};
 use scene::rt::{run_loop, LoopParams, Pacing};
 use scene::trajectory::Trajectory;
@@ -30,6 +30,12 @@ pub struct RunArgs {
     /// of the scene's own motion.
     #[arg(long)]
     pub trajectory: Option<PathBuf>,
+    /// The device: replay (default: the scene's trajectory, or --trajectory, open loop) or
+    /// emulator (a mass-spring-damper hand following that trajectory, closed loop with the
+    /// wrench; its parameters from the scene's [device.emulator]). Default: the scene's
+    /// [device] kind.
+    #[arg(long)]
+    pub device: Option<String>,
     /// QP solver: dual (default, exact), pqp (the paper's), active-set (the paper's baseline).
     #[arg(long)]
     pub solver: Option<String>,
@@ -299,6 +305,12 @@ pub fn run(args: RunArgs) -> Result<()> {
         .map(RotationCoordinates::parse_setting)
         .transpose()
         .context("--rotation")?;
+    let device_kind = args
+        .device
+        .as_deref()
+        .map(DeviceKind::parse_setting)
+        .transpose()
+        .context("--device")?;
     let trajectory = args
         .trajectory
         .as_deref()
@@ -357,6 +369,14 @@ pub fn run(args: RunArgs) -> Result<()> {
     }
     scene.validate()?;
     let traj = scene.trajectory();
+    let kind = device_kind.unwrap_or(scene.device.kind);
+    let mut device = scene.device.make(kind, traj.clone(), scene.rate_hz);
+    // The device's limits: its force and torque caps lower the safety layer's, and a coupling
+    // stiffer than it renders is refused.
+    let caps = device.capabilities();
+    scene.safety = caps.limit(&scene.safety);
+    caps.check_stiffness(scene.coupling.kt, &scene.device.settings.calibration)
+        .with_context(|| format!("{}: device {}", scene.name, device.name()))?;
     let first = traj
         .samples
         .first()
@@ -370,7 +390,6 @@ pub fn run(args: RunArgs) -> Result<()> {
             file: scene.name.clone(),
             source,
         })?;
-    let mut device = ReplayDevice::new(traj.clone());
     let params = LoopParams {
         pacing: Pacing {
             rate_hz: scene.rate_hz,
@@ -378,6 +397,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             ..Pacing::default()
         },
         realtime: args.realtime,
+        device: scene.device.settings,
         ..LoopParams::default()
     };
     let report = run_loop(&mut engine, &mut device, &params)?;
@@ -399,7 +419,22 @@ pub fn run(args: RunArgs) -> Result<()> {
         frames_csv(&report.frames).as_bytes(),
     )?;
     fail_hook("frames.csv")?;
-    scene::io::write_atomic(&dir.join("trajectory.csv"), traj.to_csv_string().as_bytes())?;
+    // The device input as the engine saw it (scene frame): for the emulator, where the hand
+    // actually went, so the closed-loop run can be replayed open loop into any solver.
+    let seen = match kind {
+        DeviceKind::Replay => traj,
+        DeviceKind::Emulator => Trajectory {
+            samples: report
+                .frames
+                .iter()
+                .map(|r| scene::trajectory::TrajSample {
+                    t: r.t,
+                    q: r.frame.q_h,
+                })
+                .collect(),
+        },
+    };
+    scene::io::write_atomic(&dir.join("trajectory.csv"), seen.to_csv_string().as_bytes())?;
     fail_hook("trajectory.csv")?;
     let json = serde_json::to_string_pretty(&summary)?;
     scene::io::write_atomic(&dir.join("summary.json"), json.as_bytes())?;
@@ -467,6 +502,11 @@ fn print_human(s: &RunSummary, out: &Path) {
     println!(
         "  safety: {} force clamps, {} torque clamps, {} rate limits, {} NaN frames; {} kept-last-safe, {} inexact, {} lagging",
         l.safety.force_clamps, l.safety.torque_clamps, l.safety.rate_limits, l.safety.nan_frames, l.kept_last_safe, l.inexact, l.lagging
+    );
+    let d = &l.link;
+    println!(
+        "  device {}: {} readings, {} held, {} released ({} timeouts); {} frames with unrendered axes zeroed (max {:.2} N, {:.1} N·mm)",
+        l.device, d.readings, d.held_frames, d.released_frames, d.timeouts, d.masked_frames, d.max_masked_force_n, d.max_masked_torque_nmm
     );
     if let Some(g) = &s.goal {
         println!(

@@ -36,11 +36,16 @@ pub struct PressParams {
     pub ripple_limit_n: f64,
     /// The emulated hand (its push is set from `direction` and `push_n`).
     pub hand: EmulatorParams,
+    /// The rotational stiffness follows the translational one, `kr = kr_per_kt · kt`
+    /// (N·mm/rad per N/mm), so the coupling `G` is scaled as a whole; with `kr` fixed, a stiff
+    /// `kt` lets the god-object tilt instead of holding the hand (a softer wall than `kt`).
+    pub kr_per_kt: f64,
 }
 
 impl PressParams {
     /// A 1 N press along `direction`: 0.2 s approach, push from 0.25 s (ramped over 0.1 s),
-    /// 1.5 s in all, the last 0.5 s judged against 0.05 N; the default hand.
+    /// 1.5 s in all, the last 0.5 s judged against 0.05 N; the default hand; `kr = 1000 kt`
+    /// (the default coupling's ratio).
     pub fn along(direction: [f64; 3]) -> Self {
         Self {
             direction,
@@ -50,6 +55,7 @@ impl PressParams {
             window_s: 0.5,
             ripple_limit_n: 0.05,
             hand: EmulatorParams::default(),
+            kr_per_kt: 1000.0,
         }
     }
 }
@@ -90,6 +96,7 @@ pub fn press(
 ) -> Result<PressResult, SceneError> {
     let mut sc = scene.clone();
     sc.coupling.kt = kt;
+    sc.coupling.kr = (p.kr_per_kt * kt).clamp(engine::config::KR.lo, engine::config::KR.hi);
     sc.rate_hz = rate_hz;
     sc.validate()?;
     let d = p.direction;

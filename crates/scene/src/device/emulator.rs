@@ -33,6 +33,9 @@ pub struct EmulatorParams {
     pub push_after_s: f64,
 }
 
+/// Fewest integration substeps per frame.
+pub const MIN_SUBSTEPS: u32 = 20;
+
 /// How long the hand's push takes to build up, s (a person does not push as a step).
 pub const PUSH_RAMP_S: f64 = 0.1;
 
@@ -98,13 +101,16 @@ impl Emulator {
             1000.0
         };
         let dt = 1.0 / rate;
-        // Substeps: h·ω ≤ 0.1 for the hand spring and h·b/m ≤ 0.1 for its damper (per mm:
-        // k in N/mm is 1000 N/m).
+        // Substeps: at least 20 per frame, so the handle moves while the frame's force is held
+        // (one semi-implicit Euler step per frame would move it as if the force acted at the
+        // frame's start and hide the energy a held force feeds a sampled wall: Colgate's
+        // b > K T / 2), and h·ω ≤ 0.1 for the hand's spring, h·b/m ≤ 0.1 for its damper (k in
+        // N/mm is 1000 N/m).
         let m = params.mass_kg.max(1e-6);
         let omega = (1000.0 * params.hand_stiffness_n_per_mm / m).sqrt();
         let damp = 1000.0 * params.hand_damping_ns_per_mm / m;
         let rate_max = omega.max(damp).max(1.0);
-        let substeps = ((dt * rate_max / 0.1).ceil() as u32).clamp(1, 10_000);
+        let substeps = ((dt * rate_max / 0.1).ceil() as u32).clamp(MIN_SUBSTEPS, 10_000);
         let x0 = targets
             .samples
             .first()
@@ -251,6 +257,41 @@ mod tests {
             (c - quarter_ms).abs() <= 1.0,
             "crossed at {c} ms, expected {quarter_ms}"
         );
+    }
+
+    /// The emulator pressed by a 1 N push onto an ideal sampled wall `F = K max(0, -z)` at
+    /// `z = 0` (the force held over each frame): the peak-to-peak force of the last 0.5 s.
+    fn wall_ripple(k: f64, rate: f64) -> f64 {
+        let p = EmulatorParams {
+            push_n: [0.0, 0.0, -1.0],
+            push_after_s: 0.1,
+            ..EmulatorParams::default()
+        };
+        let n = (1.5 * rate) as usize;
+        let mut e = Emulator::new(p, hold([0.0; 6], n, rate), rate);
+        let mut forces = Vec::new();
+        for i in 0..n {
+            if let Reading::Pose(s) = e.read(i, 0.0) {
+                let f = k * (-s.pose.q[2]).max(0.0);
+                e.write_wrench(&[0.0, 0.0, f, 0.0, 0.0, 0.0]);
+                forces.push(f);
+            }
+        }
+        let tail = &forces[n - (0.5 * rate) as usize..];
+        let (lo, hi) = tail
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(a, b), &f| (a.min(f), b.max(f)));
+        hi - lo
+    }
+
+    #[test]
+    fn an_ideal_sampled_wall_is_stable_below_colgates_bound_and_bounces_above_it() {
+        // Colgate & Schenkel: a sampled wall of stiffness K is passive when b > K T / 2. With
+        // b = 2 N·s/m the bound is K = 4 N/mm at 1 kHz and 16 N/mm at 4 kHz.
+        assert!(wall_ripple(2.0, 1000.0) < 0.01);
+        assert!(wall_ripple(8.0, 1000.0) > 0.5);
+        assert!(wall_ripple(8.0, 4000.0) < 0.01);
+        assert!(wall_ripple(32.0, 4000.0) > 0.5);
     }
 
     #[test]
