@@ -778,6 +778,57 @@ kind = "dual"
     }
 
     #[test]
+    fn device_section_with_calibration_and_emulator() {
+        let text = format!(
+            "{GOOD}\n[device]\nkind = \"emulator\"\ntimeout_s = 0.05\ncalibration = {{ scale = 2.0, rotation = [0, 0, 1.5], offset = [0, 0, 100] }}\n\n[device.emulator]\nmass_kg = 0.2\npush_n = [0, 0, -1]\n"
+        );
+        let s = SceneSpec::parse(&text, "x.toml").unwrap();
+        let d = s.device.config();
+        assert_eq!(d.kind, DeviceKind::Emulator);
+        assert_eq!(d.settings.timeout_s, 0.05);
+        assert_eq!(d.settings.calibration.scale, 2.0);
+        assert_eq!(d.settings.calibration.offset, [0.0, 0.0, 100.0]);
+        assert_eq!(d.emulator.mass_kg, 0.2);
+        assert_eq!(d.emulator.hand_stiffness_n_per_mm, 0.3);
+        let cases = [
+            (
+                "kind = \"emulator\"",
+                "kind = \"haply\"",
+                "unknown device `haply`; expected one of: replay, emulator",
+            ),
+            (
+                "scale = 2.0",
+                "scale = -2.0",
+                "[device] calibration.scale = -2: must be",
+            ),
+            (
+                "rotation = [0, 0, 1.5]",
+                "rotation = [0, 0, 100]",
+                "[device] calibration.rotation = 100: must be",
+            ),
+            ("offset = [0, 0, 100]", "offset = [0, 100]", "offset"),
+            ("scale = 2.0", "skale = 2.0", "skale"),
+            (
+                "timeout_s = 0.05",
+                "timeout_s = 0",
+                "[device] timeout_s = 0: must be",
+            ),
+            (
+                "mass_kg = 0.2",
+                "mass_kg = 1e9",
+                "[device.emulator] mass_kg = 1e9: must be",
+            ),
+        ];
+        for (from, to, needle) in cases {
+            let bad = text.replace(from, to);
+            let e = chain(&SceneSpec::parse(&bad, "scenes/my.toml").unwrap_err());
+            assert!(e.starts_with("scenes/my.toml: "), "{e}");
+            assert!(!e.contains('\n'), "{e}");
+            assert!(e.contains(needle), "`{needle}` not in: {e}");
+        }
+    }
+
+    #[test]
     fn missing_mesh_is_reported_with_its_resolved_path() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("s.toml");

@@ -1,0 +1,97 @@
+//! `haptic6d run --device emulator` and `haptic6d stability` end to end: the closed-loop run
+//! writes its outputs and reports the device, the study finds the plate's bound, bad names are
+//! refused on one line.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn haptic6d(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_haptic6d"))
+        .args(args)
+        .env("HAPTIC6D_CACHE", cache_dir())
+        .output()
+        .expect("the haptic6d binary runs")
+}
+
+fn cache_dir() -> PathBuf {
+    std::env::var_os("HAPTIC6D_CACHE")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/haptic6d-test-cache")
+        })
+}
+
+#[test]
+fn run_with_the_emulator_closes_the_loop_and_reports_the_device() {
+    let d = std::env::temp_dir().join(format!("haptic6d-devices-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    let out = d.join("run");
+    let o = haptic6d(&[
+        "run",
+        "plate",
+        "--device",
+        "emulator",
+        "--out",
+        out.to_str().unwrap(),
+        "--no-plots",
+        "--json",
+        "--no-rt-priority",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let l = &s["loop_stats"];
+    assert_eq!(l["device"], "emulator");
+    let frames = s["frames"].as_u64().unwrap();
+    assert_eq!(l["link"]["readings"].as_u64(), Some(frames));
+    // The emulated hand renders forces only: the contact's torques were zeroed and counted.
+    assert!(l["link"]["masked_frames"].as_u64().unwrap() > 0);
+    assert_eq!(l["link"]["max_masked_force_n"].as_f64(), Some(0.0));
+    // trajectory.csv holds where the hand went (closed loop), one row per frame.
+    let traj = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    let rows = traj
+        .lines()
+        .filter(|l| {
+            !l.starts_with('#')
+                && l.chars()
+                    .next()
+                    .is_some_and(|c| c == '-' || c.is_ascii_digit())
+        })
+        .count();
+    assert_eq!(rows as u64, frames);
+    let _ = std::fs::remove_dir_all(&d);
+
+    let o = haptic6d(&["run", "plate", "--device", "haply", "--out", "x"]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(
+        err.trim(),
+        "error: --device: unknown device `haply`; expected one of: replay, emulator"
+    );
+}
+
+#[test]
+fn stability_finds_the_plate_bound_at_1_khz() {
+    let o = haptic6d(&[
+        "stability",
+        "--scenes",
+        "plate",
+        "--rates",
+        "1000",
+        "--bisections",
+        "2",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let at1 = &s[0]["at_1_n_per_mm"][0];
+    assert_eq!(at1["stable"], true);
+    assert!(at1["ripple_p99_n"].as_f64().unwrap() <= 0.05);
+    let search = &s[0]["searches"][0];
+    let lo = search["largest_stable_kt"].as_f64().unwrap();
+    let hi = search["smallest_unstable_kt"].as_f64().unwrap();
+    assert!((2.0..8.0).contains(&lo) && hi <= 8.0, "{lo} .. {hi}");
+
+    let o = haptic6d(&["stability", "--scenes", "teapot"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("unknown scene `teapot`"));
+}
