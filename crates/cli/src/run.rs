@@ -32,8 +32,8 @@ pub struct RunArgs {
     pub trajectory: Option<PathBuf>,
     /// The device: replay (default: the scene's trajectory, or --trajectory, open loop) or
     /// emulator (a mass-spring-damper hand following that trajectory, closed loop with the
-    /// wrench; its parameters from the scene's [device.emulator]). Default: the scene's
-    /// [device] kind.
+    /// wrench; its parameters from the scene's `[device.emulator]`). Default: the scene's
+    /// `[device] kind`.
     #[arg(long)]
     pub device: Option<String>,
     /// QP solver: dual (default, exact), pqp (the paper's), active-set (the paper's baseline).
