@@ -17,7 +17,7 @@ mod emulator;
 mod link;
 
 pub use calibration::Calibration;
-pub use emulator::{Emulator, EmulatorParams};
+pub use emulator::{Emulator, EmulatorParams, MIN_SUBSTEPS, PUSH_RAMP_S};
 pub use link::{link_flags, DeviceLink, DeviceSettings, LinkRead, LinkStats};
 
 use collide::Pose;
