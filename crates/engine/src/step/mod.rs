@@ -452,6 +452,8 @@ impl GodObject {
         // than a small region to detect.
         let reusable = path_allowed && self.pairs.len() <= REUSE_MAX_PAIRS;
         let mut reused = false;
+        // Whether `out.pairs` holds the frame's first pair list yet.
+        let mut listed = false;
         if let Some((cached, trust)) = self.cached.filter(|_| reusable) {
             if let Some(lin) = self.linearization(&q_lin, q_h) {
                 let depth = self.distance_from_region(&lin, &cached, &q_lin, &lin.delta());
@@ -460,6 +462,7 @@ impl GodObject {
                     boxed = Some(trust);
                     detect_now = false;
                     reused = true;
+                    listed = true;
                     out.pairs = self.pairs.len() as u32;
                     out.margin_mm = cached.width + skin;
                     self.map_warm_start();
@@ -573,7 +576,10 @@ impl GodObject {
                 if detected.is_err() {
                     return self.keep_last_safe(out, q_h, t_start);
                 }
-                if pass == 0 {
+                // The frame's pair count is its first list (a path query stopped at its limit
+                // is no list: the next one is).
+                if !listed && !(self.dropped > 0 && sweep.is_some()) {
+                    listed = true;
                     out.pairs = self.pairs.len() as u32;
                     out.margin_mm = if sweep.is_some() { width } else { allowed } + skin;
                 }
