@@ -333,16 +333,12 @@ pub fn overlap_tree_trees<F: FnMut(&LeafPair)>(
         objects,
         clean_margin(margin),
         ws,
-        &mut |p: &LeafPair| {
-            visit(p);
-            true
-        },
+        &mut visit,
     ))
 }
 
-/// Descends `tool` (posed in `ws`) against every object in turn; the pair count. Stops at the
-/// first pair for which `visit` returns false.
-fn descend_all<F: FnMut(&LeafPair) -> bool>(
+/// Descends `tool` (posed in `ws`) against every object in turn; the pair count.
+fn descend_all<F: FnMut(&LeafPair)>(
     tool: &PackedTree,
     objects: &[PackedTree],
     m: f64,
@@ -350,15 +346,11 @@ fn descend_all<F: FnMut(&LeafPair) -> bool>(
     visit: &mut F,
 ) -> usize {
     let mut total = 0;
-    let mut going = true;
     for (i, o) in objects.iter().enumerate() {
         total += descend(tool, o, i as u32, m, ws, &mut |p: &LeafPair| {
-            going = visit(p);
-            going
+            visit(p);
+            true
         });
-        if !going {
-            break;
-        }
     }
     total
 }
@@ -375,14 +367,12 @@ fn descend_all<F: FnMut(&LeafPair) -> bool>(
 /// from the path is not listed. For a hand sliding over a flat face this lists the pairs along
 /// the path instead of every pair within the motion's length (an isotropic margin).
 ///
-/// `visit` returns whether to go on: the query stops at the first pair for which it returns
-/// false (e.g. when a caller's pair limit is reached; the work done is then bounded by it).
 /// Errors on a non-finite pose or sweep; a negative or NaN `margin` is taken as 0.
 ///
 /// # Real-time
 /// As [`overlap_tree_tree`].
 #[allow(clippy::too_many_arguments)]
-pub fn overlap_swept<F: FnMut(&LeafPair) -> bool>(
+pub fn overlap_swept<F: FnMut(&LeafPair)>(
     tool: &PackedTree,
     world_from_tool: &Pose,
     sweep: &Sweep,

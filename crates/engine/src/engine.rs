@@ -101,8 +101,8 @@ pub struct Frame {
     pub safety: u8,
     /// How the step ended.
     pub status: FrameStatus,
-    /// Leaf pairs in the frame's first QP (its first pair list; a path query stopped at its
-    /// pair limit is not one).
+    /// Leaf pairs in the frame's first QP (its first pair list; a path region that overflowed
+    /// the pair storage is not one).
     pub pairs: u32,
     /// Leaf pairs touching at `q_g` (gap within [`crate::step::TOUCH_MM`]): the contact's size.
     pub contacts: u32,

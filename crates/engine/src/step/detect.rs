@@ -11,9 +11,7 @@ impl GodObject {
     }
 
     /// [`GodObject::detect`], or with a sweep for a path region: the pairs that come within
-    /// `margin` (mm) of touching along it from `q`. A path's query stops at
-    /// [`PATH_MAX_PAIRS`] (one more is counted in `self.dropped`): a path through a dense
-    /// contact costs no more than that before the step falls back to ball regions.
+    /// `margin` (mm) of touching along it from `q`.
     pub(super) fn detect_along(
         &mut self,
         q: &Pose,
@@ -25,27 +23,17 @@ impl GodObject {
         self.dropped = 0;
         let pairs = &mut self.pairs;
         let dropped = &mut self.dropped;
-        let limit = if sweep.is_some() {
-            PATH_MAX_PAIRS.min(pairs.capacity())
-        } else {
-            pairs.capacity()
-        };
         let mut min_gap = f64::INFINITY;
-        // Returns whether the query goes on: a path's stops at its limit.
-        let mut collect = |p: &LeafPair| {
+        let collect = |p: &LeafPair| {
             min_gap = min_gap.min(p.gap);
-            if pairs.len() < limit {
+            if pairs.len() < pairs.capacity() {
                 pairs.push(*p);
-                true
             } else {
                 *dropped += 1;
-                sweep.is_none()
             }
         };
         match sweep {
-            None => overlap_tree_trees(&self.tool, q, &self.objects, margin, &mut self.ws, |p| {
-                collect(p);
-            }),
+            None => overlap_tree_trees(&self.tool, q, &self.objects, margin, &mut self.ws, collect),
             Some(sweep) => overlap_swept(
                 &self.tool,
                 q,
@@ -71,8 +59,7 @@ impl GodObject {
 
     /// Where this frame's answer is expected, as a motion from `q_lin`: the hand keeps last
     /// frame's offset from the graphic tool (`hand_offset`), so the tool moves as the hand
-    /// did. `None` when that motion is shorter than [`MIN_SWEEP_MM`]; the path runs one path
-    /// width past it, within `cap` mm.
+    /// did. `None` when that motion is shorter than [`MIN_SWEEP_MM`]; scaled down to `cap` mm.
     /// Returns the sweep and its largest sphere motion (mm).
     pub(super) fn predicted_sweep(
         &self,
@@ -87,11 +74,8 @@ impl GodObject {
         if length.is_nan() || length < MIN_SWEEP_MM {
             return None;
         }
-        // One path width past the prediction (a tool that lagged last frame catches up beyond
-        // it), at least PATH_MIN_MM long (a slow hand's next frames reuse the region).
-        let scale = ((length + self.path_width()) / length)
-            .max(PATH_MIN_MM / length)
-            .min(cap / length);
+        // At least PATH_MIN_MM long, so a slow hand's next frames reuse the region.
+        let scale = (PATH_MIN_MM / length).max(1.0).min(cap / length);
         let sweep = Sweep {
             translation: (v * scale).into(),
             rotation: (w * scale).into(),

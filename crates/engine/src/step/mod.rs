@@ -148,15 +148,11 @@ const MIN_SWEEP_MM: f64 = 0.1;
 /// costs to rebuild, in solving time).
 const REUSE_MAX_PAIRS: usize = 400;
 
-/// Most leaf pairs of a path region: its query stops there and the frame goes on with ball
-/// regions. (A path along a surface holds pairs within its width, a few hundred even flat on
-/// flat; one into a dense contact would hold thousands. Measured on the puck at 1 m/s: a
-/// path region's list peaks near 800 pairs.)
-const PATH_MAX_PAIRS: usize = 1500;
-
-/// Frames without path regions after one overflowed [`PATH_MAX_PAIRS`] (a dense contact lasts
-/// longer than a frame; 50 ms at 1 kHz).
-const PATH_PAUSE_FRAMES: u32 = 50;
+/// A path region is taken only while its length plus width stays within this many times the
+/// allowance that keeps a ball region near [`PAIR_TARGET`] pairs (measured: at 1, the spline's
+/// worst frame drops under 1 ms but the puck at 1 m/s lags in a third of its frames; at 2,
+/// both hold up; at 3, the spline's worst frame is back over 1 ms).
+const PATH_DENSITY_FACTOR: f64 = 2.0;
 
 /// A path region reaches at least this far ahead (mm, largest sphere motion; at most
 /// `max_margin_mm`), so that a slow hand's next frames reuse it.
@@ -252,8 +248,6 @@ pub struct GodObject {
     /// How far (mm, largest sphere motion) the answer lay from the predicted pose, recently
     /// (the last frame's, or slowly forgotten larger ones).
     prediction_error: f64,
-    /// Frames left before path regions are tried again (after one overflowed).
-    path_pause: u32,
     started: bool,
 }
 
@@ -312,7 +306,6 @@ impl GodObject {
             hand_offset: (Vector3::zeros(), Vector3::zeros()),
             cached: None,
             prediction_error: 0.0,
-            path_pause: 0,
             started: false,
         })
     }
@@ -357,7 +350,6 @@ impl GodObject {
         // A new run: nothing learnt from the last one (prediction, pair density) carries over.
         self.prediction_error = 0.0;
         self.pairs_per_mm = 0.0;
-        self.path_pause = 0;
         self.cached = None;
         self.free_radius = 0.0;
         self.probe.cancel();
@@ -438,19 +430,14 @@ impl GodObject {
         };
         let mut boxed: Option<Trust> = None;
         let mut detect_now = true;
-        // Path regions (along the predicted motion) are tried until one overflows; then not
-        // for the next PATH_PAUSE_FRAMES frames.
-        let path_allowed = self.params.relinearize > 0
+        // Path regions (along the predicted motion) are tried until one overflows.
+        let mut path_regions = self.params.relinearize > 0
             && self.params.rotation == RotationCoordinates::RotationVector;
-        let mut path_regions = path_allowed && self.path_pause == 0;
-        // A path that overflows is tried once more at the narrowest width before ball regions.
-        let mut path_width_cap = f64::INFINITY;
-        self.path_pause = self.path_pause.saturating_sub(1);
         // Last frame's region, while the tool is well inside it: no traversal in this pass. Its
         // trust region keeps the answer inside; one that binds starts a new region (a wrong
         // guess costs a small solve, not a traversal). A large list costs more to solve again
         // than a small region to detect.
-        let reusable = path_allowed && self.pairs.len() <= REUSE_MAX_PAIRS;
+        let reusable = path_regions && self.pairs.len() <= REUSE_MAX_PAIRS;
         let mut reused = false;
         // Whether `out.pairs` holds the frame's first pair list yet.
         let mut listed = false;
@@ -507,16 +494,21 @@ impl GodObject {
                 let mut allowed = need.min(allow).min(cap).min(dense_cap.max(MIN_ALLOW_MM));
                 let mut trust = need > allowed;
                 // A hand in motion that the ball cannot follow: a region along the motion
-                // predicted for the tool instead, its whole length (a sliding contact holds far
-                // fewer pairs along its path than within the path's length all around; the
-                // pair density of ball regions does not limit it, PATH_MAX_PAIRS does).
+                // predicted for the tool instead (a sliding contact holds far fewer pairs along
+                // its path than within the path's length all around).
+                // (Within twice the pair-density cap of a ball, length and width together: a
+                // wide path through a dense contact costs more than a second pass.)
+                let path_cap = dense_cap.max(MIN_ALLOW_MM).min(cap);
                 let mut sweep = if trust && path_regions {
-                    self.predicted_sweep(&q_lin, q_h, cap)
+                    self.predicted_sweep(&q_lin, q_h, path_cap)
+                        .filter(|&(_, len)| {
+                            len + self.path_width() <= PATH_DENSITY_FACTOR * path_cap
+                        })
                 } else {
                     None
                 };
                 let width = if sweep.is_some() {
-                    self.path_width().min(path_width_cap)
+                    self.path_width()
                 } else {
                     allowed
                 };
@@ -576,8 +568,8 @@ impl GodObject {
                 if detected.is_err() {
                     return self.keep_last_safe(out, q_h, t_start);
                 }
-                // The frame's pair count is its first list (a path query stopped at its limit
-                // is no list: the next one is).
+                // The frame's pair count is its first list (a path region that overflowed
+                // is none: the next one is).
                 if !listed && !(self.dropped > 0 && sweep.is_some()) {
                     listed = true;
                     out.pairs = self.pairs.len() as u32;
@@ -594,22 +586,14 @@ impl GodObject {
                     self.pairs_per_mm *= 0.9;
                 }
                 if self.dropped > 0 {
-                    if sweep.is_some() {
-                        longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
-                        if width > PATH_WIDTH_MIN_MM {
-                            // Too many pairs along a wide path: the same path, narrowest.
-                            path_width_cap = PATH_WIDTH_MIN_MM;
-                            continue;
-                        }
-                        // Too many pairs even along a narrow path (a dense contact; the query
-                        // stopped at PATH_MAX_PAIRS): ball regions from here on, and for a while.
-                        path_regions = false;
-                        self.path_pause = PATH_PAUSE_FRAMES;
-                        continue;
-                    }
                     // More pairs than the storage holds: the list is not complete, so no answer
                     // from it is proven. Try a smaller region (fewer pairs) next pass.
                     overflowed = true;
+                    if sweep.is_some() {
+                        // Too many pairs even along the path: ball regions from here on.
+                        path_regions = false;
+                        continue;
+                    }
                     allow = 0.25 * allowed;
                     longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
                     if allow < MIN_OVERFLOW_ALLOW_MM {
@@ -634,7 +618,7 @@ impl GodObject {
                 // A path slab of half-width a keeps every sphere within sqrt(12) a of the path.
                 boxed = trust.then(|| match sweep {
                     Some(_) => Trust::Path(width / 12f64.sqrt()),
-                    None if path_allowed => {
+                    None if path_regions => {
                         // Each part gets the larger of its shares of the need and of the
                         // predicted motion (the hand's press into a surface is need the tool
                         // will not follow; a turn it follows may be a small part of the need).
