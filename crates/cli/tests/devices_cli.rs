@@ -2,24 +2,9 @@
 //! writes its outputs and reports the device, the study finds the plate's bound, bad names are
 //! refused on one line.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn haptic6d(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_haptic6d"))
-        .args(args)
-        .env("HAPTIC6D_CACHE", cache_dir())
-        .output()
-        .expect("the haptic6d binary runs")
-}
-
-fn cache_dir() -> PathBuf {
-    std::env::var_os("HAPTIC6D_CACHE")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/haptic6d-test-cache")
-        })
-}
+use common::haptic6d;
 
 #[test]
 fn run_with_the_emulator_closes_the_loop_and_reports_the_device() {
