@@ -570,7 +570,7 @@ impl GodObject {
                 }
                 // The frame's pair count is its first list (a path region that overflowed
                 // is none: the next one is).
-                if !listed && !(self.dropped > 0 && sweep.is_some()) {
+                if !listed && (self.dropped == 0 || sweep.is_none()) {
                     listed = true;
                     out.pairs = self.pairs.len() as u32;
                     out.margin_mm = if sweep.is_some() { width } else { allowed } + skin;
