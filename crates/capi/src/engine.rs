@@ -1,6 +1,7 @@
 //! The engine handle: made from a scene (`h6d_scene_engine`, in `scene.rs`) or from files
 //! (`h6d_engine_from_files`), then reset, stepped once per haptic frame, read, destroyed.
 
+use scene::error_chain;
 use std::ffi::c_char;
 use std::path::Path;
 
@@ -92,15 +93,7 @@ pub(crate) fn engine_failure(e: &EngineError) -> Failure {
         EngineError::Setting(_) => H6dStatus::InvalidArgument,
         _ => H6dStatus::Engine,
     };
-    Failure::new(status, chain(e))
-}
-
-/// An error and its sources on one line, `a: b: c` (as the command line prints them).
-pub(crate) fn chain(e: &dyn std::error::Error) -> String {
-    std::iter::successors(Some(e), |e| e.source())
-        .map(ToString::to_string)
-        .collect::<Vec<_>>()
-        .join(": ")
+    Failure::new(status, error_chain(e))
 }
 
 /// A NUL-terminated UTF-8 argument as text.
@@ -239,7 +232,7 @@ unsafe fn load_body(
     let is_sph = p.extension().is_some_and(|x| x.eq_ignore_ascii_case("sph"));
     let tree = if is_sph {
         let mut tree = spheretree::sph::read_sph(p)
-            .map_err(|e| fail!(call, Scene, "{label}: {}", chain(&e)))?;
+            .map_err(|e| fail!(call, Scene, "{label}: {}", error_chain(&e)))?;
         scene::scale_tree(&mut tree, scale);
         let finite = tree
             .spheres()
@@ -266,7 +259,7 @@ unsafe fn load_body(
             method: spheretree::build::BuildMethod::Tight,
         };
         scene::tree_for_mesh(&mesh, params, cache, label, &mut Vec::new())
-            .map_err(|e| fail!(call, Scene, "{}", chain(&e)))?
+            .map_err(|e| fail!(call, Scene, "{}", error_chain(&e)))?
     };
     Ok(tree)
 }

@@ -8,9 +8,10 @@ use engine::Engine;
 use scene::cache::TreeCache;
 use scene::{Scene, SceneError};
 
-use crate::engine::{chain, engine_failure, text_arg, H6dEngine};
+use crate::engine::{engine_failure, text_arg, H6dEngine};
 use crate::status::{door, fail, non_null, Failure, H6dStatus};
 use crate::types::H6dConfig;
+use scene::error_chain;
 
 /// A loaded scene (trees in mm, settings, start pose, device rate) behind an opaque pointer.
 /// Read-only after loading: it may be read from several threads at once.
@@ -30,7 +31,7 @@ fn scene_failure(e: &SceneError) -> Failure {
         SceneError::Setting(_) => H6dStatus::InvalidArgument,
         SceneError::Engine { source, .. } => return engine_failure(source),
     };
-    Failure::new(status, chain(e))
+    Failure::new(status, error_chain(e))
 }
 
 /// Runs `body` on the scene behind `handle` through the door (NULL refused).
@@ -183,14 +184,14 @@ pub unsafe extern "C" fn h6d_scene_engine(
             let mut engine = Engine::new(&s.tool, &s.objects, config).map_err(|e| {
                 Failure::new(
                     engine_failure(&e).status,
-                    format!("{}: {}", s.name, chain(&e)),
+                    format!("{}: {}", s.name, error_chain(&e)),
                 )
                 .report(CALL)
             })?;
             engine.reset(&s.start).map_err(|e| {
                 Failure::new(
                     engine_failure(&e).status,
-                    format!("{}: {}", s.name, chain(&e)),
+                    format!("{}: {}", s.name, error_chain(&e)),
                 )
                 .report(CALL)
             })?;

@@ -42,16 +42,9 @@ impl Failure {
     /// `error` and its chain of sources as the command line prints them
     /// (`outer: inner: innermost`, on one line), of `kind`.
     pub fn chain(kind: FailureKind, error: &dyn std::error::Error) -> Self {
-        let mut text = error.to_string();
-        let mut source = error.source();
-        while let Some(s) = source {
-            text.push_str(": ");
-            text.push_str(&s.to_string());
-            source = s.source();
-        }
         Self {
             kind,
-            message: one_line(&text),
+            message: one_line(&scene::error_chain(error)),
         }
     }
 }

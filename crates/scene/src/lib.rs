@@ -97,6 +97,15 @@ pub enum SceneError {
     },
 }
 
+/// An error and its sources on one line, `outer: inner: innermost`, as the command line prints
+/// them (every door that shows a [`SceneError`] or an [`engine::EngineError`] as text uses it).
+pub fn error_chain(e: &dyn std::error::Error) -> String {
+    std::iter::successors(Some(e), |e| e.source())
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(": ")
+}
+
 impl SceneError {
     /// A scene error of `file` with no underlying cause.
     pub fn scene(file: impl Into<String>, msg: impl Into<String>) -> Self {

@@ -730,17 +730,6 @@ kind = "dual"
         assert_eq!(s.coupling.g(), [1.0, 1.0, 1.0, 1000.0, 1000.0, 1000.0]);
     }
 
-    /// The error and its causes on one line, as the command line prints them.
-    fn chain(err: &dyn std::error::Error) -> String {
-        let mut e = err.to_string();
-        let mut cause = err.source();
-        while let Some(c) = cause {
-            e = format!("{e}: {c}");
-            cause = c.source();
-        }
-        e
-    }
-
     #[test]
     fn errors_are_one_line_and_name_the_file() {
         let cases = [
@@ -769,7 +758,7 @@ kind = "dual"
             ("[tool\n".to_string(), ""),
         ];
         for (text, needle) in cases {
-            let e = chain(&SceneSpec::parse(&text, "scenes/my.toml").unwrap_err());
+            let e = crate::error_chain(&SceneSpec::parse(&text, "scenes/my.toml").unwrap_err());
 
             assert!(e.starts_with("scenes/my.toml: "), "{e}");
             assert!(!e.contains('\n'), "{e}");
@@ -821,7 +810,7 @@ kind = "dual"
         ];
         for (from, to, needle) in cases {
             let bad = text.replace(from, to);
-            let e = chain(&SceneSpec::parse(&bad, "scenes/my.toml").unwrap_err());
+            let e = crate::error_chain(&SceneSpec::parse(&bad, "scenes/my.toml").unwrap_err());
             assert!(e.starts_with("scenes/my.toml: "), "{e}");
             assert!(!e.contains('\n'), "{e}");
             assert!(e.contains(needle), "`{needle}` not in: {e}");
@@ -852,7 +841,7 @@ kind = "dual"
         let s = SceneSpec::parse(&text, "x.toml").unwrap();
         assert_eq!(s.solver.kind, SolverKind::ActiveSet);
         assert_eq!(s.solver.form, ConstraintForm::Squared);
-        let e = chain(
+        let e = crate::error_chain(
             &SceneSpec::parse(&GOOD.replace("\"dual\"", "\"newton\""), "x.toml").unwrap_err(),
         );
         assert!(e.contains("dual, pqp, active-set"), "{e}");

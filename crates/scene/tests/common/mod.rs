@@ -21,8 +21,5 @@ pub fn test_cache() -> TreeCache {
 
 /// An error and its sources on one line, `a: b: c`, as the command line prints them.
 pub fn chain(e: &dyn std::error::Error) -> String {
-    std::iter::successors(Some(e), |e| e.source())
-        .map(ToString::to_string)
-        .collect::<Vec<_>>()
-        .join(": ")
+    scene::error_chain(e)
 }
