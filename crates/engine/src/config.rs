@@ -270,6 +270,12 @@ pub const EMU_PUSH_N: Range = closed("[device.emulator] push_n", -100.0, 100.0, 
 /// `[device.emulator] push_after_s`: when the emulated hand starts pushing, s.
 pub const EMU_PUSH_AFTER_S: Range = closed("[device.emulator] push_after_s", 0.0, 1e4, "s");
 
+/// `[[object]] friction.static` (and `[tool] friction.static`): static Coulomb coefficient.
+pub const FRICTION_STATIC: Range = closed("friction.static", 0.0, 5.0, "");
+/// `[[object]] friction.kinetic` (and `[tool] friction.kinetic`): kinetic Coulomb coefficient
+/// (at most the static one).
+pub const FRICTION_KINETIC: Range = closed("friction.kinetic", 0.0, 5.0, "");
+
 /// Largest `|coordinate|` of a start or object pose, mm or rad (the step refuses device
 /// readings beyond it too).
 pub const POSE_ABS: f64 = 1e6;

@@ -5,7 +5,7 @@ use qp::SolverKind;
 use spheretree::SphereTree;
 
 use crate::safety::{Safety, SafetyEvents, SafetyParams};
-use crate::step::{FrameOutput, FrameStatus, GodObject};
+use crate::step::{FrameOutput, FrameStatus, Friction, FrictionState, GodObject};
 use crate::EngineError;
 
 /// Every setting of the engine, checked once by [`Engine::new`] against the ranges in
@@ -122,6 +122,8 @@ pub struct Frame {
     pub qp_violation: f64,
     /// Detection margin of the first pass, mm.
     pub margin_mm: f64,
+    /// What friction did: nothing, stick or slip.
+    pub friction: FrictionState,
 }
 
 impl Frame {
@@ -294,6 +296,25 @@ impl Engine {
     /// The graphic tool's current configuration.
     pub fn q_g(&self) -> Pose {
         self.god.q_g()
+    }
+
+    /// Sets the friction of object `object` (0-based index in the objects given to
+    /// [`Engine::new`]); every object starts frictionless. Not real-time (validates; call
+    /// between frames).
+    pub fn set_friction(&mut self, object: usize, friction: Friction) -> Result<(), EngineError> {
+        self.god.set_friction(object, friction)
+    }
+
+    /// Sets the tool's material friction: `None` (the default) takes each object's
+    /// coefficients alone, `Some` the geometric mean of the tool's and the object's.
+    pub fn set_tool_friction(&mut self, friction: Option<Friction>) -> Result<(), EngineError> {
+        self.god.set_tool_friction(friction)
+    }
+
+    /// Turns friction on or off (off: the frictionless step, frame for frame), keeping the
+    /// coefficients. Allocation-free.
+    pub fn set_friction_enabled(&mut self, on: bool) {
+        self.god.set_friction_enabled(on);
     }
 
     /// The god-object step inside, for tools that measure it (benches, tests): e.g. its QP

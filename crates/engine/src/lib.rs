@@ -53,7 +53,7 @@ pub mod step;
 pub use collide::{ConstraintForm, LeafPair, Pose, RotationCoordinates};
 pub use engine::{Counters, Engine, EngineConfig, Frame};
 pub use qp::SolverKind;
-pub use step::FrameStatus;
+pub use step::{FrameStatus, Friction, FrictionState};
 
 /// Errors of the engine. Each message says what to fix; the cause is kept as the source.
 #[derive(Debug, thiserror::Error)]
@@ -75,5 +75,13 @@ pub enum EngineError {
     NoFreeStart {
         /// Search radius, mm.
         searched_mm: f64,
+    },
+    /// An object index beyond the scene's objects.
+    #[error("object {} does not exist: the scene has {objects} object(s)", object + 1)]
+    NoSuchObject {
+        /// The index given (0-based; shown 1-based).
+        object: usize,
+        /// How many objects there are.
+        objects: usize,
     },
 }

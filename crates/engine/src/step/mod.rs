@@ -57,8 +57,11 @@ use crate::{EngineConfig, EngineError};
 
 mod constrain;
 mod detect;
+mod friction;
 mod measure;
 mod solve;
+
+pub use friction::{Friction, FrictionState};
 
 use measure::rotation_angle;
 pub use measure::spring_wrench;
@@ -249,6 +252,16 @@ pub struct GodObject {
     /// (the last frame's, or slowly forgotten larger ones).
     prediction_error: f64,
     started: bool,
+    /// Friction of each object's material, and of the tool's (`None`: the objects' alone).
+    object_friction: Vec<Friction>,
+    tool_friction: Option<Friction>,
+    /// Friction is applied (it can be turned off without forgetting the coefficients).
+    friction_on: bool,
+    /// The tool slid in the last frame with contact (kinetic friction holds it), else it
+    /// stuck (static friction).
+    sliding: bool,
+    /// The contact the last frame ended in (for friction), if any.
+    patch: Option<friction::Patch>,
 }
 
 impl GodObject {
@@ -277,6 +290,7 @@ impl GodObject {
             })
             .fold(0.0, f64::max);
         let ws = CollideWorkspace::for_trees(&tool, &objects);
+        let n_objects = objects.len();
         let probe = FreeSpaceProbe::for_trees(&tool, &objects);
         let cap = params.max_pairs;
         let mut solver = Solver::new(params.solver);
@@ -307,6 +321,11 @@ impl GodObject {
             cached: None,
             prediction_error: 0.0,
             started: false,
+            object_friction: vec![Friction::NONE; n_objects],
+            tool_friction: None,
+            friction_on: true,
+            sliding: false,
+            patch: None,
         })
     }
 
@@ -350,6 +369,8 @@ impl GodObject {
         // A new run: nothing learnt from the last one (prediction, pair density) carries over.
         self.prediction_error = 0.0;
         self.pairs_per_mm = 0.0;
+        self.sliding = false;
+        self.patch = None;
         self.cached = None;
         self.free_radius = 0.0;
         self.probe.cancel();
@@ -411,6 +432,17 @@ impl GodObject {
         if !q_h.is_finite() || q_h.q.iter().any(|v| v.abs() > 1e6) {
             return self.keep_last_safe(out, q_h, t_start);
         }
+        // Friction: the tool sticks (stays), or the step goes toward a goal held back from the
+        // hand by the friction; the wrench is always the spring to the hand.
+        let hand = *q_h;
+        let friction = self.friction_active();
+        let (goal, friction_state) = if friction {
+            self.friction_goal(&hand)
+        } else {
+            (hand, FrictionState::None)
+        };
+        out.friction = friction_state;
+        let q_h = &goal;
         let skin = self.params.skin_mm.max(0.0);
         let cap = self.params.max_margin_mm.max(1e-3);
         let tol = self.params.penetration_tol_mm;
@@ -566,7 +598,7 @@ impl GodObject {
                 }
                 cd += t0.elapsed().as_secs_f64();
                 if detected.is_err() {
-                    return self.keep_last_safe(out, q_h, t_start);
+                    return self.keep_last_safe(out, &hand, t_start);
                 }
                 // The frame's pair count is its first list (a path region that overflowed
                 // is none: the next one is).
@@ -663,7 +695,7 @@ impl GodObject {
                 break;
             }
             let Some(lin) = self.linearization(&q_lin, q_h) else {
-                return self.keep_last_safe(out, q_h, t_start);
+                return self.keep_last_safe(out, &hand, t_start);
             };
             // The trust region is about the region's centre (and path), in this pass's
             // coordinates.
@@ -673,7 +705,7 @@ impl GodObject {
             let solved = self.solve(n, &lin.delta());
             opt += t1.elapsed().as_secs_f64();
             let Some((dq, iters, status, viol)) = solved else {
-                return self.keep_last_safe(out, q_h, t_start);
+                return self.keep_last_safe(out, &hand, t_start);
             };
             self.remember_active(n_pairs);
             out.iterations += iters;
@@ -681,14 +713,14 @@ impl GodObject {
             if matches!(status, Status::Infeasible | Status::MaxIterations) {
                 // Infeasible only when q_lin itself penetrates; a capped solve is no answer
                 // (it may penetrate): neither reaches the device, keep the last safe pose.
-                return self.keep_last_safe(out, q_h, t_start);
+                return self.keep_last_safe(out, &hand, t_start);
             }
             if status != Status::Solved && out.status == FrameStatus::Ok {
                 out.status = FrameStatus::Inexact;
             }
             let q_new = lin.configuration(&dq);
             if !q_new.is_finite() {
-                return self.keep_last_safe(out, q_h, t_start);
+                return self.keep_last_safe(out, &hand, t_start);
             }
             let t2 = Instant::now();
             let moved = self.distance_from_region(&lin, &region, &q_new, &dq);
@@ -745,6 +777,9 @@ impl GodObject {
                 _ => out.status = FrameStatus::Lagging,
             }
         }
+        if friction {
+            self.remember_patch(&q_safe);
+        }
         self.last_motion = self.motion_bound(&self.q_g, &q_safe);
         for k in 0..3 {
             self.last_step[k] = q_safe.q[k] - self.q_g.q[k];
@@ -758,7 +793,7 @@ impl GodObject {
         );
         out.penetration_mm = pen_safe;
         out.q_g = q_safe.to_array();
-        out.wrench = spring_wrench(&self.params.g(), self.params.rotation, &q_safe, q_h);
+        out.wrench = spring_wrench(&self.params.g(), self.params.rotation, &q_safe, &hand);
         out.raw_wrench = out.wrench;
         out.cd_us = cd * 1e6;
         out.opt_us = opt * 1e6;

@@ -283,6 +283,30 @@ pub fn scene(cache: &TreeCache, tool: PlateTool, script: Script) -> Result<Scene
     })
 }
 
+/// Radius (mm) of the one sphere that stands for an ideally flat plate: over the 120 mm plate
+/// its surface departs from the plane `z = 0` by at most `60² / (2 · 1e5)` = 0.018 mm, and over
+/// a 40 mm puck's footprint by 0.002 mm.
+pub const FLAT_RADIUS_MM: f64 = 1.0e5;
+
+/// An ideally flat plate: a one-sphere tree whose top touches `z = 0` at the origin (radius
+/// [`FLAT_RADIUS_MM`]). A sphere-tree of a real plate makes its face a layer of spheres
+/// (bumps a few millimetres apart); this one has none, so it measures a contact law (friction)
+/// without the tree's bumps in the figures.
+pub fn flat_plate_tree() -> spheretree::SphereTree {
+    let mut tree = spheretree::SphereTree::new_unused(1, 8).expect("a one-level tree is valid");
+    tree.spheres_mut()[0] = spheretree::Sphere::new([0.0, 0.0, -FLAT_RADIUS_MM], FLAT_RADIUS_MM);
+    tree
+}
+
+/// [`scene`] with the ideally flat plate ([`flat_plate_tree`]) in place of the plate's tree
+/// (the plate's mesh is still what the viewer draws).
+pub fn flat_scene(cache: &TreeCache, tool: PlateTool, script: Script) -> Result<Scene, SceneError> {
+    let mut scene = scene(cache, tool, script)?;
+    scene.name = format!("flat plate ({})", tool.name());
+    scene.objects[0].0 = flat_plate_tree();
+    Ok(scene)
+}
+
 /// The built-in `plate` scene: the puck slid at 200 mm/s, then turned at 3 rad/s.
 pub fn builtin(cache: &TreeCache) -> Result<Scene, SceneError> {
     let slide = speed_script(PlateTool::Puck, SpeedMotion::Slide(200.0), 1000.0, 0.5);
