@@ -188,6 +188,9 @@ pub unsafe extern "C" fn h6d_scene_engine(
                 )
                 .report(CALL)
             })?;
+            s.apply_friction(&mut engine).map_err(|e| {
+                Failure::new(H6dStatus::InvalidArgument, error_chain(&e)).report(CALL)
+            })?;
             engine.reset(&s.start).map_err(|e| {
                 Failure::new(
                     engine_failure(&e).status,

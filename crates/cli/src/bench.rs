@@ -1,6 +1,7 @@
-//! `haptic6d bench [--quick] [--out DIR] [--studies replay,scaling,speed,contact,peer]
+//! `haptic6d bench [--quick] [--out DIR] [--studies replay,scaling,speed,contact,friction,peer]
 //! [--peer]`: the paper's experiments, every solver on identical input, plus scaling,
-//! hand-speed and contact studies, and the comparison with the rapier3d virtual-coupling peer.
+//! hand-speed, contact and friction studies, and the comparison with the rapier3d
+//! virtual-coupling peer.
 //!
 //! 1. **Replay.** For each scene (`bunny`, `spline`) the scene's device trajectory is recorded
 //!    once and replayed into a fresh god-object per solver (`pqp` as in the paper, the
@@ -70,11 +71,11 @@ pub struct BenchArgs {
     /// Skip the scaling studies (pairs and depth).
     #[arg(long)]
     pub no_scaling: bool,
-    /// Studies to run (comma-separated): replay, scaling, speed, contact, peer.
+    /// Studies to run (comma-separated): replay, scaling, speed, contact, friction, peer.
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "replay,scaling,speed,contact,peer"
+        default_value = "replay,scaling,speed,contact,friction,peer"
     )]
     pub studies: Vec<String>,
     /// Only the comparison with the rapier3d virtual-coupling peer (same as `--studies peer`).
@@ -113,8 +114,9 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
         }
     }
     for study in &args.studies {
-        if !["replay", "scaling", "speed", "contact", "peer"].contains(&study.as_str()) {
-            bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact, peer)");
+        if !["replay", "scaling", "speed", "contact", "friction", "peer"].contains(&study.as_str())
+        {
+            bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact, friction, peer)");
         }
     }
     let wants = |name: &str| args.studies.iter().any(|s| s == name);
@@ -230,6 +232,10 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     if wants("contact") {
         eprintln!("bench: contact study (flat on flat, spline phases)");
         report.contact = crate::bench_contact::contact_study(&cache, args.quick)?;
+    }
+    if wants("friction") {
+        eprintln!("bench: friction study (pushes, cost, spline)");
+        report.friction = Some(crate::bench_friction::friction_study(&cache, args.quick)?);
     }
     let mut peer_traces = Vec::new();
     if wants("peer") {
@@ -575,6 +581,10 @@ pub fn markdown(r: &BenchReport) -> String {
     if !r.contact.is_empty() {
         let _ = writeln!(s, "\n## Large and tight contacts (dual)\n");
         s.push_str(&crate::bench_contact::contact_markdown(&r.contact));
+    }
+    if let Some(f) = &r.friction {
+        let _ = writeln!(s, "\n## Friction: Coulomb stick and slip (dual)\n");
+        s.push_str(&crate::bench_friction::friction_markdown(f));
     }
     if !r.peer.is_empty() {
         let _ = writeln!(

@@ -13,7 +13,7 @@
 
 use anyhow::Result;
 use collide::Pose;
-use engine::step::{FrameOutput, FrameStatus, GodObject};
+use engine::step::{FrameOutput, FrameStatus};
 use engine::SolverKind;
 use scene::cache::TreeCache;
 use scene::scenes::plate::{self, PlateTool, SpeedMotion};
@@ -50,9 +50,9 @@ pub struct ContactRow {
 /// (s) and every frame's output.
 pub fn replay(scene: &Scene, solver: SolverKind) -> Result<(Vec<f64>, Vec<FrameOutput>)> {
     let traj = scene.trajectory();
-    let mut params = scene.engine_config();
-    params.solver = solver;
-    let mut god = GodObject::new(&scene.tool, &scene.objects, params)?;
+    let mut scene = scene.clone();
+    scene.solver.kind = solver;
+    let mut god = scene.god_object()?;
     let first = traj
         .samples
         .first()

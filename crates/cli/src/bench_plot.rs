@@ -176,6 +176,75 @@ pub fn write_bench_plots(dir: &Path, replays: &[SceneReplays], report: &BenchRep
             )
         })?;
     }
+    if let Some(f) = &report.friction {
+        // The stick–slip curve: force against the hand's displacement, one line per push.
+        let palette = [
+            RGBColor(31, 119, 180),
+            RGBColor(255, 127, 14),
+            RGBColor(44, 160, 44),
+            RGBColor(214, 39, 40),
+            RGBColor(148, 103, 189),
+        ];
+        let lines = |surface: &str, motion: &str| -> Vec<(String, Vec<(f64, f64)>)> {
+            f.pushes
+                .iter()
+                .filter(|r| r.surface == surface && r.motion == motion)
+                .map(|r| {
+                    let unit = if motion == "slide" { "mm/s" } else { "rad/s" };
+                    (format!("{} {unit}", r.speed), r.curve.clone())
+                })
+                .collect()
+        };
+        let series = |v: &[(String, Vec<(f64, f64)>)]| -> Vec<(String, RGBColor, Vec<(f64, f64)>)> {
+            v.iter()
+                .enumerate()
+                .map(|(i, (l, c))| (l.clone(), palette[i % palette.len()], c.clone()))
+                .collect()
+        };
+        let panels = [
+            (
+                "ideal flat",
+                "slide",
+                "sliding on the ideal flat",
+                "hand displacement, mm",
+                "force against the motion, N",
+            ),
+            (
+                "ideal flat",
+                "turn",
+                "turning on the ideal flat",
+                "hand turn, rad",
+                "torque against the motion, N·mm",
+            ),
+            (
+                "tree plate",
+                "slide",
+                "sliding on the tree plate",
+                "hand displacement, mm",
+                "force against the motion, N",
+            ),
+        ];
+        let data: Vec<_> = panels
+            .iter()
+            .map(|(surface, motion, ..)| series(&lines(surface, motion)))
+            .collect();
+        render_png(&dir.join("bench_friction_curve.png"), 420, |root| {
+            let areas = root.split_evenly((1, 3));
+            for (k, area) in areas.iter().enumerate() {
+                let (_, _, title, x, y) = panels[k];
+                let s: Vec<Series<'_>> = data[k]
+                    .iter()
+                    .map(|(label, color, values)| Series {
+                        label,
+                        color: *color,
+                        values: values.clone(),
+                    })
+                    .collect();
+                chart(area, title, x, y, &s)?;
+            }
+            Ok(())
+        })?;
+    }
     Ok(())
 }
 

@@ -105,6 +105,8 @@ pub struct BenchReport {
     pub speed: Vec<crate::bench_speed::SpeedRow>,
     /// Large and tight contacts: flat on flat, the spline's phases.
     pub contact: Vec<crate::bench_contact::ContactRow>,
+    /// Coulomb friction: pushes, cost, the spline.
+    pub friction: Option<crate::bench_friction::FrictionStudy>,
     /// haptic6d against the rapier3d virtual-coupling peer, per case and engine.
     pub peer: Vec<crate::bench_peer::PeerRow>,
     /// Wall time of the bench, s.

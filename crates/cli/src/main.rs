@@ -7,6 +7,7 @@
 
 mod bench;
 mod bench_contact;
+mod bench_friction;
 mod bench_peer;
 mod bench_plot;
 mod bench_report;

@@ -57,6 +57,7 @@ pub fn from_scene(scene: Scene, options: &EngineOptions) -> Result<Made, Failure
     let settings = options.apply(scene.engine_config(), scene.rate_hz)?;
     let mut engine = Engine::new(&scene.tool, &scene.objects, settings.config)
         .map_err(|e| engine_error(&scene.name, e))?;
+    scene.apply_friction(&mut engine).map_err(Failure::from)?;
     engine
         .reset(&scene.start)
         .map_err(|e| engine_error(&scene.name, e))?;

@@ -56,7 +56,7 @@ use crate::device::{Calibration, DeviceConfig, DeviceKind, DeviceSettings, Emula
 use crate::trajectory::{Script, Trajectory};
 use crate::SceneError;
 use engine::safety::SafetyParams;
-use engine::SolverKind;
+use engine::{Friction, SolverKind};
 
 /// One body of a scene file: where its geometry comes from and how it is placed.
 #[derive(Clone, Debug, Default, PartialEq, Deserialize, Serialize)]
@@ -79,6 +79,31 @@ pub struct BodySpec {
     pub start: Option<[f64; 6]>,
     /// Objects only: fixed pose `[x, y, z, gamma, beta, alpha]` (mm, rad).
     pub pose: Option<[f64; 6]>,
+    /// Coulomb friction of the body's material: `friction = { static = 0.4, kinetic = 0.3 }`
+    /// (dimensionless; `kinetic` defaults to `static`). Objects default to frictionless; a tool
+    /// without one takes each object's coefficients alone, with one the geometric mean.
+    pub friction: Option<FrictionSpec>,
+}
+
+/// A material's Coulomb friction as written in a scene file.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct FrictionSpec {
+    /// Static coefficient (dimensionless).
+    #[serde(rename = "static")]
+    pub static_mu: f64,
+    /// Kinetic coefficient (dimensionless, at most `static`; default `static`).
+    pub kinetic: Option<f64>,
+}
+
+impl FrictionSpec {
+    /// The engine's coefficients.
+    pub fn friction(&self) -> Friction {
+        Friction {
+            static_mu: self.static_mu,
+            kinetic_mu: self.kinetic.unwrap_or(self.static_mu),
+        }
+    }
 }
 
 /// The virtual coupling between device and graphic tool: `G = diag(kt, kt, kt, kr, kr, kr)`.
@@ -239,9 +264,19 @@ impl SceneSpec {
                 "[tool] has `pose`; the tool's initial configuration is `start`".into(),
             ));
         }
+        if let Some(f) = &spec.tool.friction {
+            f.friction()
+                .validate("[tool] friction")
+                .map_err(|e| err(e.to_string()))?;
+        }
         for (i, o) in spec.object.iter().enumerate() {
             let name = format!("[[object]] #{}", i + 1);
             check_body(o, &name).map_err(err)?;
+            if let Some(f) = &o.friction {
+                f.friction()
+                    .validate(&format!("{name} friction"))
+                    .map_err(|e| err(e.to_string()))?;
+            }
             if o.start.is_some() {
                 return Err(err(format!(
                     "{name} has `start`; objects are placed with `pose`"
@@ -442,6 +477,11 @@ pub struct Scene {
     pub device: DeviceConfig,
     /// How each tree was obtained (one line each: cache hit, built in N s, read from file).
     pub load_log: Vec<String>,
+    /// Friction of each object's material, in the order of `objects` (missing entries:
+    /// frictionless).
+    pub object_friction: Vec<Friction>,
+    /// Friction of the tool's material (`None`: each object's coefficients alone).
+    pub tool_friction: Option<Friction>,
 }
 
 impl Scene {
@@ -491,6 +531,7 @@ impl Scene {
                     source,
                 }
             })?;
+        self.apply_friction(&mut engine)?;
         engine
             .reset(&self.start)
             .map_err(|source| SceneError::Engine {
@@ -500,14 +541,32 @@ impl Scene {
         Ok(engine)
     }
 
+    /// Gives `engine` (made for this scene's objects) the scene's friction.
+    pub fn apply_friction(&self, engine: &mut Engine) -> Result<(), SceneError> {
+        let err = |source| SceneError::Engine {
+            file: self.name.clone(),
+            source,
+        };
+        engine.set_tool_friction(self.tool_friction).map_err(err)?;
+        for (i, f) in self.object_friction.iter().enumerate() {
+            engine.set_friction(i, *f).map_err(err)?;
+        }
+        Ok(())
+    }
+
     /// The god-object step alone (no safety layer), for tools that measure it.
     pub fn god_object(&self) -> Result<engine::step::GodObject, SceneError> {
-        engine::step::GodObject::new(&self.tool, &self.objects, self.engine_config()).map_err(
-            |source| SceneError::Engine {
-                file: self.name.clone(),
-                source,
-            },
-        )
+        let err = |source| SceneError::Engine {
+            file: self.name.clone(),
+            source,
+        };
+        let mut god = engine::step::GodObject::new(&self.tool, &self.objects, self.engine_config())
+            .map_err(err)?;
+        god.set_tool_friction(self.tool_friction).map_err(err)?;
+        for (i, f) in self.object_friction.iter().enumerate() {
+            god.set_friction(i, *f).map_err(err)?;
+        }
+        Ok(god)
     }
 
     /// The device trajectory (the script sampled at the scene rate, the recorded one, or the
@@ -693,6 +752,12 @@ pub fn load_scene_file(path: &Path, cache: &TreeCache) -> Result<Scene, SceneErr
         goal: None,
         device: spec.device.config(),
         load_log: log,
+        object_friction: spec
+            .object
+            .iter()
+            .map(|o| o.friction.map_or(Friction::NONE, |f| f.friction()))
+            .collect(),
+        tool_friction: spec.tool.friction.map(|f| f.friction()),
     })
 }
 

@@ -86,6 +86,8 @@ fn scene() -> Scene {
         goal: None,
         device: Default::default(),
         load_log: Vec::new(),
+        object_friction: Vec::new(),
+        tool_friction: None,
     }
 }
 

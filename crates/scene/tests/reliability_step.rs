@@ -70,6 +70,8 @@ fn scene(object: SphereTree, solver: SolverSpec, coupling: Coupling) -> Scene {
         goal: None,
         device: Default::default(),
         load_log: Vec::new(),
+        object_friction: Vec::new(),
+        tool_friction: None,
     }
 }
 

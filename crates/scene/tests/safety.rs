@@ -65,6 +65,8 @@ fn scene(s: &Settings) -> Scene {
         goal: None,
         device: Default::default(),
         load_log: Vec::new(),
+        object_friction: Vec::new(),
+        tool_friction: None,
     }
 }
 

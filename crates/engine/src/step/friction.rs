@@ -151,6 +151,12 @@ impl GodObject {
         Ok(())
     }
 
+    /// The contact the last frame ended in, as friction sees it: its unit normal (world) and
+    /// torsional radius (mm); `None` without a frictional contact.
+    pub fn friction_contact(&self) -> Option<([f64; 3], f64)> {
+        self.patch.map(|p| (p.normal.into(), p.rho))
+    }
+
     /// Turns friction on or off without forgetting the coefficients (off: the frictionless
     /// step, frame for frame).
     pub fn set_friction_enabled(&mut self, on: bool) {

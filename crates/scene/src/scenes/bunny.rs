@@ -85,6 +85,8 @@ pub fn scene(cache: &TreeCache) -> Result<Scene, SceneError> {
         goal: None,
         device: Default::default(),
         load_log: log,
+        object_friction: Vec::new(),
+        tool_friction: None,
     };
     let contact = |from: &Pose, dir: [f64; 3]| {
         crate::scenes::distance_to_contact(&scene, from, dir, 200.0)?

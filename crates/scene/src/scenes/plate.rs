@@ -280,6 +280,8 @@ pub fn scene(cache: &TreeCache, tool: PlateTool, script: Script) -> Result<Scene
         goal: None,
         device: Default::default(),
         load_log: log,
+        object_friction: Vec::new(),
+        tool_friction: None,
     })
 }
 
@@ -305,6 +307,31 @@ pub fn flat_scene(cache: &TreeCache, tool: PlateTool, script: Script) -> Result<
     scene.name = format!("flat plate ({})", tool.name());
     scene.objects[0].0 = flat_plate_tree();
     Ok(scene)
+}
+
+/// A push of the friction study: from rest, pressed [`PRESS_MM`] into the plate, the hand moves
+/// once at a constant speed (`Slide`: 20 mm along `x`; `Turn`: 0.5 rad about the vertical
+/// axis) and rests again. Returns the script and the time `[t0, t1)` (s) of the motion.
+pub fn push_script(motion: SpeedMotion) -> (Script, (f64, f64)) {
+    let start = [0.0, 0.0, 2.0, 0.0, 0.0, 0.0];
+    let pressed = [0.0, 0.0, -PRESS_MM, 0.0, 0.0, 0.0];
+    let script = Script::starting_at(start)
+        .then(0.2, pressed, Ease::Smooth)
+        .hold(0.1);
+    let t0 = script.duration();
+    let mut end = pressed;
+    let duration = match motion {
+        SpeedMotion::Slide(v) => {
+            end[0] = 20.0;
+            20.0 / v.abs().max(1e-3)
+        }
+        SpeedMotion::Turn(w) => {
+            end[5] = 0.5;
+            0.5 / w.abs().max(1e-6)
+        }
+    };
+    let script = script.then(duration, end, Ease::Linear).hold(0.1);
+    (script, (t0, t0 + duration))
 }
 
 /// The built-in `plate` scene: the puck slid at 200 mm/s, then turned at 3 rad/s.

@@ -63,5 +63,7 @@ pub fn scene(cache: &TreeCache, p: &SplineParams, depth: u32) -> Result<Scene, S
         }),
         device: Default::default(),
         load_log: log,
+        object_friction: Vec::new(),
+        tool_friction: None,
     })
 }

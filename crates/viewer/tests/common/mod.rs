@@ -123,5 +123,7 @@ pub fn small_scene() -> Scene {
         goal: None,
         device: Default::default(),
         load_log: Vec::new(),
+        object_friction: Vec::new(),
+        tool_friction: None,
     }
 }
