@@ -262,6 +262,9 @@ pub struct GodObject {
     sliding: bool,
     /// The contact the last frame ended in (for friction), if any.
     patch: Option<friction::Patch>,
+    /// Overlap (mm) and touching pairs at `q_g`, as the last frame measured them.
+    pen_g: f64,
+    contacts_g: u32,
 }
 
 impl GodObject {
@@ -326,6 +329,8 @@ impl GodObject {
             friction_on: true,
             sliding: false,
             patch: None,
+            pen_g: 0.0,
+            contacts_g: 0,
         })
     }
 
@@ -777,9 +782,26 @@ impl GodObject {
                 _ => out.status = FrameStatus::Lagging,
             }
         }
+        if friction_state != FrictionState::None {
+            // Friction never gives the hand more than the spring it stretched: an answer that
+            // would raise the spring's energy to the hand (the goal's normal a little off the
+            // surface's) keeps the last pose, which is free.
+            let g = self.params.g();
+            let energy = |q: &Pose| {
+                let w = spring_wrench(&g, self.params.rotation, q, &hand);
+                (0..6).map(|k| w[k] * w[k] / g[k]).sum::<f64>()
+            };
+            if energy(&q_safe) > energy(&self.q_g) {
+                q_safe = self.q_g;
+                pen_safe = self.pen_g;
+                out.contacts = self.contacts_g;
+            }
+        }
         if friction {
             self.remember_patch(&q_safe);
         }
+        self.pen_g = pen_safe;
+        self.contacts_g = out.contacts;
         self.last_motion = self.motion_bound(&self.q_g, &q_safe);
         for k in 0..3 {
             self.last_step[k] = q_safe.q[k] - self.q_g.q[k];
