@@ -239,6 +239,8 @@ impl<S: Simulation> ManualFrames<S> {
         };
         s.input_seq = cmd.seq;
         s.contacts_requested = self.input.contacts_wanted();
+        s.friction_on = self.input.friction_wanted();
+        s.friction = 0;
         let t0 = Instant::now();
         self.sim.step(&device, s);
         let frame_us = t0.elapsed().as_secs_f64() * 1e6;

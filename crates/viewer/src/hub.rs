@@ -7,7 +7,7 @@
 //!   haptic thread publishes every frame into a triple buffer without locking; readers share
 //!   the output end behind a mutex.
 
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
@@ -77,6 +77,7 @@ pub struct InputHub {
     writer: Mutex<Writer>,
     resets: AtomicU64,
     contact_viewers: AtomicUsize,
+    friction_off: AtomicBool,
 }
 
 struct Writer {
@@ -112,6 +113,7 @@ impl InputHub {
                 }),
                 resets: AtomicU64::new(0),
                 contact_viewers: AtomicUsize::new(0),
+                friction_off: AtomicBool::new(false),
             },
             InputReader { output },
         )
@@ -179,6 +181,20 @@ impl InputHub {
                 .contact_viewers
                 .fetch_update(Ordering::AcqRel, Ordering::Acquire, |n| n.checked_sub(1));
         }
+    }
+
+    /// Turns friction on or off (the page's switch; on by default).
+    pub fn set_friction(&self, on: bool) {
+        self.friction_off.store(!on, Ordering::Release);
+    }
+
+    /// True unless friction was turned off.
+    ///
+    /// # Real-time
+    /// One atomic load.
+    #[inline]
+    pub fn friction_wanted(&self) -> bool {
+        !self.friction_off.load(Ordering::Acquire)
     }
 
     /// True while at least one viewer wants the contact list.

@@ -3,7 +3,7 @@
 //! and the contact pairs it found, for display.
 
 use collide::{PackedTree, Pose};
-use engine::{Engine, FrameStatus};
+use engine::{Engine, FrameStatus, FrictionState};
 use mesh::TriMesh;
 use scene::Scene;
 
@@ -22,6 +22,8 @@ pub struct SceneSim {
     engaged: bool,
     /// Frames whose step kept the last safe pose (numerical failure), since start.
     pub kept_last_safe: u64,
+    /// Whether the engine's friction is on (the page's switch, as last applied).
+    friction_on: bool,
 }
 
 impl SceneSim {
@@ -61,6 +63,7 @@ impl SceneSim {
             kt: scene.coupling.kt,
             kr: scene.coupling.kr,
             max_force: scene.safety.max_force_n,
+            friction: scene.object_friction.iter().any(|f| !f.is_none()),
         };
         Ok(Self {
             engine,
@@ -69,6 +72,7 @@ impl SceneSim {
             contact_margin: scene.solver.skin_mm.max(0.05),
             engaged: false,
             kept_last_safe: 0,
+            friction_on: true,
         })
     }
 }
@@ -105,7 +109,16 @@ impl Simulation for SceneSim {
             self.engine.restart_safety();
             self.engaged = true;
         }
+        if out.friction_on != self.friction_on {
+            self.friction_on = out.friction_on;
+            self.engine.set_friction_enabled(out.friction_on);
+        }
         let f = *self.engine.step(out.t, device);
+        out.friction = match f.friction {
+            FrictionState::None => 0,
+            FrictionState::Stick => 1,
+            FrictionState::Slip => 2,
+        };
         if f.status == FrameStatus::KeptLastSafe {
             self.kept_last_safe += 1;
         }

@@ -10,7 +10,8 @@
 //! - `GET /ws` — WebSocket: the server sends `{"type":"state",…}` at display rate and
 //!   `{"type":"role",…}` whenever the page's role changes; the page sends
 //!   `{"type":"pose","q":[x,y,z,gamma,beta,alpha]}`, `{"type":"release"}`,
-//!   `{"type":"reset"}`, `{"type":"contacts","on":bool}`, `{"type":"record","on":bool}`.
+//!   `{"type":"reset"}`, `{"type":"contacts","on":bool}`, `{"type":"record","on":bool}`,
+//!   `{"type":"friction","on":bool}`.
 //!
 //! Security (docs/VIEWER.md): every request's `Host` and `Origin` are checked
 //! ([`crate::guard`]; refused with 403), one page owns the device at a time
@@ -291,6 +292,7 @@ struct SceneJson<'a> {
     kt: f64,
     kr: f64,
     max_force: f64,
+    friction: bool,
 }
 
 fn scene_json(s: &SceneGeometry, start: Pose) -> String {
@@ -302,6 +304,7 @@ fn scene_json(s: &SceneGeometry, start: Pose) -> String {
         kt: s.kt,
         kr: s.kr,
         max_force: s.max_force,
+        friction: s.friction,
     };
     serde_json::to_string(&j).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
 }
@@ -332,6 +335,7 @@ enum PageMsg {
     Reset,
     Contacts { on: bool },
     Record { on: bool },
+    Friction { on: bool },
 }
 
 async fn ws_upgrade(State(app): State<Arc<App>>, ws: WebSocketUpgrade) -> Response {
@@ -480,6 +484,10 @@ fn handle(app: &App, id: u64, m: PageMsg, contacts: &mut bool) -> Option<Message
                 h.input().want_contacts(on);
             }
             *contacts = on;
+            None
+        }
+        PageMsg::Friction { on } => {
+            h.input().set_friction(on);
             None
         }
         PageMsg::Record { .. } if !app.params.allow_page_recording => Some(notice(

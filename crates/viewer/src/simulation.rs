@@ -68,6 +68,11 @@ pub struct FrameState {
     /// Set by the loop before the step: a viewer wants the contact list this frame. A
     /// simulation may skip listing contacts when false.
     pub contacts_requested: bool,
+    /// Set by the loop before the step: friction is wanted (the page's friction switch; on
+    /// unless a page turned it off). A simulation without friction ignores it.
+    pub friction_on: bool,
+    /// What friction did this frame, as the simulation reports it: 0 nothing, 1 stick, 2 slip.
+    pub friction: u8,
     /// Up to [`MAX_DISPLAY_CONTACTS`] active contact pairs.
     pub contacts: Vec<ContactPair>,
 }
@@ -93,6 +98,8 @@ impl Default for FrameState {
             input_seq: 0,
             recording: false,
             contacts_requested: false,
+            friction_on: true,
+            friction: 0,
             contacts: Vec::with_capacity(MAX_DISPLAY_CONTACTS),
         }
     }
@@ -161,6 +168,8 @@ impl FrameState {
             input_seq: self.input_seq,
             recording: self.recording,
             contacts_requested: self.contacts_requested,
+            friction_on: self.friction_on,
+            friction: self.friction,
             contacts: Vec::new(),
         }
     }
@@ -198,6 +207,8 @@ pub struct SceneGeometry {
     pub kr: f64,
     /// Largest force the device may render (N); arrows and plots are scaled to it.
     pub max_force: f64,
+    /// True when some object has friction (the page then offers its on/off switch).
+    pub friction: bool,
 }
 
 /// A haptic simulation the viewer can drive: it takes the device pose each frame and reports

@@ -226,3 +226,42 @@ fn a_recording_replays_through_render_frame_for_frame() {
     let w = last.unwrap();
     assert!(w[2] > 5.0, "replayed final force {w:?}");
 }
+
+#[test]
+fn the_friction_switch_holds_or_frees_a_pressed_tool() {
+    let mut scene = small_scene();
+    scene.object_friction = vec![engine::Friction {
+        static_mu: 2.0,
+        kinetic_mu: 1.5,
+    }];
+    let sim = SceneSim::new(&scene).unwrap();
+    assert!(sim.scene_geometry().friction, "the page offers the switch");
+    let haptic = HapticLoop::spawn(sim, &Pacing::default()).unwrap();
+    let go = |q: [f64; 6]| {
+        let seq = haptic
+            .input()
+            .submit(InputSource::Script, Pose::from_array(q), None)
+            .unwrap();
+        haptic.wait_for_input(seq, Duration::from_secs(5)).unwrap();
+    };
+    // Down onto the floor (the tool rests at z = -5.7) and pressed 2 mm into it.
+    for k in 0..=56 {
+        go([0.0, 0.0, 20.0 - 0.5 * k as f64, 0.0, 0.0, 0.0]);
+    }
+    let pressed = wait_until(&haptic, "contact", |s| s.pairs > 0 && s.friction != 0);
+    let x0 = pressed.graphic[0];
+    // The hand moves 2 mm sideways: friction (mu_s = 2) holds the tool where it is.
+    for k in 1..=20 {
+        go([0.1 * k as f64, 0.0, -8.0, 0.0, 0.0, 0.0]);
+    }
+    let held = wait_until(&haptic, "the last pose", |s| s.device[0] == 2.0);
+    assert!(held.friction_on && held.friction == 1, "{held:?}");
+    assert!((held.graphic[0] - x0).abs() < 0.05, "{held:?}");
+    // Friction off: the tool slides toward the hand (into the floor's valley, where the
+    // curved spheres hold it 0.36 mm on).
+    haptic.input().set_friction(false);
+    let free = wait_until(&haptic, "the tool to follow", |s| {
+        !s.friction_on && s.graphic[0] - x0 > 0.2
+    });
+    assert_eq!(free.friction, 0, "{free:?}");
+}

@@ -96,6 +96,8 @@ async function loadScene() {
   const s = await r.json();
   app.scene = s;
   $('scene-name').textContent = s.name;
+  $('btn-friction').hidden = !s.friction;
+  $('friction-row').hidden = !s.friction;
   const box = new THREE.Box3();
   for (const o of s.objects) {
     const mesh = new THREE.Mesh(geometryOf(o),
@@ -168,6 +170,7 @@ const fmt = (v, d) => v.toFixed(d);
 const fmtPose = (q) => `${fmt(q[0], 2)} ${fmt(q[1], 2)} ${fmt(q[2], 2)} mm  ${fmt(q[3], 3)} ${fmt(q[4], 3)} ${fmt(q[5], 3)} rad`;
 const norm3 = (v) => Math.hypot(v[0], v[1], v[2]);
 const SOURCES = ['none (released)', 'page', 'UDP device', 'script'];
+const FRICTION = ['on (no contact)', 'on: stick', 'on: slip'];
 let lastUserInput = -1e9;
 
 // One page owns the device; the others watch until it closes (the server ignores their
@@ -205,6 +208,8 @@ function onState(s) {
   $('torque-norm').textContent = fmt(t, 1);
   $('torque-vec').textContent = `(${fmt(s.torque[0], 1)}, ${fmt(s.torque[1], 1)}, ${fmt(s.torque[2], 1)})`;
   $('pairs').textContent = String(s.pairs);
+  $('friction').textContent = s.friction_on ? FRICTION[s.friction] || String(s.friction) : 'off';
+  $('btn-friction').classList.toggle('on', !!s.friction_on);
   $('penetration').textContent = fmt(s.penetration_mm, 3);
   $('frame-us').textContent = fmt(s.frame_us, 0);
   $('frame-us-max').textContent = fmt(s.frame_us_max, 0);
@@ -299,6 +304,7 @@ window.addEventListener('keydown', (e) => {
   else if (e.code === 'Space') { release(); e.preventDefault(); }
   else if (e.code === 'Backspace') { reset(); e.preventDefault(); }
   else if (e.code === 'KeyC') toggleContacts();
+  else if (e.code === 'KeyF') toggleFriction();
 });
 window.addEventListener('keyup', (e) => { keys.delete(e.code); });
 window.addEventListener('blur', () => keys.clear());
@@ -429,7 +435,12 @@ function reset() {
   if (app.scene) app.dev = app.scene.start.slice();
   lastUserInput = -1e9;
 }
+function toggleFriction() {
+  if (app.role !== 'owner' || !app.scene || !app.scene.friction) return;
+  send({ type: 'friction', on: !(app.state && app.state.friction_on) });
+}
 $('btn-contacts').onclick = toggleContacts;
+$('btn-friction').onclick = toggleFriction;
 $('btn-reset').onclick = reset;
 $('btn-release').onclick = release;
 $('btn-record').onclick = () => send({ type: 'record', on: !(app.state && app.state.recording) });

@@ -55,6 +55,7 @@ impl Simulation for Floor {
             kt: KT,
             kr: 1000.0,
             max_force: 20.0,
+            friction: false,
         }
     }
 
