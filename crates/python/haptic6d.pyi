@@ -57,6 +57,8 @@ class FrameInfo:
     """Time of the whole step (without the safety layer), µs."""
     safety: int
     """What the safety layer did (bit set; 0 = nothing)."""
+    friction: str
+    """What friction did: none, stick or slip."""
 
 class Tree:
     """A sphere-tree (mm for the engine): from ``build_tree`` or ``Tree.load``; saved as .sph;
@@ -156,6 +158,13 @@ class Engine:
     def reset(self, q: Pose) -> PoseTuple:
         """Starts a new run with the device at ``q``; returns where the tool was placed (``q``,
         or the nearest free pose when ``q`` is in collision)."""
+    def set_friction(
+        self, object: int, static_mu: float, kinetic_mu: Optional[float] = None
+    ) -> None:
+        """Sets the Coulomb friction of object ``object`` (0-based): static and kinetic
+        coefficients (0..=5, kinetic at most static; default the static one)."""
+    def set_friction_enabled(self, on: bool) -> None:
+        """Turns friction on or off, keeping the coefficients."""
     def step(
         self, q_h: Pose, t: Optional[float] = None
     ) -> Tuple[Wrench, PoseTuple, FrameInfo]:

@@ -229,6 +229,8 @@ typedef struct H6dFrameInfo {
   double total_us;
   // The spring wrench before the safety layer `[Fx, Fy, Fz, Tx, Ty, Tz]`: N and N·mm.
   double raw_wrench[6];
+  // What friction did: 0 nothing, 1 the tool stuck, 2 it slipped.
+  uint32_t friction;
 } H6dFrameInfo;
 
 // One leaf-sphere pair of the last detected region (`h6d_engine_contacts`).
@@ -355,6 +357,24 @@ int32_t h6d_engine_contacts(struct H6dEngine *engine,
                             struct H6dContact *contacts,
                             size_t capacity,
                             size_t *count);
+
+// Sets the Coulomb friction of object `object` (0-based, in the order the objects were
+// given): static and kinetic coefficients (dimensionless, 0..=5, `kinetic_mu <= static_mu`).
+// Objects start frictionless. Between frames, not in the haptic loop (it validates).
+//
+// # Safety
+// `engine` is NULL or a live engine used by no other thread meanwhile.
+int32_t h6d_engine_set_friction(struct H6dEngine *engine,
+                                uint32_t object,
+                                double static_mu,
+                                double kinetic_mu);
+
+// Turns friction on (`on != 0`) or off, keeping the coefficients (off: the frictionless
+// frames). Allocation-free.
+//
+// # Safety
+// `engine` is NULL or a live engine used by no other thread meanwhile.
+int32_t h6d_engine_set_friction_enabled(struct H6dEngine *engine, int32_t on);
 
 // Writes the frames counted since the last reset, by outcome, to `*out`. Allocation-free.
 //

@@ -402,6 +402,50 @@ pub unsafe extern "C" fn h6d_engine_contacts(
     }
 }
 
+/// Sets the Coulomb friction of object `object` (0-based, in the order the objects were
+/// given): static and kinetic coefficients (dimensionless, 0..=5, `kinetic_mu <= static_mu`).
+/// Objects start frictionless. Between frames, not in the haptic loop (it validates).
+///
+/// # Safety
+/// `engine` is NULL or a live engine used by no other thread meanwhile.
+#[no_mangle]
+pub unsafe extern "C" fn h6d_engine_set_friction(
+    engine: *mut H6dEngine,
+    object: u32,
+    static_mu: f64,
+    kinetic_mu: f64,
+) -> i32 {
+    const CALL: &str = "h6d_engine_set_friction";
+    let friction = engine::Friction {
+        static_mu,
+        kinetic_mu,
+    };
+    // SAFETY: the caller's contract.
+    unsafe {
+        with_engine(CALL, engine, |e| {
+            e.set_friction(object as usize, friction)
+                .map_err(|err| engine_failure(&err).report(CALL))
+        })
+    }
+}
+
+/// Turns friction on (`on != 0`) or off, keeping the coefficients (off: the frictionless
+/// frames). Allocation-free.
+///
+/// # Safety
+/// `engine` is NULL or a live engine used by no other thread meanwhile.
+#[no_mangle]
+pub unsafe extern "C" fn h6d_engine_set_friction_enabled(engine: *mut H6dEngine, on: i32) -> i32 {
+    const CALL: &str = "h6d_engine_set_friction_enabled";
+    // SAFETY: the caller's contract.
+    unsafe {
+        with_engine(CALL, engine, |e| {
+            e.set_friction_enabled(on != 0);
+            Ok(())
+        })
+    }
+}
+
 /// Writes the frames counted since the last reset, by outcome, to `*out`. Allocation-free.
 ///
 /// # Safety

@@ -257,6 +257,8 @@ pub struct H6dFrameInfo {
     pub total_us: f64,
     /// The spring wrench before the safety layer `[Fx, Fy, Fz, Tx, Ty, Tz]`: N and N·mm.
     pub raw_wrench: [f64; 6],
+    /// What friction did: 0 nothing, 1 the tool stuck, 2 it slipped.
+    pub friction: u32,
 }
 
 impl From<&Frame> for H6dFrameInfo {
@@ -274,6 +276,11 @@ impl From<&Frame> for H6dFrameInfo {
             opt_us: f.opt_us,
             total_us: f.total_us,
             raw_wrench: f.raw_wrench,
+            friction: match f.friction {
+                engine::FrictionState::None => 0,
+                engine::FrictionState::Stick => 1,
+                engine::FrictionState::Slip => 2,
+            },
         }
     }
 }

@@ -655,3 +655,68 @@ fn status_names_match_the_header() {
     let unknown = unsafe { CStr::from_ptr(h6d_status_name(42)) };
     assert_eq!(unknown, c"unknown status");
 }
+
+#[test]
+fn friction_is_set_per_object_and_bad_values_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let engine = spheres(dir.path());
+    // SAFETY: valid pointers.
+    unsafe {
+        expect(
+            h6d_engine_set_friction(engine, 0, 0.4, 0.3),
+            H6dStatus::Ok,
+            &[],
+        );
+        expect(
+            h6d_engine_set_friction(engine, 1, 0.4, 0.3),
+            H6dStatus::Engine,
+            &["h6d_engine_set_friction", "object 2 does not exist"],
+        );
+        expect(
+            h6d_engine_set_friction(engine, 0, 0.3, 0.4),
+            H6dStatus::InvalidArgument,
+            &["kinetic = 0.4", "at most the static coefficient 0.3"],
+        );
+        expect(
+            h6d_engine_set_friction(engine, 0, f64::NAN, 0.1),
+            H6dStatus::InvalidArgument,
+            &["static = NaN"],
+        );
+        // Pressed onto the sphere's top and pulled sideways: the frame reports what friction
+        // did.
+        let mut reset_q = [0.0; 6];
+        h6d_engine_reset(
+            engine,
+            [0.0, 0.0, 40.0, 0.0, 0.0, 0.0].as_ptr(),
+            reset_q.as_mut_ptr(),
+        );
+        let (mut wrench, mut info) = ([0.0; 6], H6dFrameInfo::default());
+        let mut stuck = 0;
+        for k in 0..400 {
+            let z = (40.0 - 0.1 * k as f64).max(24.0);
+            let x = if k > 200 {
+                0.002 * (k - 200) as f64
+            } else {
+                0.0
+            };
+            let q = [x, 0.0, z, 0.0, 0.0, 0.0];
+            let s = h6d_engine_step(
+                engine,
+                k as f64 * 1e-3,
+                q.as_ptr(),
+                wrench.as_mut_ptr(),
+                null_mut(),
+                &mut info,
+            );
+            expect(s, H6dStatus::Ok, &[]);
+            stuck += usize::from(info.friction == 1);
+        }
+        assert!(stuck > 50, "{stuck} frames stuck");
+        expect(
+            h6d_engine_set_friction_enabled(engine, 0),
+            H6dStatus::Ok,
+            &[],
+        );
+        h6d_engine_destroy(engine);
+    }
+}

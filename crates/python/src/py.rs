@@ -270,6 +270,8 @@ struct FrameInfo {
     total_us: f64,
     /// What the safety layer did (bit set; 0 = nothing).
     safety: u8,
+    /// What friction did: `none`, `stick` or `slip`.
+    friction: &'static str,
 }
 
 #[pymethods]
@@ -633,6 +635,32 @@ impl PyEngine {
         PyTuple::new(py, placed.to_array())
     }
 
+    /// Sets the Coulomb friction of object `object` (0-based): static and kinetic coefficients
+    /// (dimensionless, 0..=5, kinetic at most static; kinetic defaults to static). Objects
+    /// start frictionless (or as their scene file says).
+    #[pyo3(signature = (object, static_mu, kinetic_mu=None))]
+    fn set_friction(
+        &mut self,
+        py: Python<'_>,
+        object: usize,
+        static_mu: f64,
+        kinetic_mu: Option<f64>,
+    ) -> PyResult<()> {
+        let f = engine::Friction {
+            static_mu,
+            kinetic_mu: kinetic_mu.unwrap_or(static_mu),
+        };
+        self.made
+            .engine
+            .set_friction(object, f)
+            .map_err(|e| raise(py, Failure::chain(FailureKind::Value, &e)))
+    }
+
+    /// Turns friction on or off, keeping the coefficients (off: the frictionless frames).
+    fn set_friction_enabled(&mut self, on: bool) {
+        self.made.engine.set_friction_enabled(on);
+    }
+
     /// One haptic frame for the device pose `q_h` (6 numbers: mm, rad) at safety-layer time
     /// `t` (s; by default frames since reset / rate_hz, as `run` and `haptic6d run` count).
     /// Returns `(wrench, q_g, info)`: the wrench to send (Fx, Fy, Fz N; Tx, Ty, Tz N·mm),
@@ -669,6 +697,7 @@ impl PyEngine {
             opt_us: f.opt_us,
             total_us: f.total_us,
             safety: f.safety,
+            friction: f.friction.name(),
         };
         PyTuple::new(
             py,

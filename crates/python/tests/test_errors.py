@@ -206,3 +206,25 @@ def test_a_battery_of_bad_calls_never_crashes_the_interpreter():
     assert p.returncode == 0, p.stderr
     assert p.stdout.strip() == "alive ok"
     assert "panic" not in p.stderr.lower()
+
+
+def test_friction_is_set_per_object_and_bad_values_are_named():
+    engine = haptic6d.Engine.from_scene("bunny")
+    with pytest.raises(haptic6d.InputError, match="object 2 does not exist"):
+        engine.set_friction(1, 0.4)
+    with pytest.raises(haptic6d.InputError, match="at most the static coefficient 0.3"):
+        engine.set_friction(0, 0.3, 0.4)
+    with pytest.raises(haptic6d.InputError, match="static = NaN"):
+        engine.set_friction(0, math.nan)
+    engine.set_friction(0, 0.4, 0.3)
+    traj = engine.trajectory()
+    engine.reset(tuple(traj[0, 1:]))
+    seen = set()
+    for row in traj[:4000]:
+        _, _, info = engine.step(tuple(row[1:]))
+        seen.add(info.friction)
+    assert {"stick", "slip"} <= seen, seen
+    # Off: the frictionless frames (no friction reported).
+    engine.set_friction_enabled(False)
+    engine.reset(tuple(traj[0, 1:]))
+    assert {engine.step(tuple(row[1:]))[2].friction for row in traj[:4000]} == {"none"}
