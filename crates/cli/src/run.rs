@@ -11,7 +11,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use engine::config;
 use engine::setting::Setting;
-use engine::{ConstraintForm, RotationCoordinates, SolverKind};
+use engine::{ConstraintForm, Friction, RotationCoordinates, SolverKind};
 use scene::cache::TreeCache;
 use scene::device::DeviceKind;
 use scene::report::{frames_csv, summarize, tree_infos, RunSummary};
@@ -71,6 +71,10 @@ pub struct RunArgs {
     /// Rotation coordinates: rotation-vector (default) or euler (the paper's).
     #[arg(long)]
     pub rotation: Option<String>,
+    /// Coulomb friction on every object: STATIC or STATIC,KINETIC (e.g. 0.4,0.3; kinetic
+    /// defaults to static). Overrides the scene's; 0 turns it off.
+    #[arg(long, value_name = "STATIC[,KINETIC]", value_parser = friction_arg)]
+    pub friction: Option<Friction>,
     /// Keep the haptic thread at normal priority (by default it asks for SCHED_FIFO, which
     /// needs the privilege, so that timings are not inflated by preemption).
     #[arg(long)]
@@ -81,6 +85,30 @@ pub struct RunArgs {
     /// Write into OUT even if it holds files that do not look like a previous run.
     #[arg(long)]
     pub force: bool,
+}
+
+/// `--friction STATIC[,KINETIC]`: the coefficients, checked against their ranges.
+pub(crate) fn friction_arg(text: &str) -> Result<Friction, String> {
+    let mut parts = text.split(',').map(str::trim);
+    let number = |p: Option<&str>| -> Result<Option<f64>, String> {
+        p.map(|p| {
+            p.parse::<f64>().map_err(|_| {
+                format!("`{p}` is not a number (STATIC or STATIC,KINETIC, e.g. 0.4,0.3)")
+            })
+        })
+        .transpose()
+    };
+    let static_mu = number(parts.next())?.unwrap_or(f64::NAN);
+    let kinetic_mu = number(parts.next())?.unwrap_or(static_mu);
+    if parts.next().is_some() {
+        return Err("at most two numbers: STATIC,KINETIC".into());
+    }
+    let f = Friction {
+        static_mu,
+        kinetic_mu,
+    };
+    f.validate("--friction").map_err(|e| e.to_string())?;
+    Ok(f)
 }
 
 /// A built-in scene by name, or a scene file (TOML) by path; shared by `run` and `serve`.
@@ -363,6 +391,9 @@ pub fn run(args: RunArgs) -> Result<()> {
     }
     if let Some(r) = rotation {
         scene.coupling.rotation = r;
+    }
+    if let Some(f) = args.friction {
+        scene.object_friction = vec![f; scene.objects.len()];
     }
     if let Some(t) = trajectory {
         scene.motion = Motion::Trajectory(t);

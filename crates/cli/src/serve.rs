@@ -75,6 +75,10 @@ pub struct ServeArgs {
     /// Print a machine-readable summary (JSON) on stdout when the server stops.
     #[arg(long)]
     pub json: bool,
+    /// Coulomb friction on every object: STATIC or STATIC,KINETIC (e.g. 0.4,0.3); the page
+    /// then shows a friction switch.
+    #[arg(long, value_name = "STATIC[,KINETIC]", value_parser = crate::run::friction_arg)]
+    pub friction: Option<engine::Friction>,
 }
 
 /// Longest `--duration` (s): 30 days.
@@ -184,8 +188,11 @@ async fn stop_signal(duration: Option<Duration>) {
 pub fn run(args: ServeArgs) -> Result<()> {
     let duration = validate(&args)?;
     let cache = TreeCache::from_env();
-    let scene = load_scene(&args.scene, &cache)
+    let mut scene = load_scene(&args.scene, &cache)
         .with_context(|| format!("cannot load scene `{}`", args.scene))?;
+    if let Some(f) = args.friction {
+        scene.object_friction = vec![f; scene.objects.len()];
+    }
     let sim = SceneSim::new(&scene).context("cannot set up the haptic step")?;
     let haptic = HapticLoop::spawn(sim, &pacing(&args))?;
     let haptic = Arc::new(haptic);

@@ -86,6 +86,10 @@ fn out_of_range_settings_are_refused_from_the_scene_file_and_the_flags() {
         ("[device]\nrate_hz = 1e-30\n", "[device] rate_hz = 1e-30"),
         ("[device]\nrate_hz = 1e12\n", "[device] rate_hz = 1e12"),
         ("[coupling]\nkt = 1e300\n", "[coupling] kt = 1e300"),
+        (
+            "friction = { static = 0.2, kinetic = 0.5 }\n",
+            "[[object]] #1 friction.kinetic = 0.5: must be at most the static coefficient 0.2",
+        ),
     ];
     for (i, (extra, needle)) in keys.iter().enumerate() {
         let name = format!("bad{i}.toml");
@@ -98,7 +102,14 @@ fn out_of_range_settings_are_refused_from_the_scene_file_and_the_flags() {
         assert_eq!(snapshot(Path::new(&out)), before, "{line}");
     }
     // The same ranges for the flags, named as flags.
-    let flags: [(&[&str], &str); 6] = [
+    let flags: [(&[&str], &str); 10] = [
+        (
+            &["--friction", "0.3,0.4"],
+            "--friction.kinetic = 0.4: must be at most the static coefficient 0.3",
+        ),
+        (&["--friction=-1"], "--friction.static = -1: must be"),
+        (&["--friction", "abc"], "`abc` is not a number"),
+        (&["--friction", "0.1,0.1,0.1"], "at most two numbers"),
         (
             &["--relinearize", "4294967295"],
             "--relinearize = 4294967295: must be an integer in 0..=16",
@@ -119,6 +130,33 @@ fn out_of_range_settings_are_refused_from_the_scene_file_and_the_flags() {
         assert!(line.contains(needle), "`{needle}` not in: {line}");
         assert_eq!(snapshot(Path::new(&out)), before, "{line}");
     }
+    // In range: friction from the file and from the flag run.
+    let rough = d.write(
+        "rough.toml",
+        scene_toml("friction = { static = 0.5, kinetic = 0.4 }\n"),
+    );
+    success(&haptic6d(&[
+        "run",
+        &rough,
+        "--trajectory",
+        &traj,
+        "--out",
+        &out,
+        "--no-plots",
+        "--force",
+    ]));
+    success(&haptic6d(&[
+        "run",
+        &scene,
+        "--trajectory",
+        &traj,
+        "--out",
+        &out,
+        "--no-plots",
+        "--force",
+        "--friction",
+        "0.4,0.3",
+    ]));
     // In range: --relinearize 16 and --skin 0 run.
     success(&haptic6d(&[
         "run",

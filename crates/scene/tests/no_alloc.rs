@@ -1,5 +1,6 @@
-//! No allocation in the haptic frame: 10 000 frames of the bunny scene (contact included) under
-//! a counting global allocator, after one warm-up pass over the same motion.
+//! No allocation in the haptic frame: 10 000 frames of the bunny scene (contact included, with and
+//! without friction) under a counting global allocator, after one warm-up pass over the same
+//! motion.
 //!
 //! Our own allocator rather than `assert_no_alloc`'s: that crate's default `disable_release`
 //! feature turns its check into a no-op in release builds (CI tests in release), and features
@@ -8,7 +9,7 @@
 mod common;
 
 use collide::Pose;
-use engine::SolverKind;
+use engine::{FrictionState, SolverKind};
 use scene::device::ReplayDevice;
 use scene::rt::{run_frames, FrameRecord, LoopParams};
 use scene::trajectory::Trajectory;
@@ -55,7 +56,17 @@ fn ten_thousand_frames_do_not_allocate() {
     let pqp_traj = Trajectory {
         samples: one.samples[push_start..push_start + 800].to_vec(),
     };
-    for kind in [SolverKind::Dual, SolverKind::ActiveSet, SolverKind::Pqp] {
+    // The dual solver also with friction on the object (stick and slip frames).
+    let rough = engine::Friction {
+        static_mu: 0.4,
+        kinetic_mu: 0.3,
+    };
+    for (kind, friction) in [
+        (SolverKind::Dual, engine::Friction::NONE),
+        (SolverKind::Dual, rough),
+        (SolverKind::ActiveSet, engine::Friction::NONE),
+        (SolverKind::Pqp, engine::Friction::NONE),
+    ] {
         let traj = if kind == SolverKind::Pqp {
             &pqp_traj
         } else {
@@ -64,6 +75,7 @@ fn ten_thousand_frames_do_not_allocate() {
         let frames = traj.len();
         let mut scene = scene.clone();
         scene.solver.kind = kind;
+        scene.object_friction = vec![friction; scene.objects.len()];
         if kind == SolverKind::Pqp {
             scene.solver.relinearize = 0;
         }
@@ -94,5 +106,13 @@ fn ten_thousand_frames_do_not_allocate() {
             records.iter().any(|r| r.frame.pairs > 100),
             "{kind:?}: no large contact"
         );
+        if !friction.is_none() {
+            for state in [FrictionState::Stick, FrictionState::Slip] {
+                assert!(
+                    records.iter().any(|r| r.frame.friction == state),
+                    "no {state:?} frame"
+                );
+            }
+        }
     }
 }
