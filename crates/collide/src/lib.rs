@@ -52,8 +52,9 @@ pub use constraint::{
 pub use packed::PackedTree;
 pub use pose::{rotation_exp, rotation_log, rotation_zyx, rotation_zyx_partials, Pose};
 pub use traverse::{
-    any_pair_within, collect_pairs, overlap_swept, overlap_tree_tree, overlap_tree_trees,
-    CollideWorkspace, FreeSpaceProbe, LeafPair, ProbeStatus, Sweep, TraversalStats,
+    any_pair_within, any_pair_within_until, collect_pairs, overlap_swept, overlap_tree_tree,
+    overlap_tree_trees, overlap_until, CollideWorkspace, FreeSpaceProbe, LeafPair, ProbeStatus,
+    Sweep, Traversal, TraversalStats,
 };
 
 /// Errors of this crate.

@@ -423,6 +423,172 @@ pub fn any_pair_within(
     Ok(false)
 }
 
+/// Node pairs split between two calls of a deadline traversal's `keep_going` (a few µs).
+const SPLITS_PER_CHECK: usize = 256;
+
+/// How a traversal with a deadline ended ([`overlap_until`], [`any_pair_within_until`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Traversal {
+    /// Leaf pairs reported (all of them when `complete`).
+    pub pairs: usize,
+    /// False when `keep_going` stopped it: some leaf pairs may be missing.
+    pub complete: bool,
+}
+
+/// [`overlap_tree_trees`] (no `sweep`) or [`overlap_swept`] that can be stopped: `keep_going`
+/// is asked every few hundred node-pair splits (a few µs of work) and a `false` ends the
+/// traversal there, reported as incomplete. A haptic frame gives it its deadline, so that no
+/// traversal, however dense the contact, runs past the frame's time budget.
+///
+/// # Real-time
+/// As [`overlap_tree_tree`]; bounded by `keep_going` as well.
+#[allow(clippy::too_many_arguments)]
+pub fn overlap_until<F: FnMut(&LeafPair), G: FnMut() -> bool>(
+    tool: &PackedTree,
+    world_from_tool: &Pose,
+    sweep: Option<&Sweep>,
+    objects: &[PackedTree],
+    margin: f64,
+    ws: &mut CollideWorkspace,
+    mut visit: F,
+    keep_going: G,
+) -> Result<Traversal, CollideError> {
+    if !world_from_tool.is_finite() || !sweep.is_none_or(Sweep::is_finite) {
+        return Err(CollideError::NonFinitePose);
+    }
+    for o in objects {
+        ws.reserve(tool, o);
+    }
+    let m = match sweep {
+        None => {
+            ws.begin(tool, world_from_tool);
+            clean_margin(margin)
+        }
+        Some(sw) => {
+            ws.begin_swept(tool, world_from_tool, sw);
+            let turn = sw.angle();
+            clean_margin(margin) + 0.5 * tool.reach() * turn * turn
+        }
+    };
+    Ok(descend_all_until(
+        tool,
+        objects,
+        m,
+        ws,
+        &mut |p: &LeafPair| {
+            visit(p);
+            true
+        },
+        keep_going,
+    ))
+}
+
+/// [`any_pair_within`] that can be stopped as [`overlap_until`]: `None` when `keep_going`
+/// stopped it before an answer.
+///
+/// # Real-time
+/// As [`any_pair_within`]; bounded by `keep_going` as well.
+pub fn any_pair_within_until<G: FnMut() -> bool>(
+    tool: &PackedTree,
+    world_from_tool: &Pose,
+    objects: &[PackedTree],
+    margin: f64,
+    ws: &mut CollideWorkspace,
+    keep_going: G,
+) -> Result<Option<bool>, CollideError> {
+    if !world_from_tool.is_finite() {
+        return Err(CollideError::NonFinitePose);
+    }
+    for o in objects {
+        ws.reserve(tool, o);
+    }
+    ws.begin(tool, world_from_tool);
+    let t = descend_all_until(
+        tool,
+        objects,
+        clean_margin(margin),
+        ws,
+        &mut |_: &LeafPair| false,
+        keep_going,
+    );
+    Ok(if t.pairs > 0 {
+        Some(true)
+    } else if t.complete {
+        Some(false)
+    } else {
+        None
+    })
+}
+
+/// Descends `tool` (posed in `ws`) against every object in slices of [`SPLITS_PER_CHECK`]
+/// splits, asking `keep_going` between slices; `visit` returning false stops it (complete).
+fn descend_all_until<F: FnMut(&LeafPair) -> bool, G: FnMut() -> bool>(
+    tool: &PackedTree,
+    objects: &[PackedTree],
+    m: f64,
+    ws: &mut CollideWorkspace,
+    visit: &mut F,
+    mut keep_going: G,
+) -> Traversal {
+    let mut pairs = 0;
+    let stopped = std::cell::Cell::new(false);
+    let mut report = |p: &LeafPair| {
+        let go_on = visit(p);
+        stopped.set(stopped.get() | !go_on);
+        go_on
+    };
+    for (i, o) in objects.iter().enumerate() {
+        let mut resume = false;
+        loop {
+            let mut budget = SPLITS_PER_CHECK;
+            let d = if ws.swept {
+                descend_budgeted::<true, _>(
+                    tool,
+                    o,
+                    i as u32,
+                    m,
+                    ws,
+                    &mut report,
+                    resume,
+                    &mut budget,
+                )
+            } else {
+                descend_budgeted::<false, _>(
+                    tool,
+                    o,
+                    i as u32,
+                    m,
+                    ws,
+                    &mut report,
+                    resume,
+                    &mut budget,
+                )
+            };
+            pairs += d.count;
+            if stopped.get() {
+                return Traversal {
+                    pairs,
+                    complete: true,
+                };
+            }
+            if d.finished {
+                break;
+            }
+            if !keep_going() {
+                return Traversal {
+                    pairs,
+                    complete: false,
+                };
+            }
+            resume = true;
+        }
+    }
+    Traversal {
+        pairs,
+        complete: true,
+    }
+}
+
 /// [`overlap_tree_trees`] collecting into `pairs` (cleared first).
 ///
 /// # Real-time

@@ -504,3 +504,89 @@ proptest! {
         prop_assert_eq!(plain, swept);
     }
 }
+
+/// A traversal with a deadline that never comes lists what the plain (and swept) traversal
+/// lists; one stopped early says so and lists a subset; the "any pair" question agrees or
+/// answers `None`.
+#[test]
+fn a_traversal_with_a_deadline_is_the_traversal_or_says_it_stopped() {
+    let tree = random_tree(2024, shape(4, 8, 1.0, 0.0));
+    let object = jittered(&tree, 7, 1.0);
+    let pt = PackedTree::new(&tree).unwrap();
+    let objects = [PackedTree::new(&object).unwrap()];
+    let mut ws = CollideWorkspace::new();
+    let ids = |v: &mut Vec<(u32, u32, u32)>| {
+        v.sort();
+        v.clone()
+    };
+    for (k, pose) in [
+        Pose::from_array([0.4, -0.3, 0.2, 0.01, -0.01, 0.015]),
+        Pose::from_array([30.0, 5.0, -3.0, 0.3, 0.2, 0.1]),
+        Pose::from_array([200.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let sweep = Sweep {
+            translation: [1.0, -0.5, 0.2],
+            rotation: [0.0, 0.01, 0.02],
+        };
+        for sw in [None, Some(&sweep)] {
+            let mut plain = Vec::new();
+            match sw {
+                None => collide::overlap_tree_trees(&pt, pose, &objects, 0.3, &mut ws, |p| {
+                    plain.push((p.object, p.tool_slot, p.object_slot))
+                }),
+                Some(s) => overlap_swept(&pt, pose, s, &objects, 0.3, &mut ws, |p| {
+                    plain.push((p.object, p.tool_slot, p.object_slot))
+                }),
+            }
+            .unwrap();
+            let mut all = Vec::new();
+            let t = collide::overlap_until(
+                &pt,
+                pose,
+                sw,
+                &objects,
+                0.3,
+                &mut ws,
+                |p| all.push((p.object, p.tool_slot, p.object_slot)),
+                || true,
+            )
+            .unwrap();
+            assert!(t.complete && t.pairs == all.len());
+            assert_eq!(ids(&mut all), ids(&mut plain), "pose {k}");
+            // Stopped at the first check.
+            let mut some = Vec::new();
+            let t = collide::overlap_until(
+                &pt,
+                pose,
+                sw,
+                &objects,
+                0.3,
+                &mut ws,
+                |p| some.push((p.object, p.tool_slot, p.object_slot)),
+                || false,
+            )
+            .unwrap();
+            if !t.complete {
+                assert!(some.len() < plain.len() || plain.is_empty(), "pose {k}");
+            } else {
+                assert_eq!(ids(&mut some), ids(&mut plain), "pose {k}");
+            }
+            assert!(some.iter().all(|p| plain.contains(p)));
+        }
+        let any = collide::any_pair_within(&pt, pose, &objects, 0.3, &mut ws).unwrap();
+        let until =
+            collide::any_pair_within_until(&pt, pose, &objects, 0.3, &mut ws, || true).unwrap();
+        assert_eq!(until, Some(any), "pose {k}");
+        let stopped =
+            collide::any_pair_within_until(&pt, pose, &objects, 0.3, &mut ws, || false).unwrap();
+        assert!(stopped.is_none() || stopped == Some(any), "pose {k}");
+    }
+    // The dense pose needs more than one slice, so the early stop is exercised.
+    let pose = Pose::from_array([0.4, -0.3, 0.2, 0.01, -0.01, 0.015]);
+    let t =
+        collide::overlap_until(&pt, &pose, None, &objects, 0.3, &mut ws, |_| {}, || false).unwrap();
+    assert!(!t.complete, "{t:?}");
+}

@@ -7,20 +7,23 @@ impl GodObject {
     /// Collects pairs at `q` within `margin` into `self.pairs` (at most `max_pairs`; the rest
     /// are counted in `self.dropped`); returns the smallest gap seen (mm, +inf if none).
     pub(super) fn detect(&mut self, q: &Pose, margin: f64) -> Result<f64, collide::CollideError> {
-        self.detect_along(q, None, margin)
+        self.detect_along(q, None, margin, None)
     }
 
     /// [`GodObject::detect`], or with a sweep for a path region: the pairs that come within
-    /// `margin` (mm) of touching along it from `q`.
+    /// `margin` (mm) of touching along it from `q`. With a `deadline`, a traversal still
+    /// running then stops and `self.interrupted` says so (the list is not complete).
     pub(super) fn detect_along(
         &mut self,
         q: &Pose,
         sweep: Option<&Sweep>,
         margin: f64,
+        deadline: Option<Instant>,
     ) -> Result<f64, collide::CollideError> {
         self.cached = None;
         self.pairs.clear();
         self.dropped = 0;
+        self.interrupted = false;
         let pairs = &mut self.pairs;
         let dropped = &mut self.dropped;
         let mut min_gap = f64::INFINITY;
@@ -32,29 +35,33 @@ impl GodObject {
                 *dropped += 1;
             }
         };
-        match sweep {
-            None => overlap_tree_trees(&self.tool, q, &self.objects, margin, &mut self.ws, collect),
-            Some(sweep) => overlap_swept(
-                &self.tool,
-                q,
-                sweep,
-                &self.objects,
-                margin,
-                &mut self.ws,
-                collect,
-            ),
-        }?;
+        let t = overlap_until(
+            &self.tool,
+            q,
+            sweep,
+            &self.objects,
+            margin,
+            &mut self.ws,
+            collect,
+            || deadline.is_none_or(|d| Instant::now() < d),
+        )?;
+        self.interrupted = !t.complete;
         Ok(min_gap)
     }
 
     /// True when some leaf pair is within `margin` (mm) of touching at `q`; stops at the first
-    /// one, so a large margin (a fast hand) stays cheap. Stores no pair.
+    /// one, so a large margin (a fast hand) stays cheap. Stores no pair. Past the `deadline`
+    /// without an answer: true (the safe side: the step then keeps a trust region).
     pub(super) fn any_within(
         &mut self,
         q: &Pose,
         margin: f64,
+        deadline: Option<Instant>,
     ) -> Result<bool, collide::CollideError> {
-        collide::any_pair_within(&self.tool, q, &self.objects, margin, &mut self.ws)
+        collide::any_pair_within_until(&self.tool, q, &self.objects, margin, &mut self.ws, || {
+            deadline.is_none_or(|d| Instant::now() < d)
+        })
+        .map(|a| a.unwrap_or(true))
     }
 
     /// Where this frame's answer is expected, as a motion from `q_lin`: the hand keeps last

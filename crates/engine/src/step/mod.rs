@@ -45,9 +45,8 @@
 use std::time::Instant;
 
 use collide::{
-    overlap_swept, overlap_tree_trees, rotation_exp, rotation_log, CollideWorkspace,
-    FreeSpaceProbe, LeafPair, Linearization, PackedTree, Pose, ProbeStatus, RotationCoordinates,
-    Sweep,
+    overlap_until, rotation_exp, rotation_log, CollideWorkspace, FreeSpaceProbe, LeafPair,
+    Linearization, PackedTree, Pose, ProbeStatus, RotationCoordinates, Sweep,
 };
 use nalgebra::{Matrix3, Vector3};
 use qp::{Problem, Solver, Status};
@@ -137,6 +136,11 @@ const PROBE_MAX_SLICE_SPLITS: usize = 5000;
 /// slack left (earlier when the last probe needed more slices).
 const PROBE_LEAD_FRAMES: f64 = 8.0;
 
+/// Share of the frame budget kept after the last traversal may run for that pass's rows,
+/// solve and check: a traversal still running at `(1 - DETECT_RESERVE) · budget_us` stops,
+/// and the frame ends lagging at its last proven pose.
+const DETECT_RESERVE: f64 = 0.15;
+
 /// Smallest motion allowance of a detected region, mm.
 const MIN_ALLOW_MM: f64 = 0.1;
 
@@ -219,6 +223,11 @@ pub struct GodObject {
     ws: CollideWorkspace,
     pairs: Vec<LeafPair>,
     dropped: usize,
+    /// The last traversal stopped at the frame's deadline (its list is not complete).
+    interrupted: bool,
+    /// Rows, trust region and solve time per row, µs: the slowest recent rate (to keep a
+    /// solve from starting when it would end past the budget).
+    solve_us_per_row: f64,
     rows: Vec<[f64; 6]>,
     rhs: Vec<f64>,
     solver: Solver,
@@ -305,6 +314,8 @@ impl GodObject {
             ws,
             pairs: Vec::with_capacity(cap),
             dropped: 0,
+            interrupted: false,
+            solve_us_per_row: 0.0,
             rows: vec![[0.0; 6]; cap + 12],
             rhs: vec![0.0; cap + 12],
             solver,
@@ -451,6 +462,12 @@ impl GodObject {
         let skin = self.params.skin_mm.max(0.0);
         let cap = self.params.max_margin_mm.max(1e-3);
         let tol = self.params.penetration_tol_mm;
+        // No traversal runs past this: the rest of the budget is kept for the pass's rows,
+        // solve and check.
+        let deadline = t_start
+            + std::time::Duration::from_secs_f64(
+                (1.0 - DETECT_RESERVE) * self.params.budget_us.max(0.0) * 1e-6,
+            );
         // The last pose proven free on the way (q_g_prev is: it was accepted last frame).
         let mut q_safe = self.q_g;
         let mut pen_safe = 0.0;
@@ -507,6 +524,8 @@ impl GodObject {
         };
         let mut overflowed = false;
         let mut reached = false;
+        // The last solve was on the current pair list (its multipliers are the contact's).
+        let mut solved_current = false;
         let (mut cd, mut opt, mut longest_pass) = (0.0, 0.0, 0.0f64);
         for pass in 0..max_passes {
             let t_pass = Instant::now();
@@ -564,7 +583,7 @@ impl GodObject {
                     Ok(f64::INFINITY)
                 } else if let Some((path, _)) = sweep {
                     self.probe.cancel();
-                    self.detect_along(&q_lin, Some(&path), width + skin)
+                    self.detect_along(&q_lin, Some(&path), width + skin, Some(deadline))
                 } else {
                     // A full traversal gives a fresh answer; an unfinished background probe is
                     // dropped.
@@ -575,7 +594,7 @@ impl GodObject {
                     } else {
                         allowed + skin
                     };
-                    let d = self.detect(&q_lin, probe);
+                    let d = self.detect_along(&q_lin, None, probe, Some(deadline));
                     if d.is_ok() && self.pairs.is_empty() {
                         self.free_center = q_lin;
                         self.free_radius = probe;
@@ -592,7 +611,7 @@ impl GodObject {
                     let near = if need + skin <= free_slack {
                         Ok(false)
                     } else {
-                        self.any_within(&q_lin, need + skin)
+                        self.any_within(&q_lin, need + skin, Some(deadline))
                     };
                     trust = matches!(near, Ok(true));
                     if !trust {
@@ -604,6 +623,12 @@ impl GodObject {
                 cd += t0.elapsed().as_secs_f64();
                 if detected.is_err() {
                     return self.keep_last_safe(out, &hand, t_start);
+                }
+                solved_current = false;
+                if self.interrupted {
+                    // The frame's time is up before the region was listed: nothing from it is
+                    // proven; the frame ends at its last proven pose (lagging).
+                    break;
                 }
                 // The frame's pair count is its first list (a path region that overflowed
                 // is none: the next one is).
@@ -699,6 +724,12 @@ impl GodObject {
                 reached = true;
                 break;
             }
+            // A solve that would end past the budget (at the slowest rate per row seen lately)
+            // is not started: the frame ends at its last proven pose.
+            let solve_estimate = 1.5 * self.solve_us_per_row * (n_pairs + 12) as f64;
+            if (t1 - t_start).as_secs_f64() * 1e6 + solve_estimate > self.params.budget_us {
+                break;
+            }
             let Some(lin) = self.linearization(&q_lin, q_h) else {
                 return self.keep_last_safe(out, &hand, t_start);
             };
@@ -708,11 +739,17 @@ impl GodObject {
                 boxed.map(|t| (t, lin.variable(&region.center), lin.variable(&region.end())));
             let n = self.fill_rows(&lin, trust);
             let solved = self.solve(n, &lin.delta());
-            opt += t1.elapsed().as_secs_f64();
+            let solve_s = t1.elapsed().as_secs_f64();
+            opt += solve_s;
+            // The slowest recent rate, slowly forgotten (a cold solve of many rows costs more
+            // per row than a warm one).
+            self.solve_us_per_row =
+                (solve_s * 1e6 / n.max(1) as f64).max(0.99 * self.solve_us_per_row);
             let Some((dq, iters, status, viol)) = solved else {
                 return self.keep_last_safe(out, &hand, t_start);
             };
             self.remember_active(n_pairs);
+            solved_current = true;
             out.iterations += iters;
             out.qp_violation = viol;
             if matches!(status, Status::Infeasible | Status::MaxIterations) {
@@ -797,8 +834,10 @@ impl GodObject {
                 out.contacts = self.contacts_g;
             }
         }
-        if friction {
+        if friction && solved_current {
             self.remember_patch(&q_safe);
+        } else if friction && out.contacts == 0 && reached {
+            self.patch = None;
         }
         self.pen_g = pen_safe;
         self.contacts_g = out.contacts;
