@@ -195,7 +195,7 @@ pub fn write_bench_plots(dir: &Path, replays: &[SceneReplays], report: &BenchRep
                 })
                 .collect()
         };
-        let series = |v: &[(String, Vec<(f64, f64)>)]| -> Vec<(String, RGBColor, Vec<(f64, f64)>)> {
+        let series = |v: &[(String, Vec<(f64, f64)>)]| -> Vec<Line> {
             v.iter()
                 .enumerate()
                 .map(|(i, (l, c))| (l.clone(), palette[i % palette.len()], c.clone()))

@@ -119,6 +119,11 @@ pub(super) struct Patch {
     friction: Friction,
 }
 
+/// True for a number above zero (false for zero, negative or NaN).
+fn positive(x: f64) -> bool {
+    x > 0.0
+}
+
 /// Below this torsional radius (mm) the contact is a point: twisting about its normal is free.
 const POINT_CONTACT_MM: f64 = 1e-6;
 
@@ -199,7 +204,7 @@ impl GodObject {
         let (mut total, mut resultant, mut centre) = (0.0, Vector3::zeros(), Vector3::zeros());
         let (mut mu_s, mut mu_k) = (0.0, 0.0);
         for (i, &lambda) in y.iter().enumerate().take(n_pairs) {
-            if !(lambda > 0.0) {
+            if !positive(lambda) {
                 continue;
             }
             let row = &self.rows[i];
@@ -218,7 +223,7 @@ impl GodObject {
             resultant += normal * lambda;
             centre += point(pair).0 * force;
         }
-        if !(total > 0.0) || !(resultant.norm() > 0.0) || (mu_s == 0.0 && mu_k == 0.0) {
+        if !positive(total) || !positive(resultant.norm()) || (mu_s == 0.0 && mu_k == 0.0) {
             return;
         }
         let n = resultant / resultant.norm();
@@ -267,7 +272,7 @@ impl GodObject {
         } else {
             patch.friction.static_mu
         };
-        if !(normal_force > 0.0) || !(mu > 0.0) {
+        if !positive(normal_force) || !positive(mu) {
             self.sliding = false;
             return (*hand, FrictionState::None);
         }

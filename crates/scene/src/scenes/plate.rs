@@ -294,10 +294,10 @@ pub const FLAT_RADIUS_MM: f64 = 1.0e5;
 /// [`FLAT_RADIUS_MM`]). A sphere-tree of a real plate makes its face a layer of spheres
 /// (bumps a few millimetres apart); this one has none, so it measures a contact law (friction)
 /// without the tree's bumps in the figures.
-pub fn flat_plate_tree() -> spheretree::SphereTree {
-    let mut tree = spheretree::SphereTree::new_unused(1, 8).expect("a one-level tree is valid");
-    tree.spheres_mut()[0] = spheretree::Sphere::new([0.0, 0.0, -FLAT_RADIUS_MM], FLAT_RADIUS_MM);
-    tree
+pub fn flat_plate_tree() -> Result<spheretree::SphereTree, SceneError> {
+    let top = spheretree::Sphere::new([0.0, 0.0, -FLAT_RADIUS_MM], FLAT_RADIUS_MM);
+    spheretree::SphereTree::from_slots(1, 8, vec![top])
+        .map_err(|e| SceneError::caused("flat plate", "cannot make its tree", e))
 }
 
 /// [`scene`] with the ideally flat plate ([`flat_plate_tree`]) in place of the plate's tree
@@ -305,7 +305,7 @@ pub fn flat_plate_tree() -> spheretree::SphereTree {
 pub fn flat_scene(cache: &TreeCache, tool: PlateTool, script: Script) -> Result<Scene, SceneError> {
     let mut scene = scene(cache, tool, script)?;
     scene.name = format!("flat plate ({})", tool.name());
-    scene.objects[0].0 = flat_plate_tree();
+    scene.objects[0].0 = flat_plate_tree()?;
     Ok(scene)
 }
 
