@@ -136,6 +136,12 @@ const PROBE_MAX_SLICE_SPLITS: usize = 5000;
 /// slack left (earlier when the last probe needed more slices).
 const PROBE_LEAD_FRAMES: f64 = 8.0;
 
+/// A pass starts only if the frame's time so far plus this many times its longest pass stays
+/// within `budget_us` (measured: 1.5 kept the puck at 1 m/s lagging in ~220 frames of 1 341, 1.25
+/// in ~130, with the spline's worst frame under 1 ms either way now that traversals and solves
+/// stop at the deadline; 1.0 let more passes start that the deadline then cut).
+const PASS_HEADROOM: f64 = 1.25;
+
 /// Share of the frame budget kept after the last traversal may run for that pass's rows,
 /// solve and check: a traversal still running at `(1 - DETECT_RESERVE) · budget_us` stops,
 /// and the frame ends lagging at its last proven pose.
@@ -225,8 +231,8 @@ pub struct GodObject {
     dropped: usize,
     /// The last traversal stopped at the frame's deadline (its list is not complete).
     interrupted: bool,
-    /// Rows, trust region and solve time per row, µs: the slowest recent rate (to keep a
-    /// solve from starting when it would end past the budget).
+    /// Rows, trust region and solve time per row, µs: a running mean (to keep a solve from
+    /// starting when it would end past the budget).
     solve_us_per_row: f64,
     rows: Vec<[f64; 6]>,
     rhs: Vec<f64>,
@@ -526,13 +532,14 @@ impl GodObject {
         let mut reached = false;
         // The last solve was on the current pair list (its multipliers are the contact's).
         let mut solved_current = false;
+        let mut solved_in_frame = false;
         let (mut cd, mut opt, mut longest_pass) = (0.0, 0.0, 0.0f64);
         for pass in 0..max_passes {
             let t_pass = Instant::now();
-            // A pass may cost more than the longest so far (a new region's traversal): keep
-            // half a pass of headroom.
+            // A pass may cost more than the longest so far (a new region's traversal): keep a
+            // quarter of a pass of headroom (the deadline below stops one that overruns).
             if pass > 0
-                && (t_pass - t_start).as_secs_f64() * 1e6 + 1.5 * longest_pass
+                && (t_pass - t_start).as_secs_f64() * 1e6 + PASS_HEADROOM * longest_pass
                     > self.params.budget_us
             {
                 break;
@@ -724,10 +731,14 @@ impl GodObject {
                 reached = true;
                 break;
             }
-            // A solve that would end past the budget (at the slowest rate per row seen lately)
-            // is not started: the frame ends at its last proven pose.
-            let solve_estimate = 1.5 * self.solve_us_per_row * (n_pairs + 12) as f64;
-            if (t1 - t_start).as_secs_f64() * 1e6 + solve_estimate > self.params.budget_us {
+            // A solve that would end past the budget (at twice the usual time per row) is not
+            // started: the frame ends at its last proven pose. Never the first solve of a frame
+            // that has time left (half its budget), so that a slow spell cannot stop the tool.
+            let elapsed_us = (t1 - t_start).as_secs_f64() * 1e6;
+            let solve_estimate = 2.0 * self.solve_us_per_row * (n_pairs + 12) as f64;
+            if elapsed_us + solve_estimate > self.params.budget_us
+                && (solved_in_frame || elapsed_us > 0.5 * self.params.budget_us)
+            {
                 break;
             }
             let Some(lin) = self.linearization(&q_lin, q_h) else {
@@ -741,10 +752,15 @@ impl GodObject {
             let solved = self.solve(n, &lin.delta());
             let solve_s = t1.elapsed().as_secs_f64();
             opt += solve_s;
-            // The slowest recent rate, slowly forgotten (a cold solve of many rows costs more
-            // per row than a warm one).
-            self.solve_us_per_row =
-                (solve_s * 1e6 / n.max(1) as f64).max(0.99 * self.solve_us_per_row);
+            // The usual rate: a running mean (one slow solve, e.g. the thread preempted, does
+            // not stop later ones).
+            let rate = solve_s * 1e6 / n.max(1) as f64;
+            self.solve_us_per_row = if self.solve_us_per_row > 0.0 {
+                0.9 * self.solve_us_per_row + 0.1 * rate
+            } else {
+                rate
+            };
+            solved_in_frame = true;
             let Some((dq, iters, status, viol)) = solved else {
                 return self.keep_last_safe(out, &hand, t_start);
             };
