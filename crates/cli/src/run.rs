@@ -534,6 +534,12 @@ fn print_human(s: &RunSummary, out: &Path) {
         "  safety: {} force clamps, {} torque clamps, {} rate limits, {} NaN frames; {} kept-last-safe, {} inexact, {} lagging",
         l.safety.force_clamps, l.safety.torque_clamps, l.safety.rate_limits, l.safety.nan_frames, l.kept_last_safe, l.inexact, l.lagging
     );
+    if l.stick_frames + l.slip_frames > 0 {
+        println!(
+            "  friction: {} frames stuck, {} slipping",
+            l.stick_frames, l.slip_frames
+        );
+    }
     let d = &l.link;
     println!(
         "  device {}: {} readings, {} held, {} released ({} timeouts); {} frames with unrendered axes zeroed (max {:.2} N, {:.1} N·mm)",

@@ -181,6 +181,10 @@ pub struct LoopStats {
     /// Frames that ended short of the constrained optimum (passes or budget ran out; the pose
     /// is safe, the tool lags the hand).
     pub lagging: u64,
+    /// Frames in which friction held the tool (stick) and in which it slid (slip).
+    pub stick_frames: u64,
+    /// Frames in which the tool slid against friction.
+    pub slip_frames: u64,
     /// Frames whose device reading (time and pose) repeated the previous one: a stalled device.
     pub stalled_frames: u64,
     /// Wall time of the whole loop, s.
@@ -408,6 +412,14 @@ pub fn run_loop<D: Device>(
         pair_overflows: counts.pair_overflows,
         inexact: counts.inexact,
         lagging: counts.lagging,
+        stick_frames: records
+            .iter()
+            .filter(|r| r.frame.friction == engine::FrictionState::Stick)
+            .count() as u64,
+        slip_frames: records
+            .iter()
+            .filter(|r| r.frame.friction == engine::FrictionState::Slip)
+            .count() as u64,
         stalled_frames: records
             .windows(2)
             .filter(|w| w[1].t == w[0].t && w[1].frame.q_h == w[0].frame.q_h)
