@@ -276,11 +276,7 @@ impl From<&Frame> for H6dFrameInfo {
             opt_us: f.opt_us,
             total_us: f.total_us,
             raw_wrench: f.raw_wrench,
-            friction: match f.friction {
-                engine::FrictionState::None => 0,
-                engine::FrictionState::Stick => 1,
-                engine::FrictionState::Slip => 2,
-            },
+            friction: u32::from(f.friction.code()),
         }
     }
 }

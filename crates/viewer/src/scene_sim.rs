@@ -3,7 +3,7 @@
 //! and the contact pairs it found, for display.
 
 use collide::{PackedTree, Pose};
-use engine::{Engine, FrameStatus, FrictionState};
+use engine::{Engine, FrameStatus};
 use mesh::TriMesh;
 use scene::Scene;
 
@@ -114,11 +114,7 @@ impl Simulation for SceneSim {
             self.engine.set_friction_enabled(out.friction_on);
         }
         let f = *self.engine.step(out.t, device);
-        out.friction = match f.friction {
-            FrictionState::None => 0,
-            FrictionState::Stick => 1,
-            FrictionState::Slip => 2,
-        };
+        out.friction = f.friction.code();
         if f.status == FrameStatus::KeptLastSafe {
             self.kept_last_safe += 1;
         }

@@ -95,7 +95,16 @@ pub enum FrictionState {
 }
 
 impl FrictionState {
-    /// The name written in `frames.csv`: `none`, `stick`, `slip`.
+    /// A number for other languages and wire formats: 0 none, 1 stick, 2 slip.
+    pub fn code(&self) -> u8 {
+        match self {
+            Self::None => 0,
+            Self::Stick => 1,
+            Self::Slip => 2,
+        }
+    }
+
+    /// The name: `none`, `stick`, `slip`.
     pub fn name(&self) -> &'static str {
         match self {
             Self::None => "none",
