@@ -697,3 +697,52 @@ fn huge_device_readings_keep_the_output_safe() {
     // Back to normal readings: normal contact again.
     assert_eq!(frames[traj.len() - 1].frame.status, FrameStatus::Ok);
 }
+
+/// A frame budget far below what a traversal near the contact costs: the deadline stops the
+/// traversals and the solves, every frame is safe (finite, within the tolerance, never through
+/// the plate), the tool still moves where it can, and the stopped frames are counted as lagging.
+#[test]
+fn a_budget_too_small_for_the_contact_lags_and_stays_safe() {
+    let (plate, _) = plate_tree(1.0);
+    let top = sphere_top(&plate);
+    for budget_us in [5.0, 40.0] {
+        let solver = SolverSpec {
+            budget_us,
+            ..SolverSpec::default()
+        };
+        let sc = scene(plate.clone(), solver, Coupling::default());
+        // Down through the plate and out below it, slowly, then sideways.
+        let traj = keyed(&[
+            (0, [0.0, 0.0, top + 20.0, 0.0, 0.0, 0.0]),
+            (300, [0.0, 0.0, top - 10.0, 0.0, 0.0, 0.0]),
+            (600, [15.0, 5.0, top - 10.0, 0.0, 0.3, 0.0]),
+        ]);
+        let (frames, stats) = run(&sc, &traj);
+        assert_safe_output(&frames, &sc.safety);
+        for r in &frames {
+            let f = &r.frame;
+            assert!(f.penetration_mm <= 0.01, "budget {budget_us}: {f:?}");
+            // The tool's leaves (radius 2) stay on the near side of the plate's mid-plane.
+            assert!(
+                f.q_g[2] > 2.0,
+                "budget {budget_us}: through the plate {f:?}"
+            );
+            assert!(f.q_g.iter().all(|v| v.is_finite()));
+        }
+        // It moved: from 20 mm above the plate toward it.
+        let lowest = frames
+            .iter()
+            .map(|r| r.frame.q_g[2])
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            lowest < top + 10.0,
+            "budget {budget_us}: never came down ({lowest})"
+        );
+        if budget_us < 10.0 {
+            assert!(
+                stats.lagging > 0,
+                "budget {budget_us}: the deadline never stopped a frame"
+            );
+        }
+    }
+}
