@@ -30,12 +30,20 @@ pub struct RunArgs {
     /// of the scene's own motion.
     #[arg(long)]
     pub trajectory: Option<PathBuf>,
-    /// The device: replay (default: the scene's trajectory, or --trajectory, open loop) or
+    /// The device: replay (default: the scene's trajectory, or --trajectory, open loop),
     /// emulator (a mass-spring-damper hand following that trajectory, closed loop with the
-    /// wrench; its parameters from the scene's `[device.emulator]`). Default: the scene's
-    /// `[device] kind`.
+    /// wrench; its parameters from the scene's `[device.emulator]`) or haply (a Haply Inverse3
+    /// through its Inverse Service, live, paced in real time; in a build with the `haply`
+    /// feature). Default: the scene's `[device] kind`.
     #[arg(long)]
     pub device: Option<String>,
+    /// The Haply Inverse Service's WebSocket address (with --device haply).
+    #[arg(long, value_name = "URL", default_value = "ws://localhost:10001/")]
+    pub haply_url: String,
+    /// Stop after this many seconds of frames (default: the length of the device motion; a
+    /// live device runs for the scene's trajectory length unless given).
+    #[arg(long)]
+    pub duration: Option<f64>,
     /// QP solver: dual (default, exact), pqp (the paper's), active-set (the paper's baseline).
     #[arg(long)]
     pub solver: Option<String>,
@@ -85,6 +93,30 @@ pub struct RunArgs {
     /// Write into OUT even if it holds files that do not look like a previous run.
     #[arg(long)]
     pub force: bool,
+}
+
+/// The Haply Inverse3 at the Inverse Service `ws_url` (its HTTP address on the same host and
+/// port).
+#[cfg(feature = "haply")]
+fn haply_device(ws_url: &str) -> Result<Box<dyn scene::device::Device>> {
+    let http_url = ws_url
+        .replacen("wss://", "https://", 1)
+        .replacen("ws://", "http://", 1)
+        .trim_end_matches('/')
+        .to_string();
+    Ok(Box::new(haply_device::HaplyInverse3::new(
+        haply_device::HaplyParams {
+            ws_url: ws_url.to_string(),
+            http_url,
+            ..Default::default()
+        },
+    )))
+}
+
+/// Without the `haply` feature: says how to build with it.
+#[cfg(not(feature = "haply"))]
+fn haply_device(_ws_url: &str) -> Result<Box<dyn scene::device::Device>> {
+    bail!("--device haply: this haptic6d was built without the Haply Inverse3; build it with `cargo build --release -p haptic6d --features haply` (needs libssl-dev)")
 }
 
 /// `--friction STATIC[,KINETIC]`: the coefficients, checked against their ranges.
@@ -303,6 +335,11 @@ pub fn run(args: RunArgs) -> Result<()> {
     if let Some(r) = args.rate {
         config::RATE_HZ.check_as("--rate", r)?;
     }
+    if let Some(d) = args.duration {
+        if !(d.is_finite() && d > 0.0 && d <= 86_400.0) {
+            bail!("--duration = {d}: must be a number of seconds in (0, 86400]");
+        }
+    }
     if let Some(n) = args.relinearize {
         config::RELINEARIZE.check_as("--relinearize", u64::from(n))?;
     }
@@ -401,7 +438,10 @@ pub fn run(args: RunArgs) -> Result<()> {
     scene.validate()?;
     let traj = scene.trajectory();
     let kind = device_kind.unwrap_or(scene.device.kind);
-    let mut device = scene.device.make(kind, traj.clone(), scene.rate_hz);
+    let mut device = match kind {
+        DeviceKind::Haply => haply_device(&args.haply_url)?,
+        _ => scene.device.make(kind, traj.clone(), scene.rate_hz)?,
+    };
     // The device's limits: its force and torque caps lower the safety layer's, and a coupling
     // stiffer than it renders is refused.
     let caps = device.capabilities();
@@ -427,9 +467,13 @@ pub fn run(args: RunArgs) -> Result<()> {
             rt_priority: if args.no_rt_priority { None } else { Some(50) },
             ..Pacing::default()
         },
-        realtime: args.realtime,
+        // A live device is paced by the clock, whatever --realtime says.
+        realtime: args.realtime || kind == DeviceKind::Haply,
         device: scene.device.settings,
-        ..LoopParams::default()
+        max_frames: match args.duration {
+            Some(s) => (s * scene.rate_hz).ceil().max(1.0) as usize,
+            None => traj.len().max(1),
+        },
     };
     let report = run_loop(&mut engine, &mut device, &params)?;
 
@@ -454,7 +498,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     // actually went, so the closed-loop run can be replayed open loop into any solver.
     let seen = match kind {
         DeviceKind::Replay => traj,
-        DeviceKind::Emulator => Trajectory {
+        DeviceKind::Emulator | DeviceKind::Haply => Trajectory {
             samples: report
                 .frames
                 .iter()

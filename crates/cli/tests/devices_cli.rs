@@ -45,13 +45,34 @@ fn run_with_the_emulator_closes_the_loop_and_reports_the_device() {
     assert_eq!(rows as u64, frames);
     let _ = std::fs::remove_dir_all(&d);
 
-    let o = haptic6d(&["run", "plate", "--device", "haply", "--out", "x"]);
+    let o = haptic6d(&["run", "plate", "--device", "phantom", "--out", "x"]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(
         err.trim(),
-        "error: --device: unknown device `haply`; expected one of: replay, emulator"
+        "error: --device: unknown device `phantom`; expected one of: replay, emulator, haply"
     );
+    // The Haply Inverse3: with nothing listening at the service's address, one line that says
+    // so (a build with the `haply` feature) or how to build with it (one without).
+    let o = haptic6d(&[
+        "run",
+        "plate",
+        "--device",
+        "haply",
+        "--haply-url",
+        "ws://127.0.0.1:9/",
+        "--out",
+        "x",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    if cfg!(feature = "haply") {
+        assert!(err.contains("Inverse Service"), "{err}");
+    } else {
+        assert!(err.contains("--features haply"), "{err}");
+    }
+    assert!(!std::path::Path::new("x").exists());
 }
 
 #[test]

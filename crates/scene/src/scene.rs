@@ -847,8 +847,8 @@ kind = "dual"
         let cases = [
             (
                 "kind = \"emulator\"",
-                "kind = \"haply\"",
-                "unknown device `haply`; expected one of: replay, emulator",
+                "kind = \"phantom\"",
+                "unknown device `phantom`; expected one of: replay, emulator, haply",
             ),
             (
                 "scale = 2.0",

@@ -150,7 +150,10 @@ fn calibration_is_applied_both_ways() {
         ..DeviceConfig::default()
     };
     // The replay device reports device-frame poses; the link maps them back to the scene.
-    let mut inner = sc.device.make(DeviceKind::Replay, traj.clone(), sc.rate_hz);
+    let mut inner = sc
+        .device
+        .make(DeviceKind::Replay, traj.clone(), sc.rate_hz)
+        .unwrap();
     let first = match inner.read(50, 0.0) {
         Reading::Pose(s) => s.pose,
         other => panic!("{other:?}"),
@@ -167,7 +170,10 @@ fn calibration_is_applied_both_ways() {
         "{first:?}"
     );
     let mut dev = Silent {
-        inner: sc.device.make(DeviceKind::Replay, traj, sc.rate_hz),
+        inner: sc
+            .device
+            .make(DeviceKind::Replay, traj, sc.rate_hz)
+            .unwrap(),
         from: usize::MAX,
         to: usize::MAX,
         sent: Vec::with_capacity(n),

@@ -34,15 +34,20 @@ pub enum DeviceKind {
     /// The emulated hand ([`Emulator`]) follows the scene's trajectory as its intention,
     /// closed loop with the wrench.
     Emulator,
+    /// A Haply Inverse3 (with a VerseGrip) through the Inverse Service: made by the
+    /// `haptic6d-haply` crate (`haply_device::HaplyInverse3`), which the command line includes
+    /// when built with its `haply` feature.
+    Haply,
 }
 
 impl engine::setting::Setting for DeviceKind {
     const WHAT: &'static str = "device";
-    const ALL: &'static [Self] = &[DeviceKind::Replay, DeviceKind::Emulator];
+    const ALL: &'static [Self] = &[DeviceKind::Replay, DeviceKind::Emulator, DeviceKind::Haply];
     fn setting_name(self) -> &'static str {
         match self {
             DeviceKind::Replay => "replay",
             DeviceKind::Emulator => "emulator",
+            DeviceKind::Haply => "haply",
         }
     }
 }
@@ -68,8 +73,14 @@ impl DeviceConfig {
 
     /// The device of `kind` for a run whose device motion (scene frame, one row per frame at
     /// `rate_hz`) is `trajectory`: a replay of it, or the emulated hand with it as its
-    /// intention (mapped into the device frame through the calibration). Allocates.
-    pub fn make(&self, kind: DeviceKind, trajectory: Trajectory, rate_hz: f64) -> Box<dyn Device> {
+    /// intention (mapped into the device frame through the calibration). Allocates. A live
+    /// device ([`DeviceKind::Haply`]) is made by its own crate: an error here.
+    pub fn make(
+        &self,
+        kind: DeviceKind,
+        trajectory: Trajectory,
+        rate_hz: f64,
+    ) -> Result<Box<dyn Device>, crate::SceneError> {
         // The trajectory is the scene-frame motion; the device reports device-frame poses,
         // which the link maps back through the same calibration.
         let cal = &self.settings.calibration;
@@ -79,8 +90,12 @@ impl DeviceConfig {
             s.q = cal.to_device(&r, &Pose::from_array(s.q)).to_array();
         }
         match kind {
-            DeviceKind::Replay => Box::new(ReplayDevice::new(t)),
-            DeviceKind::Emulator => Box::new(Emulator::new(self.emulator, t, rate_hz)),
+            DeviceKind::Replay => Ok(Box::new(ReplayDevice::new(t))),
+            DeviceKind::Emulator => Ok(Box::new(Emulator::new(self.emulator, t, rate_hz))),
+            DeviceKind::Haply => Err(crate::SceneError::scene(
+                "haply",
+                "the Haply Inverse3 is made by the haptic6d-haply crate (haply_device::HaplyInverse3)",
+            )),
         }
     }
 }
