@@ -98,7 +98,7 @@ pub struct RunArgs {
 /// The Haply Inverse3 at the Inverse Service `ws_url` (its HTTP address on the same host and
 /// port).
 #[cfg(feature = "haply")]
-fn haply_device(ws_url: &str) -> Result<Box<dyn scene::device::Device>> {
+pub(crate) fn haply_device(ws_url: &str) -> Result<Box<dyn scene::device::Device>> {
     let http_url = ws_url
         .replacen("wss://", "https://", 1)
         .replacen("ws://", "http://", 1)
@@ -115,7 +115,7 @@ fn haply_device(ws_url: &str) -> Result<Box<dyn scene::device::Device>> {
 
 /// Without the `haply` feature: says how to build with it.
 #[cfg(not(feature = "haply"))]
-fn haply_device(_ws_url: &str) -> Result<Box<dyn scene::device::Device>> {
+pub(crate) fn haply_device(_ws_url: &str) -> Result<Box<dyn scene::device::Device>> {
     bail!("--device haply: this haptic6d was built without the Haply Inverse3; build it with `cargo build --release -p haptic6d --features haply` (needs libssl-dev)")
 }
 

@@ -10,9 +10,11 @@ use std::time::Duration;
 use crate::run::load_scene;
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use engine::setting::Setting;
 use scene::cache::TreeCache;
+use scene::device::DeviceKind;
 use viewer::server::{self, WebParams};
-use viewer::{BridgeParams, HapticLoop, Pacing, SceneSim, UdpBridge};
+use viewer::{BridgeParams, DeviceBridge, HapticLoop, Pacing, SceneSim, UdpBridge};
 
 /// Arguments of `haptic6d serve`.
 #[derive(Args, Debug)]
@@ -75,6 +77,15 @@ pub struct ServeArgs {
     /// Print a machine-readable summary (JSON) on stdout when the server stops.
     #[arg(long)]
     pub json: bool,
+    /// A device driving the loop through the device trait, beside the page and the UDP bridge:
+    /// replay (the scene's trajectory, at the loop rate) or haply (a Haply Inverse3 through its
+    /// Inverse Service, in a build with the `haply` feature). While it drives the loop the page
+    /// watches.
+    #[arg(long)]
+    pub device: Option<String>,
+    /// The Haply Inverse Service's WebSocket address (with --device haply).
+    #[arg(long, value_name = "URL", default_value = "ws://localhost:10001/")]
+    pub haply_url: String,
     /// Coulomb friction on every object: STATIC or STATIC,KINETIC (e.g. 0.4,0.3); the page
     /// then shows a friction switch.
     #[arg(long, value_name = "STATIC[,KINETIC]", value_parser = crate::run::friction_arg)]
@@ -193,9 +204,38 @@ pub fn run(args: ServeArgs) -> Result<()> {
     if let Some(f) = args.friction {
         scene.object_friction = vec![f; scene.objects.len()];
     }
+    let device_kind = args
+        .device
+        .as_deref()
+        .map(DeviceKind::parse_setting)
+        .transpose()
+        .context("--device")?;
     let sim = SceneSim::new(&scene).context("cannot set up the haptic step")?;
     let haptic = HapticLoop::spawn(sim, &pacing(&args))?;
     let haptic = Arc::new(haptic);
+    let device_bridge = match device_kind {
+        None => None,
+        Some(kind) => {
+            let device = match kind {
+                DeviceKind::Haply => crate::run::haply_device(&args.haply_url)?,
+                DeviceKind::Replay => {
+                    scene
+                        .device
+                        .make(kind, scene.trajectory(), args.rate)?
+                }
+                DeviceKind::Emulator => bail!(
+                    "--device emulator: the emulated hand runs closed loop with `haptic6d run`, not in the viewer"
+                ),
+            };
+            Some(DeviceBridge::spawn(
+                device,
+                scene.device.settings,
+                args.rate,
+                haptic.input().clone(),
+                haptic.state().clone(),
+            )?)
+        }
+    };
     let bridge = if args.no_udp {
         None
     } else {
@@ -254,6 +294,9 @@ pub fn run(args: ServeArgs) -> Result<()> {
                 args.udp_timeout_ms
             ));
         }
+        if let Some(d) = &device_bridge {
+            say(format!("device {} drives the loop (the page watches while it does)", d.name()));
+        }
         if let Some(p) = args.rt_priority {
             // The thread sets its priority as it starts; give it a moment before reporting.
             tokio::time::sleep(Duration::from_millis(50)).await;
@@ -282,6 +325,15 @@ pub fn run(args: ServeArgs) -> Result<()> {
     })?;
     if let Some(b) = bridge {
         b.shutdown();
+    }
+    if let Some(d) = device_bridge {
+        let link = d.stop();
+        if !args.json {
+            println!(
+                "device: {} readings, {} held, {} released ({} timeouts)",
+                link.readings, link.held_frames, link.released_frames, link.timeouts
+            );
+        }
     }
     let recording = if haptic.recording_path().is_some() {
         let s = haptic.stop_recording()?;

@@ -40,6 +40,12 @@ fn every_serve_flag_out_of_range_is_one_line_naming_it() {
             &["--allow-page-recording", "--record-dir", "/nonexistent-dir"],
             "--record-dir",
         ),
+        (&["--device", "phantom"], "--device"),
+        (&["--device", "emulator"], "--device emulator"),
+        (
+            &["--device", "haply", "--haply-url", "ws://127.0.0.1:9/"],
+            "haply",
+        ),
     ];
     for (flags, name) in cases {
         let mut args = vec!["serve", scene.as_str(), "--port", "0", "--udp-port", "0"];
@@ -213,4 +219,34 @@ fn scene(d: &Dir) -> String {
     )
     .unwrap();
     scene
+}
+
+#[test]
+fn a_replayed_device_drives_serve_through_the_device_bridge() {
+    let o = haptic6d(&[
+        "serve",
+        "plate",
+        "--port",
+        "0",
+        "--udp-port",
+        "0",
+        "--device",
+        "replay",
+        "--duration",
+        "1.5",
+    ]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("device replay drives the loop"), "{out}");
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("device: "))
+        .unwrap_or_else(|| panic!("no device line in: {out}"));
+    let readings: u64 = line["device: ".len()..]
+        .split_whitespace()
+        .next()
+        .and_then(|n| n.parse().ok())
+        .unwrap();
+    assert!(readings > 500, "{line}");
 }

@@ -118,7 +118,11 @@ fn start_mock(behaviour: Behaviour) -> (SocketAddr, Arc<Mutex<Seen>>) {
                     Behaviour::FallsSilentAfter(k) if n > k => None,
                     Behaviour::FallsSilentAfter(_) => Some(Message::Text(frame(n, false).into())),
                     Behaviour::Reorders => {
-                        let back = if n.is_multiple_of(7) { n.saturating_sub(5) } else { n };
+                        let back = if n.is_multiple_of(7) {
+                            n.saturating_sub(5)
+                        } else {
+                            n
+                        };
                         Some(Message::Text(frame(back, false).into()))
                     }
                     Behaviour::Malformed => Some(match n % 8 {

@@ -28,6 +28,9 @@ pub enum InputSource {
     Udp = 2,
     /// A program using the library directly (tests, scripts).
     Script = 3,
+    /// A device driven through the device trait ([`crate::DeviceBridge`]: a Haply Inverse3, a
+    /// replay).
+    Device = 4,
 }
 
 /// The latest device pose and where it came from.
@@ -119,9 +122,9 @@ impl InputHub {
         )
     }
 
-    /// Submits a device pose from `source`, stale after `expires`. A live UDP command outranks
-    /// the page: page poses are rejected while a UDP device drives the loop. Returns the
-    /// command's sequence number.
+    /// Submits a device pose from `source`, stale after `expires`. A live physical device (UDP
+    /// or the device bridge) outranks the page: page poses are rejected while one drives the
+    /// loop. Returns the command's sequence number.
     pub fn submit(
         &self,
         source: InputSource,
@@ -133,8 +136,9 @@ impl InputHub {
         }
         let mut w = self.writer.lock().unwrap_or_else(|p| p.into_inner());
         let now = Instant::now();
-        if source == InputSource::Page && w.last.source == InputSource::Udp && w.last.is_live(now) {
-            return Err(Rejected::Busy(InputSource::Udp));
+        let physical = matches!(w.last.source, InputSource::Udp | InputSource::Device);
+        if source == InputSource::Page && physical && w.last.is_live(now) {
+            return Err(Rejected::Busy(w.last.source));
         }
         let cmd = DeviceCommand {
             pose,

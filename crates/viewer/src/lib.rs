@@ -15,6 +15,7 @@
 #![warn(missing_docs)]
 
 pub mod bridge;
+pub mod device_bridge;
 pub mod error;
 pub mod guard;
 pub mod haptic;
@@ -27,6 +28,7 @@ pub mod server;
 pub mod simulation;
 
 pub use bridge::{BridgeClient, BridgeParams, BridgeStats, UdpBridge};
+pub use device_bridge::DeviceBridge;
 pub use error::ViewerError;
 pub use haptic::{HapticLoop, ManualFrames};
 pub use hub::{DeviceCommand, InputHub, InputSource, Rejected, StateHub};

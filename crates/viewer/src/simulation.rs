@@ -59,7 +59,8 @@ pub struct FrameState {
     /// True when no input source is live (none yet, or the UDP device timed out): the device
     /// is then held at the graphic pose and force and torque are zero.
     pub released: bool,
-    /// Which input drove this frame: 0 none, 1 page, 2 UDP bridge, 3 scripted/test.
+    /// Which input drove this frame: 0 none, 1 page, 2 UDP bridge, 3 scripted/test, 4 the
+    /// device bridge.
     pub source: u8,
     /// Sequence number of the input command that drove this frame.
     pub input_seq: u64,

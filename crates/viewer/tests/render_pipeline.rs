@@ -265,3 +265,82 @@ fn the_friction_switch_holds_or_frees_a_pressed_tool() {
     });
     assert_eq!(free.friction, 0, "{free:?}");
 }
+
+/// A device that replays a press into the floor and keeps every wrench it is sent.
+struct PressDevice {
+    inner: scene::device::ReplayDevice,
+    sent: std::sync::Arc<std::sync::Mutex<Vec<[f64; 6]>>>,
+}
+
+impl scene::device::Device for PressDevice {
+    fn name(&self) -> &str {
+        "press"
+    }
+    fn read(&mut self, frame: usize, t: f64) -> scene::device::Reading {
+        self.inner.read(frame, t)
+    }
+    fn write_wrench(&mut self, w: &[f64; 6]) {
+        if let Ok(mut s) = self.sent.try_lock() {
+            s.push(*w);
+        }
+    }
+}
+
+#[test]
+fn a_device_drives_the_viewer_through_the_device_bridge() {
+    use viewer::DeviceBridge;
+    let haptic =
+        HapticLoop::spawn(SceneSim::new(&small_scene()).unwrap(), &Pacing::default()).unwrap();
+    // Down from 20 mm to z = -8 (the tool rests at -5.7) over 0.5 s, then held 2.5 s.
+    let mut samples = Vec::new();
+    for i in 0..3000 {
+        let z = 20.0 - 28.0 * (i as f64 / 500.0).min(1.0);
+        samples.push(scene::trajectory::TrajSample {
+            t: i as f64 * 1e-3,
+            q: [0.0, 0.0, z, 0.0, 0.0, 0.0],
+        });
+    }
+    let sent = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let device = PressDevice {
+        inner: scene::device::ReplayDevice::new(Trajectory { samples }),
+        sent: sent.clone(),
+    };
+    let bridge = DeviceBridge::spawn(
+        Box::new(device),
+        scene::device::DeviceSettings::default(),
+        1000.0,
+        haptic.input().clone(),
+        haptic.state().clone(),
+    )
+    .unwrap();
+    assert_eq!(bridge.name(), "press");
+    let s = wait_until(&haptic, "the device pressing", |s| {
+        s.source == viewer::InputSource::Device as u8 && s.force[2] > 1.0
+    });
+    assert!(s.penetration_mm < 0.05, "{s:?}");
+    // The page cannot take over while the device drives the loop.
+    let taken = haptic.input().submit(
+        InputSource::Page,
+        Pose::from_array([0.0, 0.0, 50.0, 0.0, 0.0, 0.0]),
+        None,
+    );
+    assert!(taken.is_err(), "{taken:?}");
+    let stats = bridge.stop();
+    let forces = sent.lock().unwrap().clone();
+    // One write per bridge frame, a reading in most of them.
+    assert!(stats.readings > 100, "{stats:?}");
+    assert!(
+        forces.len() as u64 >= stats.readings,
+        "{} writes, {stats:?}",
+        forces.len()
+    );
+    assert!(
+        forces.iter().any(|w| w[2] > 1.0),
+        "the device was never pushed back"
+    );
+    assert!(forces.iter().all(|w| w.iter().all(|v| v.is_finite())));
+    // Stopped: the device no longer drives the loop.
+    wait_until(&haptic, "the release", |s| {
+        s.source != viewer::InputSource::Device as u8
+    });
+}

@@ -169,7 +169,7 @@ let histN = 0;
 const fmt = (v, d) => v.toFixed(d);
 const fmtPose = (q) => `${fmt(q[0], 2)} ${fmt(q[1], 2)} ${fmt(q[2], 2)} mm  ${fmt(q[3], 3)} ${fmt(q[4], 3)} ${fmt(q[5], 3)} rad`;
 const norm3 = (v) => Math.hypot(v[0], v[1], v[2]);
-const SOURCES = ['none (released)', 'page', 'UDP device', 'script'];
+const SOURCES = ['none (released)', 'page', 'UDP device', 'script', 'device'];
 const FRICTION = ['on (no contact)', 'on: stick', 'on: slip'];
 let lastUserInput = -1e9;
 
