@@ -107,14 +107,13 @@ impl UdpBridge {
         let stop = Arc::new(AtomicBool::new(false));
         let stats = Arc::new(BridgeStats::default());
         let server = Server {
-            socket,
-            input,
-            state,
-            timeout: params.timeout,
+            endpoint: UdpEndpoint::new(
+                socket,
+                params.timeout,
+                stats.clone(),
+                HubTarget { input, state },
+            ),
             stop: stop.clone(),
-            stats: stats.clone(),
-            owner: None,
-            seq: 0,
         };
         let thread = std::thread::Builder::new()
             .name("haptic6d-udp".into())
@@ -163,60 +162,94 @@ struct Owner {
     last_rx: Instant,
 }
 
-struct Server {
-    socket: UdpSocket,
-    input: Arc<InputHub>,
-    state: Arc<StateHub>,
-    timeout: Duration,
-    stop: Arc<AtomicBool>,
-    stats: Arc<BridgeStats>,
+/// What a UDP session drives: the viewer's input hub ([`UdpBridge`]) or a device's reading slot
+/// ([`crate::UdpDevice`]).
+pub(crate) trait SessionTarget {
+    /// A pose (mm, rad) from the session's client at `now`, valid until `now + timeout`; true
+    /// when it was applied.
+    fn drive(&mut self, pose: Pose, now: Instant, timeout: Duration) -> bool;
+    /// The session ended (BYE, a new HELLO, a timeout, the end of the server).
+    fn release(&mut self);
+    /// The reply's content: whether the wrench is this client's, the wrench (N, N·mm), the
+    /// graphic pose and the pair count.
+    fn answer(&self, applied: bool) -> Answer;
+}
+
+/// What a WRENCH reply carries (see [`SessionTarget::answer`]).
+pub(crate) struct Answer {
+    pub ours: bool,
+    pub force: [f64; 3],
+    pub torque: [f64; 3],
+    pub graphic: [f64; 6],
+    pub pairs: u32,
+}
+
+/// The server side of the UDP protocol on one socket: at most one client session at a time
+/// (HELLO opens it, POSE drives, BYE or a timeout ends it), every POSE and HELLO answered
+/// with a WRENCH. Shared by the viewer's bridge thread and the [`crate::UdpDevice`].
+pub(crate) struct UdpEndpoint<T: SessionTarget> {
+    pub socket: UdpSocket,
+    pub timeout: Duration,
+    pub stats: Arc<BridgeStats>,
+    pub target: T,
     owner: Option<Owner>,
     seq: u32,
 }
 
-impl Server {
-    fn run(mut self) {
-        let mut buf = [0u8; 512];
-        while !self.stop.load(Ordering::Acquire) {
-            let now = Instant::now();
-            if let Some(o) = &self.owner {
-                if now.duration_since(o.last_rx) > self.timeout {
-                    // The loop already released on the command's expiry; end the session, so
-                    // that only a fresh HELLO can drive the device again.
-                    self.input.release(InputSource::Udp);
-                    self.owner = None;
-                    self.stats.timeouts.fetch_add(1, Ordering::Relaxed);
-                }
-            }
-            let (n, from) = match self.socket.recv_from(&mut buf) {
-                Ok(x) => x,
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-                    ) =>
-                {
-                    continue
-                }
-                // E.g. ICMP port unreachable from a client that went away: keep serving.
-                Err(_) => continue,
-            };
-            match decode(&buf[..n]) {
-                Ok(Message::Pose(p)) => self.on_pose(p, from),
-                Ok(Message::Hello(h)) => self.on_hello(h, from),
-                Ok(Message::Bye(_)) => {
-                    if self.owner.as_ref().is_some_and(|o| o.addr == from) {
-                        self.input.release(InputSource::Udp);
-                        self.owner = None;
-                    }
-                }
-                Ok(Message::Wrench(_)) | Err(_) => {
-                    self.stats.malformed.fetch_add(1, Ordering::Relaxed);
-                }
+impl<T: SessionTarget> UdpEndpoint<T> {
+    pub fn new(socket: UdpSocket, timeout: Duration, stats: Arc<BridgeStats>, target: T) -> Self {
+        Self {
+            socket,
+            timeout,
+            stats,
+            target,
+            owner: None,
+            seq: 0,
+        }
+    }
+
+    /// Ends a session whose client has been silent longer than the timeout.
+    pub fn check_timeout(&mut self, now: Instant) {
+        if let Some(o) = &self.owner {
+            if now.duration_since(o.last_rx) > self.timeout {
+                // The loop already released on the command's expiry; end the session, so
+                // that only a fresh HELLO can drive the device again.
+                self.target.release();
+                self.owner = None;
+                self.stats.timeouts.fetch_add(1, Ordering::Relaxed);
             }
         }
-        if self.owner.is_some() {
-            self.input.release(InputSource::Udp);
+    }
+
+    /// Receives one datagram if there is one (within the socket's read timeout) and handles
+    /// it; false when there was none.
+    pub fn receive_one(&mut self, buf: &mut [u8]) -> bool {
+        let (n, from) = match self.socket.recv_from(buf) {
+            Ok(x) => x,
+            // Nothing there (WouldBlock, TimedOut), or e.g. ICMP port unreachable from a
+            // client that went away: keep serving.
+            Err(_) => return false,
+        };
+        match decode(&buf[..n]) {
+            Ok(Message::Pose(p)) => self.on_pose(p, from),
+            Ok(Message::Hello(h)) => self.on_hello(h, from),
+            Ok(Message::Bye(_)) => {
+                if self.owner.as_ref().is_some_and(|o| o.addr == from) {
+                    self.target.release();
+                    self.owner = None;
+                }
+            }
+            Ok(Message::Wrench(_)) | Err(_) => {
+                self.stats.malformed.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+        true
+    }
+
+    /// Ends any session (the server stops).
+    pub fn end(&mut self) {
+        if self.owner.take().is_some() {
+            self.target.release();
         }
     }
 
@@ -229,7 +262,7 @@ impl Server {
             return;
         }
         if self.owner.is_some() {
-            self.input.release(InputSource::Udp);
+            self.target.release();
         }
         self.owner = Some(Owner {
             addr: from,
@@ -268,14 +301,7 @@ impl Server {
                 return;
             }
         }
-        let applied = self
-            .input
-            .submit(
-                InputSource::Udp,
-                Pose::from_array(p.q),
-                Some(now + self.timeout),
-            )
-            .is_ok();
+        let applied = self.target.drive(Pose::from_array(p.q), now, self.timeout);
         if applied {
             self.stats.accepted.fetch_add(1, Ordering::Relaxed);
         }
@@ -285,34 +311,76 @@ impl Server {
     /// Answers the datagram with header `req` (a POSE or HELLO) with a WRENCH.
     fn reply(&mut self, req: &Header, to: SocketAddr, extra: u16, applied: bool) {
         self.seq = self.seq.wrapping_add(1);
-        let mut msg = self.state.with_latest(|s| {
-            let ours = applied && !s.released && s.source == InputSource::Udp as u8;
-            let mut fl = extra;
-            if !ours {
-                fl |= flags::RELEASED;
-            }
-            if s.pairs > 0 {
-                fl |= flags::CONTACT;
-            }
-            WrenchMsg {
-                header: Header {
-                    kind: Kind::Wrench,
-                    flags: fl,
-                    seq: 0,
-                    ack: req.seq,
-                    time_us: req.time_us,
-                },
-                force: if ours { s.force } else { [0.0; 3] },
-                torque: if ours { s.torque } else { [0.0; 3] },
-                graphic: s.graphic,
-                pairs: s.pairs,
-            }
-        });
-        msg.header.seq = self.seq;
+        let a = self.target.answer(applied);
+        let mut fl = extra;
+        if !a.ours {
+            fl |= flags::RELEASED;
+        }
+        if a.pairs > 0 {
+            fl |= flags::CONTACT;
+        }
+        let msg = WrenchMsg {
+            header: Header {
+                kind: Kind::Wrench,
+                flags: fl,
+                seq: self.seq,
+                ack: req.seq,
+                time_us: req.time_us,
+            },
+            force: if a.ours { a.force } else { [0.0; 3] },
+            torque: if a.ours { a.torque } else { [0.0; 3] },
+            graphic: a.graphic,
+            pairs: a.pairs,
+        };
         let mut out = [0u8; WRENCH_LEN];
         let n = msg.encode(&mut out);
         // A lost reply is covered by the client's own timeout.
         let _ = self.socket.send_to(&out[..n], to);
+    }
+}
+
+/// The viewer's haptic loop as a session target: poses go to the input hub (source UDP), the
+/// replies carry the wrench the haptic thread published.
+struct HubTarget {
+    input: Arc<InputHub>,
+    state: Arc<StateHub>,
+}
+
+impl SessionTarget for HubTarget {
+    fn drive(&mut self, pose: Pose, now: Instant, timeout: Duration) -> bool {
+        self.input
+            .submit(InputSource::Udp, pose, Some(now + timeout))
+            .is_ok()
+    }
+
+    fn release(&mut self) {
+        self.input.release(InputSource::Udp);
+    }
+
+    fn answer(&self, applied: bool) -> Answer {
+        self.state.with_latest(|s| Answer {
+            ours: applied && !s.released && s.source == InputSource::Udp as u8,
+            force: s.force,
+            torque: s.torque,
+            graphic: s.graphic,
+            pairs: s.pairs,
+        })
+    }
+}
+
+struct Server {
+    endpoint: UdpEndpoint<HubTarget>,
+    stop: Arc<AtomicBool>,
+}
+
+impl Server {
+    fn run(mut self) {
+        let mut buf = [0u8; 512];
+        while !self.stop.load(Ordering::Acquire) {
+            self.endpoint.check_timeout(Instant::now());
+            self.endpoint.receive_one(&mut buf);
+        }
+        self.endpoint.end();
     }
 }
 
