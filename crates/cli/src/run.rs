@@ -32,14 +32,19 @@ pub struct RunArgs {
     pub trajectory: Option<PathBuf>,
     /// The device: replay (default: the scene's trajectory, or --trajectory, open loop),
     /// emulator (a mass-spring-damper hand following that trajectory, closed loop with the
-    /// wrench; its parameters from the scene's `[device.emulator]`) or haply (a Haply Inverse3
-    /// through its Inverse Service, live, paced in real time; in a build with the `haply`
-    /// feature). Default: the scene's `[device] kind`.
+    /// wrench; its parameters from the scene's `[device.emulator]`), haply (a Haply Inverse3
+    /// through its Inverse Service; in a build with the `haply` feature) or udp (a device
+    /// program speaking the UDP protocol); the live ones are paced in real time. Default: the
+    /// scene's `[device] kind`.
     #[arg(long)]
     pub device: Option<String>,
     /// The Haply Inverse Service's WebSocket address (with --device haply).
     #[arg(long, value_name = "URL", default_value = "ws://localhost:10001/")]
     pub haply_url: String,
+    /// Where to listen for a device program speaking the UDP protocol (with --device udp; the
+    /// protocol of `haptic6d serve`'s bridge, docs/VIEWER.md).
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:8081")]
+    pub udp_listen: std::net::SocketAddr,
     /// Stop after this many seconds of frames (default: the length of the device motion; a
     /// live device runs for the scene's trajectory length unless given).
     #[arg(long)]
@@ -440,6 +445,10 @@ pub fn run(args: RunArgs) -> Result<()> {
     let kind = device_kind.unwrap_or(scene.device.kind);
     let mut device = match kind {
         DeviceKind::Haply => haply_device(&args.haply_url)?,
+        DeviceKind::Udp => Box::new(viewer::UdpDevice::new(
+            args.udp_listen,
+            std::time::Duration::from_secs_f64(scene.device.settings.timeout_s),
+        )),
         _ => scene.device.make(kind, traj.clone(), scene.rate_hz)?,
     };
     // The device's limits: its force and torque caps lower the safety layer's, and a coupling
@@ -468,7 +477,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             ..Pacing::default()
         },
         // A live device is paced by the clock, whatever --realtime says.
-        realtime: args.realtime || kind == DeviceKind::Haply,
+        realtime: args.realtime || matches!(kind, DeviceKind::Haply | DeviceKind::Udp),
         device: scene.device.settings,
         max_frames: match args.duration {
             Some(s) => (s * scene.rate_hz).ceil().max(1.0) as usize,
@@ -498,7 +507,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     // actually went, so the closed-loop run can be replayed open loop into any solver.
     let seen = match kind {
         DeviceKind::Replay => traj,
-        DeviceKind::Emulator | DeviceKind::Haply => Trajectory {
+        DeviceKind::Emulator | DeviceKind::Haply | DeviceKind::Udp => Trajectory {
             samples: report
                 .frames
                 .iter()

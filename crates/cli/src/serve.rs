@@ -226,6 +226,9 @@ pub fn run(args: ServeArgs) -> Result<()> {
                 DeviceKind::Emulator => bail!(
                     "--device emulator: the emulated hand runs closed loop with `haptic6d run`, not in the viewer"
                 ),
+                DeviceKind::Udp => bail!(
+                    "--device udp: serve takes UDP devices on its own bridge (--udp-port)"
+                ),
             };
             Some(DeviceBridge::spawn(
                 device,

@@ -50,7 +50,7 @@ fn run_with_the_emulator_closes_the_loop_and_reports_the_device() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(
         err.trim(),
-        "error: --device: unknown device `phantom`; expected one of: replay, emulator, haply"
+        "error: --device: unknown device `phantom`; expected one of: replay, emulator, haply, udp"
     );
     // The Haply Inverse3: with nothing listening at the service's address, one line that says
     // so (a build with the `haply` feature) or how to build with it (one without).
@@ -100,4 +100,36 @@ fn stability_finds_the_plate_bound_at_1_khz() {
     let o = haptic6d(&["stability", "--scenes", "teapot"]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("unknown scene `teapot`"));
+}
+
+/// `run --device udp` with no device program: the loop runs its duration in real time, every
+/// frame released (no pose), and reports the device.
+#[test]
+fn run_with_a_udp_device_and_no_program_runs_released() {
+    let d = std::env::temp_dir().join(format!("haptic6d-udp-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    let out = d.join("run");
+    let o = haptic6d(&[
+        "run",
+        "plate",
+        "--device",
+        "udp",
+        "--udp-listen",
+        "127.0.0.1:0",
+        "--duration",
+        "0.3",
+        "--out",
+        out.to_str().unwrap(),
+        "--no-plots",
+        "--json",
+        "--no-rt-priority",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let l = &s["loop_stats"];
+    assert_eq!(l["device"], "udp");
+    assert_eq!(s["frames"].as_u64(), Some(300));
+    assert_eq!(l["link"]["readings"].as_u64(), Some(0));
+    assert!(l["link"]["released_frames"].as_u64().unwrap() > 200, "{l}");
+    let _ = std::fs::remove_dir_all(&d);
 }

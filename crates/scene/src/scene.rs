@@ -848,7 +848,7 @@ kind = "dual"
             (
                 "kind = \"emulator\"",
                 "kind = \"phantom\"",
-                "unknown device `phantom`; expected one of: replay, emulator, haply",
+                "unknown device `phantom`; expected one of: replay, emulator, haply, udp",
             ),
             (
                 "scale = 2.0",

@@ -26,6 +26,7 @@ pub mod recorder;
 pub mod scene_sim;
 pub mod server;
 pub mod simulation;
+pub mod udp_device;
 
 pub use bridge::{BridgeClient, BridgeParams, BridgeStats, UdpBridge};
 pub use device_bridge::DeviceBridge;
@@ -38,3 +39,4 @@ pub use scene_sim::SceneSim;
 pub use simulation::{
     ContactPair, FrameState, NamedMesh, SceneGeometry, Simulation, MAX_DISPLAY_CONTACTS,
 };
+pub use udp_device::UdpDevice;

@@ -38,16 +38,25 @@ pub enum DeviceKind {
     /// `haptic6d-haply` crate (`haply_device::HaplyInverse3`), which the command line includes
     /// when built with its `haply` feature.
     Haply,
+    /// A device program speaking the UDP protocol of `haptic6d serve`'s bridge (docs/VIEWER.md):
+    /// made by the viewer crate (`viewer::UdpDevice`).
+    Udp,
 }
 
 impl engine::setting::Setting for DeviceKind {
     const WHAT: &'static str = "device";
-    const ALL: &'static [Self] = &[DeviceKind::Replay, DeviceKind::Emulator, DeviceKind::Haply];
+    const ALL: &'static [Self] = &[
+        DeviceKind::Replay,
+        DeviceKind::Emulator,
+        DeviceKind::Haply,
+        DeviceKind::Udp,
+    ];
     fn setting_name(self) -> &'static str {
         match self {
             DeviceKind::Replay => "replay",
             DeviceKind::Emulator => "emulator",
             DeviceKind::Haply => "haply",
+            DeviceKind::Udp => "udp",
         }
     }
 }
@@ -74,7 +83,8 @@ impl DeviceConfig {
     /// The device of `kind` for a run whose device motion (scene frame, one row per frame at
     /// `rate_hz`) is `trajectory`: a replay of it, or the emulated hand with it as its
     /// intention (mapped into the device frame through the calibration). Allocates. A live
-    /// device ([`DeviceKind::Haply`]) is made by its own crate: an error here.
+    /// device ([`DeviceKind::Haply`], [`DeviceKind::Udp`]) is made by its own crate: an error
+    /// here.
     pub fn make(
         &self,
         kind: DeviceKind,
@@ -95,6 +105,10 @@ impl DeviceConfig {
             DeviceKind::Haply => Err(crate::SceneError::scene(
                 "haply",
                 "the Haply Inverse3 is made by the haptic6d-haply crate (haply_device::HaplyInverse3)",
+            )),
+            DeviceKind::Udp => Err(crate::SceneError::scene(
+                "udp",
+                "a UDP device is made by the viewer crate (viewer::UdpDevice)",
             )),
         }
     }
