@@ -1,29 +1,36 @@
-//! `haptic6d run --device emulator` and `haptic6d stability` end to end: the closed-loop run
-//! writes its outputs and reports the device, the study finds the plate's bound, bad names are
+//! `haptic6d run --device emulator|udp|haply` and `haptic6d stability` end to end: the
+//! closed-loop run writes its outputs and reports the device, a live device with nothing there
+//! runs released or says why on one line, the study finds the plate's bound, bad names are
 //! refused on one line.
 
 mod common;
 
 use common::haptic6d;
 
-#[test]
-fn run_with_the_emulator_closes_the_loop_and_reports_the_device() {
-    let d = std::env::temp_dir().join(format!("haptic6d-devices-{}", std::process::id()));
+/// `haptic6d run plate --device DEVICE [extra] --out DIR/run --no-plots --json
+/// --no-rt-priority` in a fresh folder named by `tag`: the folder (remove it when done), the
+/// run's folder and its JSON summary.
+fn run_plate(
+    tag: &str,
+    device: &str,
+    extra: &[&str],
+) -> (std::path::PathBuf, std::path::PathBuf, serde_json::Value) {
+    let d = std::env::temp_dir().join(format!("haptic6d-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     let out = d.join("run");
-    let o = haptic6d(&[
-        "run",
-        "plate",
-        "--device",
-        "emulator",
-        "--out",
-        out.to_str().unwrap(),
-        "--no-plots",
-        "--json",
-        "--no-rt-priority",
-    ]);
+    let mut args = vec!["run", "plate", "--device", device];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["--out", out.to_str().unwrap(), "--no-plots", "--json"]);
+    args.push("--no-rt-priority");
+    let o = haptic6d(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let s = serde_json::from_slice(&o.stdout).unwrap();
+    (d, out, s)
+}
+
+#[test]
+fn run_with_the_emulator_closes_the_loop_and_reports_the_device() {
+    let (d, out, s) = run_plate("devices", "emulator", &[]);
     let l = &s["loop_stats"];
     assert_eq!(l["device"], "emulator");
     let frames = s["frames"].as_u64().unwrap();
@@ -106,26 +113,11 @@ fn stability_finds_the_plate_bound_at_1_khz() {
 /// frame released (no pose), and reports the device.
 #[test]
 fn run_with_a_udp_device_and_no_program_runs_released() {
-    let d = std::env::temp_dir().join(format!("haptic6d-udp-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    let out = d.join("run");
-    let o = haptic6d(&[
-        "run",
-        "plate",
-        "--device",
+    let (d, _, s) = run_plate(
         "udp",
-        "--udp-listen",
-        "127.0.0.1:0",
-        "--duration",
-        "0.3",
-        "--out",
-        out.to_str().unwrap(),
-        "--no-plots",
-        "--json",
-        "--no-rt-priority",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        "udp",
+        &["--udp-listen", "127.0.0.1:0", "--duration", "0.3"],
+    );
     let l = &s["loop_stats"];
     assert_eq!(l["device"], "udp");
     assert_eq!(s["frames"].as_u64(), Some(300));
