@@ -100,6 +100,13 @@ pub struct RunArgs {
     pub force: bool,
 }
 
+/// `--device NAME` (`run` and `serve`): the device kind, or none given.
+pub(crate) fn device_arg(name: Option<&str>) -> Result<Option<DeviceKind>> {
+    name.map(DeviceKind::parse_setting)
+        .transpose()
+        .context("--device")
+}
+
 /// The Haply Inverse3 at the Inverse Service `ws_url` (its HTTP address on the same host and
 /// port).
 #[cfg(feature = "haply")]
@@ -375,12 +382,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         .map(RotationCoordinates::parse_setting)
         .transpose()
         .context("--rotation")?;
-    let device_kind = args
-        .device
-        .as_deref()
-        .map(DeviceKind::parse_setting)
-        .transpose()
-        .context("--device")?;
+    let device_kind = device_arg(args.device.as_deref())?;
     let trajectory = args
         .trajectory
         .as_deref()

@@ -10,7 +10,6 @@ use std::time::Duration;
 use crate::run::load_scene;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use engine::setting::Setting;
 use scene::cache::TreeCache;
 use scene::device::DeviceKind;
 use viewer::server::{self, WebParams};
@@ -204,12 +203,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
     if let Some(f) = args.friction {
         scene.object_friction = vec![f; scene.objects.len()];
     }
-    let device_kind = args
-        .device
-        .as_deref()
-        .map(DeviceKind::parse_setting)
-        .transpose()
-        .context("--device")?;
+    let device_kind = crate::run::device_arg(args.device.as_deref())?;
     let sim = SceneSim::new(&scene).context("cannot set up the haptic step")?;
     let haptic = HapticLoop::spawn(sim, &pacing(&args))?;
     let haptic = Arc::new(haptic);

@@ -542,33 +542,26 @@ fn a_traversal_with_a_deadline_is_the_traversal_or_says_it_stopped() {
                 }),
             }
             .unwrap();
-            let mut all = Vec::new();
-            let t = collide::overlap_until(
-                &pt,
-                pose,
-                sw,
-                &objects,
-                0.3,
-                &mut ws,
-                |p| all.push((p.object, p.tool_slot, p.object_slot)),
-                || true,
-            )
-            .unwrap();
+            // The deadline traversal, never stopped or stopped at its first check.
+            let mut until = |go_on: bool| {
+                let mut found = Vec::new();
+                let t = collide::overlap_until(
+                    &pt,
+                    pose,
+                    sw,
+                    &objects,
+                    0.3,
+                    &mut ws,
+                    |p| found.push((p.object, p.tool_slot, p.object_slot)),
+                    || go_on,
+                )
+                .unwrap();
+                (t, found)
+            };
+            let (t, mut all) = until(true);
             assert!(t.complete && t.pairs == all.len());
             assert_eq!(ids(&mut all), ids(&mut plain), "pose {k}");
-            // Stopped at the first check.
-            let mut some = Vec::new();
-            let t = collide::overlap_until(
-                &pt,
-                pose,
-                sw,
-                &objects,
-                0.3,
-                &mut ws,
-                |p| some.push((p.object, p.tool_slot, p.object_slot)),
-                || false,
-            )
-            .unwrap();
+            let (t, mut some) = until(false);
             if !t.complete {
                 assert!(some.len() < plain.len() || plain.is_empty(), "pose {k}");
             } else {
