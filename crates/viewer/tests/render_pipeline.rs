@@ -280,9 +280,7 @@ impl scene::device::Device for PressDevice {
         self.inner.read(frame, t)
     }
     fn write_wrench(&mut self, w: &[f64; 6]) {
-        if let Ok(mut s) = self.sent.try_lock() {
-            s.push(*w);
-        }
+        self.sent.lock().unwrap().push(*w);
     }
 }
 
@@ -325,6 +323,11 @@ fn a_device_drives_the_viewer_through_the_device_bridge() {
         None,
     );
     assert!(taken.is_err(), "{taken:?}");
+    // The bridge hands the published wrench to the device on its next frame.
+    let end = Instant::now() + Duration::from_secs(5);
+    while !sent.lock().unwrap().iter().any(|w| w[2] > 1.0) && Instant::now() < end {
+        std::thread::sleep(Duration::from_millis(2));
+    }
     let stats = bridge.stop();
     let forces = sent.lock().unwrap().clone();
     // One write per bridge frame, a reading in most of them.
