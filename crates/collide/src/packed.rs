@@ -6,6 +6,36 @@ use spheretree::SphereTree;
 
 use crate::{CollideError, Pose};
 
+/// A sphere in single precision (mm): the traversal's pruning test.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(16))]
+pub(crate) struct Sphere32 {
+    pub(crate) c: [f32; 3],
+    pub(crate) r: f32,
+}
+
+/// What a split needs of a node besides its sphere: its children and its leaf box (packing
+/// frame, mm; half-extents rounded up), in 32 bytes.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(32))]
+pub(crate) struct Node32 {
+    pub(crate) first_child: u32,
+    pub(crate) child_count: u32,
+    pub(crate) box_c: [f32; 3],
+    pub(crate) box_h: [f32; 3],
+}
+
+/// `v` in `f32`, never below `v` (a radius or half-extent that stays conservative).
+#[inline]
+pub(crate) fn round_up(v: f64) -> f32 {
+    let f = v as f32;
+    if (f as f64) < v {
+        f.next_up()
+    } else {
+        f
+    }
+}
+
 /// A [`SphereTree`] repacked for fast traversal.
 ///
 /// Only used slots are kept, renumbered breadth-first so that the used children of every node
@@ -34,6 +64,16 @@ pub struct PackedTree {
     /// bulges far beyond the face it covers; the traversal uses it to prune node pairs.
     pub(crate) box_center: Vec<[f64; 3]>,
     pub(crate) box_half: Vec<[f64; 3]>,
+    /// The traversal's hot data in single precision, one record per node so that a split
+    /// reads its children's spheres from consecutive memory (half the bytes of the `f64`
+    /// arrays): centres rounded to nearest, radii and box half-extents rounded up. Tests in
+    /// `f32` are made conservative by [`PackedTree::round_slack`]; every reported pair is
+    /// decided in `f64`.
+    pub(crate) sphere32: Vec<Sphere32>,
+    pub(crate) node32: Vec<Node32>,
+    /// The largest `|coordinate| + radius` of any node in the packing frame (mm): the scale of
+    /// the `f32` rounding errors.
+    pub(crate) extent: f64,
     pub(crate) leaf_count: usize,
     pub(crate) max_children: usize,
     pub(crate) levels: u32,
@@ -74,6 +114,9 @@ impl PackedTree {
             slot: Vec::with_capacity(n_used),
             box_center: Vec::new(),
             box_half: Vec::new(),
+            sphere32: Vec::new(),
+            node32: Vec::new(),
+            extent: 0.0,
             leaf_count: 0,
             max_children: 0,
             levels: tree.levels(),
@@ -100,6 +143,7 @@ impl PackedTree {
             head += 1;
         }
         packed.compute_boxes();
+        packed.compute_single();
         Ok(packed)
     }
 
@@ -131,6 +175,36 @@ impl PackedTree {
         self.box_half = (0..n)
             .map(|i| std::array::from_fn(|k| 0.5 * (hi[i][k] - lo[i][k])))
             .collect();
+    }
+
+    /// Fills the `f32` records of the nodes and the tree's extent.
+    fn compute_single(&mut self) {
+        self.sphere32 = (0..self.len())
+            .map(|i| Sphere32 {
+                c: [self.x[i] as f32, self.y[i] as f32, self.z[i] as f32],
+                r: round_up(self.r[i]),
+            })
+            .collect();
+        self.node32 = (0..self.len())
+            .map(|i| Node32 {
+                first_child: self.first_child[i],
+                child_count: self.child_count[i],
+                box_c: self.box_center[i].map(|v| v as f32),
+                box_h: self.box_half[i].map(round_up),
+            })
+            .collect();
+        self.extent = (0..self.len())
+            .map(|i| self.x[i].abs().max(self.y[i].abs()).max(self.z[i].abs()) + self.r[i])
+            .fold(0.0, f64::max);
+    }
+
+    /// An allowance (mm) that makes a sphere test in `f32` conservative for trees of extent
+    /// `extent` (mm, coordinates plus radii, [`PackedTree`] packing frames or posed): about
+    /// 80 units in the last place of the largest number involved, far above the rounding of
+    /// the centres, the difference, the squares and their sum (a few units each).
+    #[inline]
+    pub(crate) fn round_slack(extent: f64) -> f64 {
+        1e-5 * extent.max(1.0)
     }
 
     /// The axis-aligned box (packing frame) of all leaf spheres under node `n`: centre and

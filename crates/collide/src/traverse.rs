@@ -1,6 +1,7 @@
 //! Simultaneous descent of a posed tool tree and static object trees: every overlapping leaf
 //! pair, allocation-free per query.
 
+use crate::packed::Sphere32;
 use crate::{CollideError, PackedTree, Pose};
 
 /// One leaf pair found by the traversal, with the geometry the constraints need.
@@ -39,6 +40,10 @@ pub struct CollideWorkspace {
     wx: Vec<f64>,
     wy: Vec<f64>,
     wz: Vec<f64>,
+    /// Each posed tool node's pruning sphere in `f32` (mm, world): its sphere at the pose, or
+    /// in a swept query the sphere around its whole sweep (path midpoint, radius grown by half
+    /// the path and the spread of displacements).
+    test32: Vec<Sphere32>,
     /// `children_posed[n] == epoch` when `n`'s children are posed for the current query.
     children_posed: Vec<u32>,
     epoch: u32,
@@ -46,12 +51,13 @@ pub struct CollideWorkspace {
     /// `|R|` element-wise, for box projections.
     abs_rot: [[f64; 3]; 3],
     t: [f64; 3],
-    /// Leaf box of each posed tool node, as the box tests use it (mm): centre in the world,
-    /// half-extents along the world axes (`|R| e`) and along the tool's axes (`e`), each grown
-    /// to hold the box's sweep in a swept query.
-    box_center: Vec<[f64; 3]>,
-    box_world_half: Vec<[f64; 3]>,
-    box_tool_half: Vec<[f64; 3]>,
+    /// Leaf box of each posed tool node, as the box tests use it (mm, `f32`; its rounding is
+    /// covered by the tests' allowance): centre in the world, half-extents along the world axes (`|R| e`) and along
+    /// the tool's axes (`e`), each grown to hold the box's sweep in a swept query.
+    box32: Vec<ToolBox32>,
+    /// `R` and `|R|` in `f32`, for the box tests.
+    rot32: [[f32; 3]; 3],
+    abs_rot32: [[f32; 3]; 3],
     /// Swept queries: each posed tool centre's displacement over the sweep (mm, world,
     /// `v + w x (c - t)`), the midpoint of its path and half the path's length (mm).
     path: Vec<Path>,
@@ -146,9 +152,8 @@ impl CollideWorkspace {
             self.wx.resize(n, 0.0);
             self.wy.resize(n, 0.0);
             self.wz.resize(n, 0.0);
-            self.box_center.resize(n, [0.0; 3]);
-            self.box_world_half.resize(n, [0.0; 3]);
-            self.box_tool_half.resize(n, [0.0; 3]);
+            self.test32.resize(n, Sphere32::default());
+            self.box32.resize(n, ToolBox32::default());
             self.path.resize(n, Path::default());
             self.children_posed.resize(n, 0);
         }
@@ -174,6 +179,8 @@ impl CollideWorkspace {
             for j in 0..3 {
                 self.rot[i][j] = m[(i, j)];
                 self.abs_rot[i][j] = m[(i, j)].abs();
+                self.rot32[i][j] = m[(i, j)] as f32;
+                self.abs_rot32[i][j] = m[(i, j)].abs() as f32;
             }
         }
         self.t = [
@@ -247,15 +254,27 @@ impl CollideWorkspace {
                 }
                 let centre = [self.wx[i], self.wy[i], self.wz[i]];
                 let d = displacement(centre);
-                self.path[i] = Path {
+                let path = Path {
                     disp: d,
                     mid: std::array::from_fn(|k| centre[k] + 0.5 * d[k]),
                     half: 0.5 * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt(),
                 };
+                self.path[i] = path;
+                self.test32[i] = Sphere32 {
+                    c: path.mid.map(|v| v as f32),
+                    r: (tool.r[i] * (1.0 + self.sweep_turn) + path.half) as f32,
+                };
+            } else {
+                self.test32[i] = Sphere32 {
+                    c: [self.wx[i] as f32, self.wy[i] as f32, self.wz[i] as f32],
+                    r: tool.sphere32[i].r,
+                };
             }
-            self.box_center[i] = c;
-            self.box_world_half[i] = world_half;
-            self.box_tool_half[i] = tool_half;
+            self.box32[i] = ToolBox32 {
+                c: c.map(|v| v as f32),
+                world_half: world_half.map(|v| v as f32),
+                tool_half: tool_half.map(|v| v as f32),
+            };
         }
     }
 
@@ -609,36 +628,61 @@ pub fn collect_pairs(
     })
 }
 
+/// The leaf box of a posed tool node as the box tests use it (see
+/// [`CollideWorkspace`]'s `box32`).
+#[derive(Clone, Copy, Debug, Default)]
+struct ToolBox32 {
+    c: [f32; 3],
+    world_half: [f32; 3],
+    tool_half: [f32; 3],
+}
+
 /// False when the leaf boxes of tool node `t` (an oriented box in the world, as posed by the
 /// workspace, swept in a swept query) and object node `o` (axis-aligned), the latter grown by
-/// `m`, are separated along one of the six face axes: no leaf pair under them can be within
-/// `m`. Conservative (the nine edge axes are not tested).
+/// `m` (mm, including the `f32` rounding allowance), are separated along one of the six face
+/// axes: no leaf pair under them can be within the margin. Conservative (the nine edge axes
+/// are not tested).
 #[inline(always)]
-fn boxes_may_touch(ws: &CollideWorkspace, t: usize, obj: &PackedTree, o: usize, m: f64) -> bool {
-    let (c, world_half, tool_half) = (
-        &ws.box_center[t],
-        &ws.box_world_half[t],
-        &ws.box_tool_half[t],
-    );
-    let (co, eo) = (&obj.box_center[o], &obj.box_half[o]);
-    let d = [c[0] - co[0], c[1] - co[1], c[2] - co[2]];
+fn boxes_may_touch(ws: &CollideWorkspace, t: usize, obj: &PackedTree, o: usize, m: f32) -> bool {
+    let tb = &ws.box32[t];
+    let ob = &obj.node32[o];
+    let (co, eo) = (&ob.box_c, &ob.box_h);
+    let d = [tb.c[0] - co[0], tb.c[1] - co[1], tb.c[2] - co[2]];
     // World axes: the tool box projects to its world half-extents.
     for i in 0..3 {
-        if d[i].abs() > eo[i] + m + world_half[i] {
+        if d[i].abs() > eo[i] + m + tb.world_half[i] {
             return false;
         }
     }
     // Tool axes: the offset projects to (R^T d)_j, the object box to sum_i |R_ij| (e_i + m).
-    let r = &ws.rot;
-    let a = &ws.abs_rot;
+    let r = &ws.rot32;
+    let a = &ws.abs_rot32;
     for j in 0..3 {
         let p = r[0][j] * d[0] + r[1][j] * d[1] + r[2][j] * d[2];
         let ro = a[0][j] * (eo[0] + m) + a[1][j] * (eo[1] + m) + a[2][j] * (eo[2] + m);
-        if p.abs() > tool_half[j] + ro {
+        if p.abs() > tb.tool_half[j] + ro {
             return false;
         }
     }
     true
+}
+
+/// Bit `i` set when sphere `i` of `spheres` (at most 32 of them) comes within `probe`'s
+/// radius of its centre: the branch-free inner loop of a split.
+#[inline(always)]
+fn hit_mask(spheres: &[Sphere32], probe: Sphere32) -> u32 {
+    let mut mask = 0u32;
+    for (i, s) in spheres.iter().take(32).enumerate() {
+        let (dx, dy, dz) = (
+            s.c[0] - probe.c[0],
+            s.c[1] - probe.c[1],
+            s.c[2] - probe.c[2],
+        );
+        let d2 = dx * dx + dy * dy + dz * dz;
+        let reach = s.r + probe.r;
+        mask |= u32::from(d2 <= reach * reach) << i;
+    }
+    mask
 }
 
 /// Squared distance from the origin to the segment `x + s D`, `s` in `[0, 1]` (mm²): with `x`
@@ -746,6 +790,18 @@ fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
     }
     // A tool sphere's radius as tested: grown by the spread of displacements inside it.
     let grow = if SWEPT { 1.0 + ws.sweep_turn } else { 1.0 };
+    // The margin of the f32 pruning tests, grown by their rounding allowance (posed tool
+    // coordinates are at most |t| + sqrt(3) times the tool's extent, path midpoints half a
+    // sweep farther).
+    let t_inf = ws.t[0].abs().max(ws.t[1].abs()).max(ws.t[2].abs());
+    let posed = 2.0 * tool.extent + t_inf;
+    let v = ws.sweep.translation;
+    let swept = if SWEPT {
+        (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt() + ws.sweep_turn * posed
+    } else {
+        0.0
+    };
+    let m32 = (m + PackedTree::round_slack(posed + swept + obj.extent + m)) as f32;
     // `d2`: squared distance of the two centres at the query pose (mm²).
     let report = |t: usize, o: usize, d2: f64, visit: &mut F| {
         let pair = LeafPair {
@@ -797,37 +853,46 @@ fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
         };
         *budget -= 1;
         let (t, o) = (t as usize, o as usize);
-        let tc = tool.child_count[t] as usize;
-        let oc = obj.child_count[o] as usize;
+        let (tn, on) = (tool.node32[t], obj.node32[o]);
+        let tc = tn.child_count as usize;
+        let oc = on.child_count as usize;
         ws.stats.node_pairs_split += 1;
-        if tc != 0 && (oc == 0 || tool.r[t] >= obj.r[o]) {
+        // Children are pruned in f32 against the other node (conservative by `m32`); a swept
+        // hit is then tested against its exact path, and a leaf pair decided in f64.
+        if tc != 0 && (oc == 0 || tool.sphere32[t].r >= obj.sphere32[o].r) {
             // Split the tool node.
             ws.pose_children(tool, t);
-            let f = tool.first_child[t] as usize;
+            let (f, e) = (tn.first_child as usize, tn.first_child as usize + tc);
+            ws.stats.sphere_tests += tc;
+            let os = obj.sphere32[o];
+            let probe = Sphere32 {
+                c: os.c,
+                r: os.r + m32,
+            };
             let oc3 = [obj.x[o], obj.y[o], obj.z[o]];
             let ro = obj.r[o] + m;
-            let e = f + tc;
-            let (wx, wy, wz) = (&ws.wx[f..e], &ws.wy[f..e], &ws.wz[f..e]);
-            let (rr, cc) = (&tool.r[f..e], &tool.child_count[f..e]);
-            // Paths are kept in swept queries only: an empty slice otherwise (never read).
-            let paths = if SWEPT { &ws.path[f..e] } else { &ws.path[..0] };
-            ws.stats.sphere_tests += tc;
-            for i in 0..tc {
-                let x = [wx[i] - oc3[0], wy[i] - oc3[1], wz[i] - oc3[2]];
-                let d2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
-                let c = f + i;
-                let hit = if SWEPT {
-                    near(&paths[i], oc3, x, d2, rr[i] * grow + ro)
-                } else {
-                    d2 <= (rr[i] + ro) * (rr[i] + ro)
-                };
-                if hit {
-                    if cc[i] == 0 && oc == 0 {
-                        count += 1;
-                        if !report(c, o, d2, visit) {
-                            return done(count);
+            for base in (f..e).step_by(32) {
+                let end = (base + 32).min(e);
+                let mut mask = hit_mask(&ws.test32[base..end], probe);
+                while mask != 0 {
+                    let c = base + mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let leaf_pair = oc == 0 && tool.node32[c].child_count == 0;
+                    if SWEPT || leaf_pair {
+                        let x = [ws.wx[c] - oc3[0], ws.wy[c] - oc3[1], ws.wz[c] - oc3[2]];
+                        let d2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+                        if !near(&ws.path[c], oc3, x, d2, tool.r[c] * grow + ro) {
+                            continue;
                         }
-                    } else if boxes_may_touch(ws, c, obj, o, m) {
+                        if leaf_pair {
+                            count += 1;
+                            if !report(c, o, d2, visit) {
+                                return done(count);
+                            }
+                            continue;
+                        }
+                    }
+                    if boxes_may_touch(ws, c, obj, o, m32) {
                         ws.stack.push((c as u32, o as u32));
                     } else {
                         ws.stats.box_pruned += 1;
@@ -836,25 +901,38 @@ fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
             }
         } else {
             // Split the object node.
-            let f = obj.first_child[o] as usize;
-            let rt = tool.r[t] * grow + m;
-            let (tx, ty, tz) = (ws.wx[t], ws.wy[t], ws.wz[t]);
-            let path = ws.path[t];
-            let e = f + oc;
-            let (ox, oy, oz) = (&obj.x[f..e], &obj.y[f..e], &obj.z[f..e]);
-            let (rr, cc) = (&obj.r[f..e], &obj.child_count[f..e]);
+            let (f, e) = (on.first_child as usize, on.first_child as usize + oc);
             ws.stats.sphere_tests += oc;
-            for i in 0..oc {
-                let x = [tx - ox[i], ty - oy[i], tz - oz[i]];
-                let d2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
-                let c = f + i;
-                if near(&path, [ox[i], oy[i], oz[i]], x, d2, rr[i] + rt) {
-                    if cc[i] == 0 && tc == 0 {
-                        count += 1;
-                        if !report(t, c, d2, visit) {
-                            return done(count);
+            let ts = ws.test32[t];
+            let probe = Sphere32 {
+                c: ts.c,
+                r: ts.r + m32,
+            };
+            let tc3 = [ws.wx[t], ws.wy[t], ws.wz[t]];
+            let rt = tool.r[t] * grow + m;
+            for base in (f..e).step_by(32) {
+                let end = (base + 32).min(e);
+                let mut mask = hit_mask(&obj.sphere32[base..end], probe);
+                while mask != 0 {
+                    let c = base + mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let leaf_pair = tc == 0 && obj.node32[c].child_count == 0;
+                    if SWEPT || leaf_pair {
+                        let oc3 = [obj.x[c], obj.y[c], obj.z[c]];
+                        let x = [tc3[0] - oc3[0], tc3[1] - oc3[1], tc3[2] - oc3[2]];
+                        let d2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+                        if !near(&ws.path[t], oc3, x, d2, obj.r[c] + rt) {
+                            continue;
                         }
-                    } else if boxes_may_touch(ws, t, obj, c, m) {
+                        if leaf_pair {
+                            count += 1;
+                            if !report(t, c, d2, visit) {
+                                return done(count);
+                            }
+                            continue;
+                        }
+                    }
+                    if boxes_may_touch(ws, t, obj, c, m32) {
                         ws.stack.push((t as u32, c as u32));
                     } else {
                         ws.stats.box_pruned += 1;

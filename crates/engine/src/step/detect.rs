@@ -145,19 +145,73 @@ impl GodObject {
         }
     }
 
-    /// Keeps the free-space proof ahead of the tool without a long traversal in any one frame:
-    /// when the current proof has only a few frames of slack left (`slack` mm at the tool's
-    /// last motion per frame), a probe starts at `q`; each frame runs one slice of it
-    /// ([`PROBE_SLICE_SPLITS`] node pairs); a finished free probe becomes the proof if it
-    /// leaves more slack at `q` than the current one.
-    pub(super) fn tend_probe(&mut self, q: &Pose, slack: f64) {
-        // Frames the current proof still lasts at the tool's speed, and the slice that finishes
-        // a probe as long as the last one within them.
-        let frames_left = slack / self.last_motion.max(1e-4);
+    /// Slack (mm) of the free-space proofs at `q`: how much farther than `q` the better one
+    /// proves free space (negative when neither reaches `q`).
+    pub(super) fn free_slack(&self, q: &Pose) -> f64 {
+        self.free
+            .iter()
+            .map(|p| p.radius - self.motion_bound(&p.center, q))
+            .fold(f64::NEG_INFINITY, f64::max)
+    }
+
+    /// Frames (at the tool's last motion per frame, continued) until the tool at `q` leaves
+    /// `proof` for a frame that needs `used` mm of it: 0 if it already has, infinite for a tool
+    /// at rest. A schedule, not a proof: each frame checks its slack exactly.
+    pub(super) fn frames_in(&self, proof: &FreeProof, q: &Pose, used: f64) -> f64 {
+        let turn = rotation_angle(&q.rotation_matrix(), &proof.center.rotation_matrix());
+        let r = proof.radius - used - turn * self.reach;
+        let p = q.translation() - proof.center.translation();
+        if r <= 0.0 || p.norm() > r {
+            return 0.0;
+        }
+        let step = Vector3::from(self.last_step);
+        let (a, b, c) = (step.norm_squared(), p.dot(&step), p.norm_squared() - r * r);
+        // The motion per frame that is not the translation (turning) uses up the radius too.
+        let other = (self.last_motion - step.norm()).max(0.0);
+        let by_turn = if other > 1e-12 {
+            r / other
+        } else {
+            f64::INFINITY
+        };
+        let along = if a > 1e-18 {
+            (-b + (b * b - a * c).max(0.0).sqrt()) / a
+        } else {
+            f64::INFINITY
+        };
+        along.min(by_turn)
+    }
+
+    /// Keeps `center`/`radius` as a free-space proof in place of the one that would run out
+    /// first for a tool at `q` needing `used` mm.
+    pub(super) fn add_free_proof(&mut self, center: Pose, radius: f64, q: &Pose, used: f64) {
+        let lasts = |g: &Self, i: usize| g.frames_in(&g.free[i], q, used);
+        let i = if lasts(self, 0) <= lasts(self, 1) {
+            0
+        } else {
+            1
+        };
+        self.free[i] = FreeProof { center, radius };
+    }
+
+    /// Keeps the free-space proofs ahead of the tool without a long traversal in any one frame,
+    /// for a frame that needs `used` mm at `q`. When the proofs cover fewer frames ahead (at
+    /// the tool's last motion per frame) than the next probe needs at [`PROBE_SLICE_SPLITS`]
+    /// per frame, a probe starts where the tool will be when they run out, plus
+    /// [`PROBE_AHEAD`] of a proof's usable radius; each frame runs one slice of it, sized to
+    /// finish in time. A finished free probe replaces the proof that runs out first.
+    pub(super) fn tend_probe(&mut self, q: &Pose, used: f64) {
+        let speed = self.last_motion.max(1e-4);
+        let horizon =
+            self.frames_in(&self.free[0], q, used)
+                .max(self.frames_in(&self.free[1], q, used));
         if self.probe.status() == ProbeStatus::Running {
-            let left = self.probe_splits.saturating_sub(self.probe.splits()) as f64;
-            let slice = (left / (frames_left - 1.0).max(1.0))
-                .clamp(PROBE_SLICE_SPLITS as f64, PROBE_MAX_SLICE_SPLITS as f64);
+            // The last probe's cost estimates this one's; one that runs past it (a deeper
+            // hole costs more) is given a quarter more at a time. It aims to finish a frame
+            // before the proofs run out.
+            let estimate = self.probe_splits as f64;
+            let left = (estimate - self.probe.splits() as f64).max(0.25 * estimate);
+            let slice = (left / (horizon - 2.0).max(1.0))
+                .clamp(PROBE_MIN_SLICE_SPLITS as f64, PROBE_MAX_SLICE_SPLITS as f64);
             self.probe
                 .advance(&self.tool, &self.objects, slice as usize);
         }
@@ -165,12 +219,7 @@ impl GodObject {
             ProbeStatus::Free => {
                 self.probe_splits = self.probe.splits();
                 let (_, pose, radius) = self.probe.take();
-                let new_slack = radius - self.motion_bound(&pose, q);
-                let old_slack = self.free_radius - self.motion_bound(&self.free_center, q);
-                if new_slack > old_slack {
-                    self.free_center = pose;
-                    self.free_radius = radius;
-                }
+                self.add_free_proof(pose, radius, q, used);
             }
             ProbeStatus::Touching => {
                 self.probe.take();
@@ -179,15 +228,17 @@ impl GodObject {
                 // Where a whole proof costs less than a slice (open space), renewing it when
                 // it runs out is cheaper than probing ahead.
                 let worth_it = self.probe_splits > PROBE_SLICE_SPLITS;
-                let lead = self.probe_splits as f64 / PROBE_SLICE_SPLITS as f64 + 2.0;
-                if worth_it && frames_left < lead.max(PROBE_LEAD_FRAMES) {
-                    // Probe where the tool will be halfway through the probe's slices (it
-                    // keeps moving as it did last frame), so the answer is fresh on arrival.
-                    let frames = (self.probe_splits as f64 / PROBE_NOMINAL_SLICE_SPLITS as f64)
-                        .clamp(1.0, PROBE_LEAD_FRAMES);
+                let frames = self.probe_splits as f64 / PROBE_SLICE_SPLITS as f64;
+                let lead = (1.5 * frames + 2.0).max(PROBE_LEAD_FRAMES);
+                if worth_it && horizon < lead {
+                    // The tool keeps moving as it did last frame: the new proof's ball is
+                    // centred past the point where the current ones run out, so that it takes
+                    // over a little before and lasts well after.
+                    let usable = (FREE_PROBE_MM - used).max(0.0);
+                    let ahead_frames = horizon + PROBE_AHEAD * usable / speed;
                     let mut ahead = *q;
                     for k in 0..3 {
-                        ahead.q[k] += 0.5 * frames * self.last_step[k];
+                        ahead.q[k] += ahead_frames * self.last_step[k];
                     }
                     let _ = self.probe.start(&self.tool, &ahead, FREE_PROBE_MM);
                 }

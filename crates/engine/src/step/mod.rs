@@ -122,19 +122,25 @@ const PAIR_TARGET: f64 = 1500.0;
 /// and later frames near the same pose skip their traversals.
 const FREE_PROBE_MM: f64 = 0.3;
 
-/// Node pairs a background free-space probe splits per frame (~70 µs).
-const PROBE_SLICE_SPLITS: usize = 1500;
+/// Node pairs a background free-space probe aims to split per frame (~15–25 µs): it starts
+/// early enough to finish at this pace before the current proof runs out.
+const PROBE_SLICE_SPLITS: usize = 800;
 
-/// Node pairs a background probe expects to split per frame (to place it ahead of the tool).
-const PROBE_NOMINAL_SLICE_SPLITS: usize = 3000;
+/// Fewest node pairs a running probe splits in a frame.
+const PROBE_MIN_SLICE_SPLITS: usize = 300;
 
-/// Most node pairs a background probe splits in one frame (~250 µs), when its proof is about
-/// to run out.
+/// Most node pairs a background probe splits in one frame (~100–250 µs), when its proof is
+/// about to run out.
 const PROBE_MAX_SLICE_SPLITS: usize = 5000;
 
 /// A background probe starts at the latest when the free-space proof has this many frames of
 /// slack left (earlier when the last probe needed more slices).
 const PROBE_LEAD_FRAMES: f64 = 8.0;
+
+/// How far past the pose where the current free-space proofs run out a probe is placed, as a
+/// share of a proof's usable radius: a tool moving on as it did crosses the new proof's ball
+/// instead of leaving it from its centre (a proof covers ~1.7 times as much of the way).
+const PROBE_AHEAD: f64 = 0.7;
 
 /// A pass starts only if the frame's time so far plus this many times its longest pass stays
 /// within `budget_us` (measured: 1.5 kept the puck at 1 m/s lagging in ~220 frames of 1 341, 1.25
@@ -185,6 +191,24 @@ enum Trust {
     /// A thin slab around the predicted path (a segment in the QP variable): half-width (mm,
     /// in the variable scaled by `reach` for rotations) along and across it.
     Path(f64),
+}
+
+/// A free-space proof: no leaf pair is within `radius` (mm) of touching with the tool at
+/// `center`, so none is within `m` at a pose `q` while `b(center, q) + m <= radius`.
+#[derive(Clone, Copy, Debug)]
+struct FreeProof {
+    center: Pose,
+    /// mm; 0 = no proof.
+    radius: f64,
+}
+
+impl FreeProof {
+    fn none() -> Self {
+        FreeProof {
+            center: Pose::identity(),
+            radius: 0.0,
+        }
+    }
 }
 
 /// A detected region: every leaf pair that can touch while each tool sphere stays within
@@ -248,10 +272,10 @@ pub struct GodObject {
     last_step: [f64; 3],
     /// Leaf pairs per mm of detection margin near the tool, as last seen (for sizing regions).
     pairs_per_mm: f64,
-    /// A pose at which no leaf pair was within `free_radius` (mm): a free-space proof that
-    /// spares traversals while the tool stays near it (radius 0 = none).
-    free_center: Pose,
-    free_radius: f64,
+    /// Free-space proofs: poses at which no leaf pair was within a radius (mm). Each spares
+    /// traversals while the tool stays near it; two, so that one placed ahead of the tool by a
+    /// background probe can be ready before the other runs out.
+    free: [FreeProof; 2],
     /// The next free-space proof, computed a slice per frame ahead of need.
     probe: FreeSpaceProbe,
     /// Node pairs the last finished probe split (its cost, to size the next one's slices).
@@ -333,8 +357,7 @@ impl GodObject {
             last_motion: 0.0,
             last_step: [0.0; 3],
             pairs_per_mm: 0.0,
-            free_center: Pose::identity(),
-            free_radius: 0.0,
+            free: [FreeProof::none(); 2],
             probe,
             probe_splits: 0,
             hand_offset: (Vector3::zeros(), Vector3::zeros()),
@@ -394,7 +417,7 @@ impl GodObject {
         self.sliding = false;
         self.patch = None;
         self.cached = None;
-        self.free_radius = 0.0;
+        self.free = [FreeProof::none(); 2];
         self.probe.cancel();
         let mut q = *start;
         let tol = self.params.penetration_tol_mm.max(1e-6);
@@ -576,16 +599,16 @@ impl GodObject {
                     allowed
                 };
                 let extent = sweep.map_or(0.0, |(_, len)| len) + width;
-                // Free space proven by an earlier empty detection: no pair within
-                // `free_radius` of `free_center`, so none within `m` of q_lin while
-                // `b(free_center, q_lin) + m <= free_radius` (no traversal at all).
-                let free_slack = self.free_radius - self.motion_bound(&self.free_center, &q_lin);
+                // Free space proven by an earlier empty detection: no pair within a proof's
+                // radius at its centre, so none within `m` of q_lin while
+                // `b(centre, q_lin) + m <= radius` (no traversal at all).
+                let free_slack = self.free_slack(&q_lin);
                 let mut detected = if extent + skin <= free_slack {
                     self.cached = None;
                     self.pairs.clear();
                     self.dropped = 0;
                     if pass == 0 {
-                        self.tend_probe(&q_lin, free_slack - (allowed + skin));
+                        self.tend_probe(&q_lin, allowed + skin);
                     }
                     Ok(f64::INFINITY)
                 } else if let Some((path, _)) = sweep {
@@ -603,8 +626,7 @@ impl GodObject {
                     };
                     let d = self.detect_along(&q_lin, None, probe, Some(deadline));
                     if d.is_ok() && self.pairs.is_empty() {
-                        self.free_center = q_lin;
-                        self.free_radius = probe;
+                        self.add_free_proof(q_lin, probe, &q_lin, probe);
                         // What a proof costs here: a background probe pays off only where it
                         // is more than a slice.
                         self.probe_splits = self.ws.stats().node_pairs_split;
