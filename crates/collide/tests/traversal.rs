@@ -223,6 +223,49 @@ proptest! {
         check_against_brute_force(&tool, &pose, &object, &Pose::identity(), margin, 0, &found);
     }
 
+    /// Far from the origin (tens of metres, where `f32` keeps ~4 µm), with the margin a hair
+    /// above the gap of one of the pairs: the traversal's single-precision pruning loses no
+    /// pair at the threshold, plain or swept (a zero sweep is the plain query).
+    #[test]
+    fn far_from_the_origin_the_threshold_pairs_are_found(
+        seed_t in any::<u64>(),
+        seed_o in any::<u64>(),
+        contact in near_contact_strategy(),
+        offset in proptest::array::uniform3(-5e4f64..5e4),
+        pick in 0.0f64..1.0,
+    ) {
+        let tool = random_tree(seed_t, shape(3, 8, 0.9, 0.1));
+        let object = random_tree(seed_o, shape(3, 8, 0.9, 0.1));
+        let world_from_object = Pose::from_array([offset[0], offset[1], offset[2], 0.3, -0.2, 0.1]);
+        let pose = pose_near_contact(&tool, &object, &world_from_object, &contact);
+        let mut gaps: Vec<f64> = brute_force_gaps(&tool, &pose, &object, &world_from_object)
+            .iter()
+            .map(|g| g.2)
+            .filter(|&g| g >= 0.0 && g < 5.0)
+            .collect();
+        prop_assume!(!gaps.is_empty());
+        gaps.sort_by(f64::total_cmp);
+        // A hair above one pair's gap: f64 decides it in, f32 (errors ~1e-3 mm here) must not
+        // prune it.
+        let at = gaps[((gaps.len() - 1) as f64 * pick) as usize];
+        let margin = at + 1e-6;
+        let pt = PackedTree::new(&tool).unwrap();
+        let po = PackedTree::with_pose(&object, &world_from_object).unwrap();
+        let mut ws = CollideWorkspace::new();
+        let mut found = Vec::new();
+        overlap_tree_tree(&pt, &pose, &po, margin, &mut ws, |p| found.push(*p)).unwrap();
+        // The pair at the threshold itself (gap == margin) must be there too.
+        let at_threshold = found.iter().filter(|p| (p.gap - at).abs() < 1e-7).count();
+        prop_assert!(at_threshold >= 1, "the pair at gap {at} was pruned");
+        check_against_brute_force(&tool, &pose, &object, &world_from_object, margin, 0, &found);
+        let mut swept = Vec::new();
+        overlap_swept(&pt, &pose, &Sweep::default(), std::slice::from_ref(&po), margin, &mut ws, |p| {
+            swept.push(*p)
+        })
+        .unwrap();
+        prop_assert_eq!(found, swept);
+    }
+
     /// Dense contact: a bushy depth-3 tree (512 leaves) nearly superposed on itself or on a
     /// jittered copy, so hundreds of leaf pairs (measured: 1200–2200) are in contact at once.
     #[test]
