@@ -203,6 +203,8 @@ impl H6dConfig {
             max_margin_mm: self.max_margin_mm,
             budget_us: self.budget_us,
             max_pairs,
+            // Not in the C struct (its layout is the ABI): the engine's default, reduction on.
+            reduce_rows: EngineConfig::default().reduce_rows,
             safety: SafetyParams {
                 max_force_n: self.max_force_n,
                 max_torque_nmm: self.max_torque_nmm,

@@ -8,12 +8,15 @@
 //!   hole with no pair at all (the tight 1 mm clearance).
 //!
 //! Per row (dual solver, one thread, frames back to back): pairs of the first region (p50,
-//! max), detection / optimisation / whole-step time (p50, p99, max), passes, degraded frames
-//! (lagging, pair overflow, kept last safe) and the deepest penetration.
+//! max), the rows the constraint reduction solved (p50, max), detection / optimisation /
+//! whole-step time (p50, p99, max), passes, degraded frames (lagging, pair overflow, kept last
+//! safe) and the deepest penetration. A second replay audits the reduction: every reduced QP
+//! solved in full as well, on the same rows, and the largest difference of the answers'
+//! forces (N, and relative to the full answer's force) per phase.
 
 use anyhow::Result;
 use collide::Pose;
-use engine::step::{FrameOutput, FrameStatus};
+use engine::step::{FrameOutput, FrameStatus, ReductionAudit};
 use engine::SolverKind;
 use scene::cache::TreeCache;
 use scene::scenes::plate::{self, PlateTool, SpeedMotion};
@@ -32,6 +35,15 @@ pub struct ContactRow {
     pub frames: usize,
     /// Pairs of the first region per frame.
     pub pairs: Summary,
+    /// Rows of the frame's largest solve after constraint reduction.
+    pub rows: Summary,
+    /// Reduced QPs audited against a full solve of the same rows (second replay).
+    pub audited_solves: u64,
+    /// Largest force difference of reduced against full answers, N.
+    pub max_force_diff_n: f64,
+    /// Largest force difference relative to the full answer's force (forces of 0.1 N and
+    /// more).
+    pub max_force_diff_rel: f64,
     /// Detection time per frame, µs.
     pub cd_us: Summary,
     /// Rows and QP time per frame, µs.
@@ -49,10 +61,22 @@ pub struct ContactRow {
 /// Steps a fresh god-object with `solver` through the scene's device motion: the device times
 /// (s) and every frame's output.
 pub fn replay(scene: &Scene, solver: SolverKind) -> Result<(Vec<f64>, Vec<FrameOutput>)> {
+    replay_audited(scene, solver, false).map(|(t, o, _)| (t, o))
+}
+
+/// [`replay`], with every reduced QP also solved in full when `audit` (the frames' times then
+/// include the extra solves): each frame's [`ReductionAudit`] as well.
+pub fn replay_audited(
+    scene: &Scene,
+    solver: SolverKind,
+    audit: bool,
+) -> Result<(Vec<f64>, Vec<FrameOutput>, Vec<ReductionAudit>)> {
     let traj = scene.trajectory();
     let mut scene = scene.clone();
     scene.solver.kind = solver;
     let mut god = scene.god_object()?;
+    god.audit_reduction(audit);
+    let mut audits = Vec::with_capacity(if audit { traj.samples.len() } else { 0 });
     let first = traj
         .samples
         .first()
@@ -64,8 +88,31 @@ pub fn replay(scene: &Scene, solver: SolverKind) -> Result<(Vec<f64>, Vec<FrameO
     for s in &traj.samples {
         times.push(s.t);
         out.push(god.step(&Pose::from_array(s.q)));
+        if audit {
+            audits.push(god.take_reduction_audit());
+        }
     }
-    Ok((times, out))
+    Ok((times, out, audits))
+}
+
+/// Which frames (index, device time in s) a row of the study takes.
+type FrameFilter<'a> = dyn Fn(usize, f64) -> bool + 'a;
+
+/// Adds a phase's audit (frames selected by `keep` on the time) to its row.
+fn with_audit(
+    mut r: ContactRow,
+    times: &[f64],
+    audits: &[ReductionAudit],
+    keep: impl Fn(usize, f64) -> bool,
+) -> ContactRow {
+    for (i, (t, a)) in times.iter().zip(audits).enumerate() {
+        if keep(i, *t) {
+            r.audited_solves += a.solves;
+            r.max_force_diff_n = r.max_force_diff_n.max(a.max_force_diff_n);
+            r.max_force_diff_rel = r.max_force_diff_rel.max(a.max_force_rel);
+        }
+    }
+    r
 }
 
 fn row<'a>(
@@ -79,6 +126,10 @@ fn row<'a>(
         phase: phase.into(),
         frames: f.clone().count(),
         pairs: Summary::of(f.clone().map(|o| f64::from(o.pairs))),
+        rows: Summary::of(f.clone().map(|o| f64::from(o.rows))),
+        audited_solves: 0,
+        max_force_diff_n: 0.0,
+        max_force_diff_rel: 0.0,
         cd_us: Summary::of(f.clone().map(|o| o.cd_us)),
         opt_us: Summary::of(f.clone().map(|o| o.opt_us)),
         total_us: Summary::of(f.clone().map(|o| o.total_us)),
@@ -107,46 +158,58 @@ pub fn contact_study(cache: &TreeCache, quick: bool) -> Result<Vec<ContactRow>> 
     );
     let scene = plate::scene(cache, PlateTool::Puck, run.script.clone())?;
     let (t, frames) = replay(&scene, SolverKind::Dual)?;
-    let pressed = |&(ti, _): &(&f64, &FrameOutput)| *ti >= 0.2;
+    let (_, _, audits) = replay_audited(&scene, SolverKind::Dual, true)?;
     let rest_end = run.steady.first().map_or(0.3, |s| s.0);
-    rows.push(row(
-        "flat on flat",
-        "resting, 1 mm press",
+    let resting = |_: usize, ti: f64| ti >= 0.2 && ti < rest_end;
+    let sliding = |_: usize, ti: f64| run.steady.iter().any(|&(a, b)| ti >= a && ti < b);
+    let pick = |keep: &FrameFilter<'_>| {
+        let keep_frame = |(i, (ti, _)): &(usize, (&f64, &FrameOutput))| keep(*i, **ti);
         t.iter()
             .zip(&frames)
-            .filter(move |p| pressed(p) && *p.0 < rest_end)
-            .map(|p| p.1),
-    ));
-    rows.push(row(
-        "flat on flat",
-        "sliding 50 mm/s",
-        t.iter()
-            .zip(&frames)
-            .filter(|(ti, _)| run.steady.iter().any(|&(a, b)| **ti >= a && **ti < b))
-            .map(|p| p.1),
-    ));
+            .enumerate()
+            .filter(keep_frame)
+            .map(|(_, (_, o))| o)
+            .collect::<Vec<_>>()
+    };
+    for (phase, keep) in [
+        (
+            "resting, 1 mm press",
+            &resting as &dyn Fn(usize, f64) -> bool,
+        ),
+        ("sliding 50 mm/s", &sliding),
+    ] {
+        let r = row("flat on flat", phase, pick(keep).into_iter());
+        rows.push(with_audit(r, &t, &audits, keep));
+    }
     let scene = scene::scenes::builtin("spline", cache)?;
     let (t, frames) = replay(&scene, SolverKind::Dual)?;
+    let (_, _, audits) = replay_audited(&scene, SolverKind::Dual, true)?;
     // The script's phases (scene::scenes::spline_scene): approach 0.5 s, rest 0.2 s, turn
     // 1.2 s, rest 0.2 s, insert 1.0 s, rest 0.2 s, withdraw 0.8 s.
-    let phase = |a: f64, b: f64| {
-        t.iter()
+    let in_hole: Vec<bool> = frames
+        .iter()
+        .map(|o| o.pairs == 0 && o.q_h[2] < 0.0)
+        .collect();
+    let phases: [(&str, Box<FrameFilter<'_>>); 5] = [
+        ("on the face", Box::new(|_, ti| (0.5..0.7).contains(&ti))),
+        (
+            "alignment (turning)",
+            Box::new(|_, ti| (0.7..1.9).contains(&ti)),
+        ),
+        ("insertion", Box::new(|_, ti| (2.1..3.3).contains(&ti))),
+        ("in the hole, no pair", Box::new(|i, _| in_hole[i])),
+        ("whole run", Box::new(|_, _| true)),
+    ];
+    for (phase, keep) in &phases {
+        let picked = t
+            .iter()
             .zip(&frames)
-            .filter(move |(ti, _)| **ti >= a && **ti < b)
-            .map(|p| p.1)
-    };
-    rows.push(row("spline", "on the face", phase(0.5, 0.7)));
-    rows.push(row("spline", "alignment (turning)", phase(0.7, 1.9)));
-    rows.push(row("spline", "insertion", phase(2.1, 3.3)));
-    rows.push(row(
-        "spline",
-        "in the hole, no pair",
-        t.iter()
-            .zip(&frames)
-            .filter(|(_, o)| o.pairs == 0 && o.q_h[2] < 0.0)
-            .map(|p| p.1),
-    ));
-    rows.push(row("spline", "whole run", frames.iter()));
+            .enumerate()
+            .filter(|(i, (ti, _))| keep(*i, **ti))
+            .map(|(_, (_, o))| o);
+        let r = row("spline", phase, picked);
+        rows.push(with_audit(r, &t, &audits, keep));
+    }
     Ok(rows)
 }
 
@@ -156,18 +219,20 @@ pub fn contact_markdown(rows: &[ContactRow]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "| scene | phase | frames | pairs p50 / max | cd µs p50 / p99 | opt µs p50 / p99 | total µs p50 / p99 / max | passes mean / max | degraded | max pen. mm |"
+        "| scene | phase | frames | pairs p50 / max | rows solved p50 / max | cd µs p50 / p99 | opt µs p50 / p99 | total µs p50 / p99 / max | passes mean / max | degraded | max pen. mm | reduced vs full: solves, max ΔF N (rel.) |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
     for r in rows {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.0} / {:.0} | {:.1} / {:.1} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.2} / {:.0} | {} | {:.4} |",
+            "| {} | {} | {} | {:.0} / {:.0} | {:.0} / {:.0} | {:.1} / {:.1} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.2} / {:.0} | {} | {:.4} | {}, {:.1e} ({:.1e}) |",
             r.scene,
             r.phase,
             r.frames,
             r.pairs.p50,
             r.pairs.max,
+            r.rows.p50,
+            r.rows.max,
             r.cd_us.p50,
             r.cd_us.p99,
             r.opt_us.p50,
@@ -179,6 +244,9 @@ pub fn contact_markdown(rows: &[ContactRow]) -> String {
             r.passes.max,
             r.degraded_frames,
             r.max_penetration_mm,
+            r.audited_solves,
+            r.max_force_diff_n,
+            r.max_force_diff_rel,
         );
     }
     s

@@ -241,7 +241,7 @@ proptest! {
         let mut gaps: Vec<f64> = brute_force_gaps(&tool, &pose, &object, &world_from_object)
             .iter()
             .map(|g| g.2)
-            .filter(|&g| g >= 0.0 && g < 5.0)
+            .filter(|g| (0.0..5.0).contains(g))
             .collect();
         prop_assume!(!gaps.is_empty());
         gaps.sort_by(f64::total_cmp);

@@ -39,6 +39,10 @@ pub struct EngineConfig {
     pub budget_us: f64,
     /// Leaf pairs stored per pass, pairs (reserved up front; more are dropped and counted).
     pub max_pairs: usize,
+    /// Constraint reduction: an exact solver works on a few representative rows plus every
+    /// row its answer violates, until none is ([`qp::RowGeneration`]; the full problem's
+    /// optimum from tens of rows instead of thousands). `false` solves every row.
+    pub reduce_rows: bool,
     /// Device limits applied to every wrench sent.
     pub safety: SafetyParams,
 }
@@ -57,6 +61,7 @@ impl Default for EngineConfig {
             max_margin_mm: 2.0,
             budget_us: 1000.0,
             max_pairs: 16_384,
+            reduce_rows: true,
             safety: SafetyParams::default(),
         }
     }
@@ -71,6 +76,7 @@ impl EngineConfig {
             form: ConstraintForm::Squared,
             solver: SolverKind::Pqp,
             relinearize: 0,
+            reduce_rows: false,
             ..Self::default()
         }
     }
@@ -104,6 +110,9 @@ pub struct Frame {
     /// Leaf pairs in the frame's first QP (its first pair list; a path region that overflowed
     /// the pair storage is not one).
     pub pairs: u32,
+    /// Constraint rows in the frame's largest solve, after reduction (trust-region rows
+    /// included; see [`EngineConfig::reduce_rows`]), rows.
+    pub rows: u32,
     /// Leaf pairs touching at `q_g` (gap within [`crate::step::TOUCH_MM`]): the contact's size.
     pub contacts: u32,
     /// Solver iterations, summed over passes.

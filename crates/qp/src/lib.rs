@@ -24,6 +24,9 @@
 //! - [`Solver`] with [`SolverKind`]: one entry point that dispatches, holding all
 //!   workspaces; [`Solver::solve`] returns a [`Solution`] (`dq`, [`Status`], iterations,
 //!   objective, [`Kkt`]).
+//! - [`RowGeneration`]: constraint reduction around any exact solver — a few representative
+//!   rows, then every violated row, until the answer satisfies them all (the full problem's
+//!   optimum, solved on tens of rows instead of thousands). See [`reduce`].
 //! - The solvers and their caller-owned workspaces (grow, never shrink; no allocation once
 //!   warmed up to a given `N`):
 //!   - [`DualWorkspace`] (`dual`, the default): Goldfarb–Idnani dual active-set, exact,
@@ -61,6 +64,7 @@ mod basis;
 pub mod dual;
 pub mod pqp;
 mod problem;
+pub mod reduce;
 mod solution;
 mod solver;
 
@@ -68,6 +72,7 @@ pub use active_set::{ActiveSetParams, ActiveSetWorkspace};
 pub use dual::{DualParams, DualWorkspace};
 pub use pqp::{PqpParams, PqpWorkspace};
 pub use problem::Problem;
+pub use reduce::{ReductionStats, RowGeneration};
 pub use solution::{Kkt, Solution, Status};
 pub use solver::{Solver, SolverKind};
 

@@ -160,6 +160,9 @@ pub struct SolverSpec {
     pub max_margin_mm: f64,
     /// Time budget of one frame's step, µs: no pass starts that would end past it.
     pub budget_us: f64,
+    /// Constraint reduction for the exact solvers (a working set of rows, every row checked;
+    /// the full problem's answer): `true` (default) or `false` to solve every row.
+    pub reduce_rows: bool,
 }
 
 impl Default for SolverSpec {
@@ -172,6 +175,7 @@ impl Default for SolverSpec {
             skin_mm: 0.02,
             max_margin_mm: 2.0,
             budget_us: 1000.0,
+            reduce_rows: true,
         }
     }
 }
@@ -516,6 +520,7 @@ impl Scene {
             skin_mm: self.solver.skin_mm,
             max_margin_mm: self.solver.max_margin_mm,
             budget_us: self.solver.budget_us,
+            reduce_rows: self.solver.reduce_rows,
             safety: self.safety,
             ..EngineConfig::default()
         }

@@ -208,7 +208,7 @@ impl GodObject {
             let dir = if d > 0.0 { u / d } else { Vector3::z() };
             (c - dir * p.r_tool, d - (p.r_tool + p.r_object))
         };
-        let y = self.solver.multipliers();
+        let y = self.rows_solver.multipliers();
         let n_pairs = self.pairs.len().min(y.len());
         let (mut total, mut resultant, mut centre) = (0.0, Vector3::zeros(), Vector3::zeros());
         let (mut mu_s, mut mu_k) = (0.0, 0.0);

@@ -49,7 +49,7 @@ use collide::{
     Linearization, PackedTree, Pose, ProbeStatus, RotationCoordinates, Sweep,
 };
 use nalgebra::{Matrix3, Vector3};
-use qp::{Problem, Solver, Status};
+use qp::{Problem, RowGeneration, Solver, Status};
 use spheretree::SphereTree;
 
 use crate::{EngineConfig, EngineError};
@@ -61,6 +61,7 @@ mod measure;
 mod solve;
 
 pub use friction::{Friction, FrictionState};
+pub use solve::ReductionAudit;
 
 use measure::rotation_angle;
 pub use measure::spring_wrench;
@@ -261,6 +262,12 @@ pub struct GodObject {
     rows: Vec<[f64; 6]>,
     rhs: Vec<f64>,
     solver: Solver,
+    /// Constraint reduction around the solver (exact solvers, unless turned off): its
+    /// multipliers and active set are the frame's, reduced or not.
+    rows_solver: RowGeneration,
+    /// Bench audit of the reduction: a second solver that solves every reduced QP in full
+    /// ([`GodObject::audit_reduction`]); none in normal use.
+    audit: Option<Box<(Solver, ReductionAudit)>>,
     warm: [PairId; 6],
     warm_len: usize,
     warm_idx: [usize; 6],
@@ -336,7 +343,8 @@ impl GodObject {
         let probe = FreeSpaceProbe::for_trees(&tool, &objects);
         let cap = params.max_pairs;
         let mut solver = Solver::new(params.solver);
-        solver.reserve(cap + 12);
+        let mut rows_solver = RowGeneration::new();
+        rows_solver.reserve(&mut solver, cap + 12);
         Ok(Self {
             params,
             tool,
@@ -349,6 +357,8 @@ impl GodObject {
             rows: vec![[0.0; 6]; cap + 12],
             rhs: vec![0.0; cap + 12],
             solver,
+            rows_solver,
+            audit: None,
             warm: [(0, 0, 0); 6],
             warm_len: 0,
             warm_idx: [0; 6],
@@ -400,6 +410,25 @@ impl GodObject {
         &self.pairs
     }
 
+    /// Bench audit of the constraint reduction: with `on`, every reduced QP is also solved in
+    /// full by a second solver, on the same rows, and the difference of the two answers'
+    /// spring force `G dq` is kept ([`GodObject::take_reduction_audit`]). It costs a full
+    /// solve per pass: for measuring, not for a device. Allocates (call outside the loop).
+    pub fn audit_reduction(&mut self, on: bool) {
+        self.audit = on.then(|| {
+            let mut solver = Solver::new(self.params.solver);
+            solver.reserve(self.rows.len());
+            Box::new((solver, ReductionAudit::default()))
+        });
+    }
+
+    /// What the audit measured since the last call (zero when it is off), and restarts it.
+    pub fn take_reduction_audit(&mut self) -> ReductionAudit {
+        self.audit
+            .as_mut()
+            .map_or_else(ReductionAudit::default, |a| std::mem::take(&mut a.1))
+    }
+
     /// Resets the graphic tool for a new run at the device pose `start`: `q_g = start` if it is
     /// free, else the nearest free pose found by repeated projection (each pass: detect at the
     /// current `q`, solve the QP toward `start`, re-measure). Allocation-free after `new`.
@@ -441,7 +470,7 @@ impl GodObject {
             for d in &mut self.rhs[..n] {
                 *d += tol;
             }
-            let Some((dq, _, _, _)) = self.solve(n, &lin.delta()) else {
+            let Some((dq, _, _, _)) = self.solve(n, n, &lin.delta()) else {
                 break;
             };
             let next = lin.configuration(&dq);
@@ -771,7 +800,8 @@ impl GodObject {
             let trust =
                 boxed.map(|t| (t, lin.variable(&region.center), lin.variable(&region.end())));
             let n = self.fill_rows(&lin, trust);
-            let solved = self.solve(n, &lin.delta());
+            let solved = self.solve(n, n_pairs, &lin.delta());
+            out.rows = out.rows.max(self.rows_solver.stats().working_rows as u32);
             let solve_s = t1.elapsed().as_secs_f64();
             opt += solve_s;
             // The usual rate: a running mean (one slow solve, e.g. the thread preempted, does
