@@ -705,12 +705,21 @@ fn huge_device_readings_keep_the_output_safe() {
 fn a_budget_too_small_for_the_contact_lags_and_stays_safe() {
     let (plate, _) = plate_tree(1.0);
     let top = sphere_top(&plate);
-    for budget_us in [5.0, 40.0] {
+    for budget_us in [0.5, 5.0, 40.0] {
         let solver = SolverSpec {
             budget_us,
             ..SolverSpec::default()
         };
         let sc = scene(plate.clone(), solver, Coupling::default());
+        // The overlap measured here, not by the engine (whose measure covers the pairs it
+        // listed): a traversal the deadline stopped must not count as a proof of free space.
+        let tool = collide::PackedTree::new(&sc.tool).unwrap();
+        let objects: Vec<collide::PackedTree> = sc
+            .objects
+            .iter()
+            .map(|(t, p)| collide::PackedTree::with_pose(t, p).unwrap())
+            .collect();
+        let mut ws = collide::CollideWorkspace::for_trees(&tool, &objects);
         // Down through the plate and out below it, slowly, then sideways.
         let traj = keyed(&[
             (0, [0.0, 0.0, top + 20.0, 0.0, 0.0, 0.0]),
@@ -722,6 +731,14 @@ fn a_budget_too_small_for_the_contact_lags_and_stays_safe() {
         for r in &frames {
             let f = &r.frame;
             assert!(f.penetration_mm <= 0.01, "budget {budget_us}: {f:?}");
+            let gap =
+                scene::scenes::min_gap(&tool, &objects, &Pose::from_array(f.q_g), 0.0, &mut ws);
+            assert!(
+                gap >= -0.01,
+                "budget {budget_us}: the tool overlaps the plate by {} mm at t = {} s",
+                -gap,
+                f.t
+            );
             // The tool's leaves (radius 2) stay on the near side of the plate's mid-plane.
             assert!(
                 f.q_g[2] > 2.0,
@@ -745,4 +762,55 @@ fn a_budget_too_small_for_the_contact_lags_and_stays_safe() {
             );
         }
     }
+}
+
+/// The splined shaft inside its hub, pushed sideways into the wall at the default budget: the
+/// traversals there cost hundreds of µs (thousands of node pairs, most without a leaf pair),
+/// the deadline stops some, the free-space proofs come from background probes. The tool must
+/// never overlap the hub — checked here, independently of the engine's own measure (a
+/// traversal the deadline stopped proves nothing) — and must reach the wall and be held there.
+#[test]
+fn pushed_into_the_wall_of_a_tight_hole_the_shaft_never_overlaps_the_hub() {
+    let sc = scene::scenes::builtin("spline", &common::test_cache()).unwrap();
+    let inside = sc
+        .trajectory()
+        .samples
+        .iter()
+        .find(|s| s.t >= 2.8)
+        .unwrap()
+        .q;
+    let mut wall = inside;
+    wall[0] += 3.0;
+    wall[1] += 1.0;
+    let traj = keyed(&[(0, inside), (400, wall), (700, wall)]);
+    let tool = collide::PackedTree::new(&sc.tool).unwrap();
+    let objects: Vec<collide::PackedTree> = sc
+        .objects
+        .iter()
+        .map(|(t, p)| collide::PackedTree::with_pose(t, p).unwrap())
+        .collect();
+    let mut ws = collide::CollideWorkspace::for_trees(&tool, &objects);
+    let (frames, _) = run(&sc, &traj);
+    for r in &frames {
+        let f = &r.frame;
+        let gap = scene::scenes::min_gap(&tool, &objects, &Pose::from_array(f.q_g), 0.0, &mut ws);
+        assert!(
+            gap >= -0.01,
+            "the shaft overlaps the hub by {} mm at t = {} s ({:?})",
+            -gap,
+            f.t,
+            f.status
+        );
+    }
+    // It moved toward the wall, stopped at it, and the wall holds the hand back.
+    let last = &frames[frames.len() - 1].frame;
+    assert!(
+        last.q_g[0] > inside[0] + 0.3,
+        "never reached the wall: {last:?}"
+    );
+    assert!(
+        last.q_g[0] < inside[0] + 2.0,
+        "went through the wall: {last:?}"
+    );
+    assert!(last.wrench[0] < -0.5, "no force from the wall: {last:?}");
 }

@@ -654,7 +654,9 @@ impl GodObject {
                         allowed + skin
                     };
                     let d = self.detect_along(&q_lin, None, probe, Some(deadline));
-                    if d.is_ok() && self.pairs.is_empty() {
+                    // Only a complete traversal proves free space (one the deadline stopped
+                    // may have missed pairs).
+                    if d.is_ok() && self.pairs.is_empty() && !self.interrupted {
                         self.add_free_proof(q_lin, probe, &q_lin, probe);
                         // What a proof costs here: a background probe pays off only where it
                         // is more than a slice.
