@@ -1074,6 +1074,11 @@ impl FreeSpaceProbe {
         (s, self.pose, self.margin)
     }
 
+    /// The pose and margin (mm) of the current (or last) probe.
+    pub fn question(&self) -> (Pose, f64) {
+        (self.pose, self.margin)
+    }
+
     /// Drops an unfinished probe.
     pub fn cancel(&mut self) {
         self.status = ProbeStatus::Idle;

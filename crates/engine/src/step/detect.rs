@@ -193,6 +193,32 @@ impl GodObject {
         self.free[i] = FreeProof { center, radius };
     }
 
+    /// When the proofs have run out at `q` (a frame needing `used` mm) but the background
+    /// probe, unfinished, would cover it: finishes the probe (before the `deadline`) instead
+    /// of a fresh traversal, which would cost more than the probe's remaining slices. True
+    /// when it finished free (its proof is kept); false otherwise (nothing changed but the
+    /// probe's progress).
+    pub(super) fn finish_probe(&mut self, q: &Pose, used: f64, deadline: Instant) -> bool {
+        if self.probe.status() != ProbeStatus::Running {
+            return false;
+        }
+        let (pose, margin) = self.probe.question();
+        if self.motion_bound(&pose, q) + used > margin {
+            return false;
+        }
+        while self.probe.status() == ProbeStatus::Running && Instant::now() < deadline {
+            self.probe
+                .advance(&self.tool, &self.objects, PROBE_FINISH_SLICE_SPLITS);
+        }
+        if self.probe.status() != ProbeStatus::Free {
+            return false;
+        }
+        self.probe_splits = self.probe.splits();
+        let (_, pose, radius) = self.probe.take();
+        self.add_free_proof(pose, radius, q, used);
+        true
+    }
+
     /// Keeps the free-space proofs ahead of the tool without a long traversal in any one frame,
     /// for a frame that needs `used` mm at `q`. When the proofs cover fewer frames ahead (at
     /// the tool's last motion per frame) than the next probe needs at [`PROBE_SLICE_SPLITS`]
@@ -234,13 +260,13 @@ impl GodObject {
                     // The tool keeps moving as it did last frame: the new proof's ball is
                     // centred past the point where the current ones run out, so that it takes
                     // over a little before and lasts well after.
-                    let usable = (FREE_PROBE_MM - used).max(0.0);
+                    let usable = (BACKGROUND_PROBE_MM - used).max(0.0);
                     let ahead_frames = horizon + PROBE_AHEAD * usable / speed;
                     let mut ahead = *q;
                     for k in 0..3 {
                         ahead.q[k] += ahead_frames * self.last_step[k];
                     }
-                    let _ = self.probe.start(&self.tool, &ahead, FREE_PROBE_MM);
+                    let _ = self.probe.start(&self.tool, &ahead, BACKGROUND_PROBE_MM);
                 }
             }
             ProbeStatus::Running => {}
