@@ -3,6 +3,22 @@
 
 use super::*;
 
+/// Two unit vectors completing the unit `d` to an orthonormal basis.
+fn complement(d: &[f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let d = Vector3::from(*d);
+    // Cross with the axis least along `d`.
+    let axis = if d.x.abs() <= d.y.abs() && d.x.abs() <= d.z.abs() {
+        Vector3::x()
+    } else if d.y.abs() <= d.z.abs() {
+        Vector3::y()
+    } else {
+        Vector3::z()
+    };
+    let e1 = d.cross(&axis).normalize();
+    let e2 = d.cross(&e1);
+    (e1.into(), e2.into())
+}
+
 impl GodObject {
     /// The linearization of the current pair list at `q_lin` for the device pose `q_h`.
     pub(super) fn linearization(&self, q_lin: &Pose, q_h: &Pose) -> Option<Linearization> {
@@ -36,6 +52,29 @@ impl GodObject {
                     let mut e = [0.0; 6];
                     e[k] = 1.0;
                     n += self.push_slab(n, &e, base[k] - w, base[k] + w);
+                }
+            }
+            Some((
+                Trust::Oriented {
+                    dir,
+                    along,
+                    across,
+                    rot,
+                },
+                base,
+                _,
+            )) => {
+                // Translation in the basis (dir, e1, e2); rotation per component.
+                let (e1, e2) = complement(&dir);
+                for (u, w) in [(dir, along), (e1, across), (e2, across)] {
+                    let row = [u[0], u[1], u[2], 0.0, 0.0, 0.0];
+                    let c = u[0] * base[0] + u[1] * base[1] + u[2] * base[2];
+                    n += self.push_slab(n, &row, c - w, c + w);
+                }
+                for k in 3..6 {
+                    let mut e = [0.0; 6];
+                    e[k] = 1.0;
+                    n += self.push_slab(n, &e, base[k] - rot, base[k] + rot);
                 }
             }
             Some((Trust::Path(a), base, end)) => {
@@ -107,6 +146,13 @@ impl GodObject {
                     }
                 }
                 Trust::Path(a) => a,
+                Trust::Oriented {
+                    along, across, rot, ..
+                } => match (i - from) / 2 {
+                    0 => along,
+                    1 | 2 => across,
+                    _ => rot,
+                },
             };
             let value: f64 = (0..6).map(|k| self.rows[i][k] * dq[k]).sum();
             value - self.rhs[i] <= 1e-3 * width
@@ -133,5 +179,34 @@ impl GodObject {
         };
         let b = (allowed * (1.0 - share_t) / (per_axis * self.reach.max(1e-9))).min(0.5);
         Trust::Box(a, b)
+    }
+
+    /// [`GodObject::trust_box`] with its translation part turned to the predicted translation
+    /// `step` (mm): the translation budget `allowed · share_t` is split into 0.85 of it along
+    /// `step` and 0.37 across (`sqrt(0.85² + 2 · 0.37²) < 1`: no sphere moves farther than in
+    /// the box), so a tool sliding along `step` goes 0.85 of it instead of `1 / sqrt(3)`. An
+    /// axis-aligned box when `step` is too short to give a direction.
+    pub(super) fn trust_oriented(
+        &self,
+        allowed: f64,
+        need_t: f64,
+        need_r: f64,
+        step: &Vector3<f64>,
+    ) -> Trust {
+        let Trust::Box(a, rot) = self.trust_box(allowed, need_t, need_r) else {
+            return self.trust_box(allowed, need_t, need_r);
+        };
+        let len = step.norm();
+        if !(len > 1e-9 * allowed.max(1e-9)) || !len.is_finite() {
+            return Trust::Box(a, rot);
+        }
+        // The box's translation half-width per axis is budget / sqrt(3).
+        let budget = a * 3f64.sqrt();
+        Trust::Oriented {
+            dir: (step / len).into(),
+            along: 0.85 * budget,
+            across: 0.37 * budget,
+            rot,
+        }
     }
 }

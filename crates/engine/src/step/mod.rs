@@ -200,6 +200,15 @@ enum Trust {
     /// A thin slab around the predicted path (a segment in the QP variable): half-width (mm,
     /// in the variable scaled by `reach` for rotations) along and across it.
     Path(f64),
+    /// A box turned to the predicted motion: translation half-widths along the unit direction
+    /// `dir` and across it (mm), rotation half-width per component (rad). A ball region lasts
+    /// longer for a tool sliding along `dir` than in an axis-aligned box of the same ball.
+    Oriented {
+        dir: [f64; 3],
+        along: f64,
+        across: f64,
+        rot: f64,
+    },
 }
 
 /// A free-space proof: no leaf pair is within `radius` (mm) of touching with the tool at
@@ -773,7 +782,8 @@ impl GodObject {
                         let (s_need, s_pred) = (share(need_t, need_r), share(pred_t, pred_r));
                         let t = s_need.max(s_pred);
                         let r = (1.0 - s_need).max(1.0 - s_pred);
-                        self.trust_box(allowed, t, r)
+                        let step = q_pred.translation() - q_lin.translation();
+                        self.trust_oriented(allowed, t, r, &step)
                     }
                     None => self.trust_box(allowed, need_t, need_r),
                 });
