@@ -194,29 +194,37 @@ impl GodObject {
     }
 
     /// When the proofs have run out at `q` (a frame needing `used` mm) but the background
-    /// probe, unfinished, would cover it: finishes the probe (before the `deadline`) instead
-    /// of a fresh traversal, which would cost more than the probe's remaining slices. True
-    /// when it finished free (its proof is kept); false otherwise (nothing changed but the
-    /// probe's progress).
-    pub(super) fn finish_probe(&mut self, q: &Pose, used: f64, deadline: Instant) -> bool {
+    /// probe, unfinished, would cover it: carries the probe on (until the `deadline`) instead
+    /// of a fresh traversal, which would cost more than the probe's remaining slices.
+    /// `Some(true)`: it finished free (its proof is kept); `Some(false)`: still running at the
+    /// deadline (the frame ends; the next one carries on); `None`: no covering probe, or it
+    /// found a pair (a traversal is needed).
+    pub(super) fn finish_probe(&mut self, q: &Pose, used: f64, deadline: Instant) -> Option<bool> {
         if self.probe.status() != ProbeStatus::Running {
-            return false;
+            return None;
         }
         let (pose, margin) = self.probe.question();
         if self.motion_bound(&pose, q) + used > margin {
-            return false;
+            return None;
         }
-        while self.probe.status() == ProbeStatus::Running && Instant::now() < deadline {
+        loop {
             self.probe
                 .advance(&self.tool, &self.objects, PROBE_FINISH_SLICE_SPLITS);
+            if self.probe.status() != ProbeStatus::Running {
+                break;
+            }
+            if Instant::now() >= deadline {
+                return Some(false);
+            }
         }
         if self.probe.status() != ProbeStatus::Free {
-            return false;
+            self.probe.take();
+            return None;
         }
         self.probe_splits = self.probe.splits();
         let (_, pose, radius) = self.probe.take();
         self.add_free_proof(pose, radius, q, used);
-        true
+        Some(true)
     }
 
     /// Keeps the free-space proofs ahead of the tool without a long traversal in any one frame,

@@ -660,11 +660,15 @@ impl GodObject {
                 } else if let Some((path, _)) = sweep {
                     self.probe.cancel();
                     self.detect_along(&q_lin, Some(&path), width + skin, Some(deadline))
-                } else if self.finish_probe(&q_lin, extent + skin, deadline) {
-                    // The background probe, finished now, proves free space here: no pair.
+                } else if let Some(free) = self.finish_probe(&q_lin, extent + skin, deadline) {
+                    // The background probe covers this pose: finished now, it proves free
+                    // space (no pair); out of time, the frame ends here and the next one
+                    // carries on with it (a traversal too long for one frame's budget is then
+                    // spread over several instead of never finishing).
                     self.cached = None;
                     self.pairs.clear();
                     self.dropped = 0;
+                    self.interrupted = !free;
                     Ok(f64::INFINITY)
                 } else {
                     // A full traversal gives a fresh answer; an unfinished background probe is
@@ -684,6 +688,10 @@ impl GodObject {
                         // What a proof costs here: a background probe pays off only where it
                         // is more than a slice.
                         self.probe_splits = self.ws.stats().node_pairs_split;
+                    } else if d.is_ok() && self.pairs.is_empty() {
+                        // Stopped before an answer: the same question goes to the background
+                        // probe, which the next frames finish (the tool waits here meanwhile).
+                        let _ = self.probe.start(&self.tool, &q_lin, probe);
                     }
                     d
                 };
