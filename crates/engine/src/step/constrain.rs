@@ -197,7 +197,7 @@ impl GodObject {
             return self.trust_box(allowed, need_t, need_r);
         };
         let len = step.norm();
-        if !(len > 1e-9 * allowed.max(1e-9)) || !len.is_finite() {
+        if !len.is_finite() || len <= 1e-9 * allowed.max(1e-9) {
             return Trust::Box(a, rot);
         }
         // The box's translation half-width per axis is budget / sqrt(3).
