@@ -22,17 +22,6 @@ const ROUGH: Friction = Friction {
     kinetic_mu: 0.3,
 };
 
-/// Steps the scene's god-object (its friction applied) through its device motion.
-fn replay(scene: &Scene) -> Vec<FrameOutput> {
-    let traj = scene.trajectory();
-    let mut god = scene.god_object().unwrap();
-    god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
-    traj.samples
-        .iter()
-        .map(|s| god.step(&Pose::from_array(s.q)))
-        .collect()
-}
-
 /// The frames without their timings (which differ from run to run).
 fn untimed(frames: &[FrameOutput]) -> Vec<FrameOutput> {
     frames
@@ -55,11 +44,11 @@ fn bunny() -> Scene {
 #[test]
 fn zero_friction_and_friction_off_give_the_frictionless_frames() {
     let plain = bunny();
-    let reference = untimed(&replay(&plain));
+    let reference = untimed(&common::replay(&plain));
     let mut zero = plain.clone();
     zero.object_friction = vec![Friction::NONE];
     zero.tool_friction = Some(ROUGH);
-    assert_eq!(untimed(&replay(&zero)), reference);
+    assert_eq!(untimed(&common::replay(&zero)), reference);
     // Coefficients set, friction turned off.
     let mut rough = plain.clone();
     rough.object_friction = vec![ROUGH];
@@ -74,7 +63,7 @@ fn zero_friction_and_friction_off_give_the_frictionless_frames() {
         .collect();
     assert_eq!(untimed(&off), reference);
     // And on, the frames differ: friction acts on this run.
-    let on = replay(&rough);
+    let on = common::replay(&rough);
     assert!(on.iter().any(|f| f.friction == FrictionState::Stick));
     assert!(on.iter().any(|f| f.friction == FrictionState::Slip));
     assert_ne!(untimed(&on), reference);
@@ -170,7 +159,7 @@ fn friction_never_gives_the_hand_more_than_the_spring_it_stretched() {
         sc.object_friction = vec![ROUGH; sc.objects.len()];
         sc.solver.budget_us = engine::config::BUDGET_US.hi;
         let cfg = sc.engine_config();
-        let frames = replay(sc);
+        let frames = common::replay(sc);
         for w in frames.windows(2) {
             let (prev, f) = (&w[0], &w[1]);
             if f.friction == FrictionState::None || f.status != engine::FrameStatus::Ok {
@@ -208,7 +197,7 @@ fn dragged_at_2_m_per_s_over_a_thin_plate_with_friction_never_penetrates() {
         static_mu: 1.0,
         kinetic_mu: 0.8,
     }];
-    let frames = replay(&sc);
+    let frames = common::replay(&sc);
     assert!(frames.iter().any(|f| f.friction == FrictionState::Slip));
     for f in &frames {
         assert!(f.penetration_mm <= 0.01, "{f:?}");

@@ -5,29 +5,17 @@
 
 mod common;
 
-use collide::Pose;
-use engine::step::FrameOutput;
 use scene::scenes::plate::{self, PlateTool, SpeedMotion};
 use scene::Scene;
-
-fn replay(scene: &Scene) -> Vec<FrameOutput> {
-    let traj = scene.trajectory();
-    let mut god = scene.god_object().unwrap();
-    god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
-    traj.samples
-        .iter()
-        .map(|s| god.step(&Pose::from_array(s.q)))
-        .collect()
-}
 
 /// Replays `scene` with and without reduction (no time budget: the frames do not depend on
 /// the machine) and compares them frame by frame.
 fn same_frames(mut scene: Scene) {
     scene.solver.budget_us = engine::config::BUDGET_US.hi;
     scene.solver.reduce_rows = true;
-    let reduced = replay(&scene);
+    let reduced = common::replay(&scene);
     scene.solver.reduce_rows = false;
-    let full = replay(&scene);
+    let full = common::replay(&scene);
     assert_eq!(reduced.len(), full.len());
     let mut dense = 0;
     for (i, (r, f)) in reduced.iter().zip(&full).enumerate() {

@@ -713,13 +713,7 @@ fn a_budget_too_small_for_the_contact_lags_and_stays_safe() {
         let sc = scene(plate.clone(), solver, Coupling::default());
         // The overlap measured here, not by the engine (whose measure covers the pairs it
         // listed): a traversal the deadline stopped must not count as a proof of free space.
-        let tool = collide::PackedTree::new(&sc.tool).unwrap();
-        let objects: Vec<collide::PackedTree> = sc
-            .objects
-            .iter()
-            .map(|(t, p)| collide::PackedTree::with_pose(t, p).unwrap())
-            .collect();
-        let mut ws = collide::CollideWorkspace::for_trees(&tool, &objects);
+        let mut overlap = common::overlap_of(&sc);
         // Down through the plate and out below it, slowly, then sideways.
         let traj = keyed(&[
             (0, [0.0, 0.0, top + 20.0, 0.0, 0.0, 0.0]),
@@ -731,12 +725,10 @@ fn a_budget_too_small_for_the_contact_lags_and_stays_safe() {
         for r in &frames {
             let f = &r.frame;
             assert!(f.penetration_mm <= 0.01, "budget {budget_us}: {f:?}");
-            let gap =
-                scene::scenes::min_gap(&tool, &objects, &Pose::from_array(f.q_g), 0.0, &mut ws);
+            let depth = overlap(&Pose::from_array(f.q_g));
             assert!(
-                gap >= -0.01,
-                "budget {budget_us}: the tool overlaps the plate by {} mm at t = {} s",
-                -gap,
+                depth <= 0.01,
+                "budget {budget_us}: the tool overlaps the plate by {depth} mm at t = {} s",
                 f.t
             );
             // The tool's leaves (radius 2) stay on the near side of the plate's mid-plane.
@@ -792,21 +784,14 @@ fn pushed_into_the_wall(budget_us: f64) {
     wall[0] += 3.0;
     wall[1] += 1.0;
     let traj = keyed(&[(0, inside), (400, wall), (700, wall)]);
-    let tool = collide::PackedTree::new(&sc.tool).unwrap();
-    let objects: Vec<collide::PackedTree> = sc
-        .objects
-        .iter()
-        .map(|(t, p)| collide::PackedTree::with_pose(t, p).unwrap())
-        .collect();
-    let mut ws = collide::CollideWorkspace::for_trees(&tool, &objects);
+    let mut overlap = common::overlap_of(&sc);
     let (frames, _) = run(&sc, &traj);
     for r in &frames {
         let f = &r.frame;
-        let gap = scene::scenes::min_gap(&tool, &objects, &Pose::from_array(f.q_g), 0.0, &mut ws);
+        let depth = overlap(&Pose::from_array(f.q_g));
         assert!(
-            gap >= -0.01,
-            "budget {budget_us}: the shaft overlaps the hub by {} mm at t = {} s ({:?})",
-            -gap,
+            depth <= 0.01,
+            "budget {budget_us}: the shaft overlaps the hub by {depth} mm at t = {} s ({:?})",
             f.t,
             f.status
         );

@@ -19,6 +19,32 @@ pub fn test_cache() -> TreeCache {
     TreeCache::at(dir)
 }
 
+/// Steps the scene's god-object (its friction applied) through its device motion: every
+/// frame's output.
+pub fn replay(scene: &scene::Scene) -> Vec<engine::step::FrameOutput> {
+    let traj = scene.trajectory();
+    let mut god = scene.god_object().unwrap();
+    god.reset(&collide::Pose::from_array(traj.samples[0].q))
+        .unwrap();
+    traj.samples
+        .iter()
+        .map(|s| god.step(&collide::Pose::from_array(s.q)))
+        .collect()
+}
+
+/// The deepest overlap of the scene's tool with its objects at a pose, measured here (leaf
+/// pairs at margin 0), not by the engine: `overlap(q)` in mm, 0 when free.
+pub fn overlap_of(scene: &scene::Scene) -> impl FnMut(&collide::Pose) -> f64 {
+    let tool = collide::PackedTree::new(&scene.tool).unwrap();
+    let objects: Vec<collide::PackedTree> = scene
+        .objects
+        .iter()
+        .map(|(t, p)| collide::PackedTree::with_pose(t, p).unwrap())
+        .collect();
+    let mut ws = collide::CollideWorkspace::for_trees(&tool, &objects);
+    move |q| (-scene::scenes::min_gap(&tool, &objects, q, 0.0, &mut ws)).max(0.0)
+}
+
 /// An error and its sources on one line, `a: b: c`, as the command line prints them.
 pub fn chain(e: &dyn std::error::Error) -> String {
     scene::error_chain(e)
