@@ -381,7 +381,8 @@ fn descend_all<F: FnMut(&LeafPair)>(
 ///
 /// Each tool sphere is tested as the capsule its centre sweeps along the motion's tangent
 /// `v + w x (c - t)`, its radius grown by `|w| r` (the spread of displacements inside it) and
-/// the margin by `reach |w|^2 / 2` (how far the arc leaves its tangent), so the answer is
+/// the margin by `reach (e^|w| - 1 - |w|)` (how far the arc leaves its tangent: `reach |w|^2 / 2`
+/// to second order, a little more for a large turn), so the answer is
 /// conservative: no pair that can come within `margin` on the way is missed, and a pair far
 /// from the path is not listed. For a hand sliding over a flat face this lists the pairs along
 /// the path instead of every pair within the motion's length (an isotropic margin).
@@ -408,7 +409,7 @@ pub fn overlap_swept<F: FnMut(&LeafPair)>(
     }
     ws.begin_swept(tool, world_from_tool, sweep);
     let turn = sweep.angle();
-    let m = clean_margin(margin) + 0.5 * tool.reach() * turn * turn;
+    let m = clean_margin(margin) + arc_allowance(tool.reach(), turn);
     Ok(descend_all(tool, objects, m, ws, &mut visit))
 }
 
@@ -487,7 +488,7 @@ pub fn overlap_until<F: FnMut(&LeafPair), G: FnMut() -> bool>(
         Some(sw) => {
             ws.begin_swept(tool, world_from_tool, sw);
             let turn = sw.angle();
-            clean_margin(margin) + 0.5 * tool.reach() * turn * turn
+            clean_margin(margin) + arc_allowance(tool.reach(), turn)
         }
     };
     Ok(descend_all_until(
@@ -699,6 +700,14 @@ fn segment_dist2(x: [f64; 3], d: [f64; 3]) -> f64 {
     };
     let e = [x[0] + s * d[0], x[1] + s * d[1], x[2] + s * d[2]];
     e[0] * e[0] + e[1] * e[1] + e[2] * e[2]
+}
+
+/// How far (mm) a point at most `reach` mm from the tool origin strays from its tangent
+/// segment over a rotation of `turn` rad: `|exp(s W) x - (I + s W) x| <= (e^turn - 1 - turn) |x|`
+/// for `s` in `[0, 1]` (the series' remainder), `reach turn^2 / 2` to second order.
+#[inline]
+fn arc_allowance(reach: f64, turn: f64) -> f64 {
+    reach * (turn.exp_m1() - turn).max(0.0)
 }
 
 #[inline]
