@@ -868,84 +868,56 @@ fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
         ws.stats.node_pairs_split += 1;
         // Children are pruned in f32 against the other node (conservative by `m32`); a swept
         // hit is then tested against its exact path, and a leaf pair decided in f64.
-        if tc != 0 && (oc == 0 || tool.sphere32[t].r >= obj.sphere32[o].r) {
-            // Split the tool node.
+        // Split the larger internal node: its children against the other node.
+        let tool_split = tc != 0 && (oc == 0 || tool.sphere32[t].r >= obj.sphere32[o].r);
+        let (f, e, probe) = if tool_split {
             ws.pose_children(tool, t);
-            let (f, e) = (tn.first_child as usize, tn.first_child as usize + tc);
-            ws.stats.sphere_tests += tc;
             let os = obj.sphere32[o];
-            let probe = Sphere32 {
-                c: os.c,
-                r: os.r + m32,
+            (tn.first_child, tn.first_child + tn.child_count, os)
+        } else {
+            (
+                on.first_child,
+                on.first_child + on.child_count,
+                ws.test32[t],
+            )
+        };
+        let (f, e) = (f as usize, e as usize);
+        ws.stats.sphere_tests += e - f;
+        let probe = Sphere32 {
+            c: probe.c,
+            r: probe.r + m32,
+        };
+        for base in (f..e).step_by(32) {
+            let end = (base + 32).min(e);
+            let mut mask = if tool_split {
+                hit_mask(&ws.test32[base..end], probe)
+            } else {
+                hit_mask(&obj.sphere32[base..end], probe)
             };
-            let oc3 = [obj.x[o], obj.y[o], obj.z[o]];
-            let ro = obj.r[o] + m;
-            for base in (f..e).step_by(32) {
-                let end = (base + 32).min(e);
-                let mut mask = hit_mask(&ws.test32[base..end], probe);
-                while mask != 0 {
-                    let c = base + mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let leaf_pair = oc == 0 && tool.node32[c].child_count == 0;
-                    if SWEPT || leaf_pair {
-                        let x = [ws.wx[c] - oc3[0], ws.wy[c] - oc3[1], ws.wz[c] - oc3[2]];
-                        let d2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
-                        if !near(&ws.path[c], oc3, x, d2, tool.r[c] * grow + ro) {
-                            continue;
-                        }
-                        if leaf_pair {
-                            count += 1;
-                            if !report(c, o, d2, visit) {
-                                return done(count);
-                            }
-                            continue;
-                        }
+            while mask != 0 {
+                let c = base + mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let (ti, oi) = if tool_split { (c, o) } else { (t, c) };
+                let leaf_pair = tool.node32[ti].child_count == 0 && obj.node32[oi].child_count == 0;
+                if SWEPT || leaf_pair {
+                    let oc3 = [obj.x[oi], obj.y[oi], obj.z[oi]];
+                    let x = [ws.wx[ti] - oc3[0], ws.wy[ti] - oc3[1], ws.wz[ti] - oc3[2]];
+                    let d2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+                    if !near(&ws.path[ti], oc3, x, d2, tool.r[ti] * grow + obj.r[oi] + m) {
+                        continue;
                     }
-                    if boxes_may_touch(ws, c, obj, o, m32) {
-                        ws.stack.push((c as u32, o as u32));
-                    } else {
-                        ws.stats.box_pruned += 1;
+                    if leaf_pair {
+                        count += 1;
+                        if !report(ti, oi, d2, visit) {
+                            return done(count);
+                        }
+                        continue;
                     }
                 }
-            }
-        } else {
-            // Split the object node.
-            let (f, e) = (on.first_child as usize, on.first_child as usize + oc);
-            ws.stats.sphere_tests += oc;
-            let ts = ws.test32[t];
-            let probe = Sphere32 {
-                c: ts.c,
-                r: ts.r + m32,
-            };
-            let tc3 = [ws.wx[t], ws.wy[t], ws.wz[t]];
-            let rt = tool.r[t] * grow + m;
-            for base in (f..e).step_by(32) {
-                let end = (base + 32).min(e);
-                let mut mask = hit_mask(&obj.sphere32[base..end], probe);
-                while mask != 0 {
-                    let c = base + mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let leaf_pair = tc == 0 && obj.node32[c].child_count == 0;
-                    if SWEPT || leaf_pair {
-                        let oc3 = [obj.x[c], obj.y[c], obj.z[c]];
-                        let x = [tc3[0] - oc3[0], tc3[1] - oc3[1], tc3[2] - oc3[2]];
-                        let d2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
-                        if !near(&ws.path[t], oc3, x, d2, obj.r[c] + rt) {
-                            continue;
-                        }
-                        if leaf_pair {
-                            count += 1;
-                            if !report(t, c, d2, visit) {
-                                return done(count);
-                            }
-                            continue;
-                        }
-                    }
-                    if boxes_may_touch(ws, t, obj, c, m32) {
-                        ws.stack.push((t as u32, c as u32));
-                    } else {
-                        ws.stats.box_pruned += 1;
-                    }
+                if boxes_may_touch(ws, ti, obj, oi, m32) {
+                    ws.stack.push((ti as u32, oi as u32));
+                } else {
+                    ws.stats.box_pruned += 1;
                 }
             }
         }
