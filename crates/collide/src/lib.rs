@@ -43,6 +43,7 @@
 mod constraint;
 mod packed;
 mod pose;
+mod team;
 mod traverse;
 
 pub use constraint::{
@@ -51,6 +52,7 @@ pub use constraint::{
 };
 pub use packed::PackedTree;
 pub use pose::{rotation_exp, rotation_log, rotation_zyx, rotation_zyx_partials, Pose};
+pub use team::{overlap_shared, SharedTraversal, TraversalTeam, SHARE_MIN_PAIRS, SPIN_WINDOW};
 pub use traverse::{
     any_pair_within, any_pair_within_until, collect_pairs, overlap_swept, overlap_tree_tree,
     overlap_tree_trees, overlap_until, CollideWorkspace, FreeSpaceProbe, LeafPair, ProbeStatus,

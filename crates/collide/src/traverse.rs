@@ -35,7 +35,7 @@ pub struct LeafPair {
 /// with [`CollideWorkspace::for_trees`] to never allocate in the haptic frame).
 #[derive(Clone, Debug, Default)]
 pub struct CollideWorkspace {
-    stack: Vec<(u32, u32)>,
+    pub(crate) stack: Vec<(u32, u32)>,
     /// Tool centres in the world (mm), valid for a node when its parent's stamp is current.
     wx: Vec<f64>,
     wy: Vec<f64>,
@@ -64,11 +64,11 @@ pub struct CollideWorkspace {
     /// The current query's sweep (zero for a query at a pose), and whether the query is swept
     /// (then `disp`, `mid` and `half_path` are kept for every posed node).
     sweep: Sweep,
-    swept: bool,
+    pub(crate) swept: bool,
     /// `|w|` of the sweep (rad): a node sphere of radius `r` moves within `|w| r` of its
     /// centre's displacement.
     sweep_turn: f64,
-    stats: TraversalStats,
+    pub(crate) stats: TraversalStats,
 }
 
 /// A straight motion of the tool away from the query pose, for [`overlap_swept`]: the poses
@@ -142,7 +142,7 @@ impl CollideWorkspace {
         (tool.levels as usize + object.levels as usize + 1) * b + 1
     }
 
-    fn reserve(&mut self, tool: &PackedTree, object: &PackedTree) {
+    pub(crate) fn reserve(&mut self, tool: &PackedTree, object: &PackedTree) {
         let need = Self::stack_bound(tool, object);
         if self.stack.capacity() < need {
             self.stack.reserve(need - self.stack.len());
@@ -170,7 +170,12 @@ impl CollideWorkspace {
         self.start(tool, world_from_tool, Some(sweep));
     }
 
-    fn start(&mut self, tool: &PackedTree, world_from_tool: &Pose, sweep: Option<&Sweep>) {
+    pub(crate) fn start(
+        &mut self,
+        tool: &PackedTree,
+        world_from_tool: &Pose,
+        sweep: Option<&Sweep>,
+    ) {
         self.swept = sweep.is_some();
         self.sweep = sweep.copied().unwrap_or_default();
         self.sweep_turn = self.sweep.angle();
@@ -202,7 +207,7 @@ impl CollideWorkspace {
     }
 
     #[inline(always)]
-    fn pose_range(&mut self, tool: &PackedTree, first: usize, end: usize) {
+    pub(crate) fn pose_range(&mut self, tool: &PackedTree, first: usize, end: usize) {
         let r = self.rot;
         let t = self.t;
         let (px, py, pz) = (
@@ -445,7 +450,7 @@ pub fn any_pair_within(
 
 /// Node pairs split between two calls of a deadline traversal's `keep_going`: a few µs of
 /// work (a swept split of a dense contact costs up to ~1 µs), against ~25 ns per clock read.
-const SPLITS_PER_CHECK: usize = 32;
+pub(crate) const SPLITS_PER_CHECK: usize = 32;
 
 /// How a traversal with a deadline ended ([`overlap_until`], [`any_pair_within_until`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -706,12 +711,12 @@ fn segment_dist2(x: [f64; 3], d: [f64; 3]) -> f64 {
 /// segment over a rotation of `turn` rad: `|exp(s W) x - (I + s W) x| <= (e^turn - 1 - turn) |x|`
 /// for `s` in `[0, 1]` (the series' remainder), `reach turn^2 / 2` to second order.
 #[inline]
-fn arc_allowance(reach: f64, turn: f64) -> f64 {
+pub(crate) fn arc_allowance(reach: f64, turn: f64) -> f64 {
     reach * (turn.exp_m1() - turn).max(0.0)
 }
 
 #[inline]
-fn clean_margin(margin: f64) -> f64 {
+pub(crate) fn clean_margin(margin: f64) -> f64 {
     if margin > 0.0 && margin.is_finite() {
         margin
     } else {
@@ -740,12 +745,12 @@ fn descend<F: FnMut(&LeafPair) -> bool>(
 }
 
 /// How a budgeted descent ended.
-struct Descent {
+pub(crate) struct Descent {
     /// Leaf pairs reported.
-    count: usize,
+    pub(crate) count: usize,
     /// True when the descent is complete (or stopped by `visit`); false when the budget ran out
     /// with node pairs left on the stack (resume with `resume = true`).
-    finished: bool,
+    pub(crate) finished: bool,
 }
 
 /// The path of a posed tool centre over a swept query: its displacement, the path's midpoint
@@ -779,7 +784,7 @@ fn swept_within(path: &Path, o: [f64; 3], x: [f64; 3], s: f64) -> bool {
 /// allowance.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
+pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
     tool: &PackedTree,
     obj: &PackedTree,
     obj_id: u32,

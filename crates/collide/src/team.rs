@@ -1,0 +1,490 @@
+//! Large traversals shared with a second thread.
+//!
+//! [`overlap_shared`] answers the question of [`crate::overlap_until`] in a fixed order that
+//! does not depend on threads: a short serial descent from the roots (until at least
+//! [`SHARE_MIN_PAIRS`] node pairs wait on the stack), then every second waiting node pair is set
+//! aside as the *second half*; the caller's thread descends the first half, then the second
+//! half is descended, and its leaf pairs are reported after the first half's. With a
+//! [`TraversalTeam`], the team's helper thread takes the second half while the caller works
+//! on the first; without one (or when the helper is asleep or still busy), the caller's thread
+//! takes it afterwards itself. Either way the same pairs are reported in the same order, so
+//! frames do not depend on whether a helper ran.
+//!
+//! The helper spins while traversals keep coming (for [`SPIN_WINDOW`] after the last one), so
+//! a haptic frame hands it work without a wake-up; idle longer, it parks. A second half it has
+//! not claimed by the time the caller is done is taken back, and a helper that has not
+//! finished by the caller's deadline leaves the traversal incomplete (the caller's deadline
+//! rule then applies, as for any stopped traversal).
+//!
+//! Measured (docs/BENCHMARKS.md, session 7): with the helper spinning, the spline's in-hole
+//! traversal and its dense alignment contact take 0.46–0.53 of the serial time; with a
+//! parked helper (woken per traversal, as a thread pool's sleeping workers are) only
+//! traversals over ~150 µs gain, the rest lose the ~30–60 µs wake-up.
+
+use crate::traverse::{
+    arc_allowance, clean_margin, descend_budgeted, CollideWorkspace, LeafPair, SPLITS_PER_CHECK,
+};
+use crate::{CollideError, PackedTree, Pose, Sweep};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// Node pairs waiting on the stack before the traversal is split in two halves.
+pub const SHARE_MIN_PAIRS: usize = 16;
+
+/// Most node pairs the serial start splits looking for [`SHARE_MIN_PAIRS`] waiting ones.
+const SHARE_MAX_START_SPLITS: usize = 64;
+
+/// How long the helper keeps spinning after the last traversal handed to the team (a haptic
+/// frame comes every millisecond; a tool in contact traverses most frames).
+pub const SPIN_WINDOW: Duration = Duration::from_millis(3);
+
+/// How a shared traversal ended ([`overlap_shared`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SharedTraversal {
+    /// Leaf pairs found (reported ones plus `unreported`).
+    pub pairs: usize,
+    /// Leaf pairs the helper found beyond its buffer's capacity ([`TraversalTeam::new`]):
+    /// not reported to `visit`, so the list is short by this many (treat as an overflow).
+    pub unreported: usize,
+    /// False when the deadline stopped it (or the helper did not finish by then): some leaf
+    /// pairs may be missing.
+    pub complete: bool,
+    /// True when the helper descended a second half (false: the caller's thread did all).
+    pub helped: bool,
+}
+
+// Helper states.
+const IDLE: u32 = 0;
+const POSTED: u32 = 1;
+const CLAIMED: u32 = 2;
+const DONE: u32 = 3;
+const QUIT: u32 = 4;
+
+/// The second half of one traversal, as handed to the helper, and what it found.
+struct Work {
+    pose: Pose,
+    sweep: Option<Sweep>,
+    /// Margin of the descent (mm, allowances included).
+    margin: f64,
+    object: usize,
+    deadline: Option<Instant>,
+    entries: Vec<(u32, u32)>,
+    ws: CollideWorkspace,
+    pairs: Vec<LeafPair>,
+    unreported: usize,
+    complete: bool,
+}
+
+struct Shared {
+    state: AtomicU32,
+    /// Nanoseconds since `epoch` until which the helper spins (then parks).
+    awake_until_ns: AtomicU64,
+    sleeping: AtomicBool,
+    epoch: Instant,
+    work: Mutex<Work>,
+}
+
+impl Shared {
+    fn now_ns(&self) -> u64 {
+        self.epoch.elapsed().as_nanos() as u64
+    }
+}
+
+/// A helper thread that takes the second half of large traversals ([`overlap_shared`]). It
+/// keeps its own copies of the trees and a pair buffer, sized at creation, so handing it work
+/// never allocates. Dropping the team stops and joins the thread.
+pub struct TraversalTeam {
+    shared: Arc<Shared>,
+    handle: Option<JoinHandle<()>>,
+}
+
+impl std::fmt::Debug for TraversalTeam {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TraversalTeam").finish_non_exhaustive()
+    }
+}
+
+impl TraversalTeam {
+    /// Starts the helper thread for traversals of `tool` against `objects` (its own copies:
+    /// pass the trees every [`overlap_shared`] with this team will use). It keeps at most
+    /// `pair_capacity` leaf pairs of a second half; more are counted in
+    /// [`SharedTraversal::unreported`]. Errors when the thread cannot be started.
+    pub fn new(
+        tool: &PackedTree,
+        objects: &[PackedTree],
+        pair_capacity: usize,
+    ) -> std::io::Result<Self> {
+        let ws = CollideWorkspace::for_trees(tool, objects);
+        let stack_cap = ws.stack.capacity();
+        let shared = Arc::new(Shared {
+            state: AtomicU32::new(IDLE),
+            awake_until_ns: AtomicU64::new(0),
+            sleeping: AtomicBool::new(false),
+            epoch: Instant::now(),
+            work: Mutex::new(Work {
+                pose: Pose::identity(),
+                sweep: None,
+                margin: 0.0,
+                object: 0,
+                deadline: None,
+                entries: Vec::with_capacity(stack_cap),
+                ws,
+                pairs: Vec::with_capacity(pair_capacity),
+                unreported: 0,
+                complete: true,
+            }),
+        });
+        let (tool, objects) = (tool.clone(), objects.to_vec());
+        let inner = shared.clone();
+        let handle = std::thread::Builder::new()
+            .name("haptic6d-traversal".into())
+            .spawn(move || helper_loop(&inner, &tool, &objects))?;
+        Ok(Self {
+            shared,
+            handle: Some(handle),
+        })
+    }
+
+    /// Keeps the helper spinning for [`SPIN_WINDOW`] from now, waking it if it parked.
+    fn keep_awake(&self) {
+        let s = &self.shared;
+        s.awake_until_ns.store(
+            s.now_ns() + SPIN_WINDOW.as_nanos() as u64,
+            Ordering::Release,
+        );
+        if s.sleeping.load(Ordering::Acquire) {
+            if let Some(h) = &self.handle {
+                h.thread().unpark();
+            }
+        }
+    }
+}
+
+impl Drop for TraversalTeam {
+    fn drop(&mut self) {
+        self.shared.state.store(QUIT, Ordering::Release);
+        if let Some(h) = self.handle.take() {
+            h.thread().unpark();
+            let _ = h.join();
+        }
+    }
+}
+
+fn helper_loop(shared: &Shared, tool: &PackedTree, objects: &[PackedTree]) {
+    loop {
+        match shared.state.load(Ordering::Acquire) {
+            QUIT => return,
+            POSTED => {
+                if shared
+                    .state
+                    .compare_exchange(POSTED, CLAIMED, Ordering::AcqRel, Ordering::Acquire)
+                    .is_ok()
+                {
+                    if let Ok(mut work) = shared.work.lock() {
+                        descend_second_half(&mut work, tool, objects);
+                    }
+                    // A failed exchange means QUIT came meanwhile.
+                    let _ = shared.state.compare_exchange(
+                        CLAIMED,
+                        DONE,
+                        Ordering::AcqRel,
+                        Ordering::Acquire,
+                    );
+                }
+            }
+            _ => {
+                if shared.now_ns() < shared.awake_until_ns.load(Ordering::Acquire) {
+                    std::hint::spin_loop();
+                } else {
+                    shared.sleeping.store(true, Ordering::Release);
+                    // Bounded, so a wake-up lost to a race costs at most this.
+                    std::thread::park_timeout(Duration::from_millis(5));
+                    shared.sleeping.store(false, Ordering::Release);
+                }
+            }
+        }
+    }
+}
+
+/// The helper's part: the handed node pairs of one object, to the deadline.
+fn descend_second_half(work: &mut Work, tool: &PackedTree, objects: &[PackedTree]) {
+    let Work {
+        pose,
+        sweep,
+        margin,
+        object,
+        deadline,
+        entries,
+        ws,
+        pairs,
+        unreported,
+        complete,
+    } = work;
+    pairs.clear();
+    *unreported = 0;
+    *complete = true;
+    let Some(obj) = objects.get(*object) else {
+        return;
+    };
+    ws.reserve(tool, obj);
+    ws.start(tool, pose, sweep.as_ref());
+    // The handed node pairs' tool nodes are posed in the caller's workspace, not in this one.
+    for &(t, _) in entries.iter() {
+        ws.pose_range(tool, t as usize, t as usize + 1);
+    }
+    ws.stack.clear();
+    ws.stack.extend_from_slice(entries);
+    let mut keep = |p: &LeafPair| {
+        if pairs.len() < pairs.capacity() {
+            pairs.push(*p);
+        } else {
+            *unreported += 1;
+        }
+        true
+    };
+    *complete = descend_to_deadline(tool, obj, *object as u32, *margin, ws, &mut keep, *deadline);
+}
+
+/// Descends what waits on `ws`'s stack (resuming) in slices, checking `deadline` between
+/// them. True when finished, false when stopped.
+fn descend_to_deadline<F: FnMut(&LeafPair) -> bool>(
+    tool: &PackedTree,
+    obj: &PackedTree,
+    obj_id: u32,
+    m: f64,
+    ws: &mut CollideWorkspace,
+    visit: &mut F,
+    deadline: Option<Instant>,
+) -> bool {
+    loop {
+        let mut budget = SPLITS_PER_CHECK;
+        let d = descend_slice(tool, obj, obj_id, m, ws, visit, true, &mut budget);
+        if d {
+            return true;
+        }
+        if deadline.is_some_and(|t| Instant::now() >= t) {
+            return false;
+        }
+    }
+}
+
+/// One budgeted descent call (swept or not, as the workspace's query); true when finished.
+#[allow(clippy::too_many_arguments)]
+fn descend_slice<F: FnMut(&LeafPair) -> bool>(
+    tool: &PackedTree,
+    obj: &PackedTree,
+    obj_id: u32,
+    m: f64,
+    ws: &mut CollideWorkspace,
+    visit: &mut F,
+    resume: bool,
+    budget: &mut usize,
+) -> bool {
+    let d = if ws.swept {
+        descend_budgeted::<true, F>(tool, obj, obj_id, m, ws, visit, resume, budget)
+    } else {
+        descend_budgeted::<false, F>(tool, obj, obj_id, m, ws, visit, resume, budget)
+    };
+    d.finished
+}
+
+/// Every leaf pair of `tool` (posed by `world_from_tool`, swept along `sweep` if given) and
+/// `objects` within `margin` (mm) of touching, as [`crate::overlap_until`], in the fixed
+/// order of the module docs; the second half of each object's descent goes to `team`'s helper
+/// when it is free. Stops at `deadline` (then incomplete). `second` is the caller's scratch
+/// for the set-aside node pairs (no allocation once it holds the workspace's stack bound:
+/// reserve it as `ws`'s stack).
+///
+/// # Real-time
+/// Allocation-free with `ws` from [`CollideWorkspace::for_trees`] for these trees and
+/// `second` reserved as above; never waits for the helper past `deadline`.
+#[allow(clippy::too_many_arguments)]
+pub fn overlap_shared<F: FnMut(&LeafPair)>(
+    tool: &PackedTree,
+    world_from_tool: &Pose,
+    sweep: Option<&Sweep>,
+    objects: &[PackedTree],
+    margin: f64,
+    ws: &mut CollideWorkspace,
+    second: &mut Vec<(u32, u32)>,
+    team: Option<&TraversalTeam>,
+    deadline: Option<Instant>,
+    mut visit: F,
+) -> Result<SharedTraversal, CollideError> {
+    if !world_from_tool.is_finite() || !sweep.is_none_or(Sweep::is_finite) {
+        return Err(CollideError::NonFinitePose);
+    }
+    for o in objects {
+        ws.reserve(tool, o);
+    }
+    ws.start(tool, world_from_tool, sweep);
+    let m = match sweep {
+        None => clean_margin(margin),
+        Some(sw) => clean_margin(margin) + arc_allowance(tool.reach(), sw.angle()),
+    };
+    if let Some(team) = team {
+        team.keep_awake();
+    }
+    let mut out = SharedTraversal {
+        pairs: 0,
+        unreported: 0,
+        complete: true,
+        helped: false,
+    };
+    let mut report = |p: &LeafPair| {
+        visit(p);
+        true
+    };
+    let past = |d: Option<Instant>| d.is_some_and(|t| Instant::now() >= t);
+    for (i, obj) in objects.iter().enumerate() {
+        let id = i as u32;
+        let mut found = 0usize;
+        let mut counted = |p: &LeafPair| {
+            found += 1;
+            report(p)
+        };
+        // The serial start: until enough node pairs wait to share.
+        let mut budget = 1;
+        let mut finished = descend_slice(tool, obj, id, m, ws, &mut counted, false, &mut budget);
+        let mut splits = 1;
+        while !finished && ws.stack.len() < SHARE_MIN_PAIRS && splits < SHARE_MAX_START_SPLITS {
+            let mut budget = 1;
+            finished = descend_slice(tool, obj, id, m, ws, &mut counted, true, &mut budget);
+            splits += 1;
+        }
+        if finished {
+            out.pairs += found;
+            continue;
+        }
+        // Every second waiting node pair is the second half.
+        second.clear();
+        let mut keep = 0;
+        for k in 0..ws.stack.len() {
+            let e = ws.stack[k];
+            if k % 2 == 1 {
+                second.push(e);
+            } else {
+                ws.stack[keep] = e;
+                keep += 1;
+            }
+        }
+        ws.stack.truncate(keep);
+        let posted = team.is_some_and(|t| post(t, world_from_tool, sweep, m, i, deadline, second));
+        if !descend_to_deadline(tool, obj, id, m, ws, &mut counted, deadline) {
+            if posted {
+                // The helper may still be on it; its answer is not waited for.
+                let _ = team.map(take_back);
+            }
+            out.pairs += found;
+            out.complete = false;
+            return Ok(out);
+        }
+        let helper_has_it = posted && team.is_some_and(|t| !take_back(t));
+        if helper_has_it {
+            let Some(team) = team else {
+                unreachable!("posted implies a team")
+            };
+            let s = &team.shared;
+            while s.state.load(Ordering::Acquire) != DONE {
+                // Past the deadline, or a helper that is gone: no answer from it.
+                if past(deadline) || team.handle.as_ref().is_none_or(|h| h.is_finished()) {
+                    out.pairs += found;
+                    out.complete = false;
+                    return Ok(out);
+                }
+                std::hint::spin_loop();
+            }
+            let done = match s.work.lock() {
+                Ok(work) => {
+                    for p in &work.pairs {
+                        counted(p);
+                    }
+                    ws.stats.node_pairs_split += work.ws.stats.node_pairs_split;
+                    ws.stats.sphere_tests += work.ws.stats.sphere_tests;
+                    ws.stats.tool_nodes_posed += work.ws.stats.tool_nodes_posed;
+                    ws.stats.box_pruned += work.ws.stats.box_pruned;
+                    out.unreported += work.unreported;
+                    out.pairs += work.unreported;
+                    work.complete
+                }
+                Err(_) => false,
+            };
+            s.state.store(IDLE, Ordering::Release);
+            out.helped = true;
+            if !done {
+                out.pairs += found;
+                out.complete = false;
+                return Ok(out);
+            }
+        } else {
+            // The caller's thread takes the second half (its nodes are posed here already).
+            ws.stack.extend_from_slice(second);
+            if !descend_to_deadline(tool, obj, id, m, ws, &mut counted, deadline) {
+                out.pairs += found;
+                out.complete = false;
+                return Ok(out);
+            }
+        }
+        out.pairs += found;
+    }
+    Ok(out)
+}
+
+/// Hands `entries` (one object's second half) to the helper if it is free; true if posted.
+fn post(
+    team: &TraversalTeam,
+    pose: &Pose,
+    sweep: Option<&Sweep>,
+    margin: f64,
+    object: usize,
+    deadline: Option<Instant>,
+    entries: &[(u32, u32)],
+) -> bool {
+    let s = &team.shared;
+    match s.state.load(Ordering::Acquire) {
+        // A helper asleep would take longer to wake than the first half takes.
+        IDLE if !s.sleeping.load(Ordering::Acquire) => {}
+        // A finished answer nobody waited for (an earlier traversal past its deadline).
+        DONE => {
+            if s.state
+                .compare_exchange(DONE, IDLE, Ordering::AcqRel, Ordering::Acquire)
+                .is_err()
+            {
+                return false;
+            }
+            if s.sleeping.load(Ordering::Acquire) {
+                return false;
+            }
+        }
+        _ => return false,
+    }
+    // The helper locks `work` only after claiming a posted job, so this does not block.
+    let Ok(mut work) = s.work.try_lock() else {
+        return false;
+    };
+    if work.entries.capacity() < entries.len() {
+        return false;
+    }
+    work.pose = *pose;
+    work.sweep = sweep.copied();
+    work.margin = margin;
+    work.object = object;
+    work.deadline = deadline;
+    work.entries.clear();
+    work.entries.extend_from_slice(entries);
+    drop(work);
+    s.state
+        .compare_exchange(IDLE, POSTED, Ordering::AcqRel, Ordering::Acquire)
+        .is_ok()
+}
+
+/// Withdraws a posted, unclaimed job: true when taken back (the caller does it), false when
+/// the helper has it.
+fn take_back(team: &TraversalTeam) -> bool {
+    team.shared
+        .state
+        .compare_exchange(POSTED, IDLE, Ordering::AcqRel, Ordering::Acquire)
+        .is_ok()
+}

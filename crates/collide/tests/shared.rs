@@ -1,0 +1,187 @@
+//! The shared traversal lists exactly the plain traversal's pairs, in the same order with or
+//! without a helper thread; a deadline stops it; dropping the team stops its thread.
+
+mod common;
+
+use collide::{
+    overlap_shared, overlap_swept, overlap_tree_trees, CollideWorkspace, LeafPair, PackedTree,
+    Pose, Sweep, TraversalTeam,
+};
+use common::{random_tree, TreeShape};
+use std::time::{Duration, Instant};
+
+fn shape() -> TreeShape {
+    TreeShape {
+        levels: 4,
+        branching: 8,
+        extent: 50.0,
+        p_used: 0.9,
+        p_early_leaf: 0.02,
+    }
+}
+
+type Key = (u32, u32, u32, u64);
+
+fn key(p: &LeafPair) -> Key {
+    (p.object, p.tool_slot, p.object_slot, p.gap.to_bits())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn shared(
+    tool: &PackedTree,
+    pose: &Pose,
+    sweep: Option<&Sweep>,
+    objects: &[PackedTree],
+    margin: f64,
+    ws: &mut CollideWorkspace,
+    team: Option<&TraversalTeam>,
+    deadline: Option<Instant>,
+) -> (collide::SharedTraversal, Vec<Key>) {
+    let mut second = Vec::with_capacity(4096);
+    let mut found = Vec::new();
+    let t = overlap_shared(
+        tool,
+        pose,
+        sweep,
+        objects,
+        margin,
+        ws,
+        &mut second,
+        team,
+        deadline,
+        |p| found.push(key(p)),
+    )
+    .unwrap();
+    (t, found)
+}
+
+#[test]
+fn shared_traversal_is_the_traversal_in_one_order_with_or_without_a_helper() {
+    let tree = random_tree(11, shape());
+    let tool = PackedTree::new(&tree).unwrap();
+    let objects = vec![
+        PackedTree::new(&random_tree(12, shape())).unwrap(),
+        PackedTree::with_pose(
+            &random_tree(13, shape()),
+            &Pose::from_array([40.0, 0.0, 0.0, 0.3, 0.0, 0.1]),
+        )
+        .unwrap(),
+    ];
+    let team = TraversalTeam::new(&tool, &objects, 1 << 16).unwrap();
+    let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+    let mut rng = devkit::Rng::new(5);
+    let mut helped = 0;
+    let mut dense = 0;
+    for i in 0..400 {
+        let pose = Pose::from_array([
+            rng.range(-5.0, 45.0),
+            rng.range(-5.0, 5.0),
+            rng.range(-5.0, 5.0),
+            rng.range(-0.3, 0.3),
+            rng.range(-0.3, 0.3),
+            rng.range(-0.3, 0.3),
+        ]);
+        let sweep = Sweep {
+            translation: [rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), 0.0],
+            rotation: [0.0, 0.0, rng.range(-0.05, 0.05)],
+        };
+        let sw = (i % 3 == 0).then_some(&sweep);
+        let margin = rng.range(0.0, 1.0);
+        let mut plain = Vec::new();
+        match sw {
+            None => overlap_tree_trees(&tool, &pose, &objects, margin, &mut ws, |p| {
+                plain.push(key(p))
+            }),
+            Some(s) => overlap_swept(&tool, &pose, s, &objects, margin, &mut ws, |p| {
+                plain.push(key(p))
+            }),
+        }
+        .unwrap();
+        let (alone, by_one) = shared(&tool, &pose, sw, &objects, margin, &mut ws, None, None);
+        let (with, by_two) = shared(
+            &tool,
+            &pose,
+            sw,
+            &objects,
+            margin,
+            &mut ws,
+            Some(&team),
+            None,
+        );
+        assert!(alone.complete && with.complete && !alone.helped);
+        assert_eq!((alone.unreported, with.unreported), (0, 0));
+        assert_eq!(alone.pairs, by_one.len());
+        // The same pairs (and gaps, bit for bit) as the plain traversal ...
+        let (mut a, mut b) = (plain.clone(), by_one.clone());
+        a.sort_unstable();
+        b.sort_unstable();
+        assert_eq!(a, b, "query {i}");
+        // ... and the same sequence whether the helper took the second half or not.
+        assert_eq!(by_one, by_two, "query {i}");
+        helped += usize::from(with.helped);
+        dense += usize::from(plain.len() > 50);
+    }
+    assert!(
+        dense > 20,
+        "{dense} dense queries: the case does not exercise sharing"
+    );
+    if std::thread::available_parallelism().map_or(1, |n| n.get()) >= 2 {
+        assert!(helped > 0, "the helper never took a second half");
+    }
+}
+
+#[test]
+fn a_deadline_stops_the_shared_traversal_with_a_subset() {
+    let tree = random_tree(21, shape());
+    let tool = PackedTree::new(&tree).unwrap();
+    let objects = vec![PackedTree::new(&random_tree(21, shape())).unwrap()];
+    let team = TraversalTeam::new(&tool, &objects, 1 << 16).unwrap();
+    let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+    let pose = Pose::from_array([0.3, -0.2, 0.1, 0.01, 0.0, 0.01]);
+    let (full, all) = shared(&tool, &pose, None, &objects, 0.5, &mut ws, None, None);
+    assert!(full.complete && all.len() > 100, "{full:?}");
+    for team in [None, Some(&team)] {
+        let past = Instant::now() - Duration::from_millis(1);
+        let (t, some) = shared(&tool, &pose, None, &objects, 0.5, &mut ws, team, Some(past));
+        assert!(!t.complete, "{t:?}");
+        assert!(some.len() < all.len());
+        assert!(some.iter().all(|p| all.contains(p)));
+    }
+}
+
+#[test]
+fn a_small_helper_buffer_counts_what_it_could_not_report() {
+    let tree = random_tree(31, shape());
+    let tool = PackedTree::new(&tree).unwrap();
+    let objects = vec![PackedTree::new(&random_tree(31, shape())).unwrap()];
+    let team = TraversalTeam::new(&tool, &objects, 4).unwrap();
+    let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+    let pose = Pose::from_array([0.3, -0.2, 0.1, 0.01, 0.0, 0.01]);
+    let (_, all) = shared(&tool, &pose, None, &objects, 0.5, &mut ws, None, None);
+    for _ in 0..200 {
+        let (t, listed) = shared(
+            &tool,
+            &pose,
+            None,
+            &objects,
+            0.5,
+            &mut ws,
+            Some(&team),
+            None,
+        );
+        assert_eq!(t.pairs, all.len());
+        assert_eq!(listed.len() + t.unreported, all.len());
+        assert_eq!(t.unreported > 0, t.helped, "{t:?}");
+    }
+}
+
+#[test]
+fn dropping_the_team_stops_its_thread() {
+    let tree = random_tree(41, shape());
+    let tool = PackedTree::new(&tree).unwrap();
+    let objects = vec![PackedTree::new(&random_tree(42, shape())).unwrap()];
+    for _ in 0..20 {
+        let team = TraversalTeam::new(&tool, &objects, 64).unwrap();
+        drop(team);
+    }
+}
