@@ -205,6 +205,7 @@ impl H6dConfig {
             max_pairs,
             // Not in the C struct (its layout is the ABI): the engine's default, reduction on.
             reduce_rows: EngineConfig::default().reduce_rows,
+            helper_thread: EngineConfig::default().helper_thread,
             safety: SafetyParams {
                 max_force_n: self.max_force_n,
                 max_torque_nmm: self.max_torque_nmm,

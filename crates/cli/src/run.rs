@@ -81,6 +81,10 @@ pub struct RunArgs {
     /// Time budget of one frame's step, µs (no pass starts that would end past it).
     #[arg(long)]
     pub budget_us: Option<f64>,
+    /// A second thread shares the frame's large traversals (the same frames; it spins a core
+    /// for a few ms after each).
+    #[arg(long)]
+    pub helper_thread: bool,
     /// Rotation coordinates: rotation-vector (default) or euler (the paper's).
     #[arg(long)]
     pub rotation: Option<String>,
@@ -432,6 +436,9 @@ pub fn run(args: RunArgs) -> Result<()> {
     }
     if let Some(v) = args.budget_us {
         scene.solver.budget_us = v;
+    }
+    if args.helper_thread {
+        scene.solver.helper_thread = true;
     }
     if let Some(r) = rotation {
         scene.coupling.rotation = r;

@@ -293,13 +293,11 @@ fn descend_slice<F: FnMut(&LeafPair) -> bool>(
 /// Every leaf pair of `tool` (posed by `world_from_tool`, swept along `sweep` if given) and
 /// `objects` within `margin` (mm) of touching, as [`crate::overlap_until`], in the fixed
 /// order of the module docs; the second half of each object's descent goes to `team`'s helper
-/// when it is free. Stops at `deadline` (then incomplete). `second` is the caller's scratch
-/// for the set-aside node pairs (no allocation once it holds the workspace's stack bound:
-/// reserve it as `ws`'s stack).
+/// when it is free. Stops at `deadline` (then incomplete).
 ///
 /// # Real-time
-/// Allocation-free with `ws` from [`CollideWorkspace::for_trees`] for these trees and
-/// `second` reserved as above; never waits for the helper past `deadline`.
+/// Allocation-free with `ws` from [`CollideWorkspace::for_trees`] for these trees; never
+/// waits for the helper past `deadline`.
 #[allow(clippy::too_many_arguments)]
 pub fn overlap_shared<F: FnMut(&LeafPair)>(
     tool: &PackedTree,
@@ -308,7 +306,6 @@ pub fn overlap_shared<F: FnMut(&LeafPair)>(
     objects: &[PackedTree],
     margin: f64,
     ws: &mut CollideWorkspace,
-    second: &mut Vec<(u32, u32)>,
     team: Option<&TraversalTeam>,
     deadline: Option<Instant>,
     mut visit: F,
@@ -359,19 +356,20 @@ pub fn overlap_shared<F: FnMut(&LeafPair)>(
             continue;
         }
         // Every second waiting node pair is the second half.
-        second.clear();
+        ws.second.clear();
         let mut keep = 0;
         for k in 0..ws.stack.len() {
             let e = ws.stack[k];
             if k % 2 == 1 {
-                second.push(e);
+                ws.second.push(e);
             } else {
                 ws.stack[keep] = e;
                 keep += 1;
             }
         }
         ws.stack.truncate(keep);
-        let posted = team.is_some_and(|t| post(t, world_from_tool, sweep, m, i, deadline, second));
+        let posted =
+            team.is_some_and(|t| post(t, world_from_tool, sweep, m, i, deadline, &ws.second));
         if !descend_to_deadline(tool, obj, id, m, ws, &mut counted, deadline) {
             if posted {
                 // The helper may still be on it; its answer is not waited for.
@@ -420,7 +418,8 @@ pub fn overlap_shared<F: FnMut(&LeafPair)>(
             }
         } else {
             // The caller's thread takes the second half (its nodes are posed here already).
-            ws.stack.extend_from_slice(second);
+            let CollideWorkspace { stack, second, .. } = ws;
+            stack.extend_from_slice(second);
             if !descend_to_deadline(tool, obj, id, m, ws, &mut counted, deadline) {
                 out.pairs += found;
                 out.complete = false;

@@ -36,6 +36,9 @@ pub struct LeafPair {
 #[derive(Clone, Debug, Default)]
 pub struct CollideWorkspace {
     pub(crate) stack: Vec<(u32, u32)>,
+    /// The node pairs a shared traversal sets aside as its second half
+    /// ([`crate::overlap_shared`]).
+    pub(crate) second: Vec<(u32, u32)>,
     /// Tool centres in the world (mm), valid for a node when its parent's stamp is current.
     wx: Vec<f64>,
     wy: Vec<f64>,
@@ -146,6 +149,9 @@ impl CollideWorkspace {
         let need = Self::stack_bound(tool, object);
         if self.stack.capacity() < need {
             self.stack.reserve(need - self.stack.len());
+        }
+        if self.second.capacity() < need {
+            self.second.reserve(need - self.second.len());
         }
         let n = tool.len();
         if self.wx.len() < n {

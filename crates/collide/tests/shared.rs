@@ -37,7 +37,6 @@ fn shared(
     team: Option<&TraversalTeam>,
     deadline: Option<Instant>,
 ) -> (collide::SharedTraversal, Vec<Key>) {
-    let mut second = Vec::with_capacity(4096);
     let mut found = Vec::new();
     let t = overlap_shared(
         tool,
@@ -46,7 +45,6 @@ fn shared(
         objects,
         margin,
         ws,
-        &mut second,
         team,
         deadline,
         |p| found.push(key(p)),

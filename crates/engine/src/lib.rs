@@ -76,6 +76,9 @@ pub enum EngineError {
         /// Search radius, mm.
         searched_mm: f64,
     },
+    /// The detection helper thread ([`EngineConfig::helper_thread`]) could not be started.
+    #[error("cannot start the detection helper thread: {0} (set `[solver] helper_thread = false` to detect on one thread)")]
+    HelperThread(String),
     /// An object index beyond the scene's objects.
     #[error("object {} does not exist: the scene has {objects} object(s)", object + 1)]
     NoSuchObject {

@@ -116,3 +116,34 @@ fn ten_thousand_frames_do_not_allocate() {
         }
     }
 }
+
+/// With the detection helper thread on, the frame's thread still allocates nothing (the
+/// helper's buffers are sized when the engine is made): the spline's dense contacts and its
+/// hole, where traversals are shared.
+#[test]
+fn frames_with_the_helper_thread_do_not_allocate() {
+    let mut scene = scene::scenes::builtin("spline", &common::test_cache()).unwrap();
+    scene.solver.helper_thread = true;
+    let traj = scene.trajectory();
+    let mut engine = scene.engine().unwrap();
+    let params = LoopParams::default();
+    engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+    let mut records: Vec<FrameRecord> = Vec::with_capacity(traj.len());
+    run_frames(
+        &mut engine,
+        &mut ReplayDevice::new(traj.clone()),
+        &params,
+        &mut records,
+    );
+    engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+    let mut device = ReplayDevice::new(traj.clone());
+    records.clear();
+    let (n, allocs) =
+        count_allocations(|| run_frames(&mut engine, &mut device, &params, &mut records).0);
+    assert_eq!(n, traj.len());
+    assert_eq!(allocs, 0, "{allocs} (de)allocations in {n} frames");
+    assert!(
+        records.iter().any(|r| r.frame.pairs > 1000),
+        "no dense contact"
+    );
+}

@@ -35,16 +35,20 @@ impl GodObject {
                 *dropped += 1;
             }
         };
-        let t = overlap_until(
+        // The shared traversal's order is the same with or without the helper, so the
+        // frames are too.
+        let t = collide::overlap_shared(
             &self.tool,
             q,
             sweep,
             &self.objects,
             margin,
             &mut self.ws,
+            self.team.as_ref(),
+            deadline,
             collect,
-            || deadline.is_none_or(|d| Instant::now() < d),
         )?;
+        self.dropped += t.unreported;
         self.interrupted = !t.complete;
         Ok(min_gap)
     }

@@ -45,8 +45,8 @@
 use std::time::Instant;
 
 use collide::{
-    overlap_until, rotation_exp, rotation_log, CollideWorkspace, FreeSpaceProbe, LeafPair,
-    Linearization, PackedTree, Pose, ProbeStatus, RotationCoordinates, Sweep,
+    rotation_exp, rotation_log, CollideWorkspace, FreeSpaceProbe, LeafPair, Linearization,
+    PackedTree, Pose, ProbeStatus, RotationCoordinates, Sweep, TraversalTeam,
 };
 use nalgebra::{Matrix3, Vector3};
 use qp::{Problem, RowGeneration, Solver, Status};
@@ -269,6 +269,8 @@ pub struct GodObject {
     tool: PackedTree,
     objects: Vec<PackedTree>,
     ws: CollideWorkspace,
+    /// The helper thread that shares large traversals ([`EngineConfig::helper_thread`]).
+    team: Option<TraversalTeam>,
     pairs: Vec<LeafPair>,
     dropped: usize,
     /// The last traversal stopped at the frame's deadline (its list is not complete).
@@ -356,6 +358,13 @@ impl GodObject {
             })
             .fold(0.0, f64::max);
         let ws = CollideWorkspace::for_trees(&tool, &objects);
+        let team = if params.helper_thread {
+            let team = TraversalTeam::new(&tool, &objects, params.max_pairs)
+                .map_err(|e| EngineError::HelperThread(e.to_string()))?;
+            Some(team)
+        } else {
+            None
+        };
         let n_objects = objects.len();
         let probe = FreeSpaceProbe::for_trees(&tool, &objects);
         let cap = params.max_pairs;
@@ -367,6 +376,7 @@ impl GodObject {
             tool,
             objects,
             ws,
+            team,
             pairs: Vec::with_capacity(cap),
             dropped: 0,
             interrupted: false,
