@@ -43,6 +43,7 @@
 mod constraint;
 mod packed;
 mod pose;
+mod probe;
 mod team;
 mod traverse;
 
@@ -52,11 +53,12 @@ pub use constraint::{
 };
 pub use packed::PackedTree;
 pub use pose::{rotation_exp, rotation_log, rotation_zyx, rotation_zyx_partials, Pose};
+pub use probe::{FreeSpaceProbe, ProbeStatus};
 pub use team::{overlap_shared, SharedTraversal, TraversalTeam, SHARE_MIN_PAIRS, SPIN_WINDOW};
 pub use traverse::{
     any_pair_within, any_pair_within_until, collect_pairs, overlap_swept, overlap_tree_tree,
-    overlap_tree_trees, overlap_until, CollideWorkspace, FreeSpaceProbe, LeafPair, ProbeStatus,
-    Sweep, Traversal, TraversalStats,
+    overlap_tree_trees, overlap_until, CollideWorkspace, LeafPair, Sweep, Traversal,
+    TraversalStats,
 };
 
 /// Errors of this crate.
@@ -68,6 +70,10 @@ pub enum CollideError {
     /// The sphere-tree breaks an invariant the traversal relies on.
     #[error("sphere-tree cannot be used for collision detection: {0} (for files that do not keep 'parent contains children', call SphereTree::enforce_containment first)")]
     InvalidTree(String),
+    /// The helper thread still holds the probe's second stream (a slice it ran past its
+    /// deadline): the probe cannot restart until it lets go.
+    #[error("the detection helper thread is still busy with the last probe; try again next frame")]
+    Busy,
     /// A caller buffer is too short for the rows.
     #[error("constraint buffers too short: {needed} pairs, {rows} rows, {rhs} right-hand sides; size them to the pair count")]
     BufferTooSmall {

@@ -21,6 +21,7 @@
 //! parked helper (woken per traversal, as a thread pool's sleeping workers are) only
 //! traversals over ~150 µs gain, the rest lose the ~30–60 µs wake-up.
 
+use crate::probe::ProbeStream;
 use crate::traverse::{
     arc_allowance, clean_margin, descend_budgeted, CollideWorkspace, LeafPair, SPLITS_PER_CHECK,
 };
@@ -34,7 +35,7 @@ use std::time::{Duration, Instant};
 pub const SHARE_MIN_PAIRS: usize = 16;
 
 /// Most node pairs the serial start splits looking for [`SHARE_MIN_PAIRS`] waiting ones.
-const SHARE_MAX_START_SPLITS: usize = 64;
+pub(crate) const SHARE_MAX_START_SPLITS: usize = 64;
 
 /// How long the helper keeps spinning after the last traversal handed to the team (a haptic
 /// frame comes every millisecond; a tool in contact traverses most frames).
@@ -62,8 +63,12 @@ const CLAIMED: u32 = 2;
 const DONE: u32 = 3;
 const QUIT: u32 = 4;
 
-/// The second half of one traversal, as handed to the helper, and what it found.
+/// The second half of one traversal, or a slice of a probe's second stream, as handed to the
+/// helper, and what it found.
 struct Work {
+    /// A probe's second stream to advance by `probe_budget` splits (else a traversal's half).
+    probe: Option<Arc<Mutex<ProbeStream>>>,
+    probe_budget: usize,
     pose: Pose,
     sweep: Option<Sweep>,
     /// Margin of the descent (mm, allowances included).
@@ -124,6 +129,8 @@ impl TraversalTeam {
             sleeping: AtomicBool::new(false),
             epoch: Instant::now(),
             work: Mutex::new(Work {
+                probe: None,
+                probe_budget: 0,
                 pose: Pose::identity(),
                 sweep: None,
                 margin: 0.0,
@@ -148,7 +155,7 @@ impl TraversalTeam {
     }
 
     /// Keeps the helper spinning for [`SPIN_WINDOW`] from now, waking it if it parked.
-    fn keep_awake(&self) {
+    pub(crate) fn keep_awake(&self) {
         let s = &self.shared;
         s.awake_until_ns.store(
             s.now_ns() + SPIN_WINDOW.as_nanos() as u64,
@@ -183,7 +190,20 @@ fn helper_loop(shared: &Shared, tool: &PackedTree, objects: &[PackedTree]) {
                     .is_ok()
                 {
                     if let Ok(mut work) = shared.work.lock() {
-                        descend_second_half(&mut work, tool, objects);
+                        match work.probe.clone() {
+                            Some(stream) => {
+                                if let Ok(mut stream) = stream.lock() {
+                                    stream.advance(
+                                        tool,
+                                        objects,
+                                        work.margin,
+                                        work.probe_budget,
+                                        work.deadline,
+                                    );
+                                }
+                            }
+                            None => descend_second_half(&mut work, tool, objects),
+                        }
                     }
                     // A failed exchange means QUIT came meanwhile.
                     let _ = shared.state.compare_exchange(
@@ -221,6 +241,7 @@ fn descend_second_half(work: &mut Work, tool: &PackedTree, objects: &[PackedTree
         pairs,
         unreported,
         complete,
+        ..
     } = work;
     pairs.clear();
     *unreported = 0;
@@ -431,6 +452,67 @@ pub fn overlap_shared<F: FnMut(&LeafPair)>(
     Ok(out)
 }
 
+/// Hands a probe's second `stream` to the helper for `budget` splits at `margin` (mm), if it
+/// is free; true if posted.
+pub(crate) fn post_probe(
+    team: &TraversalTeam,
+    stream: &Arc<Mutex<ProbeStream>>,
+    margin: f64,
+    budget: usize,
+    deadline: Option<Instant>,
+) -> bool {
+    let Some(mut work) = free_helper(team) else {
+        return false;
+    };
+    // Replacing the last job's handle only moves a reference count (no allocation).
+    work.probe = Some(stream.clone());
+    work.probe_budget = budget;
+    work.margin = margin;
+    work.deadline = deadline;
+    drop(work);
+    team.shared
+        .state
+        .compare_exchange(IDLE, POSTED, Ordering::AcqRel, Ordering::Acquire)
+        .is_ok()
+}
+
+/// Waits (spinning) until the helper has finished a claimed job or `deadline` passes (or the
+/// helper is gone); true when finished (the helper is idle again).
+pub(crate) fn wait_done(team: &TraversalTeam, deadline: Option<Instant>) -> bool {
+    let s = &team.shared;
+    while s.state.load(Ordering::Acquire) != DONE {
+        if deadline.is_some_and(|t| Instant::now() >= t)
+            || team.handle.as_ref().is_none_or(|h| h.is_finished())
+        {
+            return false;
+        }
+        std::hint::spin_loop();
+    }
+    s.state.store(IDLE, Ordering::Release);
+    true
+}
+
+/// The work slot, when the helper is awake and free for a new job (a finished job nobody
+/// collected is dropped).
+fn free_helper(team: &TraversalTeam) -> Option<std::sync::MutexGuard<'_, Work>> {
+    let s = &team.shared;
+    match s.state.load(Ordering::Acquire) {
+        IDLE => {}
+        DONE => {
+            s.state
+                .compare_exchange(DONE, IDLE, Ordering::AcqRel, Ordering::Acquire)
+                .ok()?;
+        }
+        _ => return None,
+    }
+    // A helper asleep would take longer to wake than the caller's half takes.
+    if s.sleeping.load(Ordering::Acquire) {
+        return None;
+    }
+    // The helper locks `work` only after claiming a posted job, so this does not block.
+    s.work.try_lock().ok()
+}
+
 /// Hands `entries` (one object's second half) to the helper if it is free; true if posted.
 fn post(
     team: &TraversalTeam,
@@ -441,31 +523,13 @@ fn post(
     deadline: Option<Instant>,
     entries: &[(u32, u32)],
 ) -> bool {
-    let s = &team.shared;
-    match s.state.load(Ordering::Acquire) {
-        // A helper asleep would take longer to wake than the first half takes.
-        IDLE if !s.sleeping.load(Ordering::Acquire) => {}
-        // A finished answer nobody waited for (an earlier traversal past its deadline).
-        DONE => {
-            if s.state
-                .compare_exchange(DONE, IDLE, Ordering::AcqRel, Ordering::Acquire)
-                .is_err()
-            {
-                return false;
-            }
-            if s.sleeping.load(Ordering::Acquire) {
-                return false;
-            }
-        }
-        _ => return false,
-    }
-    // The helper locks `work` only after claiming a posted job, so this does not block.
-    let Ok(mut work) = s.work.try_lock() else {
+    let Some(mut work) = free_helper(team) else {
         return false;
     };
     if work.entries.capacity() < entries.len() {
         return false;
     }
+    work.probe = None;
     work.pose = *pose;
     work.sweep = sweep.copied();
     work.margin = margin;
@@ -474,14 +538,15 @@ fn post(
     work.entries.clear();
     work.entries.extend_from_slice(entries);
     drop(work);
-    s.state
+    team.shared
+        .state
         .compare_exchange(IDLE, POSTED, Ordering::AcqRel, Ordering::Acquire)
         .is_ok()
 }
 
 /// Withdraws a posted, unclaimed job: true when taken back (the caller does it), false when
 /// the helper has it.
-fn take_back(team: &TraversalTeam) -> bool {
+pub(crate) fn take_back(team: &TraversalTeam) -> bool {
     team.shared
         .state
         .compare_exchange(POSTED, IDLE, Ordering::AcqRel, Ordering::Acquire)

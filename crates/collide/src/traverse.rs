@@ -132,6 +132,11 @@ impl CollideWorkspace {
         ws
     }
 
+    /// True when the workspace holds `tool`'s posed nodes without growing.
+    pub(crate) fn sized_for(&self, tool: &PackedTree) -> bool {
+        self.wx.len() >= tool.len()
+    }
+
     /// Work counters of the last query.
     pub fn stats(&self) -> TraversalStats {
         self.stats
@@ -935,148 +940,6 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
     }
 }
 
-/// State of a [`FreeSpaceProbe`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ProbeStatus {
-    /// No probe started (or the last one was taken).
-    Idle,
-    /// Started, not finished: call [`FreeSpaceProbe::advance`] again.
-    Running,
-    /// Finished: no leaf pair within the probe's margin at its pose.
-    Free,
-    /// Finished: some leaf pair is within the margin.
-    Touching,
-}
-
-/// The question of [`any_pair_within`] asked in slices: "is any leaf pair within `margin` of
-/// touching at this pose?", answered over several calls of at most a given number of node-pair
-/// splits each, so a long traversal (a tool inside a tight hole: thousands of node pairs, none
-/// touching) can run a slice per haptic frame ahead of the time its answer is needed. It has
-/// its own workspace (the pose stays fixed between slices).
-#[derive(Clone, Debug)]
-pub struct FreeSpaceProbe {
-    ws: CollideWorkspace,
-    pose: Pose,
-    margin: f64,
-    object: usize,
-    resume: bool,
-    status: ProbeStatus,
-}
-
-impl FreeSpaceProbe {
-    /// A probe sized for `tool` against `objects` (allocates; never again for these trees).
-    pub fn for_trees(tool: &PackedTree, objects: &[PackedTree]) -> Self {
-        Self {
-            ws: CollideWorkspace::for_trees(tool, objects),
-            pose: Pose::identity(),
-            margin: 0.0,
-            object: 0,
-            resume: false,
-            status: ProbeStatus::Idle,
-        }
-    }
-
-    /// Starts a probe of `tool` at `pose` with `margin` (mm), dropping any unfinished one.
-    /// Errors on a non-finite pose.
-    ///
-    /// # Real-time
-    /// No allocation (after [`FreeSpaceProbe::for_trees`] for these trees), constant time.
-    pub fn start(
-        &mut self,
-        tool: &PackedTree,
-        pose: &Pose,
-        margin: f64,
-    ) -> Result<(), CollideError> {
-        if !pose.is_finite() {
-            return Err(CollideError::NonFinitePose);
-        }
-        // Sized for these trees by `for_trees`: posing the root allocates nothing.
-        if self.ws.wx.len() < tool.len() {
-            return Err(CollideError::InvalidTree(
-                "the probe was made for another tool tree".into(),
-            ));
-        }
-        self.ws.begin(tool, pose);
-        self.pose = *pose;
-        self.margin = clean_margin(margin);
-        self.object = 0;
-        self.resume = false;
-        self.status = ProbeStatus::Running;
-        Ok(())
-    }
-
-    /// Runs at most `max_splits` node-pair splits of the started probe; returns its status.
-    /// `objects` (and `tool`) must be the trees it was started with.
-    ///
-    /// # Real-time
-    /// No allocation, no panic; at most `max_splits` splits.
-    pub fn advance(
-        &mut self,
-        tool: &PackedTree,
-        objects: &[PackedTree],
-        max_splits: usize,
-    ) -> ProbeStatus {
-        if self.status != ProbeStatus::Running {
-            return self.status;
-        }
-        let mut budget = max_splits;
-        while let Some(o) = objects.get(self.object) {
-            self.ws.reserve(tool, o);
-            let d = descend_budgeted::<false, _>(
-                tool,
-                o,
-                self.object as u32,
-                self.margin,
-                &mut self.ws,
-                &mut |_: &LeafPair| false,
-                self.resume,
-                &mut budget,
-            );
-            if d.count > 0 {
-                self.status = ProbeStatus::Touching;
-                return self.status;
-            }
-            if !d.finished {
-                self.resume = true;
-                return self.status;
-            }
-            self.object += 1;
-            self.resume = false;
-        }
-        self.status = ProbeStatus::Free;
-        self.status
-    }
-
-    /// Node pairs split so far by the current (or last) probe.
-    pub fn splits(&self) -> usize {
-        self.ws.stats.node_pairs_split
-    }
-
-    /// The status, without running anything.
-    pub fn status(&self) -> ProbeStatus {
-        self.status
-    }
-
-    /// Takes a finished answer (the probe becomes idle): the pose and margin (mm) it holds for.
-    pub fn take(&mut self) -> (ProbeStatus, Pose, f64) {
-        let s = self.status;
-        if s != ProbeStatus::Running {
-            self.status = ProbeStatus::Idle;
-        }
-        (s, self.pose, self.margin)
-    }
-
-    /// The pose and margin (mm) of the current (or last) probe.
-    pub fn question(&self) -> (Pose, f64) {
-        (self.pose, self.margin)
-    }
-
-    /// Drops an unfinished probe.
-    pub fn cancel(&mut self) {
-        self.status = ProbeStatus::Idle;
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1115,48 +978,6 @@ mod tests {
     }
 
     /// A probe run in slices of a few splits answers as `any_pair_within` does.
-    #[test]
-    fn probe_in_slices_matches_any_pair_within() {
-        let tree = PackedTree::new(&small_tree()).unwrap();
-        let objects = std::slice::from_ref(&tree);
-        let mut ws = CollideWorkspace::for_trees(&tree, objects);
-        let mut probe = FreeSpaceProbe::for_trees(&tree, objects);
-        let mut sliced = 0;
-        for k in 0..60 {
-            let x = -12.0 + 0.4 * f64::from(k);
-            let q = Pose::from_array([x, 0.3, -0.2, 0.1, 0.2, 0.05 * f64::from(k)]);
-            for margin in [0.0, 0.5, 3.0] {
-                let any = any_pair_within(&tree, &q, objects, margin, &mut ws).unwrap();
-                probe.start(&tree, &q, margin).unwrap();
-                let mut calls = 0;
-                let status = loop {
-                    calls += 1;
-                    match probe.advance(&tree, objects, 1) {
-                        ProbeStatus::Running => continue,
-                        s => break s,
-                    }
-                };
-                sliced += usize::from(calls > 2);
-                let (taken, pose, m) = probe.take();
-                assert_eq!(taken, status);
-                assert_eq!((pose, m), (q, margin));
-                assert_eq!(probe.status(), ProbeStatus::Idle);
-                let expected = if any {
-                    ProbeStatus::Touching
-                } else {
-                    ProbeStatus::Free
-                };
-                assert_eq!(status, expected, "x {x}, margin {margin}");
-            }
-        }
-        assert!(
-            sliced > 10,
-            "only {sliced} probes needed more than two slices"
-        );
-    }
-
-    /// The posed-centre cache stays correct when the query epoch wraps around: stamps left by
-    /// queries before the wrap must not be taken as current after it.
     #[test]
     fn epoch_wrap_keeps_the_cache_correct() {
         let tree = PackedTree::new(&small_tree()).unwrap();

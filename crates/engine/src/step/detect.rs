@@ -212,8 +212,13 @@ impl GodObject {
             return None;
         }
         loop {
-            self.probe
-                .advance(&self.tool, &self.objects, PROBE_FINISH_SLICE_SPLITS);
+            self.probe.advance_shared(
+                &self.tool,
+                &self.objects,
+                PROBE_FINISH_SLICE_SPLITS,
+                self.team.as_ref(),
+                Some(deadline),
+            );
             if self.probe.status() != ProbeStatus::Running {
                 break;
             }
@@ -237,7 +242,7 @@ impl GodObject {
     /// per frame, a probe starts where the tool will be when they run out, plus
     /// [`PROBE_AHEAD`] of a proof's usable radius; each frame runs one slice of it, sized to
     /// finish in time. A finished free probe replaces the proof that runs out first.
-    pub(super) fn tend_probe(&mut self, q: &Pose, used: f64) {
+    pub(super) fn tend_probe(&mut self, q: &Pose, used: f64, deadline: Instant) {
         let speed = self.last_motion.max(1e-4);
         let horizon =
             self.frames_in(&self.free[0], q, used)
@@ -250,8 +255,13 @@ impl GodObject {
             let left = (estimate - self.probe.splits() as f64).max(0.25 * estimate);
             let slice = (left / (horizon - 2.0).max(1.0))
                 .clamp(PROBE_MIN_SLICE_SPLITS as f64, PROBE_MAX_SLICE_SPLITS as f64);
-            self.probe
-                .advance(&self.tool, &self.objects, slice as usize);
+            self.probe.advance_shared(
+                &self.tool,
+                &self.objects,
+                slice as usize,
+                self.team.as_ref(),
+                Some(deadline),
+            );
         }
         match self.probe.status() {
             ProbeStatus::Free => {

@@ -664,7 +664,7 @@ impl GodObject {
                     self.pairs.clear();
                     self.dropped = 0;
                     if pass == 0 {
-                        self.tend_probe(&q_lin, allowed + skin);
+                        self.tend_probe(&q_lin, allowed + skin, deadline);
                     }
                     Ok(f64::INFINITY)
                 } else if let Some((path, _)) = sweep {

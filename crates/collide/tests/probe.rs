@@ -1,0 +1,104 @@
+//! The free-space probe asked in slices answers as the "any pair" question does, after the
+//! same calls with or without a helper thread running its second stream.
+
+mod common;
+
+use collide::{
+    any_pair_within, CollideWorkspace, FreeSpaceProbe, PackedTree, Pose, ProbeStatus, TraversalTeam,
+};
+use common::{random_tree, TreeShape};
+
+fn shape() -> TreeShape {
+    TreeShape {
+        levels: 4,
+        branching: 8,
+        extent: 50.0,
+        p_used: 1.0,
+        p_early_leaf: 0.0,
+    }
+}
+
+#[test]
+fn probe_in_slices_matches_any_pair_within_with_or_without_a_helper() {
+    let tool = PackedTree::new(&random_tree(3, shape())).unwrap();
+    let objects = vec![
+        PackedTree::new(&random_tree(4, shape())).unwrap(),
+        PackedTree::with_pose(
+            &random_tree(5, shape()),
+            &Pose::from_array([60.0, 0.0, 0.0, 0.0, 0.2, 0.0]),
+        )
+        .unwrap(),
+    ];
+    let team = TraversalTeam::new(&tool, &objects, 64).unwrap();
+    let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+    let mut alone = FreeSpaceProbe::for_trees(&tool, &objects);
+    let mut helped = FreeSpaceProbe::for_trees(&tool, &objects);
+    let (mut sliced, mut free, mut touching) = (0, 0, 0);
+    for k in 0..40 {
+        // Along a direction, the distance where the tool just stops touching: poses near it
+        // are barely free (deep descents) or barely touching.
+        let dir = 0.15 * f64::from(k);
+        let at = |s: f64| {
+            Pose::from_array([
+                s * dir.cos(),
+                s * dir.sin(),
+                0.0,
+                0.1,
+                0.2,
+                0.05 * f64::from(k),
+            ])
+        };
+        let (mut lo, mut hi) = (0.0, 400.0);
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            if any_pair_within(&tool, &at(mid), &objects, 0.0, &mut ws).unwrap() {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let x = hi + [0.05, -0.05, 0.6, 2.0][k as usize % 4];
+        let q = at(x);
+        for margin in [0.0, 0.5, 3.0] {
+            let any = any_pair_within(&tool, &q, &objects, margin, &mut ws).unwrap();
+            alone.start(&tool, &q, margin).unwrap();
+            helped.start(&tool, &q, margin).unwrap();
+            let mut calls = 0;
+            let status = loop {
+                calls += 1;
+                let a = alone.advance(&tool, &objects, 2);
+                let h = helped.advance_shared(&tool, &objects, 2, Some(&team), None);
+                // The same answer after the same calls.
+                assert_eq!(a, h, "x {x}, margin {margin}, call {calls}");
+                if a != ProbeStatus::Running {
+                    break a;
+                }
+            };
+            sliced += usize::from(calls > 2);
+            let expected = if any {
+                touching += 1;
+                ProbeStatus::Touching
+            } else {
+                free += 1;
+                ProbeStatus::Free
+            };
+            assert_eq!(status, expected, "x {x}, margin {margin}");
+            if status == ProbeStatus::Free {
+                assert_eq!(alone.splits(), helped.splits());
+            }
+            let (taken, pose, m) = alone.take();
+            assert_eq!(taken, status);
+            assert_eq!((pose, m), (q, margin));
+            assert_eq!(alone.status(), ProbeStatus::Idle);
+        }
+    }
+    // Most answers come within the streams' serial start; a few need slices.
+    assert!(
+        sliced >= 5,
+        "only {sliced} probes needed more than two slices"
+    );
+    assert!(
+        free > 10 && touching > 10,
+        "{free} free, {touching} touching"
+    );
+}
