@@ -68,6 +68,10 @@ pub struct BenchArgs {
     /// partial). Default 120, or 8 with --quick.
     #[arg(long)]
     pub budget: Option<f64>,
+    /// The speed and contact studies with the detection helper thread (`[solver]
+    /// helper_thread`): a second thread shares the frames' large traversals.
+    #[arg(long)]
+    pub helper_thread: bool,
     /// Skip the scaling studies (pairs and depth).
     #[arg(long)]
     pub no_scaling: bool,
@@ -150,6 +154,7 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     let mut report = BenchReport {
         mode: if args.quick { "quick" } else { "full" }.into(),
         machine: machine_description(),
+        helper_thread: args.helper_thread,
         ..Default::default()
     };
 
@@ -227,11 +232,13 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
             &[SolverKind::Dual, SolverKind::ActiveSet]
         };
         eprintln!("bench: speed study (plate scene)");
-        report.speed = crate::bench_speed::speed_study(&cache, args.quick, solvers)?;
+        report.speed =
+            crate::bench_speed::speed_study(&cache, args.quick, solvers, args.helper_thread)?;
     }
     if wants("contact") {
         eprintln!("bench: contact study (flat on flat, spline phases)");
-        report.contact = crate::bench_contact::contact_study(&cache, args.quick)?;
+        report.contact =
+            crate::bench_contact::contact_study(&cache, args.quick, args.helper_thread)?;
     }
     if wants("friction") {
         eprintln!("bench: friction study (pushes, cost, spline)");
@@ -480,6 +487,12 @@ fn machine_description() -> String {
 pub fn markdown(r: &BenchReport) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# haptic6d bench ({}), {}\n", r.mode, r.machine);
+    if r.helper_thread {
+        let _ = writeln!(
+            s,
+            "Speed and contact studies with the detection helper thread (`--helper-thread`).\n"
+        );
+    }
     for (scene, trees) in &r.trees {
         let list: Vec<String> = trees.iter().map(TreeInfo::describe).collect();
         let _ = writeln!(s, "trees of {scene}: {}", list.join("; "));

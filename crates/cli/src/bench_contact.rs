@@ -147,8 +147,13 @@ fn row<'a>(
     }
 }
 
-/// Runs the study (the flat-on-flat slide is shorter with `quick`).
-pub fn contact_study(cache: &TreeCache, quick: bool) -> Result<Vec<ContactRow>> {
+/// Runs the study (the flat-on-flat slide is shorter with `quick`), with the detection helper
+/// thread when `helper_thread`.
+pub fn contact_study(
+    cache: &TreeCache,
+    quick: bool,
+    helper_thread: bool,
+) -> Result<Vec<ContactRow>> {
     let mut rows = Vec::new();
     let run = plate::speed_script(
         PlateTool::Puck,
@@ -156,7 +161,8 @@ pub fn contact_study(cache: &TreeCache, quick: bool) -> Result<Vec<ContactRow>> 
         1000.0,
         if quick { 0.3 } else { 1.0 },
     );
-    let scene = plate::scene(cache, PlateTool::Puck, run.script.clone())?;
+    let mut scene = plate::scene(cache, PlateTool::Puck, run.script.clone())?;
+    scene.solver.helper_thread = helper_thread;
     let (t, frames) = replay(&scene, SolverKind::Dual)?;
     let (_, _, audits) = replay_audited(&scene, SolverKind::Dual, true)?;
     let rest_end = run.steady.first().map_or(0.3, |s| s.0);
@@ -181,7 +187,8 @@ pub fn contact_study(cache: &TreeCache, quick: bool) -> Result<Vec<ContactRow>> 
         let r = row("flat on flat", phase, pick(keep).into_iter());
         rows.push(with_audit(r, &t, &audits, keep));
     }
-    let scene = scene::scenes::builtin("spline", cache)?;
+    let mut scene = scene::scenes::builtin("spline", cache)?;
+    scene.solver.helper_thread = helper_thread;
     let (t, frames) = replay(&scene, SolverKind::Dual)?;
     let (_, _, audits) = replay_audited(&scene, SolverKind::Dual, true)?;
     // The script's phases (scene::scenes::spline_scene): approach 0.5 s, rest 0.2 s, turn

@@ -93,6 +93,8 @@ pub struct BenchReport {
     pub mode: String,
     /// Machine description (cores, CPU model).
     pub machine: String,
+    /// The speed and contact studies ran with the detection helper thread.
+    pub helper_thread: bool,
     /// The trees of each replayed scene: (scene, its trees).
     pub trees: Vec<(String, Vec<TreeInfo>)>,
     /// Replays, per scene and solver.

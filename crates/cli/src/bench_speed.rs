@@ -80,6 +80,7 @@ pub fn speed_study(
     cache: &TreeCache,
     quick: bool,
     solvers: &[SolverKind],
+    helper_thread: bool,
 ) -> Result<Vec<SpeedRow>> {
     let min_steady = if quick { 0.15 } else { 0.5 };
     let mut rows = Vec::new();
@@ -90,7 +91,8 @@ pub fn speed_study(
                 continue;
             }
             let run = plate::speed_script(tool, motion, 1000.0, min_steady);
-            let scene = plate::scene(cache, tool, run.script.clone())?;
+            let mut scene = plate::scene(cache, tool, run.script.clone())?;
+            scene.solver.helper_thread = helper_thread;
             for &kind in solvers {
                 rows.push(speed_row(&scene, tool, motion, &run, kind)?);
             }
