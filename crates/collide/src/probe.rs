@@ -313,6 +313,7 @@ impl FreeSpaceProbe {
             && team.is_some_and(|t| {
                 team::post_probe(t, &self.second, self.margin, second_budget, deadline)
             });
+        let half_start = Instant::now();
         let first = self
             .first
             .advance(tool, objects, self.margin, first_budget, deadline);
@@ -321,8 +322,12 @@ impl FreeSpaceProbe {
                 if team::take_back(team) {
                     posted = false;
                 } else {
-                    // The helper has it: its answer is read from the stream below once done.
-                    let _ = team::wait_done(team, deadline);
+                    // The helper has it: its answer is read from the stream below once done,
+                    // within as long again as the first half took (a helper held up is not
+                    // waited for: its stream catches up in later calls).
+                    let grace = half_start.elapsed().max(team::MIN_GRACE);
+                    let until = Instant::now() + grace;
+                    let _ = team::wait_done(team, Some(deadline.map_or(until, |d| d.min(until))));
                 }
             }
         }
