@@ -1,11 +1,20 @@
 //! The free-space question asked in slices ([`FreeSpaceProbe`]), in two streams that a
 //! [`TraversalTeam`]'s helper thread can run side by side.
 
-use crate::team::{self, TraversalTeam, SHARE_MAX_START_SPLITS, SHARE_MIN_PAIRS};
+use crate::team::{self, JobState, TraversalTeam, SHARE_MAX_START_SPLITS, SHARE_MIN_PAIRS};
 use crate::traverse::{clean_margin, descend_budgeted, CollideWorkspace, SPLITS_PER_CHECK};
 use crate::{CollideError, LeafPair, PackedTree, Pose};
-use std::sync::{Arc, Mutex};
-use std::time::Instant;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+/// Node-pair splits the helper runs on a stream between two releases of its lock, in a
+/// background probe (~2–5 µs): the caller's thread can take a stream over at any time.
+const BACKGROUND_SLICE_SPLITS: usize = 64;
+
+/// Longest the caller waits for a stream's lock when restarting the probe (the helper holds
+/// it for one background slice at a time).
+const RESTART_WAIT: Duration = Duration::from_micros(50);
 
 /// State of a [`FreeSpaceProbe`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -191,34 +200,87 @@ fn rebalance(a: &mut ProbeStream, b: &mut ProbeStream, tool: &PackedTree) {
     taker.status = ProbeStatus::Running;
 }
 
+/// A probe the helper runs in the background: both streams to their ends, in short slices,
+/// while the probe is still the one it was given (its generation unchanged).
+pub(crate) struct ProbeJob {
+    streams: [Arc<Mutex<ProbeStream>>; 2],
+    generation: Arc<AtomicU64>,
+    expected: u64,
+    margin: f64,
+}
+
+impl ProbeJob {
+    /// Runs the streams until both are finished, one finds a pair, the probe is restarted or
+    /// `quit` says so.
+    pub(crate) fn run(&self, tool: &PackedTree, objects: &[PackedTree], quit: &dyn Fn() -> bool) {
+        loop {
+            if self.generation.load(Ordering::Acquire) != self.expected || quit() {
+                return;
+            }
+            if let (Ok(mut a), Ok(mut b)) = (self.streams[0].try_lock(), self.streams[1].try_lock())
+            {
+                rebalance(&mut a, &mut b, tool);
+            }
+            let mut running = false;
+            for stream in &self.streams {
+                let Ok(mut s) = stream.try_lock() else {
+                    // The caller's thread has it.
+                    running = true;
+                    continue;
+                };
+                if s.status == ProbeStatus::Running {
+                    s.advance(tool, objects, self.margin, BACKGROUND_SLICE_SPLITS, None);
+                }
+                match s.status {
+                    ProbeStatus::Touching => return,
+                    ProbeStatus::Running => running = true,
+                    _ => {}
+                }
+            }
+            if !running {
+                return;
+            }
+        }
+    }
+}
+
 /// The question of [`crate::any_pair_within`] asked in slices: "is any leaf pair within
 /// `margin` of touching at this pose?", answered over several calls of at most a given number
 /// of node-pair splits each, so a long traversal (a tool inside a tight hole: thousands of
 /// node pairs, none touching) can run a slice per haptic frame ahead of the time its answer is
-/// needed. The work is split in two streams (the halves of [`crate::overlap_shared`]), each
-/// given half of every slice; with a [`TraversalTeam`] the helper thread runs the second
-/// stream's half while the caller runs the first's. Each stream has its own workspace (the
-/// pose stays fixed between slices).
+/// needed. The work is split in two streams (the halves of [`crate::overlap_shared`],
+/// rebalanced when one finishes), each with its own workspace (the pose stays fixed between
+/// slices). With a [`TraversalTeam`] whose helper is free, the helper runs both streams in the
+/// background instead ([`FreeSpaceProbe::advance_shared`]).
 #[derive(Debug)]
 pub struct FreeSpaceProbe {
-    first: ProbeStream,
-    second: Arc<Mutex<ProbeStream>>,
-    /// The second stream's status and splits as last read (the helper may hold it).
-    second_status: ProbeStatus,
-    second_splits: usize,
+    streams: [Arc<Mutex<ProbeStream>>; 2],
+    /// Each stream's status and splits as last read (the helper may hold one).
+    seen: [(ProbeStatus, usize); 2],
+    /// Bumped by every start: a background job of an older probe stops.
+    generation: Arc<AtomicU64>,
+    /// The background job running this probe on the helper, by number.
+    background: Option<u64>,
     pose: Pose,
     margin: f64,
     status: ProbeStatus,
+}
+
+impl std::fmt::Debug for ProbeJob {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ProbeJob").finish_non_exhaustive()
+    }
 }
 
 impl FreeSpaceProbe {
     /// A probe sized for `tool` against `objects` (allocates; never again for these trees).
     pub fn for_trees(tool: &PackedTree, objects: &[PackedTree]) -> Self {
         Self {
-            first: ProbeStream::new(tool, objects, 0),
-            second: Arc::new(Mutex::new(ProbeStream::new(tool, objects, 1))),
-            second_status: ProbeStatus::Idle,
-            second_splits: 0,
+            streams: [0, 1]
+                .map(|parity| Arc::new(Mutex::new(ProbeStream::new(tool, objects, parity)))),
+            seen: [(ProbeStatus::Idle, 0); 2],
+            generation: Arc::new(AtomicU64::new(0)),
+            background: None,
             pose: Pose::identity(),
             margin: 0.0,
             status: ProbeStatus::Idle,
@@ -226,11 +288,12 @@ impl FreeSpaceProbe {
     }
 
     /// Starts a probe of `tool` at `pose` with `margin` (mm), dropping any unfinished one.
-    /// Errors on a non-finite pose, or while the helper thread still holds the last probe's
-    /// second stream (a slice it ran past its deadline; try again next frame).
+    /// Errors on a non-finite pose, or when the helper thread holds a stream for longer than a
+    /// background slice should take (it was preempted; try again next frame).
     ///
     /// # Real-time
-    /// No allocation (after [`FreeSpaceProbe::for_trees`] for these trees), constant time.
+    /// No allocation (after [`FreeSpaceProbe::for_trees`] for these trees); waits at most
+    /// ~50 µs for the helper to let go of a stream.
     pub fn start(
         &mut self,
         tool: &PackedTree,
@@ -240,20 +303,26 @@ impl FreeSpaceProbe {
         if !pose.is_finite() {
             return Err(CollideError::NonFinitePose);
         }
+        // A background job of the last probe stops at its next slice.
+        self.generation.fetch_add(1, Ordering::AcqRel);
+        self.background = None;
+        let until = Instant::now() + RESTART_WAIT;
+        let (Some(mut a), Some(mut b)) = (
+            lock_by(&self.streams[0], until),
+            lock_by(&self.streams[1], until),
+        ) else {
+            self.status = ProbeStatus::Idle;
+            return Err(CollideError::Busy);
+        };
         // Sized for these trees by `for_trees`: posing the root allocates nothing.
-        if !self.first.ws.sized_for(tool) {
+        if !a.ws.sized_for(tool) {
             return Err(CollideError::InvalidTree(
                 "the probe was made for another tool tree".into(),
             ));
         }
-        let Ok(mut second) = self.second.try_lock() else {
-            return Err(CollideError::Busy);
-        };
-        second.start(tool, pose);
-        drop(second);
-        self.first.start(tool, pose);
-        self.second_status = ProbeStatus::Running;
-        self.second_splits = 0;
+        a.start(tool, pose);
+        b.start(tool, pose);
+        self.seen = [(ProbeStatus::Running, 0); 2];
         self.pose = *pose;
         self.margin = clean_margin(margin);
         self.status = ProbeStatus::Running;
@@ -275,13 +344,13 @@ impl FreeSpaceProbe {
         self.advance_shared(tool, objects, max_splits, None, None)
     }
 
-    /// [`FreeSpaceProbe::advance`] with `team`'s helper thread running the second stream's
-    /// half meanwhile (when it is free), both stopping early past `deadline`. The answer is the
-    /// same as without the helper, after the same calls, unless the helper runs past the
-    /// deadline (then its stream catches up in later calls).
+    /// [`FreeSpaceProbe::advance`], or with `team` the probe handed to its helper thread,
+    /// which runs it in the background while it is free (this call then only reads how far
+    /// it is). A call whose helper is busy or asleep runs the slice here. `deadline` stops the
+    /// slice early.
     ///
     /// # Real-time
-    /// As [`FreeSpaceProbe::advance`]; never waits for the helper past `deadline`.
+    /// As [`FreeSpaceProbe::advance`]; never waits for the helper.
     pub fn advance_shared(
         &mut self,
         tool: &PackedTree,
@@ -293,63 +362,113 @@ impl FreeSpaceProbe {
         if self.status != ProbeStatus::Running {
             return self.status;
         }
-        if let Ok(mut second) = self.second.try_lock() {
-            rebalance(&mut self.first, &mut second, tool);
-            self.second_status = second.status;
-        }
-        // A stream with nothing left gives its half of the slice to the other.
-        let (first_budget, second_budget) = match (self.first.status, self.second_status) {
-            (ProbeStatus::Running, ProbeStatus::Running) => {
-                (max_splits - max_splits / 2, max_splits / 2)
-            }
-            (ProbeStatus::Running, _) => (max_splits, 0),
-            _ => (0, max_splits),
-        };
-        let second_running = self.second_status == ProbeStatus::Running;
         if let Some(team) = team {
             team.keep_awake();
+            let state = self.background.and_then(|id| team::job_state(team, id));
+            match state {
+                Some(JobState::Running) => return self.read(),
+                Some(JobState::Posted) if team::take_back(team) => self.background = None,
+                Some(JobState::Posted) => return self.read(),
+                _ => self.background = None,
+            }
         }
-        let mut posted = second_running
-            && team.is_some_and(|t| {
-                team::post_probe(t, &self.second, self.margin, second_budget, deadline)
-            });
-        let half_start = Instant::now();
-        let first = self
-            .first
-            .advance(tool, objects, self.margin, first_budget, deadline);
-        if posted {
+        self.slice_here(tool, objects, max_splits, deadline);
+        if self.status == ProbeStatus::Running {
             if let Some(team) = team {
-                if team::take_back(team) {
-                    posted = false;
-                } else {
-                    // The helper has it: its answer is read from the stream below once done,
-                    // within as long again as the first half took (a helper held up is not
-                    // waited for: its stream catches up in later calls).
-                    let grace = half_start.elapsed().max(team::MIN_GRACE);
-                    let until = Instant::now() + grace;
-                    let _ = team::wait_done(team, Some(deadline.map_or(until, |d| d.min(until))));
+                let job = ProbeJob {
+                    streams: [self.streams[0].clone(), self.streams[1].clone()],
+                    generation: self.generation.clone(),
+                    expected: self.generation.load(Ordering::Acquire),
+                    margin: self.margin,
+                };
+                self.background = team::post_probe_job(team, job);
+            }
+        }
+        self.status
+    }
+
+    /// [`FreeSpaceProbe::advance`] when the answer is needed now: the caller's thread runs
+    /// the slice on whichever stream the helper is not holding (the helper, if it runs the
+    /// probe in the background, goes on with the other).
+    ///
+    /// # Real-time
+    /// As [`FreeSpaceProbe::advance`]; never waits for the helper.
+    pub fn advance_now(
+        &mut self,
+        tool: &PackedTree,
+        objects: &[PackedTree],
+        max_splits: usize,
+        deadline: Option<Instant>,
+    ) -> ProbeStatus {
+        if self.status != ProbeStatus::Running {
+            return self.status;
+        }
+        self.slice_here(tool, objects, max_splits, deadline)
+    }
+
+    /// One slice on the caller's thread: rebalanced, half in each running stream (all in the
+    /// one still running); a stream the helper holds is skipped.
+    fn slice_here(
+        &mut self,
+        tool: &PackedTree,
+        objects: &[PackedTree],
+        max_splits: usize,
+        deadline: Option<Instant>,
+    ) -> ProbeStatus {
+        let [a, b] = &self.streams;
+        let (mut a, mut b) = (a.try_lock().ok(), b.try_lock().ok());
+        if let (Some(a), Some(b)) = (a.as_deref_mut(), b.as_deref_mut()) {
+            rebalance(a, b, tool);
+        }
+        let running = |s: &Option<MutexGuard<'_, ProbeStream>>, seen: (ProbeStatus, usize)| {
+            s.as_ref().map_or(seen.0, |s| s.status) == ProbeStatus::Running
+        };
+        let (ra, rb) = (running(&a, self.seen[0]), running(&b, self.seen[1]));
+        let share = if ra && rb { max_splits / 2 } else { max_splits };
+        for (k, s) in [&mut a, &mut b].into_iter().enumerate() {
+            if let Some(s) = s {
+                if s.status == ProbeStatus::Running {
+                    let budget = if k == 0 {
+                        max_splits - share * usize::from(ra && rb)
+                    } else {
+                        share
+                    };
+                    s.advance(tool, objects, self.margin, budget, deadline);
                 }
+                self.seen[k] = (s.status, s.splits());
             }
         }
-        if let Ok(mut second) = self.second.try_lock() {
-            if !posted && second_running && first != ProbeStatus::Touching {
-                second.advance(tool, objects, self.margin, second_budget, deadline);
+        drop((a, b));
+        self.combine()
+    }
+
+    /// The streams' states as far as they can be read now.
+    fn read(&mut self) -> ProbeStatus {
+        for (k, stream) in self.streams.iter().enumerate() {
+            if let Ok(s) = stream.try_lock() {
+                self.seen[k] = (s.status, s.splits());
             }
-            self.second_status = second.status;
-            self.second_splits = second.splits();
         }
-        self.status = match (first, self.second_status) {
+        self.combine()
+    }
+
+    fn combine(&mut self) -> ProbeStatus {
+        self.status = match (self.seen[0].0, self.seen[1].0) {
             (ProbeStatus::Touching, _) | (_, ProbeStatus::Touching) => ProbeStatus::Touching,
             (ProbeStatus::Free, ProbeStatus::Free) => ProbeStatus::Free,
             _ => ProbeStatus::Running,
         };
+        if self.status != ProbeStatus::Running {
+            // A background job still on it stops at its next slice.
+            self.generation.fetch_add(1, Ordering::AcqRel);
+            self.background = None;
+        }
         self.status
     }
 
-    /// Node pairs split so far by the current (or last) probe (both streams; the second as
-    /// last read).
+    /// Node pairs split so far by the current (or last) probe (both streams, as last read).
     pub fn splits(&self) -> usize {
-        self.first.splits() + self.second_splits
+        self.seen[0].1 + self.seen[1].1
     }
 
     /// The status, without running anything.
@@ -371,8 +490,23 @@ impl FreeSpaceProbe {
         (self.pose, self.margin)
     }
 
-    /// Drops an unfinished probe.
+    /// Drops an unfinished probe (a background job of it stops at its next slice).
     pub fn cancel(&mut self) {
+        self.generation.fetch_add(1, Ordering::AcqRel);
+        self.background = None;
         self.status = ProbeStatus::Idle;
+    }
+}
+
+/// The stream's lock, trying until `until`.
+fn lock_by(stream: &Mutex<ProbeStream>, until: Instant) -> Option<MutexGuard<'_, ProbeStream>> {
+    loop {
+        if let Ok(s) = stream.try_lock() {
+            return Some(s);
+        }
+        if Instant::now() >= until {
+            return None;
+        }
+        std::hint::spin_loop();
     }
 }

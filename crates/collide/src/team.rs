@@ -21,7 +21,7 @@
 //! parked helper (woken per traversal, as a thread pool's sleeping workers are) only
 //! traversals over ~150 µs gain, the rest lose the ~30–60 µs wake-up.
 
-use crate::probe::ProbeStream;
+use crate::probe::ProbeJob;
 use crate::traverse::{
     arc_allowance, clean_margin, descend_budgeted, CollideWorkspace, LeafPair, SPLITS_PER_CHECK,
 };
@@ -70,9 +70,8 @@ const QUIT: u32 = 4;
 /// The second half of one traversal, or a slice of a probe's second stream, as handed to the
 /// helper, and what it found.
 struct Work {
-    /// A probe's second stream to advance by `probe_budget` splits (else a traversal's half).
-    probe: Option<Arc<Mutex<ProbeStream>>>,
-    probe_budget: usize,
+    /// A probe to run in the background (else a traversal's half).
+    probe: Option<ProbeJob>,
     pose: Pose,
     sweep: Option<Sweep>,
     /// Margin of the descent (mm, allowances included).
@@ -88,6 +87,8 @@ struct Work {
 
 struct Shared {
     state: AtomicU32,
+    /// Number of the last job posted (the caller tells its own jobs by it).
+    job: AtomicU64,
     /// Nanoseconds since `epoch` until which the helper spins (then parks).
     awake_until_ns: AtomicU64,
     sleeping: AtomicBool,
@@ -129,12 +130,12 @@ impl TraversalTeam {
         let stack_cap = ws.stack.capacity();
         let shared = Arc::new(Shared {
             state: AtomicU32::new(IDLE),
+            job: AtomicU64::new(0),
             awake_until_ns: AtomicU64::new(0),
             sleeping: AtomicBool::new(false),
             epoch: Instant::now(),
             work: Mutex::new(Work {
                 probe: None,
-                probe_budget: 0,
                 pose: Pose::identity(),
                 sweep: None,
                 margin: 0.0,
@@ -208,17 +209,13 @@ fn helper_loop(shared: &Shared, tool: &PackedTree, objects: &[PackedTree]) {
                     .is_ok()
                 {
                     if let Ok(mut work) = shared.work.lock() {
-                        match work.probe.clone() {
-                            Some(stream) => {
-                                if let Ok(mut stream) = stream.lock() {
-                                    stream.advance(
-                                        tool,
-                                        objects,
-                                        work.margin,
-                                        work.probe_budget,
-                                        work.deadline,
-                                    );
-                                }
+                        match work.probe.take() {
+                            Some(job) => {
+                                job.run(tool, objects, &|| {
+                                    shared.state.load(Ordering::Acquire) == QUIT
+                                });
+                                // Kept (not dropped here): the next post replaces it.
+                                work.probe = Some(job);
                             }
                             None => descend_second_half(&mut work, tool, objects),
                         }
@@ -465,28 +462,43 @@ pub fn overlap_shared<F: FnMut(&LeafPair)>(
     Ok(out)
 }
 
-/// Hands a probe's second `stream` to the helper for `budget` splits at `margin` (mm), if it
-/// is free; true if posted.
-pub(crate) fn post_probe(
-    team: &TraversalTeam,
-    stream: &Arc<Mutex<ProbeStream>>,
-    margin: f64,
-    budget: usize,
-    deadline: Option<Instant>,
-) -> bool {
-    let Some(mut work) = free_helper(team) else {
-        return false;
-    };
-    // Replacing the last job's handle only moves a reference count (no allocation).
-    work.probe = Some(stream.clone());
-    work.probe_budget = budget;
-    work.margin = margin;
-    work.deadline = deadline;
+/// Hands a background probe `job` to the helper if it is free: the job's number, or `None`.
+pub(crate) fn post_probe_job(team: &TraversalTeam, job: ProbeJob) -> Option<u64> {
+    let mut work = free_helper(team)?;
+    // Replacing the last job's handles only moves reference counts (no allocation).
+    work.probe = Some(job);
     drop(work);
+    let id = team.shared.job.fetch_add(1, Ordering::AcqRel) + 1;
     team.shared
         .state
         .compare_exchange(IDLE, POSTED, Ordering::AcqRel, Ordering::Acquire)
         .is_ok()
+        .then_some(id)
+}
+
+/// Where the job numbered `id` stands: `None` when another job has been posted since.
+pub(crate) fn job_state(team: &TraversalTeam, id: u64) -> Option<JobState> {
+    let s = &team.shared;
+    let state = s.state.load(Ordering::Acquire);
+    if s.job.load(Ordering::Acquire) != id {
+        return None;
+    }
+    Some(match state {
+        POSTED => JobState::Posted,
+        CLAIMED => JobState::Running,
+        _ => JobState::Ended,
+    })
+}
+
+/// Where a posted job stands ([`job_state`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum JobState {
+    /// Not claimed by the helper yet.
+    Posted,
+    /// The helper is on it.
+    Running,
+    /// Finished (or taken back).
+    Ended,
 }
 
 /// Waits (spinning) until the helper has finished a claimed job or `deadline` passes (or the
@@ -551,6 +563,7 @@ fn post(
     work.entries.clear();
     work.entries.extend_from_slice(entries);
     drop(work);
+    team.shared.job.fetch_add(1, Ordering::AcqRel);
     team.shared
         .state
         .compare_exchange(IDLE, POSTED, Ordering::AcqRel, Ordering::Acquire)

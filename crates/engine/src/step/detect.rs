@@ -212,11 +212,12 @@ impl GodObject {
             return None;
         }
         loop {
-            self.probe.advance_shared(
+            // Needed now: this thread works on it too (a helper running it in the background
+            // goes on with the other stream).
+            self.probe.advance_now(
                 &self.tool,
                 &self.objects,
                 PROBE_FINISH_SLICE_SPLITS,
-                self.team.as_ref(),
                 Some(deadline),
             );
             if self.probe.status() != ProbeStatus::Running {
