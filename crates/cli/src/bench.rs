@@ -72,6 +72,11 @@ pub struct BenchArgs {
     /// helper_thread`): a second thread shares the frames' large traversals.
     #[arg(long)]
     pub helper_thread: bool,
+    /// The speed and contact studies paced at the scene's rate on the wall clock (as a device
+    /// loop runs them, on a `SCHED_FIFO` thread when the privilege allows) instead of frames
+    /// back to back; the helper thread's background work runs between frames.
+    #[arg(long)]
+    pub realtime: bool,
     /// Skip the scaling studies (pairs and depth).
     #[arg(long)]
     pub no_scaling: bool,
@@ -124,6 +129,13 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
         }
     }
     let wants = |name: &str| args.studies.iter().any(|s| s == name);
+    let mode = crate::bench_contact::ReplayMode {
+        helper_thread: args.helper_thread,
+        realtime: args.realtime,
+    };
+    if args.realtime && !scene::rt::set_realtime_priority(50) {
+        eprintln!("bench: SCHED_FIFO refused (no privilege?); paced frames at normal priority");
+    }
     let scenes: &[String] = if wants("replay") { &args.scenes } else { &[] };
     prepare_out_dir(&args.out)?;
     let cache = TreeCache::from_env();
@@ -155,6 +167,7 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
         mode: if args.quick { "quick" } else { "full" }.into(),
         machine: machine_description(),
         helper_thread: args.helper_thread,
+        realtime: args.realtime,
         ..Default::default()
     };
 
@@ -232,13 +245,11 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
             &[SolverKind::Dual, SolverKind::ActiveSet]
         };
         eprintln!("bench: speed study (plate scene)");
-        report.speed =
-            crate::bench_speed::speed_study(&cache, args.quick, solvers, args.helper_thread)?;
+        report.speed = crate::bench_speed::speed_study(&cache, args.quick, solvers, mode)?;
     }
     if wants("contact") {
         eprintln!("bench: contact study (flat on flat, spline phases)");
-        report.contact =
-            crate::bench_contact::contact_study(&cache, args.quick, args.helper_thread)?;
+        report.contact = crate::bench_contact::contact_study(&cache, args.quick, mode)?;
     }
     if wants("friction") {
         eprintln!("bench: friction study (pushes, cost, spline)");
@@ -487,10 +498,20 @@ fn machine_description() -> String {
 pub fn markdown(r: &BenchReport) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# haptic6d bench ({}), {}\n", r.mode, r.machine);
-    if r.helper_thread {
+    if r.helper_thread || r.realtime {
         let _ = writeln!(
             s,
-            "Speed and contact studies with the detection helper thread (`--helper-thread`).\n"
+            "Speed and contact studies: {}, {}.\n",
+            if r.helper_thread {
+                "with the detection helper thread (`--helper-thread`)"
+            } else {
+                "one thread"
+            },
+            if r.realtime {
+                "frames paced at the scene rate (`--realtime`)"
+            } else {
+                "frames back to back"
+            }
         );
     }
     for (scene, trees) in &r.trees {

@@ -58,18 +58,26 @@ pub struct ContactRow {
     pub max_penetration_mm: f64,
 }
 
-/// Steps a fresh god-object with `solver` through the scene's device motion: the device times
-/// (s) and every frame's output.
-pub fn replay(scene: &Scene, solver: SolverKind) -> Result<(Vec<f64>, Vec<FrameOutput>)> {
-    replay_audited(scene, solver, false).map(|(t, o, _)| (t, o))
+/// How the speed and contact studies replay their scenes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ReplayMode {
+    /// With the detection helper thread (`[solver] helper_thread`).
+    pub helper_thread: bool,
+    /// Frames paced at the scene's rate on the wall clock (as a device loop runs them), on a
+    /// `SCHED_FIFO` thread when the privilege allows, instead of back to back. A helper's
+    /// background work (free-space probes) only has time to run between paced frames.
+    pub realtime: bool,
 }
 
-/// [`replay`], with every reduced QP also solved in full when `audit` (the frames' times then
-/// include the extra solves): each frame's [`ReductionAudit`] as well.
+/// Steps a fresh god-object with `solver` through the scene's device motion: the device times
+/// (s) and every frame's output, with every reduced QP also solved in full when `audit` (the
+/// frames' times then include the extra solves) and each frame's [`ReductionAudit`]. With
+/// `realtime` the frames are paced at the scene's rate (see [`ReplayMode::realtime`]).
 pub fn replay_audited(
     scene: &Scene,
     solver: SolverKind,
     audit: bool,
+    realtime: bool,
 ) -> Result<(Vec<f64>, Vec<FrameOutput>, Vec<ReductionAudit>)> {
     let traj = scene.trajectory();
     let mut scene = scene.clone();
@@ -85,9 +93,18 @@ pub fn replay_audited(
     god.reset(&first)?;
     let mut times = Vec::with_capacity(traj.samples.len());
     let mut out = Vec::with_capacity(traj.samples.len());
+    let period = std::time::Duration::from_secs_f64(1.0 / scene.rate_hz.max(1.0));
+    let spin = std::time::Duration::from_secs_f64(scene::rt::DEFAULT_SPIN_US * 1e-6);
+    let mut pacer = scene::rt::Pacer::new(period, spin);
     for s in &traj.samples {
         times.push(s.t);
+        if realtime {
+            pacer.wait();
+        }
         out.push(god.step(&Pose::from_array(s.q)));
+        if realtime {
+            pacer.end_frame();
+        }
         if audit {
             audits.push(god.take_reduction_audit());
         }
@@ -147,13 +164,8 @@ fn row<'a>(
     }
 }
 
-/// Runs the study (the flat-on-flat slide is shorter with `quick`), with the detection helper
-/// thread when `helper_thread`.
-pub fn contact_study(
-    cache: &TreeCache,
-    quick: bool,
-    helper_thread: bool,
-) -> Result<Vec<ContactRow>> {
+/// Runs the study (the flat-on-flat slide is shorter with `quick`), replayed as `mode` says.
+pub fn contact_study(cache: &TreeCache, quick: bool, mode: ReplayMode) -> Result<Vec<ContactRow>> {
     let mut rows = Vec::new();
     let run = plate::speed_script(
         PlateTool::Puck,
@@ -162,9 +174,9 @@ pub fn contact_study(
         if quick { 0.3 } else { 1.0 },
     );
     let mut scene = plate::scene(cache, PlateTool::Puck, run.script.clone())?;
-    scene.solver.helper_thread = helper_thread;
-    let (t, frames) = replay(&scene, SolverKind::Dual)?;
-    let (_, _, audits) = replay_audited(&scene, SolverKind::Dual, true)?;
+    scene.solver.helper_thread = mode.helper_thread;
+    let (t, frames, _) = replay_audited(&scene, SolverKind::Dual, false, mode.realtime)?;
+    let (_, _, audits) = replay_audited(&scene, SolverKind::Dual, true, false)?;
     let rest_end = run.steady.first().map_or(0.3, |s| s.0);
     let resting = |_: usize, ti: f64| ti >= 0.2 && ti < rest_end;
     let sliding = |_: usize, ti: f64| run.steady.iter().any(|&(a, b)| ti >= a && ti < b);
@@ -188,9 +200,9 @@ pub fn contact_study(
         rows.push(with_audit(r, &t, &audits, keep));
     }
     let mut scene = scene::scenes::builtin("spline", cache)?;
-    scene.solver.helper_thread = helper_thread;
-    let (t, frames) = replay(&scene, SolverKind::Dual)?;
-    let (_, _, audits) = replay_audited(&scene, SolverKind::Dual, true)?;
+    scene.solver.helper_thread = mode.helper_thread;
+    let (t, frames, _) = replay_audited(&scene, SolverKind::Dual, false, mode.realtime)?;
+    let (_, _, audits) = replay_audited(&scene, SolverKind::Dual, true, false)?;
     // The script's phases (scene::scenes::spline_scene): approach 0.5 s, rest 0.2 s, turn
     // 1.2 s, rest 0.2 s, insert 1.0 s, rest 0.2 s, withdraw 0.8 s.
     let in_hole: Vec<bool> = frames

@@ -95,6 +95,8 @@ pub struct BenchReport {
     pub machine: String,
     /// The speed and contact studies ran with the detection helper thread.
     pub helper_thread: bool,
+    /// The speed and contact studies paced their frames at the scene rate.
+    pub realtime: bool,
     /// The trees of each replayed scene: (scene, its trees).
     pub trees: Vec<(String, Vec<TreeInfo>)>,
     /// Replays, per scene and solver.

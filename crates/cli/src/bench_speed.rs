@@ -80,7 +80,7 @@ pub fn speed_study(
     cache: &TreeCache,
     quick: bool,
     solvers: &[SolverKind],
-    helper_thread: bool,
+    mode: crate::bench_contact::ReplayMode,
 ) -> Result<Vec<SpeedRow>> {
     let min_steady = if quick { 0.15 } else { 0.5 };
     let mut rows = Vec::new();
@@ -92,9 +92,9 @@ pub fn speed_study(
             }
             let run = plate::speed_script(tool, motion, 1000.0, min_steady);
             let mut scene = plate::scene(cache, tool, run.script.clone())?;
-            scene.solver.helper_thread = helper_thread;
+            scene.solver.helper_thread = mode.helper_thread;
             for &kind in solvers {
-                rows.push(speed_row(&scene, tool, motion, &run, kind)?);
+                rows.push(speed_row(&scene, tool, motion, &run, kind, mode.realtime)?);
             }
         }
     }
@@ -107,8 +107,9 @@ fn speed_row(
     motion: SpeedMotion,
     run: &plate::SpeedRun,
     kind: SolverKind,
+    realtime: bool,
 ) -> Result<SpeedRow> {
-    let (times, outputs) = crate::bench_contact::replay(scene, kind)?;
+    let (times, outputs, _) = crate::bench_contact::replay_audited(scene, kind, false, realtime)?;
     let mut drag = Vec::new();
     let mut lag = Vec::new();
     let mut pen: f64 = 0.0;
