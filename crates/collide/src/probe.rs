@@ -362,17 +362,24 @@ impl FreeSpaceProbe {
         if self.status != ProbeStatus::Running {
             return self.status;
         }
+        let mut here = true;
         if let Some(team) = team {
             team.keep_awake();
-            let state = self.background.and_then(|id| team::job_state(team, id));
-            match state {
+            match self.background.and_then(|id| team::job_state(team, id)) {
                 Some(JobState::Running) => return self.read(),
+                // Not claimed since the last call (the helper was held up): taken back, this
+                // call runs a slice here and hands it over again.
                 Some(JobState::Posted) if team::take_back(team) => self.background = None,
                 Some(JobState::Posted) => return self.read(),
-                _ => self.background = None,
+                _ => {
+                    self.background = None;
+                    here = false;
+                }
             }
         }
-        self.slice_here(tool, objects, max_splits, deadline);
+        if here {
+            self.slice_here(tool, objects, max_splits, deadline);
+        }
         if self.status == ProbeStatus::Running {
             if let Some(team) = team {
                 let job = ProbeJob {
@@ -382,6 +389,10 @@ impl FreeSpaceProbe {
                     margin: self.margin,
                 };
                 self.background = team::post_probe_job(team, job);
+                if self.background.is_none() && !here {
+                    // The helper is busy or asleep: this call's slice runs here.
+                    self.slice_here(tool, objects, max_splits, deadline);
+                }
             }
         }
         self.status

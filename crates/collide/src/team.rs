@@ -159,8 +159,13 @@ impl TraversalTeam {
         })
     }
 
-    /// Keeps the helper spinning for [`SPIN_WINDOW`] from now, waking it if it parked.
-    pub(crate) fn keep_awake(&self) {
+    /// Keeps the helper spinning for [`SPIN_WINDOW`] from now, waking it if it parked: call it
+    /// every frame while work for it may come (the traversals and probes that use the team
+    /// call it themselves). Cheap: an atomic store, and a wake-up only after a pause.
+    ///
+    /// # Real-time
+    /// No allocation; at most one `futex` wake.
+    pub fn keep_awake(&self) {
         let s = &self.shared;
         s.awake_until_ns.store(
             s.now_ns() + SPIN_WINDOW.as_nanos() as u64,

@@ -244,6 +244,10 @@ impl GodObject {
     /// [`PROBE_AHEAD`] of a proof's usable radius; each frame runs one slice of it, sized to
     /// finish in time. A finished free probe replaces the proof that runs out first.
     pub(super) fn tend_probe(&mut self, q: &Pose, used: f64, deadline: Instant) {
+        if let Some(team) = &self.team {
+            // Probes come every few frames here: the helper stays ready for them.
+            team.keep_awake();
+        }
         let speed = self.last_motion.max(1e-4);
         let horizon =
             self.frames_in(&self.free[0], q, used)
