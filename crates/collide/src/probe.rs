@@ -4,7 +4,7 @@
 use crate::team::{self, JobState, TraversalTeam, SHARE_MAX_START_SPLITS, SHARE_MIN_PAIRS};
 use crate::traverse::{clean_margin, descend_budgeted, CollideWorkspace, SPLITS_PER_CHECK};
 use crate::{CollideError, LeafPair, PackedTree, Pose};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicU8, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -34,6 +34,8 @@ pub enum ProbeStatus {
 /// first, 1: the second) descended in slices.
 #[derive(Clone, Debug)]
 pub(crate) struct ProbeStream {
+    /// Status and splits as of the last slice, readable without the stream's lock.
+    published: Arc<Published>,
     ws: CollideWorkspace,
     parity: usize,
     object: usize,
@@ -46,6 +48,7 @@ pub(crate) struct ProbeStream {
 impl ProbeStream {
     fn new(tool: &PackedTree, objects: &[PackedTree], parity: usize) -> Self {
         Self {
+            published: Arc::new(Published::default()),
             ws: CollideWorkspace::for_trees(tool, objects),
             parity,
             object: 0,
@@ -61,11 +64,33 @@ impl ProbeStream {
         self.end = usize::MAX;
         self.resume = false;
         self.status = ProbeStatus::Running;
+        self.publish();
     }
 
     /// At most `budget` node-pair splits (plus each object's serial start, at most a few tens),
-    /// stopping early past `deadline`; the stream's status.
+    /// stopping early past `deadline`; the stream's status (also published).
     pub(crate) fn advance(
+        &mut self,
+        tool: &PackedTree,
+        objects: &[PackedTree],
+        margin: f64,
+        budget: usize,
+        deadline: Option<Instant>,
+    ) -> ProbeStatus {
+        let status = self.advance_unpublished(tool, objects, margin, budget, deadline);
+        self.publish();
+        status
+    }
+
+    fn publish(&self) {
+        let shown = &self.published;
+        shown
+            .status
+            .store(status_code(self.status), Ordering::Release);
+        shown.splits.store(self.splits(), Ordering::Release);
+    }
+
+    fn advance_unpublished(
         &mut self,
         tool: &PackedTree,
         objects: &[PackedTree],
@@ -198,12 +223,41 @@ fn rebalance(a: &mut ProbeStream, b: &mut ProbeStream, tool: &PackedTree) {
     taker.end = donor.object + 1;
     taker.resume = true;
     taker.status = ProbeStatus::Running;
+    taker.publish();
+}
+
+/// What a stream shows without its lock: its status and splits after its last slice, and
+/// whether the caller's thread wants it (the helper then leaves it alone).
+#[derive(Debug, Default)]
+pub(crate) struct Published {
+    status: AtomicU8,
+    splits: AtomicUsize,
+    wanted: AtomicBool,
+}
+
+fn status_code(s: ProbeStatus) -> u8 {
+    match s {
+        ProbeStatus::Idle => 0,
+        ProbeStatus::Running => 1,
+        ProbeStatus::Free => 2,
+        ProbeStatus::Touching => 3,
+    }
+}
+
+fn status_of(code: u8) -> ProbeStatus {
+    match code {
+        1 => ProbeStatus::Running,
+        2 => ProbeStatus::Free,
+        3 => ProbeStatus::Touching,
+        _ => ProbeStatus::Idle,
+    }
 }
 
 /// A probe the helper runs in the background: both streams to their ends, in short slices,
 /// while the probe is still the one it was given (its generation unchanged).
 pub(crate) struct ProbeJob {
     streams: [Arc<Mutex<ProbeStream>>; 2],
+    published: [Arc<Published>; 2],
     generation: Arc<AtomicU64>,
     expected: u64,
     margin: f64,
@@ -222,7 +276,13 @@ impl ProbeJob {
                 rebalance(&mut a, &mut b, tool);
             }
             let mut running = false;
-            for stream in &self.streams {
+            for (stream, shown) in self.streams.iter().zip(&self.published) {
+                if shown.wanted.load(Ordering::Acquire) {
+                    // The caller's thread is taking this one over.
+                    running |=
+                        status_of(shown.status.load(Ordering::Acquire)) == ProbeStatus::Running;
+                    continue;
+                }
                 let Ok(mut s) = stream.try_lock() else {
                     // The caller's thread has it.
                     running = true;
@@ -255,6 +315,7 @@ impl ProbeJob {
 #[derive(Debug)]
 pub struct FreeSpaceProbe {
     streams: [Arc<Mutex<ProbeStream>>; 2],
+    published: [Arc<Published>; 2],
     /// Each stream's status and splits as last read (the helper may hold one).
     seen: [(ProbeStatus, usize); 2],
     /// Bumped by every start: a background job of an older probe stops.
@@ -275,9 +336,11 @@ impl std::fmt::Debug for ProbeJob {
 impl FreeSpaceProbe {
     /// A probe sized for `tool` against `objects` (allocates; never again for these trees).
     pub fn for_trees(tool: &PackedTree, objects: &[PackedTree]) -> Self {
+        let [a, b] = [0, 1].map(|parity| ProbeStream::new(tool, objects, parity));
+        let published = [a.published.clone(), b.published.clone()];
         Self {
-            streams: [0, 1]
-                .map(|parity| Arc::new(Mutex::new(ProbeStream::new(tool, objects, parity)))),
+            streams: [Arc::new(Mutex::new(a)), Arc::new(Mutex::new(b))],
+            published,
             seen: [(ProbeStatus::Idle, 0); 2],
             generation: Arc::new(AtomicU64::new(0)),
             background: None,
@@ -384,6 +447,7 @@ impl FreeSpaceProbe {
             if let Some(team) = team {
                 let job = ProbeJob {
                     streams: [self.streams[0].clone(), self.streams[1].clone()],
+                    published: [self.published[0].clone(), self.published[1].clone()],
                     generation: self.generation.clone(),
                     expected: self.generation.load(Ordering::Acquire),
                     margin: self.margin,
@@ -414,7 +478,20 @@ impl FreeSpaceProbe {
         if self.status != ProbeStatus::Running {
             return self.status;
         }
-        self.slice_here(tool, objects, max_splits, deadline)
+        self.read();
+        // The first stream still running is taken over (the helper, if it runs the probe,
+        // leaves it after its current slice and goes on with the other).
+        let Some(k) = (0..2).find(|&k| self.seen[k].0 == ProbeStatus::Running) else {
+            return self.combine();
+        };
+        let shown = &self.published[k];
+        shown.wanted.store(true, Ordering::Release);
+        let until = deadline.unwrap_or_else(|| Instant::now() + RESTART_WAIT);
+        if let Some(mut s) = lock_by(&self.streams[k], until) {
+            s.advance(tool, objects, self.margin, max_splits, deadline);
+        }
+        shown.wanted.store(false, Ordering::Release);
+        self.read()
     }
 
     /// One slice on the caller's thread: rebalanced, half in each running stream (all in the
@@ -455,10 +532,11 @@ impl FreeSpaceProbe {
 
     /// The streams' states as far as they can be read now.
     fn read(&mut self) -> ProbeStatus {
-        for (k, stream) in self.streams.iter().enumerate() {
-            if let Ok(s) = stream.try_lock() {
-                self.seen[k] = (s.status, s.splits());
-            }
+        for (k, shown) in self.published.iter().enumerate() {
+            self.seen[k] = (
+                status_of(shown.status.load(Ordering::Acquire)),
+                shown.splits.load(Ordering::Acquire),
+            );
         }
         self.combine()
     }
