@@ -1,8 +1,8 @@
 //! The free-space question asked in slices ([`FreeSpaceProbe`]), in two streams that a
 //! [`TraversalTeam`]'s helper thread can run side by side.
 
-use crate::team::{self, JobState, TraversalTeam, SHARE_MAX_START_SPLITS, SHARE_MIN_PAIRS};
-use crate::traverse::{clean_margin, descend_budgeted, CollideWorkspace, SPLITS_PER_CHECK};
+use crate::team::{self, JobState, TraversalTeam};
+use crate::traverse::{clean_margin, descend_as_queried, CollideWorkspace, SPLITS_PER_CHECK};
 use crate::{CollideError, LeafPair, PackedTree, Pose};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicU8, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -107,35 +107,7 @@ impl ProbeStream {
             let id = self.object as u32;
             ws.reserve(tool, o);
             if !self.resume {
-                let mut one = 1;
-                let mut d = descend_budgeted::<false, _>(
-                    tool,
-                    o,
-                    id,
-                    margin,
-                    ws,
-                    &mut stop_at_first,
-                    false,
-                    &mut one,
-                );
-                let mut splits = 1;
-                while !d.finished
-                    && ws.stack.len() < SHARE_MIN_PAIRS
-                    && splits < SHARE_MAX_START_SPLITS
-                {
-                    let mut one = 1;
-                    d = descend_budgeted::<false, _>(
-                        tool,
-                        o,
-                        id,
-                        margin,
-                        ws,
-                        &mut stop_at_first,
-                        true,
-                        &mut one,
-                    );
-                    splits += 1;
-                }
+                let d = team::descend_until_shareable(tool, o, id, margin, ws, &mut stop_at_first);
                 if d.count > 0 {
                     self.status = ProbeStatus::Touching;
                     return self.status;
@@ -144,11 +116,7 @@ impl ProbeStream {
                     self.object += 1;
                     continue;
                 }
-                let mut k = 0;
-                ws.stack.retain(|_| {
-                    k += 1;
-                    (k - 1) % 2 == self.parity
-                });
+                team::keep_half(&mut ws.stack, self.parity, |_| {});
                 self.resume = true;
             }
             loop {
@@ -157,7 +125,7 @@ impl ProbeStream {
                     return self.status;
                 }
                 let mut left = slice;
-                let d = descend_budgeted::<false, _>(
+                let d = descend_as_queried(
                     tool,
                     o,
                     id,

@@ -23,7 +23,8 @@
 
 use crate::probe::ProbeJob;
 use crate::traverse::{
-    arc_allowance, clean_margin, descend_budgeted, CollideWorkspace, LeafPair, SPLITS_PER_CHECK,
+    arc_allowance, clean_margin, descend_as_queried, CollideWorkspace, Descent, LeafPair,
+    SPLITS_PER_CHECK,
 };
 use crate::{CollideError, PackedTree, Pose, Sweep};
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
@@ -288,6 +289,46 @@ fn descend_second_half(work: &mut Work, tool: &PackedTree, objects: &[PackedTree
     *complete = descend_to_deadline(tool, obj, *object as u32, *margin, ws, &mut keep, *deadline);
 }
 
+/// The serial start of every split traversal: from the roots until [`SHARE_MIN_PAIRS`] node
+/// pairs wait on the stack (at most [`SHARE_MAX_START_SPLITS`] splits) or the descent ends;
+/// the last call's [`Descent`] (its count: pairs it reported).
+pub(crate) fn descend_until_shareable<F: FnMut(&LeafPair) -> bool>(
+    tool: &PackedTree,
+    obj: &PackedTree,
+    obj_id: u32,
+    m: f64,
+    ws: &mut CollideWorkspace,
+    visit: &mut F,
+) -> Descent {
+    let mut one = 1;
+    let mut d = descend_as_queried(tool, obj, obj_id, m, ws, visit, false, &mut one);
+    let mut splits = 1;
+    while !d.finished && ws.stack.len() < SHARE_MIN_PAIRS && splits < SHARE_MAX_START_SPLITS {
+        let mut one = 1;
+        d = descend_as_queried(tool, obj, obj_id, m, ws, visit, true, &mut one);
+        splits += 1;
+    }
+    d
+}
+
+/// Keeps the waiting node pairs at even (`parity` 0) or odd (1) positions of `stack`, in order,
+/// and hands the others to `other`, in order: the two halves of a split traversal.
+pub(crate) fn keep_half(
+    stack: &mut Vec<(u32, u32)>,
+    parity: usize,
+    mut other: impl FnMut((u32, u32)),
+) {
+    let mut k = 0;
+    stack.retain(|&e| {
+        let mine = k % 2 == parity;
+        k += 1;
+        if !mine {
+            other(e);
+        }
+        mine
+    });
+}
+
 /// Descends what waits on `ws`'s stack (resuming) in slices, checking `deadline` between
 /// them. True when finished, false when stopped.
 fn descend_to_deadline<F: FnMut(&LeafPair) -> bool>(
@@ -301,34 +342,13 @@ fn descend_to_deadline<F: FnMut(&LeafPair) -> bool>(
 ) -> bool {
     loop {
         let mut budget = SPLITS_PER_CHECK;
-        let d = descend_slice(tool, obj, obj_id, m, ws, visit, true, &mut budget);
-        if d {
+        if descend_as_queried(tool, obj, obj_id, m, ws, visit, true, &mut budget).finished {
             return true;
         }
         if deadline.is_some_and(|t| Instant::now() >= t) {
             return false;
         }
     }
-}
-
-/// One budgeted descent call (swept or not, as the workspace's query); true when finished.
-#[allow(clippy::too_many_arguments)]
-fn descend_slice<F: FnMut(&LeafPair) -> bool>(
-    tool: &PackedTree,
-    obj: &PackedTree,
-    obj_id: u32,
-    m: f64,
-    ws: &mut CollideWorkspace,
-    visit: &mut F,
-    resume: bool,
-    budget: &mut usize,
-) -> bool {
-    let d = if ws.swept {
-        descend_budgeted::<true, F>(tool, obj, obj_id, m, ws, visit, resume, budget)
-    } else {
-        descend_budgeted::<false, F>(tool, obj, obj_id, m, ws, visit, resume, budget)
-    };
-    d.finished
 }
 
 /// Every leaf pair of `tool` (posed by `world_from_tool`, swept along `sweep` if given) and
@@ -383,31 +403,15 @@ pub fn overlap_shared<F: FnMut(&LeafPair)>(
             report(p)
         };
         // The serial start: until enough node pairs wait to share.
-        let mut budget = 1;
-        let mut finished = descend_slice(tool, obj, id, m, ws, &mut counted, false, &mut budget);
-        let mut splits = 1;
-        while !finished && ws.stack.len() < SHARE_MIN_PAIRS && splits < SHARE_MAX_START_SPLITS {
-            let mut budget = 1;
-            finished = descend_slice(tool, obj, id, m, ws, &mut counted, true, &mut budget);
-            splits += 1;
-        }
+        let finished = descend_until_shareable(tool, obj, id, m, ws, &mut counted).finished;
         if finished {
             out.pairs += found;
             continue;
         }
         // Every second waiting node pair is the second half.
-        ws.second.clear();
-        let mut keep = 0;
-        for k in 0..ws.stack.len() {
-            let e = ws.stack[k];
-            if k % 2 == 1 {
-                ws.second.push(e);
-            } else {
-                ws.stack[keep] = e;
-                keep += 1;
-            }
-        }
-        ws.stack.truncate(keep);
+        let CollideWorkspace { stack, second, .. } = ws;
+        second.clear();
+        keep_half(stack, 0, |e| second.push(e));
         let posted =
             team.is_some_and(|t| post(t, world_from_tool, sweep, m, i, deadline, &ws.second));
         let half_start = Instant::now();

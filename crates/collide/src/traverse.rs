@@ -578,29 +578,7 @@ fn descend_all_until<F: FnMut(&LeafPair) -> bool, G: FnMut() -> bool>(
         let mut resume = false;
         loop {
             let mut budget = SPLITS_PER_CHECK;
-            let d = if ws.swept {
-                descend_budgeted::<true, _>(
-                    tool,
-                    o,
-                    i as u32,
-                    m,
-                    ws,
-                    &mut report,
-                    resume,
-                    &mut budget,
-                )
-            } else {
-                descend_budgeted::<false, _>(
-                    tool,
-                    o,
-                    i as u32,
-                    m,
-                    ws,
-                    &mut report,
-                    resume,
-                    &mut budget,
-                )
-            };
+            let d = descend_as_queried(tool, o, i as u32, m, ws, &mut report, resume, &mut budget);
             pairs += d.count;
             if stopped.get() {
                 return Traversal {
@@ -748,10 +726,26 @@ fn descend<F: FnMut(&LeafPair) -> bool>(
     visit: &mut F,
 ) -> usize {
     let mut unlimited = usize::MAX;
+    descend_as_queried(tool, obj, obj_id, m, ws, visit, false, &mut unlimited).count
+}
+
+/// [`descend_budgeted`], swept or not as the workspace's query was started.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub(crate) fn descend_as_queried<F: FnMut(&LeafPair) -> bool>(
+    tool: &PackedTree,
+    obj: &PackedTree,
+    obj_id: u32,
+    m: f64,
+    ws: &mut CollideWorkspace,
+    visit: &mut F,
+    resume: bool,
+    budget: &mut usize,
+) -> Descent {
     if ws.swept {
-        descend_budgeted::<true, F>(tool, obj, obj_id, m, ws, visit, false, &mut unlimited).count
+        descend_budgeted::<true, F>(tool, obj, obj_id, m, ws, visit, resume, budget)
     } else {
-        descend_budgeted::<false, F>(tool, obj, obj_id, m, ws, visit, false, &mut unlimited).count
+        descend_budgeted::<false, F>(tool, obj, obj_id, m, ws, visit, resume, budget)
     }
 }
 
