@@ -396,14 +396,27 @@ impl FreeSpaceProbe {
         let mut here = true;
         if let Some(team) = team {
             team.keep_awake();
-            match self.background.and_then(|id| team::job_state(team, id)) {
-                Some(JobState::Running) => return self.read(),
+            let js = self.background.and_then(|id| team::job_state(team, id));
+            match js {
+                Some(JobState::Running) => {
+                    let before = self.splits();
+                    if self.read() == ProbeStatus::Running && self.splits() == before {
+                        // No slice since the last call: the helper is held up (it runs on idle
+                        // time only). This call's slice runs here, on a stream it leaves.
+                        return self.advance_now(tool, objects, max_splits, deadline);
+                    }
+                    return self.status;
+                }
                 // Not claimed since the last call (the helper was held up): taken back, this
                 // call runs a slice here and hands it over again.
                 Some(JobState::Posted) if team::take_back(team) => self.background = None,
                 Some(JobState::Posted) => return self.read(),
                 _ => {
+                    // A job that ended has left its streams' states published.
                     self.background = None;
+                    if self.read() != ProbeStatus::Running {
+                        return self.status;
+                    }
                     here = false;
                 }
             }

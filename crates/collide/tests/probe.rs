@@ -105,3 +105,33 @@ fn probe_in_slices_matches_any_pair_within_with_or_without_a_helper() {
         "{free} free, {touching} touching"
     );
 }
+
+/// A probe the helper finished between two calls is seen finished at the next call (its
+/// streams' published states are read when its job has ended), not left running.
+#[test]
+fn a_probe_finished_in_the_background_is_seen_finished() {
+    let tool = PackedTree::new(&random_tree(3, shape())).unwrap();
+    let objects = vec![PackedTree::new(&random_tree(4, shape())).unwrap()];
+    let team = TraversalTeam::new(&tool, &objects, 64).unwrap();
+    let mut probe = FreeSpaceProbe::for_trees(&tool, &objects);
+    let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+    for k in 0..20 {
+        let q = Pose::from_array([-60.0 + 6.0 * f64::from(k), 8.0, 0.0, 0.1, 0.2, 0.0]);
+        let expected = if any_pair_within(&tool, &q, &objects, 0.5, &mut ws).unwrap() {
+            ProbeStatus::Touching
+        } else {
+            ProbeStatus::Free
+        };
+        probe.start(&tool, &q, 0.5).unwrap();
+        let mut status = probe.advance_shared(&tool, &objects, 2, Some(&team), None);
+        for _ in 0..200 {
+            if status != ProbeStatus::Running {
+                break;
+            }
+            // Time for the helper to finish the probe in the background between calls.
+            std::thread::sleep(std::time::Duration::from_millis(1));
+            status = probe.advance_shared(&tool, &objects, 2, Some(&team), None);
+        }
+        assert_eq!(status, expected, "pose {k}");
+    }
+}
