@@ -23,6 +23,29 @@ fn count_allocations<T>(f: impl FnOnce() -> T) -> (T, usize) {
     (out, counts.events())
 }
 
+/// Runs `traj` through a fresh engine of `scene` twice: a warm-up pass (workspaces grow to the
+/// largest problem of this motion), then a counted one. The frames run and the (de)allocations
+/// of the counted pass, and its records.
+fn warm_then_count(scene: &scene::Scene, traj: &Trajectory) -> (usize, usize, Vec<FrameRecord>) {
+    let mut engine = scene.engine().unwrap();
+    let params = LoopParams::default();
+    engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+    let mut records: Vec<FrameRecord> = Vec::with_capacity(traj.len());
+    run_frames(
+        &mut engine,
+        &mut ReplayDevice::new(traj.clone()),
+        &params,
+        &mut records,
+    );
+    assert_eq!(records.len(), traj.len(), "warm-up pass");
+    engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+    let mut device = ReplayDevice::new(traj.clone());
+    records.clear();
+    let (n, allocs) =
+        count_allocations(|| run_frames(&mut engine, &mut device, &params, &mut records).0);
+    (n, allocs, records)
+}
+
 #[test]
 fn the_counter_sees_an_allocation() {
     let (v, n) = count_allocations(|| std::hint::black_box(vec![1u8; 64]));
@@ -79,24 +102,7 @@ fn ten_thousand_frames_do_not_allocate() {
         if kind == SolverKind::Pqp {
             scene.solver.relinearize = 0;
         }
-        let mut engine = scene.engine().unwrap();
-        let params = LoopParams::default();
-        // Warm-up: workspaces grow to the largest problem of this motion.
-        engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
-        let mut records: Vec<FrameRecord> = Vec::with_capacity(traj.len());
-        run_frames(
-            &mut engine,
-            &mut ReplayDevice::new(traj.clone()),
-            &params,
-            &mut records,
-        );
-        assert_eq!(records.len(), frames);
-        // Measured pass.
-        engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
-        let mut device = ReplayDevice::new(traj.clone());
-        records.clear();
-        let (n, allocs) =
-            count_allocations(|| run_frames(&mut engine, &mut device, &params, &mut records).0);
+        let (n, allocs, records) = warm_then_count(&scene, traj);
         assert_eq!(n, frames, "{kind:?}");
         assert_eq!(
             allocs, 0,
@@ -125,21 +131,7 @@ fn frames_with_the_helper_thread_do_not_allocate() {
     let mut scene = scene::scenes::builtin("spline", &common::test_cache()).unwrap();
     scene.solver.helper_thread = true;
     let traj = scene.trajectory();
-    let mut engine = scene.engine().unwrap();
-    let params = LoopParams::default();
-    engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
-    let mut records: Vec<FrameRecord> = Vec::with_capacity(traj.len());
-    run_frames(
-        &mut engine,
-        &mut ReplayDevice::new(traj.clone()),
-        &params,
-        &mut records,
-    );
-    engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
-    let mut device = ReplayDevice::new(traj.clone());
-    records.clear();
-    let (n, allocs) =
-        count_allocations(|| run_frames(&mut engine, &mut device, &params, &mut records).0);
+    let (n, allocs, records) = warm_then_count(&scene, &traj);
     assert_eq!(n, traj.len());
     assert_eq!(allocs, 0, "{allocs} (de)allocations in {n} frames");
     assert!(
