@@ -178,8 +178,23 @@ fn dropping_the_team_stops_its_thread() {
     let tree = random_tree(41, shape());
     let tool = PackedTree::new(&tree).unwrap();
     let objects = vec![PackedTree::new(&random_tree(42, shape())).unwrap()];
-    for _ in 0..20 {
-        let team = TraversalTeam::new(&tool, &objects, 64).unwrap();
-        drop(team);
-    }
+    // Each drop joins the helper: a helper that did not stop would hang this thread.
+    let (done, finished) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+        for k in 0..20 {
+            let team = TraversalTeam::new(&tool, &objects, 64).unwrap();
+            // Some teams are dropped busy or spinning, some parked.
+            if k % 2 == 0 {
+                let pose = Pose::from_array([0.3, -0.2, 0.1, 0.01, 0.0, 0.01]);
+                shared(&tool, &pose, None, &objects, 0.5, &mut ws, Some(&team), None);
+            }
+            drop(team);
+        }
+        let _ = done.send(());
+    });
+    assert!(
+        finished.recv_timeout(Duration::from_secs(30)).is_ok(),
+        "dropping a team did not stop its helper thread"
+    );
 }
