@@ -187,7 +187,16 @@ fn dropping_the_team_stops_its_thread() {
             // Some teams are dropped busy or spinning, some parked.
             if k % 2 == 0 {
                 let pose = Pose::from_array([0.3, -0.2, 0.1, 0.01, 0.0, 0.01]);
-                shared(&tool, &pose, None, &objects, 0.5, &mut ws, Some(&team), None);
+                shared(
+                    &tool,
+                    &pose,
+                    None,
+                    &objects,
+                    0.5,
+                    &mut ws,
+                    Some(&team),
+                    None,
+                );
             }
             drop(team);
         }
