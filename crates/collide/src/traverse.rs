@@ -684,7 +684,7 @@ fn hit_mask(spheres: &[Sphere32], probe: Sphere32) -> u32 {
 /// a tool centre minus an object centre at the query pose and `D` the tool centre's
 /// displacement over the sweep, the closest the two centres come on the way.
 #[inline(always)]
-fn segment_dist2(x: [f64; 3], d: [f64; 3]) -> f64 {
+pub(crate) fn segment_dist2(x: [f64; 3], d: [f64; 3]) -> f64 {
     let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
     let xd = x[0] * d[0] + x[1] * d[1] + x[2] * d[2];
     let s = if dd > 0.0 {

@@ -27,7 +27,7 @@ impl GodObject {
         let pairs = &mut self.pairs;
         let dropped = &mut self.dropped;
         let mut min_gap = f64::INFINITY;
-        let collect = |p: &LeafPair| {
+        let mut collect = |p: &LeafPair| {
             min_gap = min_gap.min(p.gap);
             if pairs.len() < pairs.capacity() {
                 pairs.push(*p);
@@ -35,6 +35,14 @@ impl GodObject {
                 *dropped += 1;
             }
         };
+        // Inside the neighbour list: its pairs tested at `q` are the traversal's.
+        let listed = self.neighbours.filter(q, sweep, margin, |p| {
+            collect(p);
+            true
+        });
+        if listed.is_some() {
+            return Ok(min_gap);
+        }
         // The shared traversal's order is the same with or without the helper, so the
         // frames are too.
         let t = collide::overlap_shared(
@@ -62,6 +70,14 @@ impl GodObject {
         margin: f64,
         deadline: Option<Instant>,
     ) -> Result<bool, collide::CollideError> {
+        let mut any = false;
+        let listed = self.neighbours.filter(q, None, margin, |_| {
+            any = true;
+            false
+        });
+        if listed.is_some() {
+            return Ok(any);
+        }
         collide::any_pair_within_until(&self.tool, q, &self.objects, margin, &mut self.ws, || {
             deadline.is_none_or(|d| Instant::now() < d)
         })
@@ -297,6 +313,70 @@ impl GodObject {
                 }
             }
             ProbeStatus::Running => {}
+        }
+    }
+
+    /// Keeps a neighbour list about the tool while it is in contact and slow enough for one to
+    /// last [`LIST_MIN_LIFE_FRAMES`] (a frame needing `used` mm at `q`): when the list in use
+    /// covers fewer frames ahead (at the tool's last motion per frame) than the next build
+    /// needs at its pace, the next one starts where the tool is expected half-way through its
+    /// life, and each frame builds a slice of it (until the `deadline`), sized to finish in
+    /// time. A finished list replaces the one in use; its pair count sets the next margin.
+    pub(super) fn tend_neighbours(&mut self, q: &Pose, used: f64, deadline: Instant) {
+        let speed = self.last_motion;
+        let margin = self.list_margin;
+        let life = (margin - used).max(0.0) / speed.max(1e-9);
+        if self.pairs.is_empty() || life < LIST_MIN_LIFE_FRAMES {
+            // Free space (the proofs serve), or too fast for a list to pay.
+            self.next_neighbours.clear();
+            return;
+        }
+        let horizon = if self.neighbours.status() == ListStatus::Ready {
+            let (center, radius) = self.neighbours.question();
+            self.frames_in(&FreeProof { center, radius }, q, used)
+        } else {
+            0.0
+        };
+        if self.next_neighbours.status() == ListStatus::Building && Instant::now() < deadline {
+            let estimate = self.list_splits as f64;
+            let left = (estimate - self.next_neighbours.splits() as f64).max(0.25 * estimate);
+            // At most LIST_MAX_SLICE_SPLITS in a frame: a list late for its use costs the
+            // traversals it would have spared, a long slice costs the frame.
+            let slice = (left / (horizon - 1.0).max(1.0))
+                .clamp(PROBE_MIN_SLICE_SPLITS as f64, LIST_MAX_SLICE_SPLITS as f64);
+            self.next_neighbours
+                .advance(&self.tool, &self.objects, slice as usize, Some(deadline));
+        }
+        match self.next_neighbours.status() {
+            ListStatus::Ready => {
+                self.list_splits = self.next_neighbours.splits();
+                let n = self.next_neighbours.len().max(1) as f64;
+                let (_, built) = self.next_neighbours.question();
+                // Pairs grow about as the margin cubed over a bumpy flat contact.
+                self.list_margin =
+                    (built * (LIST_TARGET_PAIRS / n).cbrt()).clamp(LIST_MIN_MM, LIST_MAX_MM);
+                std::mem::swap(&mut self.neighbours, &mut self.next_neighbours);
+                self.next_neighbours.clear();
+            }
+            ListStatus::Overflowed => {
+                let (_, built) = self.next_neighbours.question();
+                self.list_margin = (0.6 * built).max(LIST_MIN_MM);
+                self.list_splits = self.list_splits.max(self.next_neighbours.splits());
+                self.next_neighbours.clear();
+            }
+            ListStatus::Empty => {
+                let frames = self.list_splits as f64 / PROBE_SLICE_SPLITS as f64;
+                let lead = 1.5 * frames + 2.0;
+                if horizon < lead {
+                    let ahead_frames = horizon.min(lead) + 0.5 * life;
+                    let mut center = *q;
+                    for k in 0..3 {
+                        center.q[k] += ahead_frames * self.last_step[k];
+                    }
+                    let _ = self.next_neighbours.start(&self.tool, &center, margin);
+                }
+            }
+            ListStatus::Building => {}
         }
     }
 

@@ -46,7 +46,8 @@ use std::time::Instant;
 
 use collide::{
     rotation_exp, rotation_log, CollideWorkspace, FreeSpaceProbe, LeafPair, Linearization,
-    PackedTree, Pose, ProbeStatus, RotationCoordinates, Sweep, TraversalTeam,
+    ListStatus, NeighbourList, PackedTree, Pose, ProbeStatus, RotationCoordinates, Sweep,
+    TraversalTeam,
 };
 use nalgebra::{Matrix3, Vector3};
 use qp::{Problem, RowGeneration, Solver, Status};
@@ -161,6 +162,31 @@ const PASS_HEADROOM: f64 = 1.25;
 /// solve and check: a traversal still running at `(1 - DETECT_RESERVE) · budget_us` stops,
 /// and the frame ends lagging at its last proven pose.
 const DETECT_RESERVE: f64 = 0.15;
+
+/// First margin (mm) of a neighbour list; later ones follow the pairs the last one held.
+const LIST_MARGIN_MM: f64 = 0.6;
+
+/// Bounds (mm) of a neighbour list's margin.
+const LIST_MIN_MM: f64 = 0.3;
+const LIST_MAX_MM: f64 = 2.0;
+
+/// Pairs a neighbour list aims at (filtering them costs ~1 ns each).
+const LIST_TARGET_PAIRS: f64 = 3000.0;
+
+/// Most pairs a neighbour list holds; a build past it is dropped and the margin shrunk.
+const LIST_MAX_PAIRS: usize = 8192;
+
+/// Node pairs the first neighbour list is expected to split (its slices' size).
+const LIST_FIRST_SPLITS: usize = 5000;
+
+/// A neighbour list is built only when it would serve at least this many frames at the
+/// tool's current motion (a fast tool outruns it: its regions are traversed).
+const LIST_MIN_LIFE_FRAMES: f64 = 3.0;
+
+/// Most node pairs a frame splits building the next neighbour list (~50 µs on a flat-on-flat
+/// contact): a list late for its use costs the traversals it would have spared, a long slice
+/// costs the frame.
+const LIST_MAX_SLICE_SPLITS: usize = 1280;
 
 /// Smallest motion allowance of a detected region, mm.
 const MIN_ALLOW_MM: f64 = 0.1;
@@ -306,6 +332,15 @@ pub struct GodObject {
     probe: FreeSpaceProbe,
     /// Node pairs the last finished probe split (its cost, to size the next one's slices).
     probe_splits: usize,
+    /// The neighbour list in use: every leaf pair within a wide margin of a pose near the tool,
+    /// filtered instead of traversed while a region's query stays inside it.
+    neighbours: NeighbourList,
+    /// The next neighbour list, built a slice per frame ahead of need.
+    next_neighbours: NeighbourList,
+    /// Margin (mm) of the next neighbour list: adapted to the pairs the last one held.
+    list_margin: f64,
+    /// Node pairs the last finished list split (its cost, to size the next one's slices).
+    list_splits: usize,
     /// Where the hand was relative to the graphic tool at the end of the last frame:
     /// translation `t_h - t_g` (mm) and rotation `log(R_h R_g^T)` (rad, world axes). A hand in
     /// steady motion keeps it, which predicts where this frame's answer lies.
@@ -367,6 +402,9 @@ impl GodObject {
         };
         let n_objects = objects.len();
         let probe = FreeSpaceProbe::for_trees(&tool, &objects);
+        let list_capacity = params.max_pairs.min(LIST_MAX_PAIRS);
+        let neighbours = NeighbourList::for_trees(&tool, &objects, list_capacity);
+        let next_neighbours = NeighbourList::for_trees(&tool, &objects, list_capacity);
         let cap = params.max_pairs;
         let mut solver = Solver::new(params.solver);
         let mut rows_solver = RowGeneration::new();
@@ -397,6 +435,10 @@ impl GodObject {
             free: [FreeProof::none(); 2],
             probe,
             probe_splits: 0,
+            neighbours,
+            next_neighbours,
+            list_margin: LIST_MARGIN_MM,
+            list_splits: LIST_FIRST_SPLITS,
             hand_offset: (Vector3::zeros(), Vector3::zeros()),
             cached: None,
             prediction_error: 0.0,
@@ -475,6 +517,10 @@ impl GodObject {
         self.cached = None;
         self.free = [FreeProof::none(); 2];
         self.probe.cancel();
+        self.neighbours.clear();
+        self.next_neighbours.clear();
+        self.list_margin = LIST_MARGIN_MM;
+        self.list_splits = LIST_FIRST_SPLITS;
         let mut q = *start;
         let tol = self.params.penetration_tol_mm.max(1e-6);
         let mut searched = 0.0f64;
@@ -964,6 +1010,9 @@ impl GodObject {
             q_h.translation() - q_safe.translation(),
             rotation_log(&(q_h.rotation_matrix() * q_safe.rotation_matrix().transpose())),
         );
+        // In contact, the next frames' regions come from a neighbour list kept ahead.
+        let used = out.margin_mm.max(MIN_ALLOW_MM + skin);
+        self.tend_neighbours(&q_safe, used, deadline);
         out.penetration_mm = pen_safe;
         out.q_g = q_safe.to_array();
         out.wrench = spring_wrench(&self.params.g(), self.params.rotation, &q_safe, &hand);

@@ -1,0 +1,341 @@
+//! A neighbour list (a Verlet list, as molecular dynamics keeps one): every leaf pair within a
+//! wide margin `M` of touching at a pose `c`, built once (in slices, spread over frames) and
+//! then filtered instead of traversed while the queries stay near `c`.
+//!
+//! **Why it is exact.** No tool leaf centre moves more than `b = |t_q - t_c| + θ · reach`
+//! between `c` and a pose `q` (`θ` the angle of `R_q R_c^T`, `reach` the tool's
+//! [`PackedTree::reach`]). A pair whose gap at `q` is at most `m` has a gap of at most `m + b`
+//! at `c`; so while `b + m <= M` it is in the list, and testing the listed pairs at `q` gives
+//! exactly the pairs a traversal at `q` would report. A swept query (the pairs that come within
+//! `m` along a [`Sweep`] from `q`) needs `M` to cover the sweep too: its translation `|v|`, its
+//! turn over the tool's reach, the arc allowance and the turn's growth of a leaf's radius
+//! ([`NeighbourList::covers`]).
+//!
+//! Flat-on-flat contacts are where it pays: their trees' inner spheres overlap across the
+//! whole face, so a traversal splits a thousand node pairs to find a hundred leaf pairs, while
+//! testing a few thousand listed pairs costs a few microseconds.
+
+use crate::traverse::{
+    arc_allowance, clean_margin, descend_as_queried, segment_dist2, CollideWorkspace,
+};
+use crate::{CollideError, LeafPair, PackedTree, Pose, Sweep};
+use std::time::Instant;
+
+/// Node-pair splits between two clock reads while a list is built against a deadline.
+const SPLITS_PER_CLOCK: usize = 128;
+
+/// State of a [`NeighbourList`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ListStatus {
+    /// Nothing built (or cleared).
+    Empty,
+    /// Started, not finished: call [`NeighbourList::advance`] again.
+    Building,
+    /// Complete: queries it [`covers`](NeighbourList::covers) can be answered by
+    /// [`NeighbourList::filter`].
+    Ready,
+    /// More pairs than its capacity: unusable (build again with a smaller margin).
+    Overflowed,
+}
+
+/// Every leaf pair within a margin of touching at one pose, kept to answer later queries near
+/// that pose without a traversal (see the module docs for the guarantee).
+///
+/// # Real-time
+/// All storage is reserved by [`NeighbourList::for_trees`]: building, covering and filtering
+/// never allocate and never panic.
+#[derive(Clone, Debug)]
+pub struct NeighbourList {
+    ws: CollideWorkspace,
+    center: Pose,
+    /// mm.
+    margin: f64,
+    status: ListStatus,
+    /// The object being descended, and whether its descent is under way (resume its stack).
+    object: usize,
+    resume: bool,
+    pairs: Vec<LeafPair>,
+    /// The listed pairs in structure-of-arrays form for the filter: tool centre (tool frame,
+    /// mm), object centre (world, mm), both radii (mm).
+    px: Vec<f64>,
+    py: Vec<f64>,
+    pz: Vec<f64>,
+    ox: Vec<f64>,
+    oy: Vec<f64>,
+    oz: Vec<f64>,
+    r_tool: Vec<f64>,
+    r_object: Vec<f64>,
+    /// The tool's reach (mm) and largest leaf radius (mm), for [`NeighbourList::covers`].
+    reach: f64,
+    leaf_radius: f64,
+}
+
+impl NeighbourList {
+    /// An empty list for `tool` against `objects`, holding at most `capacity` pairs
+    /// (allocates; not real-time).
+    pub fn for_trees(tool: &PackedTree, objects: &[PackedTree], capacity: usize) -> Self {
+        let leaf_radius = tool.leaves().map(|n| tool.radius(n)).fold(0.0, f64::max);
+        let column = || Vec::with_capacity(capacity);
+        Self {
+            ws: CollideWorkspace::for_trees(tool, objects),
+            center: Pose::identity(),
+            margin: 0.0,
+            status: ListStatus::Empty,
+            object: 0,
+            resume: false,
+            pairs: Vec::with_capacity(capacity),
+            px: column(),
+            py: column(),
+            pz: column(),
+            ox: column(),
+            oy: column(),
+            oz: column(),
+            r_tool: column(),
+            r_object: column(),
+            reach: tool.reach(),
+            leaf_radius,
+        }
+    }
+
+    /// Starts a new list of the pairs within `margin` (mm) of touching with the tool at
+    /// `center`; [`NeighbourList::advance`] builds it. The old list is dropped.
+    pub fn start(
+        &mut self,
+        tool: &PackedTree,
+        center: &Pose,
+        margin: f64,
+    ) -> Result<(), CollideError> {
+        if !center.is_finite() {
+            return Err(CollideError::NonFinitePose);
+        }
+        self.clear();
+        self.center = *center;
+        self.margin = clean_margin(margin);
+        self.ws.start(tool, center, None);
+        self.status = ListStatus::Building;
+        Ok(())
+    }
+
+    /// Forgets the list (status [`ListStatus::Empty`]).
+    pub fn clear(&mut self) {
+        self.status = ListStatus::Empty;
+        self.object = 0;
+        self.resume = false;
+        self.pairs.clear();
+        for c in [
+            &mut self.px,
+            &mut self.py,
+            &mut self.pz,
+            &mut self.ox,
+            &mut self.oy,
+            &mut self.oz,
+            &mut self.r_tool,
+            &mut self.r_object,
+        ] {
+            c.clear();
+        }
+    }
+
+    /// Builds on for at most `budget` node-pair splits, stopping early past `deadline`; the
+    /// list's status. The same trees as given to [`NeighbourList::for_trees`].
+    pub fn advance(
+        &mut self,
+        tool: &PackedTree,
+        objects: &[PackedTree],
+        mut budget: usize,
+        deadline: Option<Instant>,
+    ) -> ListStatus {
+        if self.status != ListStatus::Building {
+            return self.status;
+        }
+        let capacity = self.pairs.capacity();
+        let mut overflow = false;
+        while let Some(o) = objects.get(self.object) {
+            let id = self.object as u32;
+            self.ws.reserve(tool, o);
+            loop {
+                let slice = budget.min(SPLITS_PER_CLOCK);
+                if slice == 0 {
+                    return self.status;
+                }
+                let mut left = slice;
+                let (pairs, ws) = (&mut self.pairs, &mut self.ws);
+                let columns = (
+                    &mut self.px,
+                    &mut self.py,
+                    &mut self.pz,
+                    &mut self.ox,
+                    &mut self.oy,
+                    &mut self.oz,
+                    &mut self.r_tool,
+                    &mut self.r_object,
+                );
+                let (px, py, pz, ox, oy, oz, rt, ro) = columns;
+                let mut keep = |p: &LeafPair| {
+                    if pairs.len() >= capacity {
+                        overflow = true;
+                        return false;
+                    }
+                    pairs.push(*p);
+                    px.push(p.p_in_tool[0]);
+                    py.push(p.p_in_tool[1]);
+                    pz.push(p.p_in_tool[2]);
+                    ox.push(p.o_in_world[0]);
+                    oy.push(p.o_in_world[1]);
+                    oz.push(p.o_in_world[2]);
+                    rt.push(p.r_tool);
+                    ro.push(p.r_object);
+                    true
+                };
+                let d = descend_as_queried(
+                    tool,
+                    o,
+                    id,
+                    self.margin,
+                    ws,
+                    &mut keep,
+                    self.resume,
+                    &mut left,
+                );
+                self.resume = true;
+                budget -= slice - left;
+                if overflow {
+                    self.status = ListStatus::Overflowed;
+                    return self.status;
+                }
+                if d.finished {
+                    break;
+                }
+                if deadline.is_some_and(|t| Instant::now() >= t) {
+                    return self.status;
+                }
+            }
+            self.object += 1;
+            self.resume = false;
+        }
+        self.status = ListStatus::Ready;
+        self.status
+    }
+
+    /// The list's status.
+    pub fn status(&self) -> ListStatus {
+        self.status
+    }
+
+    /// The pose and margin (mm) the list was started with.
+    pub fn question(&self) -> (Pose, f64) {
+        (self.center, self.margin)
+    }
+
+    /// Node pairs split by the current (or last) build: its cost.
+    pub fn splits(&self) -> usize {
+        self.ws.stats.node_pairs_split
+    }
+
+    /// Pairs listed so far.
+    pub fn len(&self) -> usize {
+        self.pairs.len()
+    }
+
+    /// True when no pair is listed.
+    pub fn is_empty(&self) -> bool {
+        self.pairs.is_empty()
+    }
+
+    /// How far (mm) the list reaches past a query at `q` with `margin` (mm) and `sweep`: its
+    /// margin less the largest motion of a tool leaf from the list's pose to `q` and along the
+    /// sweep, the query's margin and the sweep's allowances. A query is
+    /// [`covered`](NeighbourList::covers) when this is at least 0; `-inf` when the list is not
+    /// ready or the input is not finite.
+    pub fn slack(&self, q: &Pose, sweep: Option<&Sweep>, margin: f64) -> f64 {
+        if self.status != ListStatus::Ready
+            || !q.is_finite()
+            || sweep.is_some_and(|s| !s.is_finite())
+        {
+            return f64::NEG_INFINITY;
+        }
+        let dt = (q.translation() - self.center.translation()).norm();
+        let rel = q.rotation_matrix() * self.center.rotation_matrix().transpose();
+        let turn_from_center = crate::rotation_log(&rel).norm();
+        let mut need = dt + turn_from_center * self.reach + clean_margin(margin);
+        if let Some(s) = sweep {
+            let v = s.translation;
+            let turn = s.angle();
+            // Along the sweep a leaf centre moves at most |v| + |w| reach from its tangent's
+            // start; the swept test grows radii by |w| r and the margin by the arc allowance.
+            need += (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+                + turn * (self.reach + self.leaf_radius)
+                + arc_allowance(self.reach, turn);
+        }
+        self.margin - need
+    }
+
+    /// True when every pair a traversal at `q` (within `margin` mm, along `sweep` if given)
+    /// would report is in the list.
+    pub fn covers(&self, q: &Pose, sweep: Option<&Sweep>, margin: f64) -> bool {
+        self.slack(q, sweep, margin) >= 0.0
+    }
+
+    /// The listed pairs that come within `margin` (mm) of touching with the tool at `q` (along
+    /// `sweep` from `q`, if given), tested as the traversal tests leaf pairs, so a covered
+    /// query gets exactly the traversal's pairs (in the list's order), each with its gap at
+    /// `q`. `visit` returns false to stop. Returns the number reported, or `None` when the
+    /// list does not [cover](NeighbourList::covers) the query (nothing is reported).
+    pub fn filter<F: FnMut(&LeafPair) -> bool>(
+        &self,
+        q: &Pose,
+        sweep: Option<&Sweep>,
+        margin: f64,
+        mut visit: F,
+    ) -> Option<usize> {
+        if !self.covers(q, sweep, margin) {
+            return None;
+        }
+        let m = q.rotation_matrix();
+        let r: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)]));
+        let t = [q.q[0], q.q[1], q.q[2]];
+        let sweep = sweep.copied();
+        let (grow, m) = match &sweep {
+            None => (1.0, clean_margin(margin)),
+            Some(s) => (
+                1.0 + s.angle(),
+                clean_margin(margin) + arc_allowance(self.reach, s.angle()),
+            ),
+        };
+        let mut count = 0;
+        for i in 0..self.pairs.len() {
+            let (x, y, z) = (self.px[i], self.py[i], self.pz[i]);
+            // The traversal's arithmetic, so that the gaps agree to the bit.
+            let w = [
+                r[0][0] * x + r[0][1] * y + r[0][2] * z + t[0],
+                r[1][0] * x + r[1][1] * y + r[1][2] * z + t[1],
+                r[2][0] * x + r[2][1] * y + r[2][2] * z + t[2],
+            ];
+            let d = [w[0] - self.ox[i], w[1] - self.oy[i], w[2] - self.oz[i]];
+            let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            let s = self.r_tool[i] * grow + self.r_object[i] + m;
+            let near = match &sweep {
+                None => d2 <= s * s,
+                Some(sw) => {
+                    let (v, a) = (sw.translation, sw.rotation);
+                    let p = [w[0] - t[0], w[1] - t[1], w[2] - t[2]];
+                    let disp = [
+                        v[0] + a[1] * p[2] - a[2] * p[1],
+                        v[1] + a[2] * p[0] - a[0] * p[2],
+                        v[2] + a[0] * p[1] - a[1] * p[0],
+                    ];
+                    segment_dist2(d, disp) <= s * s
+                }
+            };
+            if near {
+                let mut pair = self.pairs[i];
+                pair.gap = d2.sqrt() - (self.r_tool[i] + self.r_object[i]);
+                count += 1;
+                if !visit(&pair) {
+                    break;
+                }
+            }
+        }
+        Some(count)
+    }
+}

@@ -1,0 +1,271 @@
+//! A neighbour list answers every query it covers with exactly the traversal's pairs (and
+//! gaps, bit for bit), also at the edge of its cover; built in slices it is the one-shot list;
+//! a list past its capacity is unusable.
+
+mod common;
+
+use collide::{
+    overlap_swept, overlap_tree_trees, rotation_exp, LeafPair, ListStatus, NeighbourList,
+    PackedTree, Pose, Sweep,
+};
+use common::{random_tree, TreeShape};
+
+fn shape() -> TreeShape {
+    TreeShape {
+        levels: 4,
+        branching: 8,
+        extent: 50.0,
+        p_used: 0.9,
+        p_early_leaf: 0.02,
+    }
+}
+
+type Key = (u32, u32, u32, u64);
+
+fn key(p: &LeafPair) -> Key {
+    (p.object, p.tool_slot, p.object_slot, p.gap.to_bits())
+}
+
+fn trees() -> (PackedTree, Vec<PackedTree>) {
+    let tool = PackedTree::new(&random_tree(21, shape())).unwrap();
+    let objects = vec![
+        PackedTree::new(&random_tree(22, shape())).unwrap(),
+        PackedTree::with_pose(
+            &random_tree(23, shape()),
+            &Pose::from_array([40.0, 0.0, 0.0, 0.3, 0.0, 0.1]),
+        )
+        .unwrap(),
+    ];
+    (tool, objects)
+}
+
+fn build(
+    list: &mut NeighbourList,
+    tool: &PackedTree,
+    objects: &[PackedTree],
+    center: &Pose,
+    margin: f64,
+    slice: usize,
+) -> ListStatus {
+    list.start(tool, center, margin).unwrap();
+    let mut calls = 0;
+    while list.status() == ListStatus::Building {
+        list.advance(tool, objects, slice, None);
+        calls += 1;
+        assert!(calls < 1_000_000, "the build does not end");
+    }
+    list.status()
+}
+
+/// `center` moved by `dt` along a random unit direction and turned by `turn` rad about a
+/// random axis (world axes).
+fn moved(center: &Pose, rng: &mut devkit::Rng, dt: f64, turn: f64) -> Pose {
+    let unit = |rng: &mut devkit::Rng| {
+        let v = nalgebra::Vector3::new(
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        );
+        v / v.norm().max(1e-9)
+    };
+    let t = center.translation() + unit(rng) * dt;
+    let r = rotation_exp(&(unit(rng) * turn)) * center.rotation_matrix();
+    Pose::from_translation_rotation(&t, &r)
+}
+
+#[test]
+fn a_covered_query_gets_exactly_the_traversals_pairs() {
+    let (tool, objects) = trees();
+    let mut list = NeighbourList::for_trees(&tool, &objects, 1 << 18);
+    let mut ws = collide::CollideWorkspace::for_trees(&tool, &objects);
+    let mut rng = devkit::Rng::new(7);
+    let (mut covered, mut edge, mut dense, mut refused) = (0, 0, 0, 0);
+    for i in 0..60 {
+        let center = Pose::from_array([
+            rng.range(-5.0, 45.0),
+            rng.range(-5.0, 5.0),
+            rng.range(-5.0, 5.0),
+            rng.range(-0.3, 0.3),
+            rng.range(-0.3, 0.3),
+            rng.range(-0.3, 0.3),
+        ]);
+        let big = rng.range(0.5, 2.0);
+        assert_eq!(
+            build(&mut list, &tool, &objects, &center, big, 1 << 30),
+            ListStatus::Ready
+        );
+        for j in 0..20 {
+            let margin = rng.range(0.0, 0.5 * big);
+            let sweep = Sweep {
+                translation: [rng.range(-0.2, 0.2), rng.range(-0.2, 0.2), 0.0],
+                rotation: [0.0, 0.0, rng.range(-0.005, 0.005)],
+            };
+            let sw = (j % 3 == 0).then_some(&sweep);
+            // A motion from the centre that uses up a random share of the list's slack, or a
+            // little more than all of it.
+            let q0 = moved(&center, &mut rng, 0.0, 0.0);
+            let room = list.slack(&q0, sw, margin);
+            let share = if j % 5 == 4 {
+                rng.range(1.02, 1.5)
+            } else {
+                rng.range(0.0, 1.0)
+            };
+            let (dt, turn) = if room > 0.0 {
+                let mix = rng.range(0.0, 1.0);
+                (
+                    share * room * mix,
+                    share * room * (1.0 - mix) / tool.reach(),
+                )
+            } else {
+                (0.0, 0.0)
+            };
+            let q = moved(&center, &mut rng, dt, turn);
+            let mut traversed = Vec::new();
+            match sw {
+                None => overlap_tree_trees(&tool, &q, &objects, margin, &mut ws, |p| {
+                    traversed.push(key(p))
+                }),
+                Some(s) => overlap_swept(&tool, &q, s, &objects, margin, &mut ws, |p| {
+                    traversed.push(key(p))
+                }),
+            }
+            .unwrap();
+            let mut filtered = Vec::new();
+            let answer = list.filter(&q, sw, margin, |p| {
+                filtered.push(key(p));
+                true
+            });
+            assert_eq!(answer.is_some(), list.covers(&q, sw, margin));
+            let Some(n) = answer else {
+                assert!(filtered.is_empty());
+                refused += 1;
+                continue;
+            };
+            assert_eq!(n, filtered.len());
+            traversed.sort_unstable();
+            filtered.sort_unstable();
+            assert_eq!(filtered, traversed, "centre {i}, query {j}");
+            covered += 1;
+            edge += usize::from(list.slack(&q, sw, margin) < 0.05 * big);
+            dense += usize::from(traversed.len() > 20);
+        }
+    }
+    assert!(covered > 600, "{covered} covered queries");
+    assert!(edge > 50, "{edge} queries near the edge of the cover");
+    assert!(dense > 100, "{dense} queries with more than 20 pairs");
+    assert!(refused > 100, "{refused} queries refused");
+}
+
+#[test]
+fn a_list_built_in_slices_is_the_one_shot_list() {
+    let (tool, objects) = trees();
+    let mut whole = NeighbourList::for_trees(&tool, &objects, 1 << 18);
+    let mut sliced = NeighbourList::for_trees(&tool, &objects, 1 << 18);
+    let center = Pose::from_array([20.0, 1.0, -2.0, 0.1, -0.2, 0.3]);
+    assert_eq!(
+        build(&mut whole, &tool, &objects, &center, 1.0, usize::MAX),
+        ListStatus::Ready
+    );
+    assert_eq!(
+        build(&mut sliced, &tool, &objects, &center, 1.0, 7),
+        ListStatus::Ready
+    );
+    assert!(whole.len() > 100, "{} pairs", whole.len());
+    assert_eq!(whole.splits(), sliced.splits());
+    let all = |l: &NeighbourList| {
+        let mut v = Vec::new();
+        l.filter(&center, None, 1.0, |p| {
+            v.push(key(p));
+            true
+        })
+        .unwrap();
+        v
+    };
+    assert_eq!(all(&whole), all(&sliced));
+    assert_eq!(all(&whole).len(), whole.len());
+}
+
+#[test]
+fn a_list_past_its_capacity_is_unusable_and_a_bad_pose_is_refused() {
+    let (tool, objects) = trees();
+    let mut list = NeighbourList::for_trees(&tool, &objects, 10);
+    let center = Pose::from_array([20.0, 1.0, -2.0, 0.1, -0.2, 0.3]);
+    assert_eq!(
+        build(&mut list, &tool, &objects, &center, 1.0, 64),
+        ListStatus::Overflowed
+    );
+    assert!(!list.covers(&center, None, 0.0));
+    assert_eq!(list.filter(&center, None, 0.0, |_| true), None);
+    let bad = Pose::from_array([f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    assert!(list.start(&tool, &bad, 1.0).is_err());
+    assert_eq!(list.status(), ListStatus::Overflowed);
+}
+
+/// A pair just outside the list (its gap at the list's pose is the list's margin plus
+/// 0.001 mm), approached by each kind of motion the cover accounts for, up to the edge of the
+/// cover: the filter still agrees with the traversal (the pair must not be reported by the
+/// traversal while the list claims to cover the query). A cover that undercounted any one
+/// motion (translation, turn, a sweep's translation or turn) would let the traversal find the
+/// pair and the filter miss it.
+#[test]
+fn the_cover_counts_every_motion_at_its_edge() {
+    use spheretree::{Sphere, SphereTree};
+    let mut t = SphereTree::new_unused(2, 2).unwrap();
+    t.spheres_mut()[0] = Sphere::new([0.0; 3], 11.0);
+    t.spheres_mut()[1] = Sphere::new([10.0, 0.0, 0.0], 1.0);
+    t.spheres_mut()[2] = Sphere::new([-10.0, 0.0, 0.0], 1.0);
+    let tool = PackedTree::new(&t).unwrap();
+    let big = 0.5;
+    let eps = 0.001;
+    let object =
+        SphereTree::from_slots(1, 8, vec![Sphere::new([10.0, 2.0 + big + eps, 0.0], 1.0)]).unwrap();
+    let objects = vec![PackedTree::new(&object).unwrap()];
+    let mut list = NeighbourList::for_trees(&tool, &objects, 16);
+    let mut ws = collide::CollideWorkspace::for_trees(&tool, &objects);
+    let center = Pose::identity();
+    assert_eq!(
+        build(&mut list, &tool, &objects, &center, big, 64),
+        ListStatus::Ready
+    );
+    assert!(list.is_empty());
+    let turned = |a: f64| Pose::from_array([0.0, 0.0, 0.0, 0.0, 0.0, a]);
+    let shifted = |d: f64| Pose::from_array([0.0, d, 0.0, 0.0, 0.0, 0.0]);
+    let mut checked = 0;
+    for size in [0.001, 0.01, 0.05, 0.2] {
+        let along = Sweep {
+            translation: [0.0, size, 0.0],
+            rotation: [0.0; 3],
+        };
+        let about = Sweep {
+            translation: [0.0; 3],
+            rotation: [0.0, 0.0, size / 11.0],
+        };
+        let cases: [(Pose, Option<&Sweep>); 4] = [
+            (shifted(size), None),
+            (turned(size / 11.0), None),
+            (center, Some(&along)),
+            (center, Some(&about)),
+        ];
+        for (q, sw) in cases {
+            // The largest margin the list covers at this query.
+            let margin = list.slack(&q, sw, 0.0);
+            if margin < 0.0 {
+                continue;
+            }
+            let mut traversed = 0;
+            match sw {
+                None => {
+                    overlap_tree_trees(&tool, &q, &objects, margin, &mut ws, |_| traversed += 1)
+                }
+                Some(s) => {
+                    overlap_swept(&tool, &q, s, &objects, margin, &mut ws, |_| traversed += 1)
+                }
+            }
+            .unwrap();
+            assert_eq!(list.filter(&q, sw, margin, |_| true), Some(traversed));
+            assert_eq!(traversed, 0, "size {size}, sweep {sw:?}");
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 16);
+}
