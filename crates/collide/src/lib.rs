@@ -52,7 +52,7 @@ pub use constraint::{
     constraint_value, fill_constraints, ConstraintForm, Linearization, RotationCoordinates,
     DEGENERATE_DISTANCE,
 };
-pub use neighbours::{ListStatus, NeighbourList};
+pub use neighbours::{BackgroundList, ListStatus, NeighbourList};
 pub use packed::PackedTree;
 pub use pose::{rotation_exp, rotation_log, rotation_zyx, rotation_zyx_partials, Pose};
 pub use probe::{FreeSpaceProbe, ProbeStatus};

@@ -15,11 +15,15 @@
 //! whole face, so a traversal splits a thousand node pairs to find a hundred leaf pairs, while
 //! testing a few thousand listed pairs costs a few microseconds.
 
+use crate::probe::lock_by;
+use crate::team::{self, JobState, TraversalTeam};
 use crate::traverse::{
     arc_allowance, clean_margin, descend_as_queried, segment_dist2, CollideWorkspace,
 };
 use crate::{CollideError, LeafPair, PackedTree, Pose, Sweep};
-use std::time::Instant;
+use std::sync::atomic::{AtomicU64, AtomicU8, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 /// Node-pair splits between two clock reads while a list is built against a deadline.
 const SPLITS_PER_CLOCK: usize = 128;
@@ -337,5 +341,264 @@ impl NeighbourList {
             }
         }
         Some(count)
+    }
+}
+
+/// Longest the caller waits for the list's lock held by the helper (it holds it for one
+/// slice of [`SPLITS_PER_CLOCK`] splits at a time).
+const LOCK_WAIT: Duration = Duration::from_micros(50);
+
+/// How far a background build is, readable without its lock.
+#[derive(Debug, Default)]
+struct Published {
+    status: AtomicU8,
+    splits: AtomicUsize,
+}
+
+fn status_code(s: ListStatus) -> u8 {
+    match s {
+        ListStatus::Empty => 0,
+        ListStatus::Building => 1,
+        ListStatus::Ready => 2,
+        ListStatus::Overflowed => 3,
+    }
+}
+
+fn status_of(code: u8) -> ListStatus {
+    match code {
+        1 => ListStatus::Building,
+        2 => ListStatus::Ready,
+        3 => ListStatus::Overflowed,
+        _ => ListStatus::Empty,
+    }
+}
+
+/// The next neighbour list, built a slice per call on the caller's schedule, or ahead of it
+/// by a [`TraversalTeam`]'s helper thread.
+///
+/// **The schedule decides, not the threads.** Each [`BackgroundList::advance`] call grants
+/// the build a number of node-pair splits; the list counts as finished at the first call by
+/// which the granted splits reach the build's total, whichever thread did them. A helper that
+/// runs ahead only spares the caller the work; one that lags is caught up by the caller, as
+/// far as the call allows. So for a given schedule of grants the list becomes usable at the
+/// same call with or without a helper, unless the helper is held up past what the caller may
+/// catch up.
+#[derive(Debug)]
+pub struct BackgroundList {
+    list: Arc<Mutex<NeighbourList>>,
+    published: Arc<Published>,
+    /// Bumped at each start: a helper still on an older build stops.
+    generation: Arc<AtomicU64>,
+    /// The helper's job number, while one was posted for this build.
+    job: Option<u64>,
+    /// Splits granted since the start.
+    granted: usize,
+    /// Splits done as of the last call (a helper that made none since is held up).
+    seen_splits: usize,
+    center: Pose,
+    margin: f64,
+    status: ListStatus,
+}
+
+/// A build the helper runs in the background: slices of [`SPLITS_PER_CLOCK`] splits, the
+/// lock released between them, to the end or until the build is replaced.
+pub(crate) struct ListJob {
+    list: Arc<Mutex<NeighbourList>>,
+    published: Arc<Published>,
+    generation: Arc<AtomicU64>,
+    expected: u64,
+}
+
+impl std::fmt::Debug for ListJob {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ListJob").finish_non_exhaustive()
+    }
+}
+
+impl ListJob {
+    /// Builds on until the list is finished, replaced, or `quit` says so.
+    pub(crate) fn run(&self, tool: &PackedTree, objects: &[PackedTree], quit: &dyn Fn() -> bool) {
+        loop {
+            if self.generation.load(Ordering::Acquire) != self.expected || quit() {
+                return;
+            }
+            let Ok(mut list) = self.list.try_lock() else {
+                // The caller's thread is catching up: let it.
+                std::hint::spin_loop();
+                continue;
+            };
+            if self.generation.load(Ordering::Acquire) != self.expected {
+                return;
+            }
+            let status = list.advance(tool, objects, SPLITS_PER_CLOCK, None);
+            publish(&self.published, &list);
+            if status != ListStatus::Building {
+                return;
+            }
+        }
+    }
+}
+
+fn publish(shown: &Published, list: &NeighbourList) {
+    shown.splits.store(list.splits(), Ordering::Release);
+    shown
+        .status
+        .store(status_code(list.status()), Ordering::Release);
+}
+
+impl BackgroundList {
+    /// An empty background list for `tool` against `objects`, holding at most `capacity`
+    /// pairs (allocates; not real-time).
+    pub fn for_trees(tool: &PackedTree, objects: &[PackedTree], capacity: usize) -> Self {
+        Self {
+            list: Arc::new(Mutex::new(NeighbourList::for_trees(
+                tool, objects, capacity,
+            ))),
+            published: Arc::new(Published::default()),
+            generation: Arc::new(AtomicU64::new(0)),
+            job: None,
+            granted: 0,
+            seen_splits: 0,
+            center: Pose::identity(),
+            margin: 0.0,
+            status: ListStatus::Empty,
+        }
+    }
+
+    /// Starts building the list of pairs within `margin` (mm) of touching with the tool at
+    /// `center`, dropping any unfinished build. Errors on a non-finite pose, or
+    /// ([`CollideError::Busy`]) when the helper holds the list past [`LOCK_WAIT`].
+    ///
+    /// # Real-time
+    /// No allocation; waits at most ~50 µs for the helper.
+    pub fn start(
+        &mut self,
+        tool: &PackedTree,
+        center: &Pose,
+        margin: f64,
+    ) -> Result<(), CollideError> {
+        if !center.is_finite() {
+            return Err(CollideError::NonFinitePose);
+        }
+        self.generation.fetch_add(1, Ordering::AcqRel);
+        self.job = None;
+        let Some(mut list) = lock_by(&self.list, Instant::now() + LOCK_WAIT) else {
+            self.status = ListStatus::Empty;
+            return Err(CollideError::Busy);
+        };
+        list.start(tool, center, margin)?;
+        publish(&self.published, &list);
+        self.granted = 0;
+        self.seen_splits = 0;
+        self.center = *center;
+        self.margin = list.margin;
+        self.status = ListStatus::Building;
+        Ok(())
+    }
+
+    /// Stops the build (status [`ListStatus::Empty`]); a helper on it stops at its next slice.
+    pub fn cancel(&mut self) {
+        self.generation.fetch_add(1, Ordering::AcqRel);
+        self.job = None;
+        self.status = ListStatus::Empty;
+    }
+
+    /// The build's status as the schedule sees it.
+    pub fn status(&self) -> ListStatus {
+        self.status
+    }
+
+    /// The pose and margin (mm) of the build.
+    pub fn question(&self) -> (Pose, f64) {
+        (self.center, self.margin)
+    }
+
+    /// Node pairs split so far (the build's cost once finished).
+    pub fn splits(&self) -> usize {
+        self.published.splits.load(Ordering::Acquire)
+    }
+
+    /// Grants the build `grant` more node-pair splits and returns its status. With `team`,
+    /// its helper builds in the background; this call does only what the helper has not
+    /// done of the granted splits, at most `max_here` of them (a helper held up makes the
+    /// list late, never the call long). `objects` (and `tool`) must be the trees of
+    /// [`BackgroundList::for_trees`] and the team's. `deadline` stops this call's own work
+    /// early (the list may then be late).
+    ///
+    /// # Real-time
+    /// No allocation, no panic; at most `max_here` splits here, and a wait of at most ~50 µs
+    /// for the helper to let go of the list.
+    #[allow(clippy::too_many_arguments)]
+    pub fn advance(
+        &mut self,
+        tool: &PackedTree,
+        objects: &[PackedTree],
+        grant: usize,
+        max_here: usize,
+        team: Option<&TraversalTeam>,
+        deadline: Option<Instant>,
+    ) -> ListStatus {
+        if self.status != ListStatus::Building {
+            return self.status;
+        }
+        self.granted = self.granted.saturating_add(grant);
+        // This call does its part of the grant unless the helper is on it and has made
+        // progress since the last call (or was handed it just now).
+        let mut helper_on_it = false;
+        if let Some(team) = team {
+            team.keep_awake();
+            let state = self.job.and_then(|id| team::job_state(team, id));
+            if matches!(state, Some(JobState::Posted | JobState::Running)) {
+                helper_on_it = self.splits() > self.seen_splits;
+            } else {
+                // Not on it (or another job came since): hand it over; a busy or sleeping
+                // helper takes it on a later call.
+                let job = ListJob {
+                    list: self.list.clone(),
+                    published: self.published.clone(),
+                    generation: self.generation.clone(),
+                    expected: self.generation.load(Ordering::Acquire),
+                };
+                self.job = team::post_list_job(team, job);
+                helper_on_it = self.job.is_some();
+            }
+        }
+        let shown = status_of(self.published.status.load(Ordering::Acquire));
+        if shown == ListStatus::Building && self.splits() < self.granted && !helper_on_it {
+            // Behind the schedule: this thread does (some of) the rest of the grant.
+            if let Some(mut list) = lock_by(&self.list, Instant::now() + LOCK_WAIT) {
+                let left = self.granted.saturating_sub(list.splits()).min(max_here);
+                if list.status() == ListStatus::Building && left > 0 {
+                    list.advance(tool, objects, left, deadline);
+                }
+                publish(&self.published, &list);
+            }
+        }
+        let shown = status_of(self.published.status.load(Ordering::Acquire));
+        self.seen_splits = self.splits();
+        if shown != ListStatus::Building && self.seen_splits <= self.granted {
+            self.status = shown;
+        }
+        self.status
+    }
+
+    /// Moves a finished list into `into` (whose old contents take its place here, cleared):
+    /// true when it did. The build's status is then [`ListStatus::Empty`].
+    ///
+    /// # Real-time
+    /// No allocation (the two lists' buffers are swapped); waits at most ~50 µs.
+    pub fn take(&mut self, into: &mut NeighbourList) -> bool {
+        if self.status != ListStatus::Ready {
+            return false;
+        }
+        let Some(mut list) = lock_by(&self.list, Instant::now() + LOCK_WAIT) else {
+            return false;
+        };
+        std::mem::swap(&mut *list, into);
+        list.clear();
+        publish(&self.published, &list);
+        self.status = ListStatus::Empty;
+        self.job = None;
+        true
     }
 }

@@ -568,10 +568,10 @@ impl FreeSpaceProbe {
     }
 }
 
-/// The stream's lock, trying until `until`.
-fn lock_by(stream: &Mutex<ProbeStream>, until: Instant) -> Option<MutexGuard<'_, ProbeStream>> {
+/// The lock of `m`, trying until `until`.
+pub(crate) fn lock_by<T>(m: &Mutex<T>, until: Instant) -> Option<MutexGuard<'_, T>> {
     loop {
-        if let Ok(s) = stream.try_lock() {
+        if let Ok(s) = m.try_lock() {
             return Some(s);
         }
         if Instant::now() >= until {

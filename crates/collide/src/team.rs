@@ -21,6 +21,7 @@
 //! parked helper (woken per traversal, as a thread pool's sleeping workers are) only
 //! traversals over ~150 µs gain, the rest lose the ~30–60 µs wake-up.
 
+use crate::neighbours::ListJob;
 use crate::probe::ProbeJob;
 use crate::traverse::{
     arc_allowance, clean_margin, descend_as_queried, CollideWorkspace, Descent, LeafPair,
@@ -73,6 +74,8 @@ const QUIT: u32 = 4;
 struct Work {
     /// A probe to run in the background (else a traversal's half).
     probe: Option<ProbeJob>,
+    /// A neighbour list to build in the background (else a traversal's half).
+    list: Option<ListJob>,
     pose: Pose,
     sweep: Option<Sweep>,
     /// Margin of the descent (mm, allowances included).
@@ -137,6 +140,7 @@ impl TraversalTeam {
             epoch: Instant::now(),
             work: Mutex::new(Work {
                 probe: None,
+                list: None,
                 pose: Pose::identity(),
                 sweep: None,
                 margin: 0.0,
@@ -215,15 +219,16 @@ fn helper_loop(shared: &Shared, tool: &PackedTree, objects: &[PackedTree]) {
                     .is_ok()
                 {
                     if let Ok(mut work) = shared.work.lock() {
-                        match work.probe.take() {
-                            Some(job) => {
-                                job.run(tool, objects, &|| {
-                                    shared.state.load(Ordering::Acquire) == QUIT
-                                });
-                                // Kept (not dropped here): the next post replaces it.
-                                work.probe = Some(job);
-                            }
-                            None => descend_second_half(&mut work, tool, objects),
+                        let quit = || shared.state.load(Ordering::Acquire) == QUIT;
+                        if let Some(job) = work.probe.take() {
+                            job.run(tool, objects, &quit);
+                            // Kept (not dropped here): the next post replaces it.
+                            work.probe = Some(job);
+                        } else if let Some(job) = work.list.take() {
+                            job.run(tool, objects, &quit);
+                            work.list = Some(job);
+                        } else {
+                            descend_second_half(&mut work, tool, objects);
                         }
                     }
                     // A failed exchange means QUIT came meanwhile.
@@ -476,7 +481,23 @@ pub(crate) fn post_probe_job(team: &TraversalTeam, job: ProbeJob) -> Option<u64>
     let mut work = free_helper(team)?;
     // Replacing the last job's handles only moves reference counts (no allocation).
     work.probe = Some(job);
+    work.list = None;
     drop(work);
+    post_job(team)
+}
+
+/// Hands a background neighbour-list build to the helper if it is free: the job's number, or
+/// `None`.
+pub(crate) fn post_list_job(team: &TraversalTeam, job: ListJob) -> Option<u64> {
+    let mut work = free_helper(team)?;
+    work.list = Some(job);
+    work.probe = None;
+    drop(work);
+    post_job(team)
+}
+
+/// Posts the job just placed in the work slot: its number, or `None`.
+fn post_job(team: &TraversalTeam) -> Option<u64> {
     let id = team.shared.job.fetch_add(1, Ordering::AcqRel) + 1;
     team.shared
         .state
@@ -564,6 +585,7 @@ fn post(
         return false;
     }
     work.probe = None;
+    work.list = None;
     work.pose = *pose;
     work.sweep = sweep.copied();
     work.margin = margin;

@@ -5,8 +5,8 @@
 mod common;
 
 use collide::{
-    overlap_swept, overlap_tree_trees, rotation_exp, LeafPair, ListStatus, NeighbourList,
-    PackedTree, Pose, Sweep,
+    overlap_swept, overlap_tree_trees, rotation_exp, BackgroundList, LeafPair, ListStatus,
+    NeighbourList, PackedTree, Pose, Sweep, TraversalTeam,
 };
 use common::{random_tree, TreeShape};
 
@@ -268,4 +268,83 @@ fn the_cover_counts_every_motion_at_its_edge() {
         }
     }
     assert_eq!(checked, 16);
+}
+
+/// The pairs of a list, as sorted keys.
+fn keys(list: &NeighbourList, at: &Pose, margin: f64) -> Vec<Key> {
+    let mut v = Vec::new();
+    list.filter(at, None, margin, |p| {
+        v.push(key(p));
+        true
+    })
+    .unwrap();
+    v.sort_unstable();
+    v
+}
+
+/// Grants `grant` splits per call until the build ends; the number of calls.
+fn run_background(
+    bg: &mut BackgroundList,
+    tool: &PackedTree,
+    objects: &[PackedTree],
+    grant: usize,
+    team: Option<&TraversalTeam>,
+) -> usize {
+    let mut calls = 0;
+    while bg.status() == ListStatus::Building {
+        bg.advance(tool, objects, grant, grant, team, None);
+        calls += 1;
+        assert!(calls < 1_000_000, "the build does not end");
+        if team.is_some() {
+            // Leave the helper some time, as frames do.
+            std::thread::sleep(std::time::Duration::from_micros(50));
+        }
+    }
+    calls
+}
+
+#[test]
+fn a_background_list_is_the_list_on_its_schedule_with_or_without_a_helper() {
+    let (tool, objects) = trees();
+    let center = Pose::from_array([20.0, 1.0, -2.0, 0.1, -0.2, 0.3]);
+    let mut direct = NeighbourList::for_trees(&tool, &objects, 1 << 18);
+    build(&mut direct, &tool, &objects, &center, 1.0, usize::MAX);
+    let total = direct.splits();
+    assert!(total > 1000, "{total} splits: too small a build to spread");
+    let team = TraversalTeam::new(&tool, &objects, 1 << 16).unwrap();
+    for team in [None, Some(&team)] {
+        let mut bg = BackgroundList::for_trees(&tool, &objects, 1 << 18);
+        bg.start(&tool, &center, 1.0).unwrap();
+        let grant = 97;
+        let calls = run_background(&mut bg, &tool, &objects, grant, team);
+        assert_eq!(bg.status(), ListStatus::Ready);
+        assert_eq!(bg.splits(), total);
+        // Finished at the call by which the grants reached its cost, not before; without a
+        // helper exactly then (a held-up helper may make it later).
+        let on_schedule = total.div_ceil(grant);
+        if team.is_none() {
+            assert_eq!(calls, on_schedule);
+        } else {
+            assert!(
+                calls >= on_schedule,
+                "{calls} calls, schedule {on_schedule}"
+            );
+        }
+        let mut used = NeighbourList::for_trees(&tool, &objects, 1 << 18);
+        assert!(bg.take(&mut used));
+        assert_eq!(bg.status(), ListStatus::Empty);
+        assert_eq!(keys(&used, &center, 1.0), keys(&direct, &center, 1.0));
+        // A restart while the helper works gives the new pose's list.
+        let other = Pose::from_array([30.0, -1.0, 1.0, -0.1, 0.2, 0.0]);
+        bg.start(&tool, &center, 1.0).unwrap();
+        bg.advance(&tool, &objects, 10_000_000, 100, team, None);
+        bg.start(&tool, &other, 0.8).unwrap();
+        run_background(&mut bg, &tool, &objects, 10_000_000, team);
+        assert_eq!(bg.status(), ListStatus::Ready);
+        assert!(bg.take(&mut used));
+        let mut fresh = NeighbourList::for_trees(&tool, &objects, 1 << 18);
+        build(&mut fresh, &tool, &objects, &other, 0.8, usize::MAX);
+        assert_eq!(keys(&used, &other, 0.8), keys(&fresh, &other, 0.8));
+        assert!(!used.is_empty());
+    }
 }

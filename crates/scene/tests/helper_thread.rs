@@ -1,42 +1,81 @@
-//! The detection helper thread (`[solver] helper_thread`) changes how fast a frame is, not what
-//! it is: the spline (dense key contacts, the tight hole) and the puck sliding pressed on the
-//! plate give bit-identical frames with it on and off (no time budget, so the frames do not
-//! depend on the machine).
+//! The detection helper thread (`[solver] helper_thread`) changes how fast a frame is, and
+//! where it takes its regions from, not the answer it finds. Without neighbour lists (the puck
+//! sliding at 200 mm/s outruns them) the frames are bit-identical with it on and off. With
+//! them (the spline's slow turn on the hub) the helper has the next list ready sooner, so
+//! frames take other regions: both runs are exact and never penetrate, and their graphic tools
+//! agree except for a few frames where the turning shaft has more than one local answer (as
+//! its keys drop into the grooves), after which they meet again. No time budget, so the frames
+//! do not depend on the machine's speed.
 
 mod common;
 
+use engine::{Frame, FrameStatus};
 use scene::scenes::plate::{self, PlateTool, SpeedMotion};
 use scene::Scene;
 
-fn same_frames(mut scene: Scene) {
+fn both(mut scene: Scene) -> (Vec<Frame>, Vec<Frame>) {
     scene.solver.budget_us = engine::config::BUDGET_US.hi;
     scene.solver.helper_thread = false;
     let alone = common::replay(&scene);
     scene.solver.helper_thread = true;
     let helped = common::replay(&scene);
     assert_eq!(alone.len(), helped.len());
-    let mut dense = 0;
-    for (i, (a, h)) in alone.iter().zip(&helped).enumerate() {
-        assert_eq!(a.q_g, h.q_g, "{}: frame {i}", scene.name);
-        assert_eq!(a.wrench, h.wrench, "{}: frame {i}", scene.name);
-        assert_eq!(
-            (a.status, a.pairs, a.passes, a.contacts),
-            (h.status, h.pairs, h.passes, h.contacts),
-            "{}: frame {i}",
-            scene.name
-        );
-        dense += usize::from(a.pairs >= 200);
-    }
-    assert!(dense >= 20, "{}: only {dense} dense frames", scene.name);
+    (alone, helped)
+}
+
+fn dense(frames: &[Frame]) -> usize {
+    frames.iter().filter(|f| f.pairs >= 200).count()
 }
 
 #[test]
-fn spline_frames_are_the_same_with_the_helper_thread() {
-    same_frames(scene::scenes::builtin("spline", &common::test_cache()).unwrap());
+fn spline_frames_find_the_same_answers_with_the_helper_thread() {
+    let scene = scene::scenes::builtin("spline", &common::test_cache()).unwrap();
+    let tol = scene.solver.penetration_tol_mm;
+    let (alone, helped) = both(scene);
+    let (mut apart, mut far) = (0, 0.0f64);
+    for (a, h) in alone.iter().zip(&helped) {
+        assert!(a.penetration_mm <= tol && h.penetration_mm <= tol);
+        assert!(a.q_g.iter().chain(&h.q_g).all(|v| v.is_finite()));
+        let d = (0..3)
+            .map(|k| (a.q_g[k] - h.q_g[k]).abs())
+            .fold(0.0, f64::max);
+        apart += usize::from(d > 0.01);
+        far = far.max(d);
+    }
+    let n = alone.len();
+    assert!(
+        apart * 100 <= n,
+        "{apart} of {n} frames more than 0.01 mm apart"
+    );
+    assert!(far < 0.5, "the tools were {far} mm apart");
+    // The end of the run (withdrawn from the hole): the same pose.
+    let (a, h) = (&alone[n - 1], &helped[n - 1]);
+    for k in 0..6 {
+        assert!(
+            (a.q_g[k] - h.q_g[k]).abs() < 1e-6,
+            "{:?} against {:?}",
+            a.q_g,
+            h.q_g
+        );
+    }
+    let degraded = |f: &[Frame]| f.iter().filter(|f| f.status != FrameStatus::Ok).count();
+    assert!(degraded(&alone).abs_diff(degraded(&helped)) <= 5);
+    assert!(dense(&alone) >= 20, "only {} dense frames", dense(&alone));
 }
 
 #[test]
 fn sliding_puck_frames_are_the_same_with_the_helper_thread() {
     let run = plate::speed_script(PlateTool::Puck, SpeedMotion::Slide(200.0), 1000.0, 0.3);
-    same_frames(plate::scene(&common::test_cache(), PlateTool::Puck, run.script).unwrap());
+    let scene = plate::scene(&common::test_cache(), PlateTool::Puck, run.script).unwrap();
+    let (alone, helped) = both(scene);
+    for (i, (a, h)) in alone.iter().zip(&helped).enumerate() {
+        assert_eq!(a.q_g, h.q_g, "frame {i}");
+        assert_eq!(a.wrench, h.wrench, "frame {i}");
+        assert_eq!(
+            (a.status, a.pairs, a.passes, a.contacts),
+            (h.status, h.pairs, h.passes, h.contacts),
+            "frame {i}"
+        );
+    }
+    assert!(dense(&alone) >= 20, "only {} dense frames", dense(&alone));
 }

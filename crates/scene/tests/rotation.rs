@@ -200,7 +200,10 @@ fn turning_through_the_euler_singularity_is_uneventful() {
             fa.status
         );
         for k in 0..6 {
-            let tol = if k < 3 { 1e-3 } else { 0.5 };
+            // A frame is exact to its convergence test (0.005 mm, 0.005 N at kt = 1 N/mm): runs
+            // whose rounding makes them take other regions (a neighbour list ready a frame
+            // apart) may differ by that much.
+            let tol = if k < 3 { 5e-3 } else { 0.5 };
             assert!(
                 (fa.wrench[k] - fb.wrench[k]).abs() <= tol,
                 "frame {i}, component {k}: {} through pi/2 vs {} away from it",

@@ -328,8 +328,12 @@ impl GodObject {
         let life = (margin - used).max(0.0) / speed.max(1e-9);
         if self.pairs.is_empty() || life < LIST_MIN_LIFE_FRAMES {
             // Free space (the proofs serve), or too fast for a list to pay.
-            self.next_neighbours.clear();
+            self.next_neighbours.cancel();
             return;
+        }
+        if let Some(team) = &self.team {
+            // Lists come every few frames here: the helper stays ready for them.
+            team.keep_awake();
         }
         let horizon = if self.neighbours.status() == ListStatus::Ready {
             let (center, radius) = self.neighbours.question();
@@ -337,35 +341,48 @@ impl GodObject {
         } else {
             0.0
         };
+        // With a helper thread the build runs in the background, as fast as it goes (its
+        // grant per frame is large); alone, a slice per frame, sized to finish in time.
+        let pace = if self.team.is_some() {
+            LIST_HELPER_SPLITS_PER_FRAME
+        } else {
+            PROBE_SLICE_SPLITS
+        };
         if self.next_neighbours.status() == ListStatus::Building && Instant::now() < deadline {
             let estimate = self.list_splits as f64;
             let left = (estimate - self.next_neighbours.splits() as f64).max(0.25 * estimate);
-            // At most LIST_MAX_SLICE_SPLITS in a frame: a list late for its use costs the
-            // traversals it would have spared, a long slice costs the frame.
             let slice = (left / (horizon - 1.0).max(1.0))
                 .clamp(PROBE_MIN_SLICE_SPLITS as f64, LIST_MAX_SLICE_SPLITS as f64);
-            self.next_neighbours
-                .advance(&self.tool, &self.objects, slice as usize, Some(deadline));
+            let grant = (slice as usize).max(if self.team.is_some() { pace } else { 0 });
+            self.next_neighbours.advance(
+                &self.tool,
+                &self.objects,
+                grant,
+                slice as usize,
+                self.team.as_ref(),
+                Some(deadline),
+            );
         }
         match self.next_neighbours.status() {
             ListStatus::Ready => {
-                self.list_splits = self.next_neighbours.splits();
-                let n = self.next_neighbours.len().max(1) as f64;
-                let (_, built) = self.next_neighbours.question();
-                // Pairs grow about as the margin cubed over a bumpy flat contact.
-                self.list_margin =
-                    (built * (LIST_TARGET_PAIRS / n).cbrt()).clamp(LIST_MIN_MM, LIST_MAX_MM);
-                std::mem::swap(&mut self.neighbours, &mut self.next_neighbours);
-                self.next_neighbours.clear();
+                let splits = self.next_neighbours.splits();
+                if self.next_neighbours.take(&mut self.neighbours) {
+                    self.list_splits = splits;
+                    let n = self.neighbours.len().max(1) as f64;
+                    let (_, built) = self.neighbours.question();
+                    // Pairs grow about as the margin cubed over a bumpy flat contact.
+                    self.list_margin =
+                        (built * (LIST_TARGET_PAIRS / n).cbrt()).clamp(LIST_MIN_MM, LIST_MAX_MM);
+                }
             }
             ListStatus::Overflowed => {
                 let (_, built) = self.next_neighbours.question();
                 self.list_margin = (0.6 * built).max(LIST_MIN_MM);
                 self.list_splits = self.list_splits.max(self.next_neighbours.splits());
-                self.next_neighbours.clear();
+                self.next_neighbours.cancel();
             }
             ListStatus::Empty => {
-                let frames = self.list_splits as f64 / PROBE_SLICE_SPLITS as f64;
+                let frames = self.list_splits as f64 / pace as f64;
                 let lead = 1.5 * frames + 2.0;
                 if horizon < lead {
                     let ahead_frames = horizon.min(lead) + 0.5 * life;

@@ -45,9 +45,9 @@
 use std::time::Instant;
 
 use collide::{
-    rotation_exp, rotation_log, CollideWorkspace, FreeSpaceProbe, LeafPair, Linearization,
-    ListStatus, NeighbourList, PackedTree, Pose, ProbeStatus, RotationCoordinates, Sweep,
-    TraversalTeam,
+    rotation_exp, rotation_log, BackgroundList, CollideWorkspace, FreeSpaceProbe, LeafPair,
+    Linearization, ListStatus, NeighbourList, PackedTree, Pose, ProbeStatus, RotationCoordinates,
+    Sweep, TraversalTeam,
 };
 use nalgebra::{Matrix3, Vector3};
 use qp::{Problem, RowGeneration, Solver, Status};
@@ -183,10 +183,14 @@ const LIST_FIRST_SPLITS: usize = 5000;
 /// tool's current motion (a fast tool outruns it: its regions are traversed).
 const LIST_MIN_LIFE_FRAMES: f64 = 3.0;
 
-/// Most node pairs a frame splits building the next neighbour list (~50 µs on a flat-on-flat
-/// contact): a list late for its use costs the traversals it would have spared, a long slice
-/// costs the frame.
+/// Most node pairs a frame splits building the next neighbour list on its own thread (~50 µs
+/// on a flat-on-flat contact): a list late for its use costs the traversals it would have
+/// spared, a long slice costs the frame.
 const LIST_MAX_SLICE_SPLITS: usize = 1280;
+
+/// Node pairs a frame grants the next neighbour list's build when a helper thread builds it
+/// (~300 µs of the helper's time): the list is then ready a frame or two after it starts.
+const LIST_HELPER_SPLITS_PER_FRAME: usize = 8192;
 
 /// Smallest motion allowance of a detected region, mm.
 const MIN_ALLOW_MM: f64 = 0.1;
@@ -335,8 +339,9 @@ pub struct GodObject {
     /// The neighbour list in use: every leaf pair within a wide margin of a pose near the tool,
     /// filtered instead of traversed while a region's query stays inside it.
     neighbours: NeighbourList,
-    /// The next neighbour list, built a slice per frame ahead of need.
-    next_neighbours: NeighbourList,
+    /// The next neighbour list, built a slice per frame ahead of need (by the helper thread,
+    /// if there is one, on the same schedule).
+    next_neighbours: BackgroundList,
     /// Margin (mm) of the next neighbour list: adapted to the pairs the last one held.
     list_margin: f64,
     /// Node pairs the last finished list split (its cost, to size the next one's slices).
@@ -404,7 +409,7 @@ impl GodObject {
         let probe = FreeSpaceProbe::for_trees(&tool, &objects);
         let list_capacity = params.max_pairs.min(LIST_MAX_PAIRS);
         let neighbours = NeighbourList::for_trees(&tool, &objects, list_capacity);
-        let next_neighbours = NeighbourList::for_trees(&tool, &objects, list_capacity);
+        let next_neighbours = BackgroundList::for_trees(&tool, &objects, list_capacity);
         let cap = params.max_pairs;
         let mut solver = Solver::new(params.solver);
         let mut rows_solver = RowGeneration::new();
@@ -518,7 +523,7 @@ impl GodObject {
         self.free = [FreeProof::none(); 2];
         self.probe.cancel();
         self.neighbours.clear();
-        self.next_neighbours.clear();
+        self.next_neighbours.cancel();
         self.list_margin = LIST_MARGIN_MM;
         self.list_splits = LIST_FIRST_SPLITS;
         let mut q = *start;
@@ -680,6 +685,12 @@ impl GodObject {
                 // expected count near PAIR_TARGET by taking smaller regions (more passes).
                 let dense_cap = PAIR_TARGET / self.pairs_per_mm.max(1e-9) - skin;
                 let mut allowed = need.min(allow).min(cap).min(dense_cap.max(MIN_ALLOW_MM));
+                // Inside a neighbour list a region costs a filter, not a traversal: one that
+                // stays inside it (and a trust region) beats a wider one traversed.
+                let list_room = self.neighbours.slack(&q_lin, None, skin);
+                if list_room >= MIN_ALLOW_MM {
+                    allowed = allowed.min(list_room);
+                }
                 let mut trust = need > allowed;
                 // A hand in motion that the ball cannot follow: a region along the motion
                 // predicted for the tool instead (a sliding contact holds far fewer pairs along
