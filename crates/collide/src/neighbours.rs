@@ -546,7 +546,6 @@ impl BackgroundList {
         // progress since the last call (or was handed it just now).
         let mut helper_on_it = false;
         if let Some(team) = team {
-            team.keep_awake();
             let state = self.job.and_then(|id| team::job_state(team, id));
             if matches!(state, Some(JobState::Posted | JobState::Running)) {
                 helper_on_it = self.splits() > self.seen_splits;

@@ -489,11 +489,19 @@ pub(crate) fn post_probe_job(team: &TraversalTeam, job: ProbeJob) -> Option<u64>
 /// Hands a background neighbour-list build to the helper if it is free: the job's number, or
 /// `None`.
 pub(crate) fn post_list_job(team: &TraversalTeam, job: ListJob) -> Option<u64> {
-    let mut work = free_helper(team)?;
+    // Not urgent: a parked helper is woken for it (its wake-up costs the caller nothing), so
+    // it need not spin while the tool rests in a contact.
+    let mut work = idle_helper(team)?;
     work.list = Some(job);
     work.probe = None;
     drop(work);
-    post_job(team)
+    let id = post_job(team);
+    if team.shared.sleeping.load(Ordering::Acquire) {
+        if let Some(h) = &team.handle {
+            h.thread().unpark();
+        }
+    }
+    id
 }
 
 /// Posts the job just placed in the work slot: its number, or `None`.
@@ -550,6 +558,15 @@ pub(crate) fn wait_done(team: &TraversalTeam, deadline: Option<Instant>) -> bool
 /// The work slot, when the helper is awake and free for a new job (a finished job nobody
 /// collected is dropped).
 fn free_helper(team: &TraversalTeam) -> Option<std::sync::MutexGuard<'_, Work>> {
+    // A helper asleep would take longer to wake than the caller's half takes.
+    if team.shared.sleeping.load(Ordering::Acquire) {
+        return None;
+    }
+    idle_helper(team)
+}
+
+/// The work slot, when the helper (awake or parked) is free for a new job.
+fn idle_helper(team: &TraversalTeam) -> Option<std::sync::MutexGuard<'_, Work>> {
     let s = &team.shared;
     match s.state.load(Ordering::Acquire) {
         IDLE => {}
@@ -559,10 +576,6 @@ fn free_helper(team: &TraversalTeam) -> Option<std::sync::MutexGuard<'_, Work>> 
                 .ok()?;
         }
         _ => return None,
-    }
-    // A helper asleep would take longer to wake than the caller's half takes.
-    if s.sleeping.load(Ordering::Acquire) {
-        return None;
     }
     // The helper locks `work` only after claiming a posted job, so this does not block.
     s.work.try_lock().ok()

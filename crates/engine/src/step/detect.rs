@@ -331,10 +331,6 @@ impl GodObject {
             self.next_neighbours.cancel();
             return;
         }
-        if let Some(team) = &self.team {
-            // Lists come every few frames here: the helper stays ready for them.
-            team.keep_awake();
-        }
         let horizon = if self.neighbours.status() == ListStatus::Ready {
             let (center, radius) = self.neighbours.question();
             self.frames_in(&FreeProof { center, radius }, q, used)
