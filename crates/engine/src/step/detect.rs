@@ -35,6 +35,7 @@ impl GodObject {
                 *dropped += 1;
             }
         };
+        self.frame_detections += 1;
         // Inside the neighbour list: its pairs tested at `q` are the traversal's.
         let listed = self.neighbours.filter(q, sweep, margin, |p| {
             collect(p);
@@ -58,6 +59,11 @@ impl GodObject {
         )?;
         self.dropped += t.unreported;
         self.interrupted = !t.complete;
+        if !self.pairs.is_empty() {
+            // What a region's traversal costs in this contact (a neighbour list must beat it).
+            let splits = self.ws.stats().node_pairs_split as f64;
+            self.splits_per_region = 0.9 * self.splits_per_region + 0.1 * splits;
+        }
         Ok(min_gap)
     }
 
@@ -326,8 +332,19 @@ impl GodObject {
         let speed = self.last_motion;
         let margin = self.list_margin;
         let life = (margin - used).max(0.0) / speed.max(1e-9);
-        if self.pairs.is_empty() || life < LIST_MIN_LIFE_FRAMES {
-            // Free space (the proofs serve), or too fast for a list to pay.
+        self.detections_per_frame =
+            0.9 * self.detections_per_frame + 0.1 * self.frame_detections as f64;
+        self.frame_detections = 0;
+        // A list pays where regions are costly to traverse (flat-on-flat contacts: a thousand
+        // node pairs per region; not the bunny's hundred), and on this thread only where it
+        // does not cost clearly more per frame than the regions it spares (a helper builds it
+        // on time nobody else wants).
+        let spared = self.detections_per_frame * self.splits_per_region;
+        let costs = self.list_splits as f64 / life.max(1.0);
+        let pays = self.splits_per_region >= LIST_MIN_REGION_SPLITS
+            && (self.team.is_some() || costs <= LIST_PAYOFF * spared);
+        if self.pairs.is_empty() || life < LIST_MIN_LIFE_FRAMES || !pays {
+            // Free space (the proofs serve), too fast for a list to last, or not worth it.
             self.next_neighbours.cancel();
             return;
         }
