@@ -12,6 +12,9 @@
 //!   [`TraversalStats`] counts the work; [`PackedTree::sweep_margin`] gives the anti-tunnelling
 //!   margin for the motion from `q_g_prev` to `q_h`; [`overlap_swept`] the pairs that can
 //!   touch along a straight motion ([`Sweep`]), without the isotropic margin's excess.
+//! - [`NeighbourList`]: every leaf pair within a wide margin of a pose, filtered instead of
+//!   traversed while later queries stay inside its cover (exactly the traversal's pairs);
+//!   [`BackgroundList`] builds the next one in slices, or on a [`TraversalTeam`]'s helper.
 //! - [`ConstraintForm`], [`Linearization`], [`fill_constraints`]: rows `J dq >= d`.
 //!
 //! ```

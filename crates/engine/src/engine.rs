@@ -46,8 +46,11 @@ pub struct EngineConfig {
     /// A second thread shares the large traversals of the frame ([`collide::overlap_shared`]):
     /// it takes half of each while the frame's thread descends the other, about halving the
     /// detection time of dense contacts and tight holes, and spins (a core's worth) for a few
-    /// ms after each. The frames are the same with it or without it (the same pairs in the
-    /// same order). Default `false`.
+    /// ms after each; it also runs the free-space probes and builds the neighbour lists of
+    /// flat-on-flat contacts in the background ([`collide::BackgroundList`]). The answers are
+    /// the same with it or without it; with lists in use, frames may take other regions (its
+    /// lists are ready sooner) and differ within the convergence tolerance, or where the
+    /// problem has more than one local answer. Default `false`.
     pub helper_thread: bool,
     /// Device limits applied to every wrench sent.
     pub safety: SafetyParams,
