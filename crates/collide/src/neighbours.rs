@@ -467,7 +467,7 @@ impl BackgroundList {
 
     /// Starts building the list of pairs within `margin` (mm) of touching with the tool at
     /// `center`, dropping any unfinished build. Errors on a non-finite pose, or
-    /// ([`CollideError::Busy`]) when the helper holds the list past [`LOCK_WAIT`].
+    /// ([`CollideError::Busy`]) when the helper holds the list past ~50 µs.
     ///
     /// # Real-time
     /// No allocation; waits at most ~50 µs for the helper.
