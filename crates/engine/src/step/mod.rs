@@ -364,6 +364,9 @@ pub struct GodObject {
     splits_per_region: f64,
     detections_per_frame: f64,
     frame_detections: u32,
+    /// Regions answered from a neighbour list, and by a traversal, since `new`.
+    regions_filtered: u64,
+    regions_traversed: u64,
     /// Where the hand was relative to the graphic tool at the end of the last frame:
     /// translation `t_h - t_g` (mm) and rotation `log(R_h R_g^T)` (rad, world axes). A hand in
     /// steady motion keeps it, which predicts where this frame's answer lies.
@@ -465,6 +468,8 @@ impl GodObject {
             splits_per_region: 0.0,
             detections_per_frame: 0.0,
             frame_detections: 0,
+            regions_filtered: 0,
+            regions_traversed: 0,
             hand_offset: (Vector3::zeros(), Vector3::zeros()),
             cached: None,
             prediction_error: 0.0,
@@ -498,6 +503,12 @@ impl GodObject {
     /// Largest distance of a tool leaf centre from the tool origin, mm.
     pub fn reach(&self) -> f64 {
         self.reach
+    }
+
+    /// Regions (detections) answered from a neighbour list, and by a traversal, since the
+    /// god-object was made: how much the lists spare.
+    pub fn region_counts(&self) -> (u64, u64) {
+        (self.regions_filtered, self.regions_traversed)
     }
 
     /// The leaf pairs of the last detected region (empty in free space).
