@@ -155,7 +155,7 @@ fn neighbour_lists_do_not_allocate() {
         params.helper_thread = helper;
         let mut god = engine::step::GodObject::new(&scene.tool, &scene.objects, params).unwrap();
         let tol = params.penetration_tol_mm;
-        let mut pass = |god: &mut engine::step::GodObject| {
+        let pass = |god: &mut engine::step::GodObject| {
             god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
             let mut deepest = 0.0f64;
             for s in &traj.samples {
