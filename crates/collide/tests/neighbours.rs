@@ -5,33 +5,17 @@
 mod common;
 
 use collide::{
-    overlap_swept, overlap_tree_trees, rotation_exp, BackgroundList, LeafPair, ListStatus,
-    NeighbourList, PackedTree, Pose, Sweep, TraversalTeam,
+    overlap_swept, overlap_tree_trees, rotation_exp, BackgroundList, ListStatus, NeighbourList,
+    PackedTree, Pose, Sweep, TraversalTeam,
 };
-use common::{random_tree, TreeShape};
-
-fn shape() -> TreeShape {
-    TreeShape {
-        levels: 4,
-        branching: 8,
-        extent: 50.0,
-        p_used: 0.9,
-        p_early_leaf: 0.02,
-    }
-}
-
-type Key = (u32, u32, u32, u64);
-
-fn key(p: &LeafPair) -> Key {
-    (p.object, p.tool_slot, p.object_slot, p.gap.to_bits())
-}
+use common::{dense_shape, pair_key, random_tree, PairKey};
 
 fn trees() -> (PackedTree, Vec<PackedTree>) {
-    let tool = PackedTree::new(&random_tree(21, shape())).unwrap();
+    let tool = PackedTree::new(&random_tree(21, dense_shape())).unwrap();
     let objects = vec![
-        PackedTree::new(&random_tree(22, shape())).unwrap(),
+        PackedTree::new(&random_tree(22, dense_shape())).unwrap(),
         PackedTree::with_pose(
-            &random_tree(23, shape()),
+            &random_tree(23, dense_shape()),
             &Pose::from_array([40.0, 0.0, 0.0, 0.3, 0.0, 0.1]),
         )
         .unwrap(),
@@ -123,16 +107,16 @@ fn a_covered_query_gets_exactly_the_traversals_pairs() {
             let mut traversed = Vec::new();
             match sw {
                 None => overlap_tree_trees(&tool, &q, &objects, margin, &mut ws, |p| {
-                    traversed.push(key(p))
+                    traversed.push(pair_key(p))
                 }),
                 Some(s) => overlap_swept(&tool, &q, s, &objects, margin, &mut ws, |p| {
-                    traversed.push(key(p))
+                    traversed.push(pair_key(p))
                 }),
             }
             .unwrap();
             let mut filtered = Vec::new();
             let answer = list.filter(&q, sw, margin, |p| {
-                filtered.push(key(p));
+                filtered.push(pair_key(p));
                 true
             });
             assert_eq!(answer.is_some(), list.covers(&q, sw, margin));
@@ -175,7 +159,7 @@ fn a_list_built_in_slices_is_the_one_shot_list() {
     let all = |l: &NeighbourList| {
         let mut v = Vec::new();
         l.filter(&center, None, 1.0, |p| {
-            v.push(key(p));
+            v.push(pair_key(p));
             true
         })
         .unwrap();
@@ -271,10 +255,10 @@ fn the_cover_counts_every_motion_at_its_edge() {
 }
 
 /// The pairs of a list, as sorted keys.
-fn keys(list: &NeighbourList, at: &Pose, margin: f64) -> Vec<Key> {
+fn keys(list: &NeighbourList, at: &Pose, margin: f64) -> Vec<PairKey> {
     let mut v = Vec::new();
     list.filter(at, None, margin, |p| {
-        v.push(key(p));
+        v.push(pair_key(p));
         true
     })
     .unwrap();

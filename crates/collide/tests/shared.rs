@@ -4,27 +4,11 @@
 mod common;
 
 use collide::{
-    overlap_shared, overlap_swept, overlap_tree_trees, CollideWorkspace, LeafPair, PackedTree,
-    Pose, Sweep, TraversalTeam,
+    overlap_shared, overlap_swept, overlap_tree_trees, CollideWorkspace, PackedTree, Pose, Sweep,
+    TraversalTeam,
 };
-use common::{random_tree, TreeShape};
+use common::{dense_shape, pair_key, random_tree, PairKey};
 use std::time::{Duration, Instant};
-
-fn shape() -> TreeShape {
-    TreeShape {
-        levels: 4,
-        branching: 8,
-        extent: 50.0,
-        p_used: 0.9,
-        p_early_leaf: 0.02,
-    }
-}
-
-type Key = (u32, u32, u32, u64);
-
-fn key(p: &LeafPair) -> Key {
-    (p.object, p.tool_slot, p.object_slot, p.gap.to_bits())
-}
 
 #[allow(clippy::too_many_arguments)]
 fn shared(
@@ -36,7 +20,7 @@ fn shared(
     ws: &mut CollideWorkspace,
     team: Option<&TraversalTeam>,
     deadline: Option<Instant>,
-) -> (collide::SharedTraversal, Vec<Key>) {
+) -> (collide::SharedTraversal, Vec<PairKey>) {
     let mut found = Vec::new();
     let t = overlap_shared(
         tool,
@@ -47,7 +31,7 @@ fn shared(
         ws,
         team,
         deadline,
-        |p| found.push(key(p)),
+        |p| found.push(pair_key(p)),
     )
     .unwrap();
     (t, found)
@@ -55,12 +39,12 @@ fn shared(
 
 #[test]
 fn shared_traversal_is_the_traversal_in_one_order_with_or_without_a_helper() {
-    let tree = random_tree(11, shape());
+    let tree = random_tree(11, dense_shape());
     let tool = PackedTree::new(&tree).unwrap();
     let objects = vec![
-        PackedTree::new(&random_tree(12, shape())).unwrap(),
+        PackedTree::new(&random_tree(12, dense_shape())).unwrap(),
         PackedTree::with_pose(
-            &random_tree(13, shape()),
+            &random_tree(13, dense_shape()),
             &Pose::from_array([40.0, 0.0, 0.0, 0.3, 0.0, 0.1]),
         )
         .unwrap(),
@@ -88,10 +72,10 @@ fn shared_traversal_is_the_traversal_in_one_order_with_or_without_a_helper() {
         let mut plain = Vec::new();
         match sw {
             None => overlap_tree_trees(&tool, &pose, &objects, margin, &mut ws, |p| {
-                plain.push(key(p))
+                plain.push(pair_key(p))
             }),
             Some(s) => overlap_swept(&tool, &pose, s, &objects, margin, &mut ws, |p| {
-                plain.push(key(p))
+                plain.push(pair_key(p))
             }),
         }
         .unwrap();
@@ -130,9 +114,9 @@ fn shared_traversal_is_the_traversal_in_one_order_with_or_without_a_helper() {
 
 #[test]
 fn a_deadline_stops_the_shared_traversal_with_a_subset() {
-    let tree = random_tree(21, shape());
+    let tree = random_tree(21, dense_shape());
     let tool = PackedTree::new(&tree).unwrap();
-    let objects = vec![PackedTree::new(&random_tree(21, shape())).unwrap()];
+    let objects = vec![PackedTree::new(&random_tree(21, dense_shape())).unwrap()];
     let team = TraversalTeam::new(&tool, &objects, 1 << 16).unwrap();
     let mut ws = CollideWorkspace::for_trees(&tool, &objects);
     let pose = Pose::from_array([0.3, -0.2, 0.1, 0.01, 0.0, 0.01]);
@@ -149,9 +133,9 @@ fn a_deadline_stops_the_shared_traversal_with_a_subset() {
 
 #[test]
 fn a_small_helper_buffer_counts_what_it_could_not_report() {
-    let tree = random_tree(31, shape());
+    let tree = random_tree(31, dense_shape());
     let tool = PackedTree::new(&tree).unwrap();
-    let objects = vec![PackedTree::new(&random_tree(31, shape())).unwrap()];
+    let objects = vec![PackedTree::new(&random_tree(31, dense_shape())).unwrap()];
     let team = TraversalTeam::new(&tool, &objects, 4).unwrap();
     let mut ws = CollideWorkspace::for_trees(&tool, &objects);
     let pose = Pose::from_array([0.3, -0.2, 0.1, 0.01, 0.0, 0.01]);
@@ -175,9 +159,9 @@ fn a_small_helper_buffer_counts_what_it_could_not_report() {
 
 #[test]
 fn dropping_the_team_stops_its_thread() {
-    let tree = random_tree(41, shape());
+    let tree = random_tree(41, dense_shape());
     let tool = PackedTree::new(&tree).unwrap();
-    let objects = vec![PackedTree::new(&random_tree(42, shape())).unwrap()];
+    let objects = vec![PackedTree::new(&random_tree(42, dense_shape())).unwrap()];
     // Each drop joins the helper: a helper that did not stop would hang this thread.
     let (done, finished) = std::sync::mpsc::channel();
     std::thread::spawn(move || {

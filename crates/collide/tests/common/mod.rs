@@ -20,6 +20,26 @@ pub struct TreeShape {
     pub p_early_leaf: f64,
 }
 
+/// The dense trees the shared-traversal, probe and neighbour-list tests use: 4 levels of 8,
+/// 50 mm across, nine slots in ten used.
+pub fn dense_shape() -> TreeShape {
+    TreeShape {
+        levels: 4,
+        branching: 8,
+        extent: 50.0,
+        p_used: 0.9,
+        p_early_leaf: 0.02,
+    }
+}
+
+/// A leaf pair as a comparable key: object, tool slot, object slot and the gap's bits.
+pub type PairKey = (u32, u32, u32, u64);
+
+/// The [`PairKey`] of `p`.
+pub fn pair_key(p: &collide::LeafPair) -> PairKey {
+    (p.object, p.tool_slot, p.object_slot, p.gap.to_bits())
+}
+
 /// A random valid tree: spatially coherent centres (children near their parent), leaves with
 /// random radii, each parent the enclosing sphere of its children (around its own centre) plus
 /// random slack; unused slots hold garbage (random centres, negative radii of any size).
