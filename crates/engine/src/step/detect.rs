@@ -402,7 +402,7 @@ impl GodObject {
                 // list is taken placed it too far ahead, p99 262–319 against 84–133 µs.)
                 let lead = 1.5 * frames + 2.0;
                 if horizon < lead {
-                    let ahead_frames = horizon.min(lead) + 0.5 * life;
+                    let ahead_frames = horizon + 0.5 * life;
                     let mut center = *q;
                     for k in 0..3 {
                         center.q[k] += ahead_frames * self.last_step[k];
