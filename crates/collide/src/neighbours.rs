@@ -377,15 +377,23 @@ fn status_of(code: u8) -> ListStatus {
 /// by a [`TraversalTeam`]'s helper thread.
 ///
 /// **The schedule decides, not the threads.** Each [`BackgroundList::advance`] call grants
-/// the build a number of node-pair splits; the list counts as finished at the first call by
-/// which the granted splits reach the build's total, whichever thread did them. A helper that
-/// runs ahead only spares the caller the work; one that lags is caught up by the caller, as
-/// far as the call allows. So for a given schedule of grants the list becomes usable at the
-/// same call with or without a helper, unless the helper is held up past what the caller may
-/// catch up.
+/// the build a number of node pairs; the list counts as finished at the first call by which
+/// the granted splits reach the build's total, whichever thread did them. A helper that runs
+/// ahead only spares the caller the work; one that lags is caught up by the caller, as far as
+/// the call allows. So for a given schedule of grants the list becomes usable at the same call
+/// with or without a helper, unless the helper is held up past what the caller may catch up.
+///
+/// **Two buffers.** The helper builds in a buffer it shares with the caller (a lock, released
+/// between slices of [`SPLITS_PER_CLOCK`] splits); the caller builds in one of its own,
+/// without a lock. A helper that stops making progress while it holds the shared buffer (on a
+/// busy machine its `SCHED_IDLE` thread can wait for long) is abandoned: the caller starts the
+/// build again in its own buffer, so a starved helper never keeps the lists from coming.
 #[derive(Debug)]
 pub struct BackgroundList {
-    list: Arc<Mutex<NeighbourList>>,
+    shared: Arc<Mutex<NeighbourList>>,
+    own: NeighbourList,
+    /// The current build is in `own` (on the caller's thread), else in `shared`.
+    in_own: bool,
     published: Arc<Published>,
     /// Bumped at each start: a helper still on an older build stops.
     generation: Arc<AtomicU64>,
@@ -448,12 +456,14 @@ fn publish(shown: &Published, list: &NeighbourList) {
 
 impl BackgroundList {
     /// An empty background list for `tool` against `objects`, holding at most `capacity`
-    /// pairs (allocates; not real-time).
+    /// pairs (allocates its two buffers; not real-time).
     pub fn for_trees(tool: &PackedTree, objects: &[PackedTree], capacity: usize) -> Self {
         Self {
-            list: Arc::new(Mutex::new(NeighbourList::for_trees(
+            shared: Arc::new(Mutex::new(NeighbourList::for_trees(
                 tool, objects, capacity,
             ))),
+            own: NeighbourList::for_trees(tool, objects, capacity),
+            in_own: true,
             published: Arc::new(Published::default()),
             generation: Arc::new(AtomicU64::new(0)),
             job: None,
@@ -466,32 +476,27 @@ impl BackgroundList {
     }
 
     /// Starts building the list of pairs within `margin` (mm) of touching with the tool at
-    /// `center`, dropping any unfinished build. Errors on a non-finite pose, or
-    /// ([`CollideError::Busy`]) when the helper holds the list past ~50 µs.
+    /// `center`, dropping any unfinished build (a helper on it stops at its next slice).
+    /// Errors on a non-finite pose.
     ///
     /// # Real-time
-    /// No allocation; waits at most ~50 µs for the helper.
+    /// No allocation, no lock (the build starts in the caller's buffer; the first
+    /// [`BackgroundList::advance`] with a team hands it to the helper).
     pub fn start(
         &mut self,
         tool: &PackedTree,
         center: &Pose,
         margin: f64,
     ) -> Result<(), CollideError> {
-        if !center.is_finite() {
-            return Err(CollideError::NonFinitePose);
-        }
         self.generation.fetch_add(1, Ordering::AcqRel);
         self.job = None;
-        let Some(mut list) = lock_by(&self.list, Instant::now() + LOCK_WAIT) else {
-            self.status = ListStatus::Empty;
-            return Err(CollideError::Busy);
-        };
-        list.start(tool, center, margin)?;
-        publish(&self.published, &list);
+        self.status = ListStatus::Empty;
+        self.own.start(tool, center, margin)?;
+        self.in_own = true;
         self.granted = 0;
         self.seen_splits = 0;
         self.center = *center;
-        self.margin = list.margin;
+        self.margin = self.own.margin;
         self.status = ListStatus::Building;
         Ok(())
     }
@@ -515,7 +520,11 @@ impl BackgroundList {
 
     /// Node pairs split so far (the build's cost once finished).
     pub fn splits(&self) -> usize {
-        self.published.splits.load(Ordering::Acquire)
+        if self.in_own {
+            self.own.splits()
+        } else {
+            self.published.splits.load(Ordering::Acquire)
+        }
     }
 
     /// Grants the build `grant` more node-pair splits and returns its status. With `team`,
@@ -527,7 +536,7 @@ impl BackgroundList {
     ///
     /// # Real-time
     /// No allocation, no panic; at most `max_here` splits here, and a wait of at most ~50 µs
-    /// for the helper to let go of the list.
+    /// for the helper to let go of the shared buffer.
     #[allow(clippy::too_many_arguments)]
     pub fn advance(
         &mut self,
@@ -542,18 +551,70 @@ impl BackgroundList {
             return self.status;
         }
         self.granted = self.granted.saturating_add(grant);
-        // This call does its part of the grant unless the helper is on it and has made
-        // progress since the last call (or was handed it just now).
+        // Handed to the helper just now: it gets until the next call to show progress.
+        let handed = team.is_some_and(|team| self.hand_over(tool, team));
+        if !self.in_own && !handed {
+            self.advance_shared(tool, objects, max_here, team, deadline);
+        }
+        if self.in_own {
+            let left = self.granted.saturating_sub(self.own.splits()).min(max_here);
+            if self.own.status() == ListStatus::Building && left > 0 {
+                self.own.advance(tool, objects, left, deadline);
+            }
+            if self.own.status() != ListStatus::Building && self.own.splits() <= self.granted {
+                self.status = self.own.status();
+            }
+        }
+        self.status
+    }
+
+    /// A build not yet begun in the caller's buffer goes to the helper's, if it is free: true
+    /// when it was handed over.
+    fn hand_over(&mut self, tool: &PackedTree, team: &TraversalTeam) -> bool {
+        if !self.in_own || self.own.splits() > 0 {
+            return false;
+        }
+        let Ok(mut shared) = self.shared.try_lock() else {
+            return false;
+        };
+        if shared.start(tool, &self.center, self.margin).is_err() {
+            return false;
+        }
+        publish(&self.published, &shared);
+        drop(shared);
+        let job = ListJob {
+            list: self.shared.clone(),
+            published: self.published.clone(),
+            generation: self.generation.clone(),
+            expected: self.generation.load(Ordering::Acquire),
+        };
+        self.job = team::post_list_job(team, job);
+        self.in_own = false;
+        self.seen_splits = 0;
+        true
+    }
+
+    /// The helper's build: handed over again if another job came since, caught up here when
+    /// the helper made no progress since the last call, abandoned for the caller's own
+    /// buffer when the helper holds the shared one and does not let go.
+    fn advance_shared(
+        &mut self,
+        tool: &PackedTree,
+        objects: &[PackedTree],
+        max_here: usize,
+        team: Option<&TraversalTeam>,
+        deadline: Option<Instant>,
+    ) {
         let mut helper_on_it = false;
-        if let Some(team) = team {
+        let building =
+            status_of(self.published.status.load(Ordering::Acquire)) == ListStatus::Building;
+        if let (Some(team), true) = (team, building) {
             let state = self.job.and_then(|id| team::job_state(team, id));
             if matches!(state, Some(JobState::Posted | JobState::Running)) {
                 helper_on_it = self.splits() > self.seen_splits;
             } else {
-                // Not on it (or another job came since): hand it over; a busy or sleeping
-                // helper takes it on a later call.
                 let job = ListJob {
-                    list: self.list.clone(),
+                    list: self.shared.clone(),
                     published: self.published.clone(),
                     generation: self.generation.clone(),
                     expected: self.generation.load(Ordering::Acquire),
@@ -564,13 +625,25 @@ impl BackgroundList {
         }
         let shown = status_of(self.published.status.load(Ordering::Acquire));
         if shown == ListStatus::Building && self.splits() < self.granted && !helper_on_it {
-            // Behind the schedule: this thread does (some of) the rest of the grant.
-            if let Some(mut list) = lock_by(&self.list, Instant::now() + LOCK_WAIT) {
-                let left = self.granted.saturating_sub(list.splits()).min(max_here);
-                if list.status() == ListStatus::Building && left > 0 {
-                    list.advance(tool, objects, left, deadline);
+            match lock_by(&self.shared, Instant::now() + LOCK_WAIT) {
+                Some(mut list) => {
+                    let left = self.granted.saturating_sub(list.splits()).min(max_here);
+                    if list.status() == ListStatus::Building && left > 0 {
+                        list.advance(tool, objects, left, deadline);
+                    }
+                    publish(&self.published, &list);
                 }
-                publish(&self.published, &list);
+                None => {
+                    // The helper holds the buffer and is not running: start again here.
+                    self.generation.fetch_add(1, Ordering::AcqRel);
+                    self.job = None;
+                    if self.own.start(tool, &self.center, self.margin).is_ok() {
+                        self.in_own = true;
+                    } else {
+                        self.status = ListStatus::Empty;
+                    }
+                    return;
+                }
             }
         }
         let shown = status_of(self.published.status.load(Ordering::Acquire));
@@ -578,7 +651,6 @@ impl BackgroundList {
         if shown != ListStatus::Building && self.seen_splits <= self.granted {
             self.status = shown;
         }
-        self.status
     }
 
     /// Moves a finished list into `into` (whose old contents take its place here, cleared):
@@ -590,12 +662,17 @@ impl BackgroundList {
         if self.status != ListStatus::Ready {
             return false;
         }
-        let Some(mut list) = lock_by(&self.list, Instant::now() + LOCK_WAIT) else {
-            return false;
-        };
-        std::mem::swap(&mut *list, into);
-        list.clear();
-        publish(&self.published, &list);
+        if self.in_own {
+            std::mem::swap(&mut self.own, into);
+            self.own.clear();
+        } else {
+            let Some(mut list) = lock_by(&self.shared, Instant::now() + LOCK_WAIT) else {
+                return false;
+            };
+            std::mem::swap(&mut *list, into);
+            list.clear();
+            publish(&self.published, &list);
+        }
         self.status = ListStatus::Empty;
         self.job = None;
         true
