@@ -384,7 +384,7 @@ fn status_of(code: u8) -> ListStatus {
 /// with or without a helper, unless the helper is held up past what the caller may catch up.
 ///
 /// **Two buffers.** The helper builds in a buffer it shares with the caller (a lock, released
-/// between slices of [`SPLITS_PER_CLOCK`] splits); the caller builds in one of its own,
+/// between slices of 128 splits); the caller builds in one of its own,
 /// without a lock. A helper that stops making progress while it holds the shared buffer (on a
 /// busy machine its `SCHED_IDLE` thread can wait for long) is abandoned: the caller starts the
 /// build again in its own buffer, so a starved helper never keeps the lists from coming.
