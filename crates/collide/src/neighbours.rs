@@ -42,6 +42,69 @@ pub enum ListStatus {
     Overflowed,
 }
 
+/// The listed pairs in structure-of-arrays form, for the filter: tool centre (tool frame,
+/// mm), object centre (world, mm), both radii (mm).
+#[derive(Clone, Debug)]
+struct Columns {
+    px: Vec<f64>,
+    py: Vec<f64>,
+    pz: Vec<f64>,
+    ox: Vec<f64>,
+    oy: Vec<f64>,
+    oz: Vec<f64>,
+    r_tool: Vec<f64>,
+    r_object: Vec<f64>,
+}
+
+impl Columns {
+    fn with_capacity(capacity: usize) -> Self {
+        let column = || Vec::with_capacity(capacity);
+        Self {
+            px: column(),
+            py: column(),
+            pz: column(),
+            ox: column(),
+            oy: column(),
+            oz: column(),
+            r_tool: column(),
+            r_object: column(),
+        }
+    }
+
+    fn all(&mut self) -> [&mut Vec<f64>; 8] {
+        [
+            &mut self.px,
+            &mut self.py,
+            &mut self.pz,
+            &mut self.ox,
+            &mut self.oy,
+            &mut self.oz,
+            &mut self.r_tool,
+            &mut self.r_object,
+        ]
+    }
+
+    fn push(&mut self, p: &LeafPair) {
+        let values = [
+            p.p_in_tool[0],
+            p.p_in_tool[1],
+            p.p_in_tool[2],
+            p.o_in_world[0],
+            p.o_in_world[1],
+            p.o_in_world[2],
+            p.r_tool,
+            p.r_object,
+        ];
+        for (column, v) in self.all().into_iter().zip(values) {
+            column.push(v);
+        }
+    }
+
+    fn clear(&mut self) {
+        self.all().into_iter().for_each(Vec::clear);
+    }
+}
+
 /// Every leaf pair within a margin of touching at one pose, kept to answer later queries near
 /// that pose without a traversal (see the module docs for the guarantee).
 ///
@@ -59,16 +122,8 @@ pub struct NeighbourList {
     object: usize,
     resume: bool,
     pairs: Vec<LeafPair>,
-    /// The listed pairs in structure-of-arrays form for the filter: tool centre (tool frame,
-    /// mm), object centre (world, mm), both radii (mm).
-    px: Vec<f64>,
-    py: Vec<f64>,
-    pz: Vec<f64>,
-    ox: Vec<f64>,
-    oy: Vec<f64>,
-    oz: Vec<f64>,
-    r_tool: Vec<f64>,
-    r_object: Vec<f64>,
+    /// The listed pairs' geometry, for the filter.
+    columns: Columns,
     /// The tool's reach (mm) and largest leaf radius (mm), for [`NeighbourList::covers`].
     reach: f64,
     leaf_radius: f64,
@@ -79,7 +134,6 @@ impl NeighbourList {
     /// (allocates; not real-time).
     pub fn for_trees(tool: &PackedTree, objects: &[PackedTree], capacity: usize) -> Self {
         let leaf_radius = tool.leaves().map(|n| tool.radius(n)).fold(0.0, f64::max);
-        let column = || Vec::with_capacity(capacity);
         Self {
             ws: CollideWorkspace::for_trees(tool, objects),
             center: Pose::identity(),
@@ -88,14 +142,7 @@ impl NeighbourList {
             object: 0,
             resume: false,
             pairs: Vec::with_capacity(capacity),
-            px: column(),
-            py: column(),
-            pz: column(),
-            ox: column(),
-            oy: column(),
-            oz: column(),
-            r_tool: column(),
-            r_object: column(),
+            columns: Columns::with_capacity(capacity),
             reach: tool.reach(),
             leaf_radius,
         }
@@ -126,18 +173,7 @@ impl NeighbourList {
         self.object = 0;
         self.resume = false;
         self.pairs.clear();
-        for c in [
-            &mut self.px,
-            &mut self.py,
-            &mut self.pz,
-            &mut self.ox,
-            &mut self.oy,
-            &mut self.oz,
-            &mut self.r_tool,
-            &mut self.r_object,
-        ] {
-            c.clear();
-        }
+        self.columns.clear();
     }
 
     /// Builds on for at most `budget` node-pair splits, stopping early past `deadline`; the
@@ -163,32 +199,14 @@ impl NeighbourList {
                     return self.status;
                 }
                 let mut left = slice;
-                let (pairs, ws) = (&mut self.pairs, &mut self.ws);
-                let columns = (
-                    &mut self.px,
-                    &mut self.py,
-                    &mut self.pz,
-                    &mut self.ox,
-                    &mut self.oy,
-                    &mut self.oz,
-                    &mut self.r_tool,
-                    &mut self.r_object,
-                );
-                let (px, py, pz, ox, oy, oz, rt, ro) = columns;
+                let (pairs, ws, columns) = (&mut self.pairs, &mut self.ws, &mut self.columns);
                 let mut keep = |p: &LeafPair| {
                     if pairs.len() >= capacity {
                         overflow = true;
                         return false;
                     }
                     pairs.push(*p);
-                    px.push(p.p_in_tool[0]);
-                    py.push(p.p_in_tool[1]);
-                    pz.push(p.p_in_tool[2]);
-                    ox.push(p.o_in_world[0]);
-                    oy.push(p.o_in_world[1]);
-                    oz.push(p.o_in_world[2]);
-                    rt.push(p.r_tool);
-                    ro.push(p.r_object);
+                    columns.push(p);
                     true
                 };
                 let d = descend_as_queried(
@@ -308,16 +326,17 @@ impl NeighbourList {
         };
         let mut count = 0;
         for i in 0..self.pairs.len() {
-            let (x, y, z) = (self.px[i], self.py[i], self.pz[i]);
+            let c = &self.columns;
+            let (x, y, z) = (c.px[i], c.py[i], c.pz[i]);
             // The traversal's arithmetic, so that the gaps agree to the bit.
             let w = [
                 r[0][0] * x + r[0][1] * y + r[0][2] * z + t[0],
                 r[1][0] * x + r[1][1] * y + r[1][2] * z + t[1],
                 r[2][0] * x + r[2][1] * y + r[2][2] * z + t[2],
             ];
-            let d = [w[0] - self.ox[i], w[1] - self.oy[i], w[2] - self.oz[i]];
+            let d = [w[0] - c.ox[i], w[1] - c.oy[i], w[2] - c.oz[i]];
             let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            let s = self.r_tool[i] * grow + self.r_object[i] + m;
+            let s = c.r_tool[i] * grow + c.r_object[i] + m;
             let near = match &sweep {
                 None => d2 <= s * s,
                 Some(sw) => {
@@ -333,7 +352,7 @@ impl NeighbourList {
             };
             if near {
                 let mut pair = self.pairs[i];
-                pair.gap = d2.sqrt() - (self.r_tool[i] + self.r_object[i]);
+                pair.gap = d2.sqrt() - (c.r_tool[i] + c.r_object[i]);
                 count += 1;
                 if !visit(&pair) {
                     break;

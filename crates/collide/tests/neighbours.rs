@@ -5,10 +5,9 @@
 mod common;
 
 use collide::{
-    overlap_swept, overlap_tree_trees, rotation_exp, BackgroundList, ListStatus, NeighbourList,
-    PackedTree, Pose, Sweep, TraversalTeam,
+    rotation_exp, BackgroundList, ListStatus, NeighbourList, PackedTree, Pose, Sweep, TraversalTeam,
 };
-use common::{dense_shape, pair_key, random_tree, PairKey};
+use common::{dense_shape, pair_key, random_tree, traversal_keys, PairKey};
 
 fn trees() -> (PackedTree, Vec<PackedTree>) {
     let tool = PackedTree::new(&random_tree(21, dense_shape())).unwrap();
@@ -104,16 +103,7 @@ fn a_covered_query_gets_exactly_the_traversals_pairs() {
                 (0.0, 0.0)
             };
             let q = moved(&center, &mut rng, dt, turn);
-            let mut traversed = Vec::new();
-            match sw {
-                None => overlap_tree_trees(&tool, &q, &objects, margin, &mut ws, |p| {
-                    traversed.push(pair_key(p))
-                }),
-                Some(s) => overlap_swept(&tool, &q, s, &objects, margin, &mut ws, |p| {
-                    traversed.push(pair_key(p))
-                }),
-            }
-            .unwrap();
+            let mut traversed = traversal_keys(&tool, &q, sw, &objects, margin, &mut ws);
             let mut filtered = Vec::new();
             let answer = list.filter(&q, sw, margin, |p| {
                 filtered.push(pair_key(p));
@@ -236,16 +226,7 @@ fn the_cover_counts_every_motion_at_its_edge() {
             if margin < 0.0 {
                 continue;
             }
-            let mut traversed = 0;
-            match sw {
-                None => {
-                    overlap_tree_trees(&tool, &q, &objects, margin, &mut ws, |_| traversed += 1)
-                }
-                Some(s) => {
-                    overlap_swept(&tool, &q, s, &objects, margin, &mut ws, |_| traversed += 1)
-                }
-            }
-            .unwrap();
+            let traversed = traversal_keys(&tool, &q, sw, &objects, margin, &mut ws).len();
             assert_eq!(list.filter(&q, sw, margin, |_| true), Some(traversed));
             assert_eq!(traversed, 0, "size {size}, sweep {sw:?}");
             checked += 1;

@@ -3,11 +3,8 @@
 
 mod common;
 
-use collide::{
-    overlap_shared, overlap_swept, overlap_tree_trees, CollideWorkspace, PackedTree, Pose, Sweep,
-    TraversalTeam,
-};
-use common::{dense_shape, pair_key, random_tree, PairKey};
+use collide::{overlap_shared, CollideWorkspace, PackedTree, Pose, Sweep, TraversalTeam};
+use common::{dense_shape, pair_key, random_tree, traversal_keys, PairKey};
 use std::time::{Duration, Instant};
 
 #[allow(clippy::too_many_arguments)]
@@ -69,16 +66,7 @@ fn shared_traversal_is_the_traversal_in_one_order_with_or_without_a_helper() {
         };
         let sw = (i % 3 == 0).then_some(&sweep);
         let margin = rng.range(0.0, 1.0);
-        let mut plain = Vec::new();
-        match sw {
-            None => overlap_tree_trees(&tool, &pose, &objects, margin, &mut ws, |p| {
-                plain.push(pair_key(p))
-            }),
-            Some(s) => overlap_swept(&tool, &pose, s, &objects, margin, &mut ws, |p| {
-                plain.push(pair_key(p))
-            }),
-        }
-        .unwrap();
+        let plain = traversal_keys(&tool, &pose, sw, &objects, margin, &mut ws);
         let (alone, by_one) = shared(&tool, &pose, sw, &objects, margin, &mut ws, None, None);
         let (with, by_two) = shared(
             &tool,

@@ -40,6 +40,26 @@ pub fn pair_key(p: &collide::LeafPair) -> PairKey {
     (p.object, p.tool_slot, p.object_slot, p.gap.to_bits())
 }
 
+/// The plain traversal's pairs of `tool` at `pose` (along `sweep` if given) within `margin`
+/// (mm), as keys in the traversal's order: the reference the other queries are checked against.
+pub fn traversal_keys(
+    tool: &collide::PackedTree,
+    pose: &Pose,
+    sweep: Option<&collide::Sweep>,
+    objects: &[collide::PackedTree],
+    margin: f64,
+    ws: &mut collide::CollideWorkspace,
+) -> Vec<PairKey> {
+    let mut keys = Vec::new();
+    let keep = |p: &collide::LeafPair| keys.push(pair_key(p));
+    match sweep {
+        None => collide::overlap_tree_trees(tool, pose, objects, margin, ws, keep),
+        Some(s) => collide::overlap_swept(tool, pose, s, objects, margin, ws, keep),
+    }
+    .unwrap();
+    keys
+}
+
 /// A random valid tree: spatially coherent centres (children near their parent), leaves with
 /// random radii, each parent the enclosing sphere of its children (around its own centre) plus
 /// random slack; unused slots hold garbage (random centres, negative radii of any size).
