@@ -24,7 +24,7 @@ pub mod eval;
 pub mod sph;
 mod tree;
 
-pub use tree::{slot_count, Sphere, SphereTree};
+pub use tree::{slot_count, FaceCap, Sphere, SphereTree};
 
 /// Errors of this crate.
 #[derive(Debug, thiserror::Error)]

@@ -41,12 +41,45 @@ impl Sphere {
     }
 }
 
+/// A leaf's face cap: the leaf stands for its sphere cut by the half-space
+/// `normal . x <= offset` (tree frame), because every point of the mesh's surface inside the
+/// leaf sphere lies in that half-space (docs/DESIGN.md §Face caps).
+///
+/// On a flat face this makes the leaf's outer boundary the face itself instead of the sphere's
+/// bulge: a tool sliding over the face meets a plane, not a layer of sphere bumps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FaceCap {
+    /// Unit outward normal of the face (tree frame).
+    pub normal: [f64; 3],
+    /// The plane's offset `normal . x` (mm, tree frame units); the solid side is below it.
+    pub offset: f64,
+    /// Radius (mm) of the disc on the plane, centred at the foot of the leaf sphere's centre,
+    /// that lies inside the mesh's flat face: a point above the plane whose foot falls in this
+    /// disc is above the face itself. `0` when the foot is not on the face.
+    pub reach: f64,
+}
+
+impl FaceCap {
+    /// True when the cap is usable: finite numbers, a unit normal (to `1e-9`), `reach >= 0`.
+    pub fn is_valid(&self) -> bool {
+        let n = self.normal;
+        let len2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+        n.iter().all(|v| v.is_finite())
+            && (len2 - 1.0).abs() <= 2e-9
+            && self.offset.is_finite()
+            && self.reach.is_finite()
+            && self.reach >= 0.0
+    }
+}
+
 /// A full B-ary sphere-tree stored flat in breadth-first order (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SphereTree {
     branching: u32,
     levels: u32,
     spheres: Vec<Sphere>,
+    /// Face caps by slot (empty: none; else one entry per slot, `Some` on leaves only).
+    caps: Vec<Option<FaceCap>>,
 }
 
 /// Number of slots in a full tree with `levels` levels and branching `branching`
@@ -76,6 +109,7 @@ impl SphereTree {
             branching,
             levels,
             spheres: vec![Sphere::UNUSED; n],
+            caps: Vec::new(),
         })
     }
 
@@ -97,7 +131,47 @@ impl SphereTree {
             branching,
             levels,
             spheres,
+            caps: Vec::new(),
         })
+    }
+
+    /// The face caps by slot: empty when the tree has none, else one entry per slot.
+    #[inline]
+    pub fn caps(&self) -> &[Option<FaceCap>] {
+        &self.caps
+    }
+
+    /// The face cap of slot `n`, if any.
+    #[inline]
+    pub fn cap(&self, n: usize) -> Option<&FaceCap> {
+        self.caps.get(n).and_then(Option::as_ref)
+    }
+
+    /// Sets the face caps (one entry per slot; an empty vector removes them). Errors unless
+    /// every cap is valid ([`FaceCap::is_valid`]) and sits on a leaf.
+    pub fn set_caps(&mut self, caps: Vec<Option<FaceCap>>) -> Result<(), TreeError> {
+        if !caps.is_empty() && caps.len() != self.spheres.len() {
+            return Err(TreeError::SlotCount {
+                expected: self.spheres.len(),
+                found: caps.len(),
+            });
+        }
+        for (n, cap) in caps.iter().enumerate() {
+            if let Some(cap) = cap {
+                if !cap.is_valid() {
+                    return Err(TreeError::Invalid(format!(
+                        "slot {n} has a bad face cap: {cap:?}"
+                    )));
+                }
+                if !self.is_leaf(n) {
+                    return Err(TreeError::Invalid(format!(
+                        "slot {n} has a face cap but is not a leaf"
+                    )));
+                }
+            }
+        }
+        self.caps = caps;
+        Ok(())
     }
 
     fn check_shape(levels: u32, branching: u32) -> Result<usize, TreeError> {
