@@ -206,6 +206,7 @@ impl H6dConfig {
             // Not in the C struct (its layout is the ABI): the engine's default, reduction on.
             reduce_rows: EngineConfig::default().reduce_rows,
             helper_thread: EngineConfig::default().helper_thread,
+            face_caps: EngineConfig::default().face_caps,
             safety: SafetyParams {
                 max_force_n: self.max_force_n,
                 max_torque_nmm: self.max_torque_nmm,

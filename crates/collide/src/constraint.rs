@@ -270,6 +270,45 @@ impl Linearization {
         )
     }
 
+    /// `C(q_lin)` and `J = dC/dq (q_lin)` for a tool sphere (`p_in_tool`, `r_tool`; mm) and a
+    /// face's half-space `normal . x <= offset` (world; a pair with
+    /// [`LeafPair::on_face`]): the distance form is the signed gap
+    /// `h - r_tool`, `h = normal . c - offset`; the squared form, which has no meaning for a
+    /// plane, is `2 r_tool (h - r_tool)`: the first-order value of `|c - o|^2 - s^2` at
+    /// contact, scaled by the tool sphere (the plane's own radius is infinite).
+    ///
+    /// # Real-time
+    /// No allocation, no panic, constant time.
+    #[inline]
+    pub fn face_value_gradient(
+        &self,
+        p_in_tool: &[f64; 3],
+        r_tool: f64,
+        normal: &[f64; 3],
+        offset: f64,
+    ) -> (f64, [f64; 6]) {
+        let n = Vector3::from(*normal);
+        let rp = self.rot * Vector3::from(*p_in_tool);
+        let gap = n.dot(&(rp + self.t)) - offset - r_tool;
+        let scale = match self.form {
+            ConstraintForm::Squared => 2.0 * r_tool,
+            ConstraintForm::Distance => 1.0,
+        };
+        let g = n * scale;
+        let m = rp.cross(&g);
+        (
+            scale * gap,
+            [
+                g.x,
+                g.y,
+                g.z,
+                self.axes[0].dot(&m),
+                self.axes[1].dot(&m),
+                self.axes[2].dot(&m),
+            ],
+        )
+    }
+
     fn fallback_direction(&self, o: &Vector3<f64>) -> Vector3<f64> {
         let v = self.t - o;
         let n = v.norm();
@@ -286,12 +325,17 @@ impl Linearization {
     /// No allocation, no panic, constant time.
     #[inline]
     pub fn row(&self, pair: &LeafPair) -> ([f64; 6], f64) {
-        let (c, j) = self.value_gradient(
-            &pair.p_in_tool,
-            pair.r_tool,
-            &pair.o_in_world,
-            pair.r_object,
-        );
+        let (c, j) = match (pair.on_face, &pair.face) {
+            (true, Some(f)) => {
+                self.face_value_gradient(&pair.p_in_tool, pair.r_tool, &f.normal, f.offset)
+            }
+            _ => self.value_gradient(
+                &pair.p_in_tool,
+                pair.r_tool,
+                &pair.o_in_world,
+                pair.r_object,
+            ),
+        };
         let jd: f64 = j.iter().zip(&self.delta).map(|(a, b)| a * b).sum();
         (j, jd - c)
     }
@@ -313,6 +357,28 @@ pub fn constraint_value(
     match form {
         ConstraintForm::Squared => dist * dist - s * s,
         ConstraintForm::Distance => dist - s,
+    }
+}
+
+/// The exact constraint value `C(q)` of `form` at `pose` (mm, rad) for a pair: its object
+/// sphere's ([`constraint_value`]) or, on a face ([`LeafPair::on_face`]), its face's
+/// ([`Linearization::face_value_gradient`]).
+pub fn pair_constraint_value(form: ConstraintForm, pose: &Pose, pair: &LeafPair) -> f64 {
+    if pair.stands_for_face() {
+        let gap = pair.gap_at(pose);
+        match form {
+            ConstraintForm::Squared => 2.0 * pair.r_tool * gap,
+            ConstraintForm::Distance => gap,
+        }
+    } else {
+        constraint_value(
+            form,
+            pose,
+            &pair.p_in_tool,
+            pair.r_tool,
+            &pair.o_in_world,
+            pair.r_object,
+        )
     }
 }
 

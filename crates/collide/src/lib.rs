@@ -52,8 +52,8 @@ mod team;
 mod traverse;
 
 pub use constraint::{
-    constraint_value, fill_constraints, ConstraintForm, Linearization, RotationCoordinates,
-    DEGENERATE_DISTANCE,
+    constraint_value, fill_constraints, pair_constraint_value, ConstraintForm, Linearization,
+    RotationCoordinates, DEGENERATE_DISTANCE,
 };
 pub use neighbours::{BackgroundList, ListStatus, NeighbourList};
 pub use packed::PackedTree;
@@ -62,7 +62,7 @@ pub use probe::{FreeSpaceProbe, ProbeStatus};
 pub use team::{overlap_shared, SharedTraversal, TraversalTeam, SHARE_MIN_PAIRS, SPIN_WINDOW};
 pub use traverse::{
     any_pair_within, any_pair_within_until, collect_pairs, overlap_swept, overlap_tree_tree,
-    overlap_tree_trees, overlap_until, CollideWorkspace, LeafPair, Sweep, Traversal,
+    overlap_tree_trees, overlap_until, CollideWorkspace, FaceCut, LeafPair, Sweep, Traversal,
     TraversalStats,
 };
 

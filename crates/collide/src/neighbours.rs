@@ -20,7 +20,7 @@ use crate::team::{self, JobState, TraversalTeam};
 use crate::traverse::{
     arc_allowance, clean_margin, descend_as_queried, segment_dist2, CollideWorkspace,
 };
-use crate::{CollideError, LeafPair, PackedTree, Pose, Sweep};
+use crate::{CollideError, FaceCut, LeafPair, PackedTree, Pose, Sweep};
 use std::sync::atomic::{AtomicU64, AtomicU8, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -54,6 +54,8 @@ struct Columns {
     oz: Vec<f64>,
     r_tool: Vec<f64>,
     r_object: Vec<f64>,
+    /// The object leaf's face cut, if any.
+    face: Vec<Option<FaceCut>>,
 }
 
 impl Columns {
@@ -68,6 +70,7 @@ impl Columns {
             oz: column(),
             r_tool: column(),
             r_object: column(),
+            face: Vec::with_capacity(capacity),
         }
     }
 
@@ -98,10 +101,12 @@ impl Columns {
         for (column, v) in self.all().into_iter().zip(values) {
             column.push(v);
         }
+        self.face.push(p.face);
     }
 
     fn clear(&mut self) {
         self.all().into_iter().for_each(Vec::clear);
+        self.face.clear();
     }
 }
 
@@ -135,7 +140,11 @@ impl NeighbourList {
     pub fn for_trees(tool: &PackedTree, objects: &[PackedTree], capacity: usize) -> Self {
         let leaf_radius = tool.leaves().map(|n| tool.radius(n)).fold(0.0, f64::max);
         Self {
-            ws: CollideWorkspace::for_trees(tool, objects),
+            ws: {
+                let mut ws = CollideWorkspace::for_trees(tool, objects);
+                ws.keep_sphere_pairs = true;
+                ws
+            },
             center: Pose::identity(),
             margin: 0.0,
             status: ListStatus::Empty,
@@ -352,7 +361,12 @@ impl NeighbourList {
             };
             if near {
                 let mut pair = self.pairs[i];
-                pair.gap = d2.sqrt() - (c.r_tool[i] + c.r_object[i]);
+                let on_face = c.face[i].and_then(|f| f.gap(w, d, d2, c.r_tool[i]));
+                if sweep.is_none() && on_face.is_some_and(|g| g > m) {
+                    continue;
+                }
+                pair.gap = on_face.unwrap_or_else(|| d2.sqrt() - (c.r_tool[i] + c.r_object[i]));
+                pair.on_face = on_face.is_some();
                 count += 1;
                 if !visit(&pair) {
                     break;

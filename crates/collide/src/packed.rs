@@ -4,7 +4,7 @@
 use nalgebra::Vector3;
 use spheretree::SphereTree;
 
-use crate::{CollideError, Pose};
+use crate::{CollideError, FaceCut, Pose};
 
 /// A sphere in single precision (mm): the traversal's pruning test.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -74,6 +74,10 @@ pub struct PackedTree {
     /// The largest `|coordinate| + radius` of any node in the packing frame (mm): the scale of
     /// the `f32` rounding errors.
     pub(crate) extent: f64,
+    /// The face cut of every node (world for objects, tool frame for the tool), from the
+    /// tree's [`spheretree::FaceCap`]s; `None` where the leaf has none (and on inner nodes).
+    /// Empty when no leaf is cut.
+    pub(crate) cuts: Vec<Option<FaceCut>>,
     pub(crate) leaf_count: usize,
     pub(crate) max_children: usize,
     pub(crate) levels: u32,
@@ -117,6 +121,7 @@ impl PackedTree {
             sphere32: Vec::new(),
             node32: Vec::new(),
             extent: 0.0,
+            cuts: Vec::new(),
             leaf_count: 0,
             max_children: 0,
             levels: tree.levels(),
@@ -223,6 +228,20 @@ impl PackedTree {
     ) {
         let sp = tree.sphere(s);
         let c = rot * Vector3::from(sp.center) + t;
+        if let Some(cap) = tree.cap(s).filter(|_| tree.is_leaf(s)) {
+            if self.cuts.is_empty() {
+                self.cuts = vec![None; self.x.len()];
+            }
+            let n = rot * Vector3::from(cap.normal);
+            self.cuts.push(Some(FaceCut {
+                normal: n.into(),
+                // n_w . (R x + t) = n . x + n_w . t.
+                offset: cap.offset + n.dot(t),
+                reach: cap.reach,
+            }));
+        } else if !self.cuts.is_empty() {
+            self.cuts.push(None);
+        }
         self.x.push(c.x);
         self.y.push(c.y);
         self.z.push(c.z);
@@ -230,6 +249,23 @@ impl PackedTree {
         self.first_child.push(0);
         self.child_count.push(0);
         self.slot.push(s as u32);
+    }
+
+    /// The face cut of packed node `n` (world for objects packed with their pose), if any.
+    #[inline]
+    pub fn face_cut(&self, n: usize) -> Option<&FaceCut> {
+        self.cuts.get(n).and_then(Option::as_ref)
+    }
+
+    /// Number of leaves with a face cut.
+    pub fn face_cut_count(&self) -> usize {
+        self.cuts.iter().filter(|c| c.is_some()).count()
+    }
+
+    /// Forgets the face cuts: every leaf stands for its whole sphere again (the paper's
+    /// sphere-trees).
+    pub fn drop_face_cuts(&mut self) {
+        self.cuts = Vec::new();
     }
 
     /// Number of packed nodes (= used slots of the original tree).

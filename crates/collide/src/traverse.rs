@@ -1,13 +1,17 @@
 //! Simultaneous descent of a posed tool tree and static object trees: every overlapping leaf
 //! pair, allocation-free per query.
 
+use nalgebra::Vector3;
+
 use crate::packed::Sphere32;
 use crate::{CollideError, PackedTree, Pose};
 
 /// One leaf pair found by the traversal, with the geometry the constraints need.
 ///
 /// The pair is reported when `gap <= margin`, `gap = |c - o| - (r_tool + r_object)` measured at
-/// the query pose (`c` = the tool sphere's centre in the world).
+/// the query pose (`c` = the tool sphere's centre in the world), or, for an object leaf with a
+/// face cut that stands for the pair ([`LeafPair::on_face`]), the tool sphere's height above
+/// the face.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LeafPair {
     /// Index of the object tree in the slice given to the query (0 for [`overlap_tree_tree`]).
@@ -24,8 +28,80 @@ pub struct LeafPair {
     pub o_in_world: [f64; 3],
     /// Radius of the object leaf sphere (mm).
     pub r_object: f64,
-    /// `|c - o| - (r_tool + r_object)` at the query pose (mm); negative = penetration depth.
+    /// The gap at the query pose (mm; negative = penetration depth): on the face
+    /// (`on_face`), `normal . c - offset - r_tool`, else `|c - o| - (r_tool + r_object)`.
     pub gap: f64,
+    /// The object leaf's face cut (world), when its tree has one: the leaf stands for its
+    /// sphere cut by the half-space `normal . x <= offset` (docs/DESIGN.md §Face caps).
+    pub face: Option<FaceCut>,
+    /// True when the pair stands for the face's half-space instead of the object sphere: the
+    /// tool centre was on the outer side of the cut's plane, its foot within the cut's
+    /// `reach` of the object centre's foot. Both stand-ins contain the cut leaf, so either is
+    /// a safe constraint; the half-space is exact above the face (no sphere bump).
+    pub on_face: bool,
+}
+
+impl LeafPair {
+    /// True when the pair stands for its face's half-space ([`LeafPair::on_face`] with a cut).
+    #[inline]
+    pub fn stands_for_face(&self) -> bool {
+        self.on_face && self.face.is_some()
+    }
+
+    /// The pair's gap (mm) with the tool at `pose`: the tool sphere against what the pair
+    /// stands for (the face's half-space or the object sphere).
+    #[inline]
+    pub fn gap_at(&self, pose: &Pose) -> f64 {
+        self.contact_at(pose).1
+    }
+
+    /// With the tool at `pose`: the point of the tool sphere nearest what the pair stands for
+    /// (world, mm), the gap (mm) and the unit normal pointing from the object to the tool.
+    pub fn contact_at(&self, pose: &Pose) -> ([f64; 3], f64, [f64; 3]) {
+        let c = pose.rotation_matrix() * Vector3::from(self.p_in_tool) + pose.translation();
+        let (gap, n) = match (self.on_face, &self.face) {
+            (true, Some(f)) => {
+                let n = Vector3::from(f.normal);
+                (n.dot(&c) - f.offset - self.r_tool, n)
+            }
+            _ => {
+                let u = c - Vector3::from(self.o_in_world);
+                let d = u.norm();
+                let n = if d > 0.0 { u / d } else { Vector3::z() };
+                (d - (self.r_tool + self.r_object), n)
+            }
+        };
+        ((c - n * self.r_tool).into(), gap, n.into())
+    }
+}
+
+/// A leaf's face cut in the frame its tree is packed in (world for objects): the half-space
+/// `normal . x <= offset` holds all of the mesh's surface inside the leaf sphere
+/// ([`spheretree::FaceCap`] with the object's pose applied).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FaceCut {
+    /// Unit outward normal of the face.
+    pub normal: [f64; 3],
+    /// The plane's offset `normal . x` (mm).
+    pub offset: f64,
+    /// Radius (mm) of the disc on the plane around the foot of the leaf's centre that lies on
+    /// the face.
+    pub reach: f64,
+}
+
+impl FaceCut {
+    /// The face's gap for a tool sphere at world centre `w` (radius `r_tool`, mm), when the
+    /// pair stands for the half-space: `w` is on the outer side of the plane and its foot lies
+    /// within `reach` of the foot of the object centre `o` (`x = w - o`, `d2 = |x|^2`). `None`:
+    /// the pair stands for the object sphere.
+    #[inline(always)]
+    pub(crate) fn gap(&self, w: [f64; 3], x: [f64; 3], d2: f64, r_tool: f64) -> Option<f64> {
+        let n = self.normal;
+        let height = n[0] * w[0] + n[1] * w[1] + n[2] * w[2] - self.offset;
+        let along = n[0] * x[0] + n[1] * x[1] + n[2] * x[2];
+        // |foot(w) - foot(o)|^2 = |x|^2 - (n . x)^2.
+        (height >= 0.0 && d2 - along * along <= self.reach * self.reach).then(|| height - r_tool)
+    }
 }
 
 /// Caller-owned scratch memory for the traversal: the descent stack and a cache of posed tool
@@ -47,6 +123,10 @@ pub struct CollideWorkspace {
     /// in a swept query the sphere around its whole sweep (path midpoint, radius grown by half
     /// the path and the spread of displacements).
     test32: Vec<Sphere32>,
+    /// Report every leaf pair the sphere test passes, also those of a cut leaf whose face is
+    /// beyond the margin (a neighbour list keeps them: the tool may leave the face's reach
+    /// before the list's next query, and then the sphere stands for the pair).
+    pub(crate) keep_sphere_pairs: bool,
     /// `children_posed[n] == epoch` when `n`'s children are posed for the current query.
     children_posed: Vec<u32>,
     epoch: u32,
@@ -821,9 +901,18 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
         0.0
     };
     let m32 = (m + PackedTree::round_slack(posed + swept + obj.extent + m)) as f32;
-    // `d2`: squared distance of the two centres at the query pose (mm²).
-    let report = |t: usize, o: usize, d2: f64, visit: &mut F| {
-        let pair = LeafPair {
+    let drop_far_faces = !SWEPT && !ws.keep_sphere_pairs;
+    // The leaf pair (tool node `t` at world centre `w`, object node `o`, `x = w - o`,
+    // `d2 = |x|^2`) if it is to be reported: a cut leaf whose face stands for it is reported
+    // only when the face comes within the margin (a swept query keeps every pair its sphere
+    // test passed).
+    let leaf_pair_at = |t: usize, o: usize, w: [f64; 3], x: [f64; 3], d2: f64| {
+        let face = obj.cuts.get(o).copied().flatten();
+        let on_face = face.and_then(|f| f.gap(w, x, d2, tool.r[t]));
+        if drop_far_faces && on_face.is_some_and(|g| g > m) {
+            return None;
+        }
+        Some(LeafPair {
             object: obj_id,
             tool_slot: tool.slot[t],
             object_slot: obj.slot[o],
@@ -831,9 +920,10 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
             r_tool: tool.r[t],
             o_in_world: [obj.x[o], obj.y[o], obj.z[o]],
             r_object: obj.r[o],
-            gap: d2.sqrt() - (tool.r[t] + obj.r[o]),
-        };
-        visit(&pair)
+            gap: on_face.unwrap_or_else(|| d2.sqrt() - (tool.r[t] + obj.r[o])),
+            face,
+            on_face: on_face.is_some(),
+        })
     };
     // A tool node (moving along `path`) within `s` of the object centre `o`, `x` apart at the
     // pose (d2 = |x|²).
@@ -854,8 +944,14 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
             return done(0);
         }
         if tool.child_count[0] == 0 && obj.child_count[0] == 0 {
-            report(0, 0, d2, visit);
-            return done(1);
+            let w = [ws.wx[0], ws.wy[0], ws.wz[0]];
+            return match leaf_pair_at(0, 0, w, x, d2) {
+                Some(pair) => {
+                    visit(&pair);
+                    done(1)
+                }
+                None => done(0),
+            };
         }
         ws.stack.clear();
         ws.stack.push((0, 0));
@@ -917,9 +1013,12 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
                         continue;
                     }
                     if leaf_pair {
-                        count += 1;
-                        if !report(ti, oi, d2, visit) {
-                            return done(count);
+                        let w = [ws.wx[ti], ws.wy[ti], ws.wz[ti]];
+                        if let Some(pair) = leaf_pair_at(ti, oi, w, x, d2) {
+                            count += 1;
+                            if !visit(&pair) {
+                                return done(count);
+                            }
                         }
                         continue;
                     }

@@ -34,6 +34,8 @@ fn pair(p: [f64; 3], rt: f64, o: [f64; 3], ro: f64) -> LeafPair {
         o_in_world: o,
         r_object: ro,
         gap: 0.0,
+        face: None,
+        on_face: false,
     }
 }
 

@@ -52,6 +52,11 @@ pub struct EngineConfig {
     /// lists are ready sooner) and differ within the convergence tolerance, or where the
     /// problem has more than one local answer. Default `false`.
     pub helper_thread: bool,
+    /// Face caps: an object leaf whose tree carries a [`spheretree::FaceCap`] stands for its
+    /// sphere cut by the face's half-space, so a tool above a flat face meets the plane, not
+    /// a layer of sphere bumps (docs/DESIGN.md §Face caps). `false` uses whole spheres (the
+    /// paper's trees). Default `true`; trees without caps are unaffected.
+    pub face_caps: bool,
     /// Device limits applied to every wrench sent.
     pub safety: SafetyParams,
 }
@@ -72,6 +77,7 @@ impl Default for EngineConfig {
             max_pairs: 16_384,
             reduce_rows: true,
             helper_thread: false,
+            face_caps: true,
             safety: SafetyParams::default(),
         }
     }

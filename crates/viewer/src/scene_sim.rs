@@ -129,11 +129,7 @@ impl Simulation for SceneSim {
             let q_g = Pose::from_array(f.q_g);
             for p in self.engine.contacts() {
                 let tool_centre = q_g.transform_point(&p.p_in_tool);
-                let d = (0..3)
-                    .map(|k| (tool_centre[k] - p.o_in_world[k]).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                if d - (p.r_tool + p.r_object) <= self.contact_margin {
+                if p.gap_at(&q_g) <= self.contact_margin {
                     out.push_contact(ContactPair {
                         tool_centre,
                         tool_radius: p.r_tool,

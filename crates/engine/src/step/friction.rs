@@ -198,15 +198,11 @@ impl GodObject {
     /// mean) and the centre of pressure; the pairs touching at `q` give the patch's spread.
     pub(super) fn remember_patch(&mut self, q: &Pose) {
         self.patch = None;
-        let (rot, t) = (q.rotation_matrix(), q.translation());
-        // A pair's contact point at q: on the tool sphere, toward the object sphere's centre;
-        // and its gap.
+        // A pair's contact point at q: on the tool sphere, toward what the pair stands for
+        // (the object sphere or its face); and its gap.
         let point = |p: &LeafPair| {
-            let c = rot * Vector3::from(p.p_in_tool) + t;
-            let u = c - Vector3::from(p.o_in_world);
-            let d = u.norm();
-            let dir = if d > 0.0 { u / d } else { Vector3::z() };
-            (c - dir * p.r_tool, d - (p.r_tool + p.r_object))
+            let (at, gap, _) = p.contact_at(q);
+            (Vector3::from(at), gap)
         };
         let y = self.rows_solver.multipliers();
         let n_pairs = self.pairs.len().min(y.len());

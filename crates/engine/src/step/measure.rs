@@ -44,13 +44,9 @@ impl GodObject {
     /// linearization's undershoot, zero at a converged pose; and how many pairs touch (exact
     /// gap at most [`TOUCH_MM`]).
     pub(super) fn gaps_at(&self, q: &Pose, dq: &[f64; 6], n_pairs: usize) -> (f64, f64, u32) {
-        let rot = q.rotation_matrix();
-        let t = q.translation();
         let (mut deepest, mut slack, mut touching) = (0.0f64, 0.0f64, 0u32);
         for (i, p) in self.pairs.iter().enumerate().take(n_pairs) {
-            let c = rot * nalgebra::Vector3::from(p.p_in_tool) + t;
-            let o = nalgebra::Vector3::from(p.o_in_world);
-            let gap = (c - o).norm() - (p.r_tool + p.r_object);
+            let gap = p.gap_at(q);
             deepest = deepest.max(-gap);
             touching += u32::from(gap <= TOUCH_MM);
             let row = &self.rows[i];

@@ -408,7 +408,12 @@ impl GodObject {
             .iter()
             .enumerate()
             .map(|(i, (t, p))| {
-                PackedTree::with_pose(t, p).map_err(|e| bad(format!("object {}", i + 1), e))
+                let mut packed =
+                    PackedTree::with_pose(t, p).map_err(|e| bad(format!("object {}", i + 1), e))?;
+                if !params.face_caps {
+                    packed.drop_face_cuts();
+                }
+                Ok::<_, EngineError>(packed)
             })
             .collect::<Result<Vec<_>, _>>()?;
         let reach = tool

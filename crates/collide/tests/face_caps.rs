@@ -1,0 +1,437 @@
+//! Face cuts: an object leaf with a [`spheretree::FaceCap`] stands for its sphere cut by the
+//! face's half-space. Checked against an independent brute force, against the exact distance
+//! to the cut leaf (safe and complete), for flatness (no sphere bumps), through neighbour
+//! lists, and its constraint rows against finite differences.
+
+mod common;
+
+use collide::{
+    overlap_tree_trees, pair_constraint_value, CollideWorkspace, ConstraintForm, LeafPair,
+    Linearization, ListStatus, NeighbourList, PackedTree, Pose, RotationCoordinates,
+};
+use common::{dist, random_tree, to_world, TreeShape};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use spheretree::{FaceCap, Sphere, SphereTree};
+
+/// Half-width of the square plate's top face (mm).
+const HALF: f64 = 8.0;
+/// Grid of leaves on the face: `GRID` x `GRID`, spacing `2 HALF / GRID`.
+const GRID: usize = 16;
+
+/// A plate's top face as a 3-level tree (root, 16 blocks of 4x4, 256 leaves) in its own frame:
+/// leaves on a grid over `[-HALF, HALF]^2`, centres a little above or below the face `z = 0`
+/// (so some spheres bulge far above it), radii enough to cover the face; every leaf capped by
+/// `z <= 0` with its reach to the face's edge. `seed` varies the centres and radii.
+fn capped_plate(seed: u64) -> SphereTree {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let spacing = 2.0 * HALF / GRID as f64;
+    let mut tree = SphereTree::new_unused(3, 16).unwrap();
+    let mut caps = vec![None; tree.len()];
+    let mut blocks = Vec::new();
+    for block in 0..16usize {
+        let (bi, bj) = (block % 4, block / 4);
+        let mut members = Vec::new();
+        for k in 0..16usize {
+            let (i, j) = (bi * 4 + k % 4, bj * 4 + k / 4);
+            let x = -HALF + spacing * (i as f64 + 0.5);
+            let y = -HALF + spacing * (j as f64 + 0.5);
+            let z = rng.gen_range(-0.3..0.3) * spacing;
+            let r = spacing * rng.gen_range(0.75..1.0);
+            let slot = 1 + 16 + block * 16 + k;
+            let foot_to_edge = (HALF - x.abs()).min(HALF - y.abs());
+            caps[slot] = Some(FaceCap {
+                normal: [0.0, 0.0, 1.0],
+                offset: 0.0,
+                reach: foot_to_edge,
+            });
+            members.push((slot, [x, y, z], r));
+        }
+        let s = enclosing(&members.iter().map(|m| (m.1, m.2)).collect::<Vec<_>>());
+        tree.spheres_mut()[1 + block] = s;
+        blocks.push((s.center, s.radius));
+        for (slot, c, r) in members {
+            tree.spheres_mut()[slot] = Sphere::new(c, r);
+        }
+    }
+    tree.spheres_mut()[0] = enclosing(&blocks);
+    tree.set_caps(caps).unwrap();
+    tree
+}
+
+/// A sphere around the mean of `spheres` enclosing them all.
+fn enclosing(spheres: &[([f64; 3], f64)]) -> Sphere {
+    let n = spheres.len() as f64;
+    let c: [f64; 3] = std::array::from_fn(|k| spheres.iter().map(|s| s.0[k]).sum::<f64>() / n);
+    let r = spheres
+        .iter()
+        .map(|s| dist(&c, &s.0) + s.1)
+        .fold(0.0, f64::max);
+    Sphere::new(c, r * (1.0 + 1e-12))
+}
+
+/// The plate's fixed pose: tilted and moved, so the cuts must follow it.
+fn plate_pose() -> Pose {
+    Pose::from_array([3.0, -2.0, 1.0, 0.3, -0.2, 0.7])
+}
+
+/// A point `(u, v, h)` in the plate's frame (on the face for `h = 0`) in the world.
+fn on_plate(u: f64, v: f64, h: f64) -> [f64; 3] {
+    to_world(&plate_pose(), &[u, v, h])
+}
+
+/// The world face of the plate: unit normal and offset.
+fn world_face() -> ([f64; 3], f64) {
+    let o = on_plate(0.0, 0.0, 0.0);
+    let z = on_plate(0.0, 0.0, 1.0);
+    let n = [z[0] - o[0], z[1] - o[1], z[2] - o[2]];
+    (n, n[0] * o[0] + n[1] * o[1] + n[2] * o[2])
+}
+
+fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The reference rule, written from the definition: the pair passes the sphere test; above the
+/// face (within the leaf's reach) it stands for the half-space and is kept only within the
+/// margin; else the sphere.
+fn reference_pairs(
+    tool: &SphereTree,
+    q: &Pose,
+    plate: &SphereTree,
+    margin: f64,
+) -> Vec<(u32, u32, f64, bool)> {
+    let (n, d) = world_face();
+    let mut out = Vec::new();
+    for t in tool.leaves() {
+        let ts = tool.sphere(t);
+        let w = to_world(q, &ts.center);
+        for o in plate.leaves() {
+            let os = plate.sphere(o);
+            let c = to_world(&plate_pose(), &os.center);
+            let centre_gap = dist(&w, &c) - ts.radius - os.radius;
+            if centre_gap > margin {
+                continue;
+            }
+            let cap = plate.cap(o).unwrap();
+            let height = dot(&n, &w) - d;
+            let x = [w[0] - c[0], w[1] - c[1], w[2] - c[2]];
+            let lateral2 = dot(&x, &x) - dot(&n, &x).powi(2);
+            if height >= 0.0 && lateral2 <= cap.reach * cap.reach {
+                let gap = height - ts.radius;
+                if gap <= margin {
+                    out.push((t as u32, o as u32, gap, true));
+                }
+            } else {
+                out.push((t as u32, o as u32, centre_gap, false));
+            }
+        }
+    }
+    out.sort_by(|a, b| (a.0, a.1).cmp(&(b.0, b.1)));
+    out
+}
+
+fn traversal_pairs(
+    tool: &PackedTree,
+    q: &Pose,
+    objects: &[PackedTree],
+    margin: f64,
+    ws: &mut CollideWorkspace,
+) -> Vec<LeafPair> {
+    let mut pairs = Vec::new();
+    overlap_tree_trees(tool, q, objects, margin, ws, |p| pairs.push(*p)).unwrap();
+    pairs.sort_by(|a, b| (a.tool_slot, a.object_slot).cmp(&(b.tool_slot, b.object_slot)));
+    pairs
+}
+
+fn small_tool(seed: u64) -> SphereTree {
+    random_tree(
+        seed,
+        TreeShape {
+            levels: 3,
+            branching: 8,
+            extent: 3.0,
+            p_used: 0.8,
+            p_early_leaf: 0.05,
+        },
+    )
+}
+
+/// A tool pose over the plate: its origin at `(u, v)` on the face, `h` above it, turned.
+fn pose_over(rng: &mut ChaCha8Rng, extent: f64) -> Pose {
+    let p = on_plate(
+        rng.gen_range(-HALF - 2.0..HALF + 2.0),
+        rng.gen_range(-HALF - 2.0..HALF + 2.0),
+        rng.gen_range(-1.0..extent + 1.5),
+    );
+    Pose::from_array([
+        p[0],
+        p[1],
+        p[2],
+        rng.gen_range(-3.0..3.0),
+        rng.gen_range(-1.5..1.5),
+        rng.gen_range(-3.0..3.0),
+    ])
+}
+
+#[test]
+fn traversal_matches_the_reference_rule() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let (mut on_face, mut on_sphere, mut dropped) = (0, 0, 0);
+    for seed in 0..4 {
+        let plate = capped_plate(seed);
+        let objects = [PackedTree::with_pose(&plate, &plate_pose()).unwrap()];
+        assert_eq!(objects[0].face_cut_count(), GRID * GRID);
+        let tool_tree = small_tool(100 + seed);
+        let tool = PackedTree::new(&tool_tree).unwrap();
+        let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+        for _ in 0..150 {
+            let q = pose_over(&mut rng, 3.0);
+            let margin = [0.0, 0.05, 0.5, 2.0][rng.gen_range(0..4)];
+            let got = traversal_pairs(&tool, &q, &objects, margin, &mut ws);
+            let want = reference_pairs(&tool_tree, &q, &plate, margin);
+            let mut uncut = objects[0].clone();
+            uncut.drop_face_cuts();
+            dropped += traversal_pairs(&tool, &q, std::slice::from_ref(&uncut), margin, &mut ws)
+                .len()
+                - got.len();
+            assert_eq!(got.len(), want.len(), "pose {q:?}, margin {margin}");
+            for (g, w) in got.iter().zip(&want) {
+                assert_eq!((g.tool_slot, g.object_slot), (w.0, w.1));
+                assert_eq!(g.on_face, w.3);
+                assert!((g.gap - w.2).abs() <= 1e-9, "{} vs {}", g.gap, w.2);
+                assert!(g.face.is_some());
+                if g.on_face {
+                    on_face += 1;
+                } else {
+                    on_sphere += 1;
+                }
+            }
+        }
+    }
+    // Both stand-ins are exercised, and the cut drops pairs the spheres alone would report.
+    assert!(
+        on_face > 1000 && on_sphere > 100 && dropped > 1000,
+        "{on_face} {on_sphere} {dropped}"
+    );
+}
+
+/// The exact distance (mm) from a tool sphere to a cut leaf (ball `c, r` cut by the world
+/// face): project on the ball; if that is above the face, the nearest point is on the disc.
+fn distance_to_cut_leaf(w: [f64; 3], rt: f64, c: [f64; 3], r: f64) -> f64 {
+    let (n, d) = world_face();
+    let u = [w[0] - c[0], w[1] - c[1], w[2] - c[2]];
+    let du = dot(&u, &u).sqrt();
+    let on_ball = if du <= r {
+        w
+    } else {
+        std::array::from_fn(|k| c[k] + u[k] * r / du)
+    };
+    let nearest = if dot(&n, &on_ball) <= d {
+        on_ball
+    } else {
+        // Foot of `w` on the plane, clamped to the disc where the plane cuts the ball.
+        let h = dot(&n, &w) - d;
+        let foot: [f64; 3] = std::array::from_fn(|k| w[k] - h * n[k]);
+        let hc = dot(&n, &c) - d;
+        let centre: [f64; 3] = std::array::from_fn(|k| c[k] - hc * n[k]);
+        let rho = (r * r - hc * hc).max(0.0).sqrt();
+        let v = [
+            foot[0] - centre[0],
+            foot[1] - centre[1],
+            foot[2] - centre[2],
+        ];
+        let dv = dot(&v, &v).sqrt();
+        if dv <= rho {
+            foot
+        } else {
+            std::array::from_fn(|k| centre[k] + v[k] * rho / dv)
+        }
+    };
+    let inside = du <= r && dot(&n, &w) <= d;
+    let e = dist(&w, &nearest);
+    if inside {
+        -rt
+    } else {
+        e - rt
+    }
+}
+
+/// Every reported gap is at most the true distance to the cut leaf (a safe constraint), and
+/// every leaf pair whose cut leaf comes within the margin is reported.
+#[test]
+fn pairs_are_safe_and_complete() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let plate = capped_plate(3);
+    let objects = [PackedTree::with_pose(&plate, &plate_pose()).unwrap()];
+    let tool_tree = small_tool(5);
+    let tool = PackedTree::new(&tool_tree).unwrap();
+    let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+    let mut near = 0;
+    for _ in 0..300 {
+        let q = pose_over(&mut rng, 3.0);
+        let margin = [0.0, 0.2, 1.0][rng.gen_range(0..3)];
+        let got = traversal_pairs(&tool, &q, &objects, margin, &mut ws);
+        for t in tool_tree.leaves() {
+            let ts = tool_tree.sphere(t);
+            let w = to_world(&q, &ts.center);
+            for o in plate.leaves() {
+                let os = plate.sphere(o);
+                let c = to_world(&plate_pose(), &os.center);
+                let truth = distance_to_cut_leaf(w, ts.radius, c, os.radius);
+                let found = got
+                    .iter()
+                    .find(|p| p.tool_slot == t as u32 && p.object_slot == o as u32);
+                if let Some(p) = found {
+                    assert!(p.gap <= truth + 1e-9, "gap {} > distance {truth}", p.gap);
+                }
+                if truth <= margin {
+                    near += 1;
+                    assert!(
+                        found.is_some(),
+                        "missed a pair {truth} mm away (margin {margin})"
+                    );
+                }
+            }
+        }
+    }
+    assert!(near > 500, "{near}");
+}
+
+/// A ball sliding over the face at a constant height sees the same gap everywhere with the
+/// cuts; without them it rides over the spheres' bumps. (It keeps 3 mm from the face's edges:
+/// there the leaves' reach is short and their spheres stand for them, bumps and all.)
+#[test]
+fn a_ball_slides_over_a_cut_face_without_bumps() {
+    let plate = capped_plate(1);
+    let mut objects = [PackedTree::with_pose(&plate, &plate_pose()).unwrap()];
+    let mut ball = SphereTree::new_unused(1, 2).unwrap();
+    ball.spheres_mut()[0] = Sphere::new([0.0; 3], 0.5);
+    let tool = PackedTree::new(&ball).unwrap();
+    let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+    let spread = |objects: &[PackedTree], ws: &mut CollideWorkspace| {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for k in 0..=400 {
+            let u = -HALF + 3.0 + (2.0 * HALF - 6.0) * f64::from(k) / 400.0;
+            let p = on_plate(u, 0.37 * u, 0.6);
+            let q = Pose::from_array([p[0], p[1], p[2], 0.0, 0.0, 0.0]);
+            let gap = traversal_pairs(&tool, &q, objects, 2.0, ws)
+                .iter()
+                .map(|p| p.gap)
+                .fold(f64::INFINITY, f64::min);
+            lo = lo.min(gap);
+            hi = hi.max(gap);
+        }
+        (lo, hi)
+    };
+    let (lo, hi) = spread(&objects, &mut ws);
+    assert!(
+        (lo - 0.1).abs() < 1e-9 && (hi - 0.1).abs() < 1e-9,
+        "{lo} {hi}"
+    );
+    objects[0].drop_face_cuts();
+    let (lo, hi) = spread(&objects, &mut ws);
+    assert!(
+        hi - lo > 0.05,
+        "the spheres alone should be bumpy: {lo} {hi}"
+    );
+}
+
+/// A neighbour list over a cut face reports exactly the traversal's pairs, to the bit, also
+/// where the tool leaves a face's reach or rises above the margin.
+#[test]
+fn neighbour_lists_filter_cut_leaves_exactly() {
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    let plate = capped_plate(2);
+    let objects = [PackedTree::with_pose(&plate, &plate_pose()).unwrap()];
+    let tool_tree = small_tool(9);
+    let tool = PackedTree::new(&tool_tree).unwrap();
+    let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+    let mut list = NeighbourList::for_trees(&tool, &objects, 100_000);
+    let mut checked = 0;
+    for _ in 0..40 {
+        let c = pose_over(&mut rng, 3.0);
+        let big = 1.5;
+        list.start(&tool, &c, big).unwrap();
+        assert_eq!(
+            list.advance(&tool, &objects, usize::MAX, None),
+            ListStatus::Ready
+        );
+        for _ in 0..20 {
+            let mut q = c;
+            for k in 0..3 {
+                q.q[k] += rng.gen_range(-0.3..0.3);
+            }
+            for k in 3..6 {
+                q.q[k] += rng.gen_range(-0.02..0.02);
+            }
+            let margin = rng.gen_range(0.0..0.5);
+            let mut filtered = Vec::new();
+            let Some(_) = list.filter(&q, None, margin, |p| {
+                filtered.push(common::pair_key(p));
+                true
+            }) else {
+                continue;
+            };
+            let want = common::traversal_keys(&tool, &q, None, &objects, margin, &mut ws);
+            filtered.sort_unstable();
+            let mut want = want;
+            want.sort_unstable();
+            assert_eq!(filtered, want);
+            checked += 1;
+        }
+    }
+    assert!(checked > 300, "{checked}");
+}
+
+/// A face row's value and gradient are the pair's exact value at the linearization pose and
+/// its finite-difference gradient, in both forms and both rotation coordinates.
+#[test]
+fn face_rows_match_finite_differences() {
+    let mut rng = ChaCha8Rng::seed_from_u64(31);
+    let (n, d) = world_face();
+    for _ in 0..200 {
+        let q = pose_over(&mut rng, 3.0);
+        let pair = LeafPair {
+            object: 0,
+            tool_slot: 1,
+            object_slot: 2,
+            p_in_tool: std::array::from_fn(|_| rng.gen_range(-3.0..3.0)),
+            r_tool: rng.gen_range(0.1..1.0),
+            o_in_world: [0.0; 3],
+            r_object: 1.0,
+            gap: 0.0,
+            face: Some(collide::FaceCut {
+                normal: n,
+                offset: d,
+                reach: 1.0,
+            }),
+            on_face: true,
+        };
+        for form in [ConstraintForm::Distance, ConstraintForm::Squared] {
+            let lin =
+                Linearization::with_coordinates(form, RotationCoordinates::Euler, &q, &q).unwrap();
+            let (value, grad) = lin.face_value_gradient(&pair.p_in_tool, pair.r_tool, &n, d);
+            let exact = pair_constraint_value(form, &q, &pair);
+            assert!((value - exact).abs() <= 1e-9 * exact.abs().max(1.0));
+            for k in 0..6 {
+                let h = 1e-6;
+                let (mut plus, mut minus) = (q, q);
+                plus.q[k] += h;
+                minus.q[k] -= h;
+                let fd = (pair_constraint_value(form, &plus, &pair)
+                    - pair_constraint_value(form, &minus, &pair))
+                    / (2.0 * h);
+                assert!(
+                    (fd - grad[k]).abs() <= 1e-5 * fd.abs().max(1.0),
+                    "{k}: {fd} vs {}",
+                    grad[k]
+                );
+            }
+            // The row goes through the pair (row = J, rhs = J (q_lin - q_h) - C).
+            let (row, rhs) = lin.row(&pair);
+            assert_eq!(row, grad);
+            assert!((rhs + value).abs() <= 1e-12 * value.abs().max(1.0));
+        }
+    }
+}
