@@ -228,7 +228,7 @@ impl PackedTree {
     ) {
         let sp = tree.sphere(s);
         let c = rot * Vector3::from(sp.center) + t;
-        if let Some(cap) = tree.cap(s).filter(|_| tree.is_leaf(s)) {
+        if let Some(cap) = tree.cap(s) {
             if self.cuts.is_empty() {
                 self.cuts = vec![None; self.x.len()];
             }

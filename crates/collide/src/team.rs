@@ -446,6 +446,7 @@ pub fn overlap_shared<F: FnMut(&LeafPair)>(
                         ws.stats.sphere_tests += work.ws.stats.sphere_tests;
                         ws.stats.tool_nodes_posed += work.ws.stats.tool_nodes_posed;
                         ws.stats.box_pruned += work.ws.stats.box_pruned;
+                        ws.stats.face_pruned += work.ws.stats.face_pruned;
                         out.unreported += work.unreported;
                         out.pairs += work.unreported;
                         work.complete

@@ -102,6 +102,22 @@ impl FaceCut {
         // |foot(w) - foot(o)|^2 = |x|^2 - (n . x)^2.
         (height >= 0.0 && d2 - along * along <= self.reach * self.reach).then(|| height - r_tool)
     }
+
+    /// True when a whole tool node (ball at world centre `w`, radius `r`, mm; `x = w - o`,
+    /// `d2 = |x|^2` with `o` the cut node's centre) is above the face by more than `margin`
+    /// (mm) and its foot disc lies within the reach: every tool leaf inside it stands for the
+    /// face's half-space with a gap beyond the margin, so no pair under the two is reported.
+    #[inline(always)]
+    pub(crate) fn clears(&self, w: [f64; 3], x: [f64; 3], d2: f64, r: f64, margin: f64) -> bool {
+        let n = self.normal;
+        let height = n[0] * w[0] + n[1] * w[1] + n[2] * w[2] - self.offset;
+        if height - r <= margin || r > self.reach {
+            return false;
+        }
+        let along = n[0] * x[0] + n[1] * x[1] + n[2] * x[2];
+        let room = self.reach - r;
+        d2 - along * along <= room * room
+    }
 }
 
 /// Caller-owned scratch memory for the traversal: the descent stack and a cache of posed tool
@@ -191,6 +207,9 @@ pub struct TraversalStats {
     pub tool_nodes_posed: usize,
     /// Node pairs whose spheres overlap but whose leaf boxes do not (pruned without a split).
     pub box_pruned: usize,
+    /// Node pairs settled by a face cut without a split: a tool node clear above the face, or
+    /// a tool leaf above a cut inner node (one pair for its subtree, or none).
+    pub face_pruned: usize,
 }
 
 impl CollideWorkspace {
@@ -975,7 +994,20 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
         // Children are pruned in f32 against the other node (conservative by `m32`); a swept
         // hit is then tested against its exact path, and a leaf pair decided in f64.
         // Split the larger internal node: its children against the other node.
-        let tool_split = tc != 0 && (oc == 0 || tool.sphere32[t].r >= obj.sphere32[o].r);
+        // Above a cut object node, split the tool instead: its leaves then meet the node's
+        // face, which stands for the node's whole subtree.
+        let over_face = || {
+            obj.cuts.get(o).copied().flatten().is_some_and(|cut| {
+                let w = [ws.wx[t], ws.wy[t], ws.wz[t]];
+                let x = [w[0] - obj.x[o], w[1] - obj.y[o], w[2] - obj.z[o]];
+                let d2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+                cut.gap(w, x, d2, 0.0).is_some()
+            })
+        };
+        let tool_split = tc != 0
+            && (oc == 0
+                || tool.sphere32[t].r >= obj.sphere32[o].r
+                || (drop_far_faces && over_face()));
         let (f, e, probe) = if tool_split {
             ws.pose_children(tool, t);
             let os = obj.sphere32[o];
@@ -1021,6 +1053,36 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
                             }
                         }
                         continue;
+                    }
+                }
+                if drop_far_faces {
+                    if let Some(cut) = obj.cuts.get(oi).copied().flatten() {
+                        // A cut inner node: its face stands for its whole subtree (every
+                        // surface point under it is below the plane).
+                        let oc3 = [obj.x[oi], obj.y[oi], obj.z[oi]];
+                        let w = [ws.wx[ti], ws.wy[ti], ws.wz[ti]];
+                        let x = [w[0] - oc3[0], w[1] - oc3[1], w[2] - oc3[2]];
+                        let d2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+                        if tool.node32[ti].child_count != 0 {
+                            if cut.clears(w, x, d2, tool.r[ti], m) {
+                                ws.stats.face_pruned += 1;
+                                continue;
+                            }
+                        } else if cut.gap(w, x, d2, tool.r[ti]).is_some() {
+                            // A tool leaf above the face: one pair for the subtree, if within
+                            // the margin (tested in f64 as a leaf pair is).
+                            let s = tool.r[ti] + obj.r[oi] + m;
+                            if d2 <= s * s {
+                                if let Some(pair) = leaf_pair_at(ti, oi, w, x, d2) {
+                                    count += 1;
+                                    if !visit(&pair) {
+                                        return done(count);
+                                    }
+                                }
+                            }
+                            ws.stats.face_pruned += 1;
+                            continue;
+                        }
                     }
                 }
                 if boxes_may_touch(ws, ti, obj, oi, m32) {

@@ -78,7 +78,7 @@ pub struct SphereTree {
     branching: u32,
     levels: u32,
     spheres: Vec<Sphere>,
-    /// Face caps by slot (empty: none; else one entry per slot, `Some` on leaves only).
+    /// Face caps by slot (empty: none; else one entry per slot).
     caps: Vec<Option<FaceCap>>,
 }
 
@@ -148,7 +148,9 @@ impl SphereTree {
     }
 
     /// Sets the face caps (one entry per slot; an empty vector removes them). Errors unless
-    /// every cap is valid ([`FaceCap::is_valid`]) and sits on a leaf.
+    /// every cap is valid ([`FaceCap::is_valid`]) and sits on a used slot. A cap on an inner
+    /// node holds for its whole subtree: all of the surface inside its sphere is below the
+    /// plane.
     pub fn set_caps(&mut self, caps: Vec<Option<FaceCap>>) -> Result<(), TreeError> {
         if !caps.is_empty() && caps.len() != self.spheres.len() {
             return Err(TreeError::SlotCount {
@@ -163,9 +165,9 @@ impl SphereTree {
                         "slot {n} has a bad face cap: {cap:?}"
                     )));
                 }
-                if !self.is_leaf(n) {
+                if !self.spheres[n].is_used() {
                     return Err(TreeError::Invalid(format!(
-                        "slot {n} has a face cap but is not a leaf"
+                        "slot {n} has a face cap but is unused"
                     )));
                 }
             }
