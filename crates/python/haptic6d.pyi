@@ -179,7 +179,8 @@ class Engine:
         frames.csv's columns (``COLUMNS``)."""
     def contacts(self) -> List[Dict[str, Any]]:
         """The leaf pairs of the last detected region: object, tool_slot, object_slot,
-        p_in_tool (mm), r_tool (mm), o_in_world (mm), r_object (mm), gap (mm)."""
+        p_in_tool (mm), r_tool (mm), o_in_world (mm), r_object (mm), gap (mm), face (None, or
+        (nx, ny, nz, offset_mm) for a pair standing for a flat face's half-space)."""
     def counters(self) -> Dict[str, int]:
         """Frames counted by outcome since the last reset, and safety-layer events."""
     def trajectory(self) -> Optional[npt.NDArray[np.float64]]:

@@ -752,7 +752,9 @@ impl PyEngine {
 
     /// The leaf pairs of the last detected region (for display): a list of dicts with
     /// `object`, `tool_slot`, `object_slot`, `p_in_tool` (mm, tool frame), `r_tool` (mm),
-    /// `o_in_world` (mm), `r_object` (mm) and `gap` (mm; negative = overlap). Empty in free
+    /// `o_in_world` (mm), `r_object` (mm), `gap` (mm; negative = overlap) and `face`: `None`,
+    /// or for a pair that stands for a flat face's half-space (docs/DESIGN.md §Face caps) a
+    /// tuple `(nx, ny, nz, offset_mm)`, the plane `n . x = offset` in the world. Empty in free
     /// space.
     fn contacts<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
         let list = PyList::empty(py);
@@ -766,6 +768,11 @@ impl PyEngine {
             d.set_item("o_in_world", PyTuple::new(py, p.o_in_world)?)?;
             d.set_item("r_object", p.r_object)?;
             d.set_item("gap", p.gap)?;
+            let face = p
+                .face
+                .filter(|_| p.on_face)
+                .map(|f| (f.normal[0], f.normal[1], f.normal[2], f.offset));
+            d.set_item("face", face)?;
             list.append(d)?;
         }
         Ok(list)

@@ -91,7 +91,7 @@ def test_step_takes_lists_and_arrays_and_reports_contacts(bunny):
         c = contacts[0]
         assert set(c) == {
             "object", "tool_slot", "object_slot", "p_in_tool", "r_tool",
-            "o_in_world", "r_object", "gap",
+            "o_in_world", "r_object", "gap", "face",
         }
         assert c["r_tool"] > 0 and len(c["o_in_world"]) == 3
 
