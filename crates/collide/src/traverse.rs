@@ -920,7 +920,10 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
         0.0
     };
     let m32 = (m + PackedTree::round_slack(posed + swept + obj.extent + m)) as f32;
-    let drop_far_faces = !SWEPT && !ws.keep_sphere_pairs;
+    // Faces settle node pairs (prune, merge a subtree into one pair), except in a neighbour
+    // list's build, which keeps every leaf pair the spheres pass.
+    let use_faces = !ws.keep_sphere_pairs;
+    let drop_far_faces = !SWEPT && use_faces;
     // The leaf pair (tool node `t` at world centre `w`, object node `o`, `x = w - o`,
     // `d2 = |x|^2`) if it is to be reported: a cut leaf whose face stands for it is reported
     // only when the face comes within the margin (a swept query keeps every pair its sphere
@@ -1005,9 +1008,7 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
             })
         };
         let tool_split = tc != 0
-            && (oc == 0
-                || tool.sphere32[t].r >= obj.sphere32[o].r
-                || (drop_far_faces && over_face()));
+            && (oc == 0 || tool.sphere32[t].r >= obj.sphere32[o].r || (use_faces && over_face()));
         let (f, e, probe) = if tool_split {
             ws.pose_children(tool, t);
             let os = obj.sphere32[o];
@@ -1055,33 +1056,64 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
                         continue;
                     }
                 }
-                if drop_far_faces {
+                if use_faces {
                     if let Some(cut) = obj.cuts.get(oi).copied().flatten() {
-                        // A cut inner node: its face stands for its whole subtree (every
-                        // surface point under it is below the plane).
+                        // A cut node: its face stands for its whole subtree (every surface
+                        // point under it is below the plane).
                         let oc3 = [obj.x[oi], obj.y[oi], obj.z[oi]];
                         let w = [ws.wx[ti], ws.wy[ti], ws.wz[ti]];
                         let x = [w[0] - oc3[0], w[1] - oc3[1], w[2] - oc3[2]];
                         let d2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+                        let r = tool.r[ti];
                         if tool.node32[ti].child_count != 0 {
-                            if cut.clears(w, x, d2, tool.r[ti], m) {
+                            // The tool node's ball (around its whole path in a swept query).
+                            let (cw, cr) = if SWEPT {
+                                (ws.path[ti].mid, r * grow + ws.path[ti].half)
+                            } else {
+                                (w, r)
+                            };
+                            let cx = [cw[0] - oc3[0], cw[1] - oc3[1], cw[2] - oc3[2]];
+                            let cd2 = cx[0] * cx[0] + cx[1] * cx[1] + cx[2] * cx[2];
+                            if cut.clears(cw, cx, cd2, cr, m) {
                                 ws.stats.face_pruned += 1;
                                 continue;
                             }
-                        } else if cut.gap(w, x, d2, tool.r[ti]).is_some() {
-                            // A tool leaf above the face: one pair for the subtree, if within
-                            // the margin (tested in f64 as a leaf pair is).
-                            let s = tool.r[ti] + obj.r[oi] + m;
-                            if d2 <= s * s {
-                                if let Some(pair) = leaf_pair_at(ti, oi, w, x, d2) {
-                                    count += 1;
-                                    if !visit(&pair) {
-                                        return done(count);
+                        } else if !leaf_pair {
+                            // A tool leaf above the face (at both ends of its path in a swept
+                            // query, so all along it): one pair for the subtree if the face
+                            // comes within the margin, else none.
+                            let closest = if SWEPT {
+                                let v = ws.path[ti].disp;
+                                let w1 = [w[0] + v[0], w[1] + v[1], w[2] + v[2]];
+                                let x1 = [x[0] + v[0], x[1] + v[1], x[2] + v[2]];
+                                let d2_1 = x1[0] * x1[0] + x1[1] * x1[1] + x1[2] * x1[2];
+                                match (cut.gap(w, x, d2, r), cut.gap(w1, x1, d2_1, r)) {
+                                    (Some(a), Some(b)) => Some(a.min(b)),
+                                    _ => None,
+                                }
+                            } else {
+                                // Tested in f64 as a leaf pair is.
+                                let s = r + obj.r[oi] + m;
+                                cut.gap(w, x, d2, r).map(|g| {
+                                    if d2 <= s * s {
+                                        g
+                                    } else {
+                                        f64::INFINITY
+                                    }
+                                })
+                            };
+                            if let Some(closest) = closest {
+                                if closest <= m {
+                                    if let Some(pair) = leaf_pair_at(ti, oi, w, x, d2) {
+                                        count += 1;
+                                        if !visit(&pair) {
+                                            return done(count);
+                                        }
                                     }
                                 }
+                                ws.stats.face_pruned += 1;
+                                continue;
                             }
-                            ws.stats.face_pruned += 1;
-                            continue;
                         }
                     }
                 }

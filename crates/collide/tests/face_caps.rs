@@ -523,3 +523,72 @@ fn inner_cuts_stand_for_their_subtree() {
         "inner cuts should spare a quarter of the descent: {splits_inner} vs {splits_leaf}"
     );
 }
+
+/// The same along straight sweeps: every cut leaf that comes within the margin somewhere on the
+/// path is answered by a pair on it or an ancestor, every gap (at the start) is safe, and faces
+/// settle node pairs in swept queries too.
+#[test]
+fn inner_cuts_in_swept_queries() {
+    let mut rng = ChaCha8Rng::seed_from_u64(43);
+    let flat = plate(5, true);
+    let objects = [PackedTree::with_pose(&flat, &plate_pose()).unwrap()];
+    let tool_tree = small_tool(17);
+    let tool = PackedTree::new(&tool_tree).unwrap();
+    let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+    let under = |slot: usize, leaf: usize| {
+        let mut n = Some(leaf);
+        while let Some(k) = n {
+            if k == slot {
+                return true;
+            }
+            n = flat.parent(k);
+        }
+        false
+    };
+    let (mut near, mut settled) = (0, 0);
+    for _ in 0..200 {
+        let q = pose_over(&mut rng, 3.0);
+        let v: [f64; 3] = std::array::from_fn(|_| rng.gen_range(-2.0..2.0));
+        let sweep = collide::Sweep {
+            translation: v,
+            rotation: [0.0; 3],
+        };
+        let margin = [0.0, 0.2][rng.gen_range(0..2)];
+        let mut got = Vec::new();
+        collide::overlap_swept(&tool, &q, &sweep, &objects, margin, &mut ws, |p| {
+            got.push(*p)
+        })
+        .unwrap();
+        settled += ws.stats().face_pruned;
+        for t in tool_tree.leaves() {
+            let ts = tool_tree.sphere(t);
+            for o in flat.leaves() {
+                let os = flat.sphere(o);
+                let c = to_world(&plate_pose(), &os.center);
+                let mut answering = got
+                    .iter()
+                    .filter(|p| p.tool_slot == t as u32 && under(p.object_slot as usize, o));
+                let w0 = to_world(&q, &ts.center);
+                for p in answering.clone() {
+                    let truth = distance_to_cut_leaf(w0, ts.radius, c, os.radius);
+                    assert!(p.gap <= truth + 1e-9, "gap {} > distance {truth}", p.gap);
+                }
+                let closest = (0..=16)
+                    .map(|k| {
+                        let s = f64::from(k) / 16.0;
+                        let w: [f64; 3] = std::array::from_fn(|i| w0[i] + s * v[i]);
+                        distance_to_cut_leaf(w, ts.radius, c, os.radius)
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                if closest <= margin {
+                    near += 1;
+                    assert!(
+                        answering.next().is_some(),
+                        "missed {closest} mm on the path"
+                    );
+                }
+            }
+        }
+    }
+    assert!(near > 300 && settled > 300, "{near} {settled}");
+}
