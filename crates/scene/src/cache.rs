@@ -8,24 +8,34 @@
 //! format (all integers and numbers little-endian):
 //!
 //! ```text
-//! magic "H6DTREE2" | key length u32 | key bytes | levels u32 | branching u32
-//! | per slot: x y z r as f64 (mm) | content hash u64 = FNV-1a 64 of every byte before it
+//! magic "H6DTREE3" | key length u32 | key bytes | levels u32 | branching u32
+//! | per slot: x y z r as f64 (mm)
+//! | cap count u32 | per capped slot, by increasing slot: slot u32 | nx ny nz offset reach as f64
+//! | content hash u64 = FNV-1a 64 of every byte before it
 //! ```
 //!
+//! The caps are the tree's face caps ([`spheretree::FaceCap`]: unit normal, offset and reach
+//! in mm); a tree without caps stores a count of 0 (and reads back without caps).
+//!
 //! A corrupt, truncated, renamed (key mismatch) or edited (content hash mismatch) entry, or one
-//! whose numbers are not finite or whose parents do not contain their children, is rebuilt,
-//! never trusted. The hash guards against accidents (a disk error, a hand edit, a copy under
+//! whose numbers are not finite, whose parents do not contain their children, or whose caps
+//! are invalid ([`spheretree::FaceCap::is_valid`]), off a leaf, repeated or out of order, is
+//! rebuilt, never trusted. The hash guards against accidents (a disk error, a hand edit, a copy under
 //! the wrong name), not against someone who recomputes it.
 
 use std::path::{Path, PathBuf};
 
 use mesh::TriMesh;
-use spheretree::{Sphere, SphereTree};
+use spheretree::{FaceCap, Sphere, SphereTree};
 
 /// Version of the cache entry format (the digit in the magic); folded into every key.
-pub const FORMAT_VERSION: u32 = 2;
+/// 3: face caps after the spheres.
+pub const FORMAT_VERSION: u32 = 3;
 
-const MAGIC: &[u8; 8] = b"H6DTREE2";
+const MAGIC: &[u8; 8] = b"H6DTREE3";
+
+/// Bytes of one stored cap: slot u32 and five f64.
+const CAP_BYTES: usize = 4 + 5 * 8;
 
 /// FNV-1a, 64-bit: a stable (toolchain-independent) content hash.
 #[derive(Clone, Copy, Debug)]
@@ -196,7 +206,13 @@ impl TreeCache {
 
 /// Serialises `tree` as the cache entry for `key` (see the module docs for the format).
 pub fn encode(key: &str, tree: &SphereTree) -> Vec<u8> {
-    let mut out = Vec::with_capacity(28 + key.len() + tree.len() * 32);
+    let caps: Vec<(usize, &FaceCap)> = tree
+        .caps()
+        .iter()
+        .enumerate()
+        .filter_map(|(n, c)| c.as_ref().map(|c| (n, c)))
+        .collect();
+    let mut out = Vec::with_capacity(32 + key.len() + tree.len() * 32 + caps.len() * CAP_BYTES);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&(key.len() as u32).to_le_bytes());
     out.extend_from_slice(key.as_bytes());
@@ -208,6 +224,13 @@ pub fn encode(key: &str, tree: &SphereTree) -> Vec<u8> {
         }
         out.extend_from_slice(&s.radius.to_le_bytes());
     }
+    out.extend_from_slice(&(caps.len() as u32).to_le_bytes());
+    for (n, c) in caps {
+        out.extend_from_slice(&(n as u32).to_le_bytes());
+        for x in c.normal.into_iter().chain([c.offset, c.reach]) {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    }
     let hash = Fnv64::hash(&out);
     out.extend_from_slice(&hash.to_le_bytes());
     out
@@ -215,7 +238,8 @@ pub fn encode(key: &str, tree: &SphereTree) -> Vec<u8> {
 
 /// Reads the cache entry for `key`; `None` unless the bytes are a valid entry for that key:
 /// right magic and key, intact content hash, a slot count matching the shape, every number
-/// finite, and every used child inside its parent (to `1e-9` of the root radius).
+/// finite, every used child inside its parent (to `1e-9` of the root radius), and every cap
+/// valid, on a leaf, listed once by increasing slot.
 pub fn decode(key: &str, bytes: &[u8]) -> Option<SphereTree> {
     let (content, hash) = bytes.split_at_checked(bytes.len().checked_sub(8)?)?;
     if Fnv64::hash(content) != u64::from_le_bytes(hash.try_into().ok()?) {
@@ -232,7 +256,10 @@ pub fn decode(key: &str, bytes: &[u8]) -> Option<SphereTree> {
     let branching = u32::from_le_bytes(rest.get(4..8)?.try_into().ok()?);
     let n = spheretree::slot_count(levels, branching)?;
     let body = rest.get(8..)?;
-    if body.len() != n.checked_mul(32)? {
+    let (body, cap_part) = body.split_at_checked(n.checked_mul(32)?)?;
+    let cap_count = u32::from_le_bytes(cap_part.get(0..4)?.try_into().ok()?) as usize;
+    let cap_body = cap_part.get(4..)?;
+    if cap_count > n || cap_body.len() != cap_count.checked_mul(CAP_BYTES)? {
         return None;
     }
     let f = |i: usize| f64::from_le_bytes(body[i * 8..i * 8 + 8].try_into().unwrap_or([0; 8]));
@@ -247,6 +274,29 @@ pub fn decode(key: &str, bytes: &[u8]) -> Option<SphereTree> {
     // Pruning relies on containment; builders guarantee it exactly (see `build_tree`).
     let tol = 1e-9 * tree.spheres().first()?.radius.abs().max(1.0);
     tree.validate(tol).ok()?;
+    if cap_count == 0 {
+        return Some(tree);
+    }
+    let mut caps = vec![None; n];
+    let mut last: Option<usize> = None;
+    for rec in cap_body.chunks_exact(CAP_BYTES) {
+        let slot = u32::from_le_bytes(rec[0..4].try_into().ok()?) as usize;
+        let x =
+            |k: usize| f64::from_le_bytes(rec[4 + 8 * k..12 + 8 * k].try_into().unwrap_or([0; 8]));
+        let cap = FaceCap {
+            normal: [x(0), x(1), x(2)],
+            offset: x(3),
+            reach: x(4),
+        };
+        // One record per slot, in order: a repeated or shuffled list is not what encode wrote.
+        if last.is_some_and(|l| slot <= l) || slot >= n || !cap.is_valid() || !tree.is_leaf(slot) {
+            return None;
+        }
+        last = Some(slot);
+        caps[slot] = Some(cap);
+    }
+    let mut tree = tree;
+    tree.set_caps(caps).ok()?;
     Some(tree)
 }
 
@@ -261,16 +311,82 @@ mod tests {
         t
     }
 
+    /// [`small_tree`] with a face cap on its leaf 1.
+    fn capped_tree() -> SphereTree {
+        let mut t = small_tree();
+        let cap = FaceCap {
+            normal: [0.0, 0.6, 0.8],
+            offset: 0.25,
+            reach: 0.5,
+        };
+        t.set_caps(vec![None, Some(cap), None]).unwrap();
+        t
+    }
+
+    /// `bytes` with its content hash recomputed (an edit by someone who knows the format).
+    fn resealed(mut bytes: Vec<u8>) -> Vec<u8> {
+        let n = bytes.len();
+        let h = Fnv64::hash(&bytes[..n - 8]);
+        bytes[n - 8..].copy_from_slice(&h.to_le_bytes());
+        bytes
+    }
+
     #[test]
     fn encode_decode_round_trip_and_rejects_garbage() {
         let t = small_tree();
         let bytes = encode("k1", &t);
         assert_eq!(decode("k1", &bytes), Some(t));
+        let t = capped_tree();
+        let bytes = encode("k1", &t);
+        let back = decode("k1", &bytes).unwrap();
+        assert_eq!(back.caps(), t.caps());
+        assert_eq!(back, t);
         // The same bytes under another key (a renamed or copied file) are not that key's tree.
         assert_eq!(decode("k2", &bytes), None);
         assert_eq!(decode("k1", &bytes[..bytes.len() - 1]), None);
         assert_eq!(decode("k1", b"nonsense"), None);
         assert_eq!(decode("k1", b""), None);
+    }
+
+    #[test]
+    fn bad_caps_are_rejected_even_with_a_valid_hash() {
+        let bytes = encode("k", &capped_tree());
+        // The cap record: slot u32 then nx ny nz offset reach, just before the hash.
+        let rec = bytes.len() - 8 - CAP_BYTES;
+        let edit = |at: usize, with: &[u8]| {
+            let mut b = bytes.clone();
+            b[at..at + with.len()].copy_from_slice(with);
+            resealed(b)
+        };
+        // On the root (not a leaf), on an unused slot, past the end.
+        for slot in [0u32, 2, 3, 1000] {
+            assert_eq!(
+                decode("k", &edit(rec, &slot.to_le_bytes())),
+                None,
+                "slot {slot}"
+            );
+        }
+        // A normal that is not unit, a NaN offset, a negative reach.
+        assert_eq!(decode("k", &edit(rec + 4, &2.0f64.to_le_bytes())), None);
+        assert_eq!(decode("k", &edit(rec + 28, &f64::NAN.to_le_bytes())), None);
+        assert_eq!(decode("k", &edit(rec + 36, &(-1.0f64).to_le_bytes())), None);
+        // A count that does not match the records.
+        let count = rec - 4;
+        for c in [0u32, 2, u32::MAX] {
+            assert_eq!(
+                decode("k", &edit(count, &c.to_le_bytes())),
+                None,
+                "count {c}"
+            );
+        }
+        // The same record twice (count 2).
+        let mut twice = bytes[..bytes.len() - 8].to_vec();
+        twice[count..count + 4].copy_from_slice(&2u32.to_le_bytes());
+        twice.extend_from_slice(&bytes[rec..rec + CAP_BYTES]);
+        twice.extend_from_slice(&[0; 8]);
+        assert_eq!(decode("k", &resealed(twice)), None);
+        // Intact, it decodes.
+        assert_eq!(decode("k", &resealed(bytes.clone())), Some(capped_tree()));
     }
 
     #[test]

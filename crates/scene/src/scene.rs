@@ -49,6 +49,7 @@ use engine::{Engine, EngineConfig};
 use mesh::TriMesh;
 use serde::{Deserialize, Serialize};
 use spheretree::build::BuildMethod;
+use spheretree::caps::CapParams;
 use spheretree::SphereTree;
 
 use crate::cache::{tree_key, CacheOutcome, TreeCache};
@@ -594,13 +595,38 @@ impl Scene {
 }
 
 /// Builds (or fetches from `cache`) the tree of `mesh` (mm) with `params`, logging what
-/// happened into `log` under `label`.
+/// happened into `log` under `label`. No face caps: the tool's tree (see
+/// [`object_tree_for_mesh`] for objects).
 pub fn tree_for_mesh(
     mesh: &TriMesh,
     params: TreeParams,
     cache: &TreeCache,
     label: &str,
     log: &mut Vec<String>,
+) -> Result<SphereTree, SceneError> {
+    tree_for_mesh_with(mesh, params, cache, label, log, false)
+}
+
+/// [`tree_for_mesh`] for an object: the tree also gets its leaves' face caps
+/// ([`spheretree::caps::face_caps`], default [`CapParams`]), computed with the build and
+/// cached with the tree; the log line says how many leaves were capped.
+pub fn object_tree_for_mesh(
+    mesh: &TriMesh,
+    params: TreeParams,
+    cache: &TreeCache,
+    label: &str,
+    log: &mut Vec<String>,
+) -> Result<SphereTree, SceneError> {
+    tree_for_mesh_with(mesh, params, cache, label, log, true)
+}
+
+fn tree_for_mesh_with(
+    mesh: &TriMesh,
+    params: TreeParams,
+    cache: &TreeCache,
+    label: &str,
+    log: &mut Vec<String>,
+    with_caps: bool,
 ) -> Result<SphereTree, SceneError> {
     let method = params.method;
     let bp = spheretree::build::BuildParams {
@@ -609,21 +635,70 @@ pub fn tree_for_mesh(
         method,
         ..Default::default()
     };
-    let key = tree_key(mesh, &format!("{bp:?}"));
+    let cp = CapParams::default();
+    // Capped and uncapped trees of one mesh are different entries; the cap rule's version and
+    // options are part of the key so a changed rule never reuses old caps.
+    let key_params = if with_caps {
+        format!(
+            "{bp:?} face_caps v{} {cp:?}",
+            spheretree::caps::CAPS_VERSION
+        )
+    } else {
+        format!("{bp:?}")
+    };
+    let key = tree_key(mesh, &key_params);
     let t0 = Instant::now();
+    let mut caps_s = None;
     let (tree, outcome) = cache.get_or_build(&key, || {
-        spheretree::build::build_tree(mesh, &bp, &|f| cache.report(label, f))
-            .map_err(|e| SceneError::caused(label, "building the sphere-tree failed", e))
+        let mut tree = spheretree::build::build_tree(mesh, &bp, &|f| cache.report(label, f))
+            .map_err(|e| SceneError::caused(label, "building the sphere-tree failed", e))?;
+        if with_caps {
+            let t1 = Instant::now();
+            let caps = spheretree::caps::face_caps(mesh, &tree, &cp);
+            // A tree without any cap stays uncapped (it then reads back equal from the cache).
+            if caps.iter().any(Option::is_some) {
+                tree.set_caps(caps)
+                    .map_err(|e| SceneError::caused(label, "face caps rejected", e))?;
+            }
+            caps_s = Some(t1.elapsed().as_secs_f64());
+        }
+        Ok::<_, SceneError>(tree)
     })?;
     let dt = t0.elapsed().as_secs_f64();
-    log.push(match outcome {
+    let mut line = match outcome {
         CacheOutcome::Hit => format!("{label}: tree from cache ({dt:.3} s)"),
         CacheOutcome::Built => format!(
             "{label}: tree built, depth {} branching {} {:?} ({dt:.2} s)",
             params.depth, params.branching, method
         ),
-    });
+    };
+    if with_caps {
+        let capped = tree.caps().iter().flatten().count();
+        let leaves = tree.leaves().count();
+        line += &format!(
+            ", {} of {} leaves face-capped",
+            grouped(capped),
+            grouped(leaves)
+        );
+        if let Some(s) = caps_s {
+            line += &format!(" (caps {s:.3} s)");
+        }
+    }
+    log.push(line);
     Ok(tree)
+}
+
+/// `n` with its digits in groups of three separated by spaces (`4 096`), for the load log.
+fn grouped(n: usize) -> String {
+    let digits = n.to_string();
+    let mut out = String::new();
+    for (i, ch) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push(' ');
+        }
+        out.push(ch);
+    }
+    out
 }
 
 /// Scales a tree's centres and radii by `s` (file units to mm).
@@ -645,11 +720,14 @@ fn resolve(base: &Path, p: &str) -> PathBuf {
     }
 }
 
+/// Loads one body of a scene file; `object` says it is an object (its tree built from a mesh
+/// gets face caps; the tool's does not, and trees read from `.sph` files never do).
 fn load_body(
     b: &BodySpec,
     base: &Path,
     file: &str,
     label: &str,
+    object: bool,
     cache: &TreeCache,
     log: &mut Vec<String>,
 ) -> Result<(SphereTree, Option<TriMesh>), SceneError> {
@@ -700,14 +778,15 @@ fn load_body(
         branching: b.branching.unwrap_or(8),
         method: b.method.unwrap_or_default(),
     };
-    let tree = tree_for_mesh(&mesh, params, cache, label, log).map_err(|e| match e {
-        SceneError::Scene { msg, source, .. } => SceneError::Scene {
-            file: file.to_string(),
-            msg: format!("{label}: {msg}"),
-            source,
-        },
-        other => other,
-    })?;
+    let tree =
+        tree_for_mesh_with(&mesh, params, cache, label, log, object).map_err(|e| match e {
+            SceneError::Scene { msg, source, .. } => SceneError::Scene {
+                file: file.to_string(),
+                msg: format!("{label}: {msg}"),
+                source,
+            },
+            other => other,
+        })?;
     Ok((tree, Some(mesh)))
 }
 
@@ -726,7 +805,7 @@ pub fn load_scene_file(path: &Path, cache: &TreeCache) -> Result<Scene, SceneErr
     let spec = SceneSpec::parse(text, &file)?;
     let base = path.parent().unwrap_or(Path::new("."));
     let mut log = Vec::new();
-    let (tool, tool_mesh) = load_body(&spec.tool, base, &file, "tool", cache, &mut log)?;
+    let (tool, tool_mesh) = load_body(&spec.tool, base, &file, "tool", false, cache, &mut log)?;
     let mut objects = Vec::new();
     let mut object_meshes = Vec::new();
     for (i, o) in spec.object.iter().enumerate() {
@@ -735,6 +814,7 @@ pub fn load_scene_file(path: &Path, cache: &TreeCache) -> Result<Scene, SceneErr
             base,
             &file,
             &format!("object {}", i + 1),
+            true,
             cache,
             &mut log,
         )?;
@@ -775,6 +855,41 @@ pub fn load_scene_file(path: &Path, cache: &TreeCache) -> Result<Scene, SceneErr
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn object_trees_get_face_caps_and_keep_them_through_the_cache() {
+        let dir = tempfile::tempdir().unwrap();
+        let cache = TreeCache::at(dir.path());
+        let plate = crate::scenes::plate::plate_mesh();
+        let params = TreeParams {
+            depth: 2,
+            branching: 8,
+            method: BuildMethod::Octree,
+        };
+        let mut log = Vec::new();
+        let built = object_tree_for_mesh(&plate, params, &cache, "plate", &mut log).unwrap();
+        let capped = built.caps().iter().flatten().count();
+        assert!(capped > 0);
+        assert_eq!(
+            built.caps(),
+            spheretree::caps::face_caps(&plate, &built, &CapParams::default()).as_slice()
+        );
+        let again = object_tree_for_mesh(&plate, params, &cache, "plate", &mut log).unwrap();
+        assert_eq!(again, built);
+        // The tool's tree of the same mesh is another entry, without caps.
+        let tool = tree_for_mesh(&plate, params, &cache, "tool", &mut log).unwrap();
+        assert!(tool.caps().is_empty());
+        let leaves = grouped(built.leaves().count());
+        assert!(log[0].contains("tree built") && log[1].contains("tree from cache"));
+        for line in &log[..2] {
+            let want = format!("{} of {leaves} leaves face-capped", grouped(capped));
+            assert!(line.contains(&want), "{line}");
+        }
+        assert!(log[2].contains("tree built") && !log[2].contains("face-capped"));
+        assert_eq!(grouped(4096), "4 096");
+        assert_eq!(grouped(1_234_567), "1 234 567");
+        assert_eq!(grouped(12), "12");
+    }
 
     const GOOD: &str = r#"
 [tool]

@@ -20,9 +20,10 @@ fn tree() -> SphereTree {
     t
 }
 
-/// Byte offset of the first slot in an entry (the slots are followed by the 8-byte hash).
-fn slots_offset(entry: &[u8]) -> usize {
-    entry.len() - 8 - tree().len() * 32
+/// Byte offset of the first slot in an entry: after the magic (8 bytes), the key length (4),
+/// the key and the shape (levels and branching, 4 each).
+fn slots_offset(_entry: &[u8]) -> usize {
+    8 + 4 + KEY.len() + 8
 }
 
 /// Byte offset of `field` (0..3 centre, 3 radius) of `slot` in an entry.

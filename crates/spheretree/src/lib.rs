@@ -9,6 +9,7 @@
 //! - [`SphereTree`], [`Sphere`]: the tree (flat, breadth-first, branching B, unused slots).
 //! - [`sph`]: the Bradshaw `.sph` format ([`sph::read_sph`], [`sph::write_sph`]).
 //! - [`build::build_tree`]: sphere-trees from a closed mesh (tight or octree builder).
+//! - [`caps::face_caps`]: the leaves' face caps ([`FaceCap`]) from the mesh.
 //! - [`eval::evaluate_fit`]: the fit measure (docs/DESIGN.md §The fit measure), per level, in
 //!   toolkit units.
 #![warn(missing_docs)]
@@ -18,6 +19,8 @@
 #[cfg(feature = "offline")]
 #[path = "builder/mod.rs"]
 pub mod build;
+#[cfg(feature = "offline")]
+pub mod caps;
 #[cfg(feature = "offline")]
 pub mod eval;
 #[cfg(feature = "offline")]

@@ -64,7 +64,12 @@ pub fn scene(cache: &TreeCache) -> Result<Scene, SceneError> {
         branching: 8,
         method: spheretree::build::BuildMethod::Tight,
     };
-    let tree = crate::tree_for_mesh(&mesh, params, cache, "bunny", &mut log)?;
+    // One build for both: the object keeps the face caps, the tool's copy drops them.
+    let tree = crate::object_tree_for_mesh(&mesh, params, cache, "bunny", &mut log)?;
+    let mut tool_tree = tree.clone();
+    tool_tree
+        .set_caps(Vec::new())
+        .map_err(|e| SceneError::caused("bunny", "cannot drop the tool's face caps", e))?;
     // Slide on top: the tool upright above the object. Push from below: the tool upside down
     // (gamma = pi) under the object, flat base against flat base.
     let level = std::f64::consts::PI;
@@ -72,7 +77,7 @@ pub fn scene(cache: &TreeCache) -> Result<Scene, SceneError> {
     let below = Pose::from_array([0.0, -140.0, 0.0, level, 0.0, 0.0]);
     let mut scene = Scene {
         name: "bunny".into(),
-        tool: tree.clone(),
+        tool: tool_tree,
         tool_mesh: Some(mesh.clone()),
         objects: vec![(tree, Pose::identity())],
         object_meshes: vec![Some(mesh)],

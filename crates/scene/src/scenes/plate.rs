@@ -242,7 +242,7 @@ pub fn scene(cache: &TreeCache, tool: PlateTool, script: Script) -> Result<Scene
     let plate = plate_mesh();
     let tool_mesh = tool.mesh();
     let mut log = Vec::new();
-    let plate_tree = crate::tree_for_mesh(
+    let plate_tree = crate::object_tree_for_mesh(
         &plate,
         TreeParams {
             depth: 4,

@@ -32,7 +32,7 @@ pub fn scene(cache: &TreeCache, p: &SplineParams, depth: u32) -> Result<Scene, S
         method: spheretree::build::BuildMethod::Tight,
     };
     let tool = crate::tree_for_mesh(&shaft, params, cache, "spline shaft", &mut log)?;
-    let hub_tree = crate::tree_for_mesh(&hub, params, cache, "spline hub", &mut log)?;
+    let hub_tree = crate::object_tree_for_mesh(&hub, params, cache, "spline hub", &mut log)?;
     let misaligned = 0.5 * p.pitch();
     let above = 15.0;
     let start = [0.0, 0.0, above, 0.0, 0.0, misaligned];
