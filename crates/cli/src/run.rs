@@ -85,6 +85,10 @@ pub struct RunArgs {
     /// for a few ms after each).
     #[arg(long)]
     pub helper_thread: bool,
+    /// Whole spheres for every object leaf, without face caps (the paper's trees; the
+    /// default caps flat faces, docs/DESIGN.md §Face caps).
+    #[arg(long)]
+    pub no_face_caps: bool,
     /// Rotation coordinates: rotation-vector (default) or euler (the paper's).
     #[arg(long)]
     pub rotation: Option<String>,
@@ -439,6 +443,9 @@ pub fn run(args: RunArgs) -> Result<()> {
     }
     if args.helper_thread {
         scene.solver.helper_thread = true;
+    }
+    if args.no_face_caps {
+        scene.solver.face_caps = false;
     }
     if let Some(r) = rotation {
         scene.coupling.rotation = r;

@@ -168,6 +168,10 @@ pub struct SolverSpec {
     /// twice as fast in dense contacts; it spins a core for a few ms after each):
     /// `false` (default) or `true`.
     pub helper_thread: bool,
+    /// Face caps: object leaves on flat faces stand for the face, not their sphere's bulge
+    /// (docs/DESIGN.md §Face caps): `true` (default) or `false` for whole spheres (the
+    /// paper's trees).
+    pub face_caps: bool,
 }
 
 impl Default for SolverSpec {
@@ -182,6 +186,7 @@ impl Default for SolverSpec {
             budget_us: 1000.0,
             reduce_rows: true,
             helper_thread: false,
+            face_caps: true,
         }
     }
 }
@@ -528,6 +533,7 @@ impl Scene {
             budget_us: self.solver.budget_us,
             reduce_rows: self.solver.reduce_rows,
             helper_thread: self.solver.helper_thread,
+            face_caps: self.solver.face_caps,
             safety: self.safety,
             ..EngineConfig::default()
         }
