@@ -72,10 +72,10 @@ pub struct BenchArgs {
     /// helper_thread`): a second thread shares the frames' large traversals.
     #[arg(long)]
     pub helper_thread: bool,
-    /// The speed and contact studies with whole spheres for every object leaf (no face caps,
-    /// docs/DESIGN.md §Face caps).
-    #[arg(long)]
-    pub no_face_caps: bool,
+    /// Face caps in the speed and contact studies: on or off (default: each scene's; the
+    /// plate scenes have them, docs/DESIGN.md §Face caps).
+    #[arg(long, value_parser = crate::parse_on_off)]
+    pub face_caps: Option<bool>,
     /// The speed and contact studies paced at the scene's rate on the wall clock (as a device
     /// loop runs them, on a `SCHED_FIFO` thread when the privilege allows) instead of frames
     /// back to back; the helper thread's background work runs between frames.
@@ -136,7 +136,7 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     let mode = crate::bench_contact::ReplayMode {
         helper_thread: args.helper_thread,
         realtime: args.realtime,
-        face_caps: !args.no_face_caps,
+        face_caps: args.face_caps,
     };
     if args.realtime && !scene::rt::set_realtime_priority(50) {
         eprintln!("bench: SCHED_FIFO refused (no privilege?); paced frames at normal priority");
@@ -173,7 +173,7 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
         machine: machine_description(),
         helper_thread: args.helper_thread,
         realtime: args.realtime,
-        face_caps: !args.no_face_caps,
+        face_caps: args.face_caps,
         ..Default::default()
     };
 

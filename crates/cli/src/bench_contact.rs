@@ -63,8 +63,8 @@ pub struct ContactRow {
 pub struct ReplayMode {
     /// With the detection helper thread (`[solver] helper_thread`).
     pub helper_thread: bool,
-    /// Face caps on object leaves (`[solver] face_caps`).
-    pub face_caps: bool,
+    /// Face caps on object trees (`[solver] face_caps`), or the scene's own setting.
+    pub face_caps: Option<bool>,
     /// Frames paced at the scene's rate on the wall clock (as a device loop runs them), on a
     /// `SCHED_FIFO` thread when the privilege allows, instead of back to back. A helper's
     /// background work (free-space probes) only has time to run between paced frames.
@@ -177,7 +177,9 @@ pub fn contact_study(cache: &TreeCache, quick: bool, mode: ReplayMode) -> Result
     );
     let mut scene = plate::scene(cache, PlateTool::Puck, run.script.clone())?;
     scene.solver.helper_thread = mode.helper_thread;
-    scene.solver.face_caps = mode.face_caps;
+    if let Some(on) = mode.face_caps {
+        scene.solver.face_caps = on;
+    }
     let (t, frames, _) = replay_audited(&scene, SolverKind::Dual, false, mode.realtime)?;
     let (_, _, audits) = replay_audited(&scene, SolverKind::Dual, true, false)?;
     let rest_end = run.steady.first().map_or(0.3, |s| s.0);
@@ -204,7 +206,9 @@ pub fn contact_study(cache: &TreeCache, quick: bool, mode: ReplayMode) -> Result
     }
     let mut scene = scene::scenes::builtin("spline", cache)?;
     scene.solver.helper_thread = mode.helper_thread;
-    scene.solver.face_caps = mode.face_caps;
+    if let Some(on) = mode.face_caps {
+        scene.solver.face_caps = on;
+    }
     let (t, frames, _) = replay_audited(&scene, SolverKind::Dual, false, mode.realtime)?;
     let (_, _, audits) = replay_audited(&scene, SolverKind::Dual, true, false)?;
     // The script's phases (scene::scenes::spline_scene): approach 0.5 s, rest 0.2 s, turn

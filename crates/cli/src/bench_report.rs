@@ -97,8 +97,8 @@ pub struct BenchReport {
     pub helper_thread: bool,
     /// The speed and contact studies paced their frames at the scene rate.
     pub realtime: bool,
-    /// The speed and contact studies used face caps on object leaves.
-    pub face_caps: bool,
+    /// Face caps forced on or off in the speed and contact studies (`None`: each scene's).
+    pub face_caps: Option<bool>,
     /// The trees of each replayed scene: (scene, its trees).
     pub trees: Vec<(String, Vec<TreeInfo>)>,
     /// Replays, per scene and solver.

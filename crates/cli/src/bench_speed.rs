@@ -93,7 +93,9 @@ pub fn speed_study(
             let run = plate::speed_script(tool, motion, 1000.0, min_steady);
             let mut scene = plate::scene(cache, tool, run.script.clone())?;
             scene.solver.helper_thread = mode.helper_thread;
-            scene.solver.face_caps = mode.face_caps;
+            if let Some(on) = mode.face_caps {
+                scene.solver.face_caps = on;
+            }
             for &kind in solvers {
                 rows.push(speed_row(&scene, tool, motion, &run, kind, mode.realtime)?);
             }

@@ -101,3 +101,12 @@ fn usage_error(e: clap::Error) -> ExitCode {
 fn one_line(s: &str) -> String {
     s.split_whitespace().collect::<Vec<_>>().join(" ")
 }
+
+/// `on`/`off` (also `true`/`false`) for a switch that overrides a scene's setting.
+fn parse_on_off(s: &str) -> Result<bool, String> {
+    match s {
+        "on" | "true" => Ok(true),
+        "off" | "false" => Ok(false),
+        _ => Err(format!("`{s}`: expected on or off")),
+    }
+}

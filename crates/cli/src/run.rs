@@ -85,10 +85,9 @@ pub struct RunArgs {
     /// for a few ms after each).
     #[arg(long)]
     pub helper_thread: bool,
-    /// Whole spheres for every object leaf, without face caps (the paper's trees; the
-    /// default caps flat faces, docs/DESIGN.md §Face caps).
-    #[arg(long)]
-    pub no_face_caps: bool,
+    /// Face caps on object trees: on or off (default: the scene's; docs/DESIGN.md §Face caps).
+    #[arg(long, value_parser = crate::parse_on_off)]
+    pub face_caps: Option<bool>,
     /// Rotation coordinates: rotation-vector (default) or euler (the paper's).
     #[arg(long)]
     pub rotation: Option<String>,
@@ -444,8 +443,8 @@ pub fn run(args: RunArgs) -> Result<()> {
     if args.helper_thread {
         scene.solver.helper_thread = true;
     }
-    if args.no_face_caps {
-        scene.solver.face_caps = false;
+    if let Some(on) = args.face_caps {
+        scene.solver.face_caps = on;
     }
     if let Some(r) = rotation {
         scene.coupling.rotation = r;

@@ -56,7 +56,7 @@ pub use constraint::{
     RotationCoordinates, DEGENERATE_DISTANCE,
 };
 pub use neighbours::{BackgroundList, ListStatus, NeighbourList};
-pub use packed::PackedTree;
+pub use packed::{PackedTree, FACE_CUT_SLACK_MM};
 pub use pose::{rotation_exp, rotation_log, rotation_zyx, rotation_zyx_partials, Pose};
 pub use probe::{FreeSpaceProbe, ProbeStatus};
 pub use team::{overlap_shared, SharedTraversal, TraversalTeam, SHARE_MIN_PAIRS, SPIN_WINDOW};

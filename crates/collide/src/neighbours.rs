@@ -18,9 +18,18 @@
 use crate::probe::lock_by;
 use crate::team::{self, JobState, TraversalTeam};
 use crate::traverse::{
-    arc_allowance, clean_margin, descend_as_queried, segment_dist2, CollideWorkspace,
+    arc_allowance, clean_margin, descend_as_queried, face_gap, segment_dist2, CollideWorkspace,
 };
 use crate::{CollideError, FaceCut, LeafPair, PackedTree, Pose, Sweep};
+use spheretree::MAX_CAPS;
+
+/// Filler for unused cut slots of a listed pair.
+const NO_FACE: FaceCut = FaceCut {
+    normal: [0.0; 3],
+    offset: 0.0,
+    center: [0.0; 3],
+    reach: 0.0,
+};
 use std::sync::atomic::{AtomicU64, AtomicU8, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -54,8 +63,8 @@ struct Columns {
     oz: Vec<f64>,
     r_tool: Vec<f64>,
     r_object: Vec<f64>,
-    /// The object leaf's face cut, if any.
-    face: Vec<Option<FaceCut>>,
+    /// The object leaf's face cuts (the first `.1` of `.0`).
+    face: Vec<([FaceCut; MAX_CAPS], u8)>,
 }
 
 impl Columns {
@@ -87,7 +96,7 @@ impl Columns {
         ]
     }
 
-    fn push(&mut self, p: &LeafPair) {
+    fn push(&mut self, p: &LeafPair, cuts: &[FaceCut]) {
         let values = [
             p.p_in_tool[0],
             p.p_in_tool[1],
@@ -101,7 +110,10 @@ impl Columns {
         for (column, v) in self.all().into_iter().zip(values) {
             column.push(v);
         }
-        self.face.push(p.face);
+        let mut kept = [NO_FACE; MAX_CAPS];
+        let n = cuts.len().min(MAX_CAPS);
+        kept[..n].copy_from_slice(&cuts[..n]);
+        self.face.push((kept, n as u8));
     }
 
     fn clear(&mut self) {
@@ -215,7 +227,7 @@ impl NeighbourList {
                         return false;
                     }
                     pairs.push(*p);
-                    columns.push(p);
+                    columns.push(p, o.cuts_of_slot(p.object_slot as usize));
                     true
                 };
                 let d = descend_as_queried(
@@ -361,11 +373,16 @@ impl NeighbourList {
             };
             if near {
                 let mut pair = self.pairs[i];
-                let on_face = c.face[i].and_then(|f| f.gap(w, d, d2, c.r_tool[i]));
-                if sweep.is_none() && on_face.is_some_and(|g| g > m) {
+                let (cuts, n) = &c.face[i];
+                let on_face = face_gap(&cuts[..usize::from(*n)], w, c.r_tool[i]);
+                if sweep.is_none() && on_face.is_some_and(|(g, _)| g > m) {
                     continue;
                 }
-                pair.gap = on_face.unwrap_or_else(|| d2.sqrt() - (c.r_tool[i] + c.r_object[i]));
+                pair.gap = match on_face {
+                    Some((g, _)) => g,
+                    None => d2.sqrt() - (c.r_tool[i] + c.r_object[i]),
+                };
+                pair.face = on_face.map(|(_, f)| *f);
                 pair.on_face = on_face.is_some();
                 count += 1;
                 if !visit(&pair) {

@@ -36,6 +36,13 @@ pub(crate) fn round_up(v: f64) -> f32 {
     }
 }
 
+/// The default of [`PackedTree::fit_face_cuts`] (mm): tool spheres up to 2 mm within margins
+/// up to 4 mm.
+pub const FACE_CUT_SLACK_MM: f64 = 6.0;
+
+/// `node_of_slot` of an unused slot.
+const NO_NODE: u32 = u32::MAX;
+
 /// A [`SphereTree`] repacked for fast traversal.
 ///
 /// Only used slots are kept, renumbered breadth-first so that the used children of every node
@@ -77,7 +84,17 @@ pub struct PackedTree {
     /// The face cut of every node (world for objects, tool frame for the tool), from the
     /// tree's [`spheretree::FaceCap`]s; `None` where the leaf has none (and on inner nodes).
     /// Empty when no leaf is cut.
-    pub(crate) cuts: Vec<Option<FaceCut>>,
+    pub(crate) cut_of: Vec<[u32; 2]>,
+    /// The cuts `cut_of` points into (a range per node); 8 bytes per node keep the hot loop's
+    /// lookups in cache.
+    pub(crate) cut_list: Vec<FaceCut>,
+    /// Each node's own cuts (from its tree's caps), by the same scheme; the node's cuts in use
+    /// (`cut_of`) add its ancestors' that can matter near it ([`PackedTree::fit_face_cuts`]).
+    own_cut_of: Vec<[u32; 2]>,
+    own_cuts: Vec<FaceCut>,
+    /// The packed node of every used slot of the original tree (`u32::MAX` for unused ones),
+    /// when the tree has cuts: a neighbour list finds a pair's cuts by its object slot.
+    pub(crate) node_of_slot: Vec<u32>,
     pub(crate) leaf_count: usize,
     pub(crate) max_children: usize,
     pub(crate) levels: u32,
@@ -121,7 +138,11 @@ impl PackedTree {
             sphere32: Vec::new(),
             node32: Vec::new(),
             extent: 0.0,
-            cuts: Vec::new(),
+            cut_of: Vec::new(),
+            cut_list: Vec::new(),
+            own_cut_of: Vec::new(),
+            own_cuts: Vec::new(),
+            node_of_slot: Vec::new(),
             leaf_count: 0,
             max_children: 0,
             levels: tree.levels(),
@@ -149,6 +170,9 @@ impl PackedTree {
         }
         packed.compute_boxes();
         packed.compute_single();
+        packed.own_cut_of = std::mem::take(&mut packed.cut_of);
+        packed.own_cuts = std::mem::take(&mut packed.cut_list);
+        packed.fit_face_cuts(FACE_CUT_SLACK_MM);
         Ok(packed)
     }
 
@@ -228,19 +252,33 @@ impl PackedTree {
     ) {
         let sp = tree.sphere(s);
         let c = rot * Vector3::from(sp.center) + t;
-        if let Some(cap) = tree.cap(s) {
-            if self.cuts.is_empty() {
-                self.cuts = vec![None; self.x.len()];
+        let caps = tree.cap(s);
+        if !caps.is_empty() {
+            if self.cut_of.is_empty() {
+                self.cut_of = vec![[0, 0]; self.x.len()];
+                self.node_of_slot = vec![NO_NODE; tree.len()];
+                for (n, &slot) in self.slot.iter().enumerate() {
+                    self.node_of_slot[slot as usize] = n as u32;
+                }
             }
-            let n = rot * Vector3::from(cap.normal);
-            self.cuts.push(Some(FaceCut {
-                normal: n.into(),
-                // n_w . (R x + t) = n . x + n_w . t.
-                offset: cap.offset + n.dot(t),
-                reach: cap.reach,
-            }));
-        } else if !self.cuts.is_empty() {
-            self.cuts.push(None);
+            let first = self.cut_list.len() as u32;
+            for cap in caps {
+                let n = rot * Vector3::from(cap.normal);
+                let c = rot * Vector3::from(cap.center) + t;
+                self.cut_list.push(FaceCut {
+                    normal: n.into(),
+                    // n_w . (R x + t) = n . x + n_w . t.
+                    offset: cap.offset + n.dot(t),
+                    center: c.into(),
+                    reach: cap.reach,
+                });
+            }
+            self.cut_of.push([first, self.cut_list.len() as u32]);
+        } else if !self.cut_of.is_empty() {
+            self.cut_of.push([0, 0]);
+        }
+        if !self.node_of_slot.is_empty() {
+            self.node_of_slot[s] = self.x.len() as u32;
         }
         self.x.push(c.x);
         self.y.push(c.y);
@@ -251,21 +289,90 @@ impl PackedTree {
         self.slot.push(s as u32);
     }
 
-    /// The face cut of packed node `n` (world for objects packed with their pose), if any.
+    /// The face cuts of packed node `n` (world for objects packed with their pose).
     #[inline]
-    pub fn face_cut(&self, n: usize) -> Option<&FaceCut> {
-        self.cuts.get(n).and_then(Option::as_ref)
+    pub fn face_cuts(&self, n: usize) -> &[FaceCut] {
+        self.cuts(n)
     }
 
-    /// Number of leaves with a face cut.
+    /// Number of nodes with a face cut.
     pub fn face_cut_count(&self) -> usize {
-        self.cuts.iter().filter(|c| c.is_some()).count()
+        self.cut_of.iter().filter(|r| r[1] > r[0]).count()
     }
 
     /// Forgets the face cuts: every leaf stands for its whole sphere again (the paper's
     /// sphere-trees).
     pub fn drop_face_cuts(&mut self) {
-        self.cuts = Vec::new();
+        self.cut_of = Vec::new();
+        self.cut_list = Vec::new();
+        self.own_cut_of = Vec::new();
+        self.own_cuts = Vec::new();
+        self.node_of_slot = Vec::new();
+    }
+
+    /// Sets each node's cuts in use: its own, then every ancestor's whose disc comes within
+    /// `slack` (mm) plus the node's radius of the foot of its centre (laterally), without
+    /// repeats. A tool sphere of radius `r` within a margin `m` of the node, above an
+    /// ancestor's disc, then finds that cut here too when `r + m <= slack`: the node decides
+    /// it as the ancestor's merged pair does (with the same face, or a higher one), so a
+    /// descent that stops at the ancestor and one that reaches the node (a neighbour list)
+    /// agree. [`PackedTree::with_pose`] uses [`FACE_CUT_SLACK_MM`].
+    pub fn fit_face_cuts(&mut self, slack: f64) {
+        self.cut_of = Vec::new();
+        self.cut_list = Vec::new();
+        if self.own_cut_of.is_empty() {
+            return;
+        }
+        let n = self.len();
+        let mut parent = vec![u32::MAX; n];
+        for p in 0..n {
+            for c in self.children(p) {
+                parent[c] = p as u32;
+            }
+        }
+        let mut cut_of = vec![[0u32, 0u32]; n];
+        let mut list: Vec<FaceCut> = Vec::new();
+        let mut mine: Vec<FaceCut> = Vec::new();
+        for node in 0..n {
+            mine.clear();
+            let [a, b] = self.own_cut_of[node];
+            mine.extend_from_slice(&self.own_cuts[a as usize..b as usize]);
+            if let Some(&p) = parent.get(node).filter(|&&p| p != u32::MAX) {
+                let [a, b] = cut_of[p as usize];
+                let c = [self.x[node], self.y[node], self.z[node]];
+                let room = self.r[node] + slack.max(0.0);
+                for k in a as usize..b as usize {
+                    let cut = list[k];
+                    let (_, lateral2) = cut.place(c);
+                    let near = lateral2 <= (cut.reach + room).powi(2);
+                    if near && !mine.contains(&cut) {
+                        mine.push(cut);
+                    }
+                }
+            }
+            let first = list.len() as u32;
+            list.extend_from_slice(&mine);
+            cut_of[node] = [first, list.len() as u32];
+        }
+        self.cut_of = cut_of;
+        self.cut_list = list;
+    }
+
+    /// The face cuts of node `n` (the traversal's lookup).
+    #[inline(always)]
+    pub(crate) fn cuts(&self, n: usize) -> &[FaceCut] {
+        match self.cut_of.get(n) {
+            Some(&[a, b]) => self.cut_list.get(a as usize..b as usize).unwrap_or(&[]),
+            None => &[],
+        }
+    }
+
+    /// The face cuts of the packed node at `slot` of the original tree.
+    pub(crate) fn cuts_of_slot(&self, slot: usize) -> &[FaceCut] {
+        match self.node_of_slot.get(slot) {
+            Some(&n) if n != NO_NODE => self.cuts(n as usize),
+            _ => &[],
+        }
     }
 
     /// Number of packed nodes (= used slots of the original tree).

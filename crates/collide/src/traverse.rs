@@ -31,13 +31,13 @@ pub struct LeafPair {
     /// The gap at the query pose (mm; negative = penetration depth): on the face
     /// (`on_face`), `normal . c - offset - r_tool`, else `|c - o| - (r_tool + r_object)`.
     pub gap: f64,
-    /// The object leaf's face cut (world), when its tree has one: the leaf stands for its
-    /// sphere cut by the half-space `normal . x <= offset` (docs/DESIGN.md §Face caps).
+    /// The face cut whose half-space the pair stands for (world), if any
+    /// (docs/DESIGN.md §Face caps): the object node lies below `normal . x = offset`.
     pub face: Option<FaceCut>,
-    /// True when the pair stands for the face's half-space instead of the object sphere: the
-    /// tool centre was on the outer side of the cut's plane, its foot within the cut's
-    /// `reach` of the object centre's foot. Both stand-ins contain the cut leaf, so either is
-    /// a safe constraint; the half-space is exact above the face (no sphere bump).
+    /// True when the pair stands for `face`'s half-space instead of the object sphere: the
+    /// tool centre was on the outer side of the cut's plane, its foot in the cut's disc. Both
+    /// stand-ins contain the object node's part of the surface, so either is a safe
+    /// constraint; the half-space is exact above the face (no sphere bump).
     pub on_face: bool,
 }
 
@@ -75,49 +75,79 @@ impl LeafPair {
     }
 }
 
-/// A leaf's face cut in the frame its tree is packed in (world for objects): the half-space
-/// `normal . x <= offset` holds all of the mesh's surface inside the leaf sphere
-/// ([`spheretree::FaceCap`] with the object's pose applied).
+/// A node's face cut in the frame its tree is packed in (world for objects): the half-space
+/// `normal . x <= offset` holds all of the mesh's surface inside the node's sphere, and the disc
+/// of radius `reach` about `center` on the plane lies on the face ([`spheretree::FaceCap`] with
+/// the object's pose applied).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FaceCut {
     /// Unit outward normal of the face.
     pub normal: [f64; 3],
     /// The plane's offset `normal . x` (mm).
     pub offset: f64,
-    /// Radius (mm) of the disc on the plane around the foot of the leaf's centre that lies on
-    /// the face.
+    /// Centre of the disc on the face (mm).
+    pub center: [f64; 3],
+    /// Radius of the disc (mm).
     pub reach: f64,
 }
 
 impl FaceCut {
-    /// The face's gap for a tool sphere at world centre `w` (radius `r_tool`, mm), when the
-    /// pair stands for the half-space: `w` is on the outer side of the plane and its foot lies
-    /// within `reach` of the foot of the object centre `o` (`x = w - o`, `d2 = |x|^2`). `None`:
-    /// the pair stands for the object sphere.
+    /// Height (mm) of the world point `w` above the plane, and the squared distance (mm²) of its
+    /// foot from the disc's centre.
     #[inline(always)]
-    pub(crate) fn gap(&self, w: [f64; 3], x: [f64; 3], d2: f64, r_tool: f64) -> Option<f64> {
+    pub(crate) fn place(&self, w: [f64; 3]) -> (f64, f64) {
         let n = self.normal;
-        let height = n[0] * w[0] + n[1] * w[1] + n[2] * w[2] - self.offset;
+        let x = [
+            w[0] - self.center[0],
+            w[1] - self.center[1],
+            w[2] - self.center[2],
+        ];
         let along = n[0] * x[0] + n[1] * x[1] + n[2] * x[2];
-        // |foot(w) - foot(o)|^2 = |x|^2 - (n . x)^2.
-        (height >= 0.0 && d2 - along * along <= self.reach * self.reach).then(|| height - r_tool)
+        let height = n[0] * w[0] + n[1] * w[1] + n[2] * w[2] - self.offset;
+        (
+            height,
+            x[0] * x[0] + x[1] * x[1] + x[2] * x[2] - along * along,
+        )
     }
 
-    /// True when a whole tool node (ball at world centre `w`, radius `r`, mm; `x = w - o`,
-    /// `d2 = |x|^2` with `o` the cut node's centre) is above the face by more than `margin`
-    /// (mm) and its foot disc lies within the reach: every tool leaf inside it stands for the
-    /// face's half-space with a gap beyond the margin, so no pair under the two is reported.
+    /// The face's gap for a tool sphere at world centre `w` (radius `r_tool`, mm), when the
+    /// pair stands for the half-space: `w` is on the outer side of the plane and its foot lies
+    /// in the disc. `None`: not above the face.
     #[inline(always)]
-    pub(crate) fn clears(&self, w: [f64; 3], x: [f64; 3], d2: f64, r: f64, margin: f64) -> bool {
-        let n = self.normal;
-        let height = n[0] * w[0] + n[1] * w[1] + n[2] * w[2] - self.offset;
-        if height - r <= margin || r > self.reach {
+    pub(crate) fn gap(&self, w: [f64; 3], r_tool: f64) -> Option<f64> {
+        let (height, lateral2) = self.place(w);
+        (height >= 0.0 && lateral2 <= self.reach * self.reach).then(|| height - r_tool)
+    }
+
+    /// True when a whole tool node (ball at world centre `w`, radius `r`, mm) is above the
+    /// face by more than `margin` (mm) with its foot disc inside the cut's disc: every tool
+    /// leaf inside it stands for the face's half-space with a gap beyond the margin, so no
+    /// pair under the two is reported.
+    #[inline(always)]
+    pub(crate) fn clears(&self, w: [f64; 3], r: f64, margin: f64) -> bool {
+        if r > self.reach {
             return false;
         }
-        let along = n[0] * x[0] + n[1] * x[1] + n[2] * x[2];
+        let (height, lateral2) = self.place(w);
         let room = self.reach - r;
-        d2 - along * along <= room * room
+        height - r > margin && lateral2 <= room * room
     }
+}
+
+/// The face that stands for a tool sphere at `w` (radius `r_tool`, mm) against a node with
+/// `cuts`: of those it is above, the one it is highest above (the node lies below all of
+/// them, so the largest gap is the tightest safe one), with that gap.
+#[inline(always)]
+pub(crate) fn face_gap(cuts: &[FaceCut], w: [f64; 3], r_tool: f64) -> Option<(f64, &FaceCut)> {
+    let mut best: Option<(f64, &FaceCut)> = None;
+    for cut in cuts {
+        if let Some(g) = cut.gap(w, r_tool) {
+            if best.is_none_or(|(b, _)| g > b) {
+                best = Some((g, cut));
+            }
+        }
+    }
+    best
 }
 
 /// Caller-owned scratch memory for the traversal: the descent stack and a cache of posed tool
@@ -928,13 +958,13 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
     // `d2 = |x|^2`) if it is to be reported: a cut leaf whose face stands for it is reported
     // only when the face comes within the margin (a swept query keeps every pair its sphere
     // test passed).
-    let leaf_pair_at = |t: usize, o: usize, w: [f64; 3], x: [f64; 3], d2: f64| {
-        let face = obj.cuts.get(o).copied().flatten();
-        let on_face = face.and_then(|f| f.gap(w, x, d2, tool.r[t]));
-        if drop_far_faces && on_face.is_some_and(|g| g > m) {
+    // Returns None when the pair is not reported, else what `visit` returned.
+    let report = |t: usize, o: usize, w: [f64; 3], d2: f64, visit: &mut F| {
+        let on_face = face_gap(obj.cuts(o), w, tool.r[t]);
+        if drop_far_faces && on_face.is_some_and(|(g, _)| g > m) {
             return None;
         }
-        Some(LeafPair {
+        Some(visit(&LeafPair {
             object: obj_id,
             tool_slot: tool.slot[t],
             object_slot: obj.slot[o],
@@ -942,10 +972,13 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
             r_tool: tool.r[t],
             o_in_world: [obj.x[o], obj.y[o], obj.z[o]],
             r_object: obj.r[o],
-            gap: on_face.unwrap_or_else(|| d2.sqrt() - (tool.r[t] + obj.r[o])),
-            face,
+            gap: match on_face {
+                Some((g, _)) => g,
+                None => d2.sqrt() - (tool.r[t] + obj.r[o]),
+            },
+            face: on_face.map(|(_, f)| *f),
             on_face: on_face.is_some(),
-        })
+        }))
     };
     // A tool node (moving along `path`) within `s` of the object centre `o`, `x` apart at the
     // pose (d2 = |x|²).
@@ -967,11 +1000,8 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
         }
         if tool.child_count[0] == 0 && obj.child_count[0] == 0 {
             let w = [ws.wx[0], ws.wy[0], ws.wz[0]];
-            return match leaf_pair_at(0, 0, w, x, d2) {
-                Some(pair) => {
-                    visit(&pair);
-                    done(1)
-                }
+            return match report(0, 0, w, d2, visit) {
+                Some(_) => done(1),
                 None => done(0),
             };
         }
@@ -1000,12 +1030,8 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
         // Above a cut object node, split the tool instead: its leaves then meet the node's
         // face, which stands for the node's whole subtree.
         let over_face = || {
-            obj.cuts.get(o).copied().flatten().is_some_and(|cut| {
-                let w = [ws.wx[t], ws.wy[t], ws.wz[t]];
-                let x = [w[0] - obj.x[o], w[1] - obj.y[o], w[2] - obj.z[o]];
-                let d2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
-                cut.gap(w, x, d2, 0.0).is_some()
-            })
+            let cuts = obj.cuts(o);
+            !cuts.is_empty() && face_gap(cuts, [ws.wx[t], ws.wy[t], ws.wz[t]], 0.0).is_some()
         };
         let tool_split = tc != 0
             && (oc == 0 || tool.sphere32[t].r >= obj.sphere32[o].r || (use_faces && over_face()));
@@ -1047,9 +1073,9 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
                     }
                     if leaf_pair {
                         let w = [ws.wx[ti], ws.wy[ti], ws.wz[ti]];
-                        if let Some(pair) = leaf_pair_at(ti, oi, w, x, d2) {
+                        if let Some(go_on) = report(ti, oi, w, d2, visit) {
                             count += 1;
-                            if !visit(&pair) {
+                            if !go_on {
                                 return done(count);
                             }
                         }
@@ -1057,9 +1083,10 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
                     }
                 }
                 if use_faces {
-                    if let Some(cut) = obj.cuts.get(oi).copied().flatten() {
-                        // A cut node: its face stands for its whole subtree (every surface
-                        // point under it is below the plane).
+                    let cuts = obj.cuts(oi);
+                    if !cuts.is_empty() {
+                        // A cut node: its faces stand for its whole subtree (every surface
+                        // point under it is below each plane).
                         let oc3 = [obj.x[oi], obj.y[oi], obj.z[oi]];
                         let w = [ws.wx[ti], ws.wy[ti], ws.wz[ti]];
                         let x = [w[0] - oc3[0], w[1] - oc3[1], w[2] - oc3[2]];
@@ -1072,29 +1099,24 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
                             } else {
                                 (w, r)
                             };
-                            let cx = [cw[0] - oc3[0], cw[1] - oc3[1], cw[2] - oc3[2]];
-                            let cd2 = cx[0] * cx[0] + cx[1] * cx[1] + cx[2] * cx[2];
-                            if cut.clears(cw, cx, cd2, cr, m) {
+                            if cuts.iter().any(|c| c.clears(cw, cr, m)) {
                                 ws.stats.face_pruned += 1;
                                 continue;
                             }
                         } else if !leaf_pair {
-                            // A tool leaf above the face (at both ends of its path in a swept
+                            // A tool leaf above a face (at both ends of its path in a swept
                             // query, so all along it): one pair for the subtree if the face
                             // comes within the margin, else none.
                             let closest = if SWEPT {
                                 let v = ws.path[ti].disp;
                                 let w1 = [w[0] + v[0], w[1] + v[1], w[2] + v[2]];
-                                let x1 = [x[0] + v[0], x[1] + v[1], x[2] + v[2]];
-                                let d2_1 = x1[0] * x1[0] + x1[1] * x1[1] + x1[2] * x1[2];
-                                match (cut.gap(w, x, d2, r), cut.gap(w1, x1, d2_1, r)) {
-                                    (Some(a), Some(b)) => Some(a.min(b)),
-                                    _ => None,
-                                }
+                                cuts.iter()
+                                    .filter_map(|c| Some(c.gap(w, r)?.min(c.gap(w1, r)?)))
+                                    .reduce(f64::max)
                             } else {
                                 // Tested in f64 as a leaf pair is.
                                 let s = r + obj.r[oi] + m;
-                                cut.gap(w, x, d2, r).map(|g| {
+                                face_gap(cuts, w, r).map(|(g, _)| {
                                     if d2 <= s * s {
                                         g
                                     } else {
@@ -1104,9 +1126,9 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
                             };
                             if let Some(closest) = closest {
                                 if closest <= m {
-                                    if let Some(pair) = leaf_pair_at(ti, oi, w, x, d2) {
+                                    if let Some(go_on) = report(ti, oi, w, d2, visit) {
                                         count += 1;
-                                        if !visit(&pair) {
+                                        if !go_on {
                                             return done(count);
                                         }
                                     }

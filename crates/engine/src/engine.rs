@@ -52,10 +52,12 @@ pub struct EngineConfig {
     /// lists are ready sooner) and differ within the convergence tolerance, or where the
     /// problem has more than one local answer. Default `false`.
     pub helper_thread: bool,
-    /// Face caps: an object leaf whose tree carries a [`spheretree::FaceCap`] stands for its
-    /// sphere cut by the face's half-space, so a tool above a flat face meets the plane, not
-    /// a layer of sphere bumps (docs/DESIGN.md §Face caps). `false` uses whole spheres (the
-    /// paper's trees). Default `true`; trees without caps are unaffected.
+    /// Face caps: an object node whose tree carries [`spheretree::FaceCap`]s stands for its
+    /// sphere cut by a face's half-space where the tool is above the face, so a tool above a
+    /// flat face meets the plane, not a layer of sphere bumps (docs/DESIGN.md §Face caps).
+    /// Default `false` (whole spheres, the paper's trees): on faces broken by concave
+    /// features (the spline hub's slots) the caps' discs leave sphere bumps between them that
+    /// the plane does not see, and the step can rest on the plane where a bump stands.
     pub face_caps: bool,
     /// Device limits applied to every wrench sent.
     pub safety: SafetyParams,
@@ -77,7 +79,7 @@ impl Default for EngineConfig {
             max_pairs: 16_384,
             reduce_rows: true,
             helper_thread: false,
-            face_caps: true,
+            face_caps: false,
             safety: SafetyParams::default(),
         }
     }

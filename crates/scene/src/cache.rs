@@ -8,18 +8,21 @@
 //! format (all integers and numbers little-endian):
 //!
 //! ```text
-//! magic "H6DTREE3" | key length u32 | key bytes | levels u32 | branching u32
+//! magic "H6DTREE4" | key length u32 | key bytes | levels u32 | branching u32
 //! | per slot: x y z r as f64 (mm)
-//! | cap count u32 | per capped slot, by increasing slot: slot u32 | nx ny nz offset reach as f64
+//! | cap count u32 | per cap, by non-decreasing slot: slot u32 | nx ny nz offset cx cy cz reach
+//!   as f64
 //! | content hash u64 = FNV-1a 64 of every byte before it
 //! ```
 //!
-//! The caps are the tree's face caps ([`spheretree::FaceCap`]: unit normal, offset and reach
-//! in mm); a tree without caps stores a count of 0 (and reads back without caps).
+//! The caps are the tree's face caps ([`spheretree::FaceCap`]: unit normal, offset, disc
+//! centre and reach in mm; at most [`spheretree::MAX_CAPS`] per slot); a tree without caps
+//! stores a count of 0 (and reads back without caps).
 //!
 //! A corrupt, truncated, renamed (key mismatch) or edited (content hash mismatch) entry, or one
 //! whose numbers are not finite, whose parents do not contain their children, or whose caps
-//! are invalid ([`spheretree::FaceCap::is_valid`]), off a leaf, repeated or out of order, is
+//! are invalid ([`spheretree::FaceCap::is_valid`]), on an unused slot, repeated, too many for a
+//! slot or out of order, is
 //! rebuilt, never trusted. The hash guards against accidents (a disk error, a hand edit, a copy under
 //! the wrong name), not against someone who recomputes it.
 
@@ -29,13 +32,13 @@ use mesh::TriMesh;
 use spheretree::{FaceCap, Sphere, SphereTree};
 
 /// Version of the cache entry format (the digit in the magic); folded into every key.
-/// 3: face caps after the spheres.
-pub const FORMAT_VERSION: u32 = 3;
+/// 3: face caps after the spheres; 4: several caps per slot, each with its disc's centre.
+pub const FORMAT_VERSION: u32 = 4;
 
-const MAGIC: &[u8; 8] = b"H6DTREE3";
+const MAGIC: &[u8; 8] = b"H6DTREE4";
 
-/// Bytes of one stored cap: slot u32 and five f64.
-const CAP_BYTES: usize = 4 + 5 * 8;
+/// Bytes of one stored cap: slot u32 and eight f64.
+const CAP_BYTES: usize = 4 + 8 * 8;
 
 /// FNV-1a, 64-bit: a stable (toolchain-independent) content hash.
 #[derive(Clone, Copy, Debug)]
@@ -210,7 +213,7 @@ pub fn encode(key: &str, tree: &SphereTree) -> Vec<u8> {
         .caps()
         .iter()
         .enumerate()
-        .filter_map(|(n, c)| c.as_ref().map(|c| (n, c)))
+        .flat_map(|(n, list)| list.iter().map(move |c| (n, c)))
         .collect();
     let mut out = Vec::with_capacity(32 + key.len() + tree.len() * 32 + caps.len() * CAP_BYTES);
     out.extend_from_slice(MAGIC);
@@ -227,7 +230,13 @@ pub fn encode(key: &str, tree: &SphereTree) -> Vec<u8> {
     out.extend_from_slice(&(caps.len() as u32).to_le_bytes());
     for (n, c) in caps {
         out.extend_from_slice(&(n as u32).to_le_bytes());
-        for x in c.normal.into_iter().chain([c.offset, c.reach]) {
+        for x in c
+            .normal
+            .into_iter()
+            .chain([c.offset])
+            .chain(c.center)
+            .chain([c.reach])
+        {
             out.extend_from_slice(&x.to_le_bytes());
         }
     }
@@ -239,7 +248,8 @@ pub fn encode(key: &str, tree: &SphereTree) -> Vec<u8> {
 /// Reads the cache entry for `key`; `None` unless the bytes are a valid entry for that key:
 /// right magic and key, intact content hash, a slot count matching the shape, every number
 /// finite, every used child inside its parent (to `1e-9` of the root radius), and every cap
-/// valid, on a leaf, listed once by increasing slot.
+/// valid, on a used slot, listed once by non-decreasing slot, at most
+/// [`spheretree::MAX_CAPS`] per slot.
 pub fn decode(key: &str, bytes: &[u8]) -> Option<SphereTree> {
     let (content, hash) = bytes.split_at_checked(bytes.len().checked_sub(8)?)?;
     if Fnv64::hash(content) != u64::from_le_bytes(hash.try_into().ok()?) {
@@ -259,7 +269,9 @@ pub fn decode(key: &str, bytes: &[u8]) -> Option<SphereTree> {
     let (body, cap_part) = body.split_at_checked(n.checked_mul(32)?)?;
     let cap_count = u32::from_le_bytes(cap_part.get(0..4)?.try_into().ok()?) as usize;
     let cap_body = cap_part.get(4..)?;
-    if cap_count > n || cap_body.len() != cap_count.checked_mul(CAP_BYTES)? {
+    if cap_count > n.checked_mul(spheretree::MAX_CAPS)?
+        || cap_body.len() != cap_count.checked_mul(CAP_BYTES)?
+    {
         return None;
     }
     let f = |i: usize| f64::from_le_bytes(body[i * 8..i * 8 + 8].try_into().unwrap_or([0; 8]));
@@ -277,7 +289,7 @@ pub fn decode(key: &str, bytes: &[u8]) -> Option<SphereTree> {
     if cap_count == 0 {
         return Some(tree);
     }
-    let mut caps = vec![None; n];
+    let mut caps: Vec<Vec<FaceCap>> = vec![Vec::new(); n];
     let mut last: Option<usize> = None;
     for rec in cap_body.chunks_exact(CAP_BYTES) {
         let slot = u32::from_le_bytes(rec[0..4].try_into().ok()?) as usize;
@@ -286,14 +298,21 @@ pub fn decode(key: &str, bytes: &[u8]) -> Option<SphereTree> {
         let cap = FaceCap {
             normal: [x(0), x(1), x(2)],
             offset: x(3),
-            reach: x(4),
+            center: [x(4), x(5), x(6)],
+            reach: x(7),
         };
-        // One record per slot, in order: a repeated or shuffled list is not what encode wrote.
-        if last.is_some_and(|l| slot <= l) || slot >= n || !cap.is_valid() || !tree.is_leaf(slot) {
+        // Records by slot, each once: a repeated or shuffled list is not what encode wrote.
+        if last.is_some_and(|l| slot < l)
+            || slot >= n
+            || !cap.is_valid()
+            || !tree.sphere(slot).is_used()
+            || caps[slot].contains(&cap)
+            || caps[slot].len() >= spheretree::MAX_CAPS
+        {
             return None;
         }
         last = Some(slot);
-        caps[slot] = Some(cap);
+        caps[slot].push(cap);
     }
     let mut tree = tree;
     tree.set_caps(caps).ok()?;
@@ -317,9 +336,10 @@ mod tests {
         let cap = FaceCap {
             normal: [0.0, 0.6, 0.8],
             offset: 0.25,
+            center: [0.5, 0.2, 0.16],
             reach: 0.5,
         };
-        t.set_caps(vec![None, Some(cap), None]).unwrap();
+        t.set_caps(vec![vec![], vec![cap], vec![]]).unwrap();
         t
     }
 
@@ -351,15 +371,15 @@ mod tests {
     #[test]
     fn bad_caps_are_rejected_even_with_a_valid_hash() {
         let bytes = encode("k", &capped_tree());
-        // The cap record: slot u32 then nx ny nz offset reach, just before the hash.
+        // The cap record: slot u32 then nx ny nz offset cx cy cz reach, just before the hash.
         let rec = bytes.len() - 8 - CAP_BYTES;
         let edit = |at: usize, with: &[u8]| {
             let mut b = bytes.clone();
             b[at..at + with.len()].copy_from_slice(with);
             resealed(b)
         };
-        // On the root (not a leaf), on an unused slot, past the end.
-        for slot in [0u32, 2, 3, 1000] {
+        // On an unused slot, past the end.
+        for slot in [2u32, 3, 1000] {
             assert_eq!(
                 decode("k", &edit(rec, &slot.to_le_bytes())),
                 None,
@@ -369,10 +389,10 @@ mod tests {
         // A normal that is not unit, a NaN offset, a negative reach.
         assert_eq!(decode("k", &edit(rec + 4, &2.0f64.to_le_bytes())), None);
         assert_eq!(decode("k", &edit(rec + 28, &f64::NAN.to_le_bytes())), None);
-        assert_eq!(decode("k", &edit(rec + 36, &(-1.0f64).to_le_bytes())), None);
+        assert_eq!(decode("k", &edit(rec + 60, &(-1.0f64).to_le_bytes())), None);
         // A count that does not match the records.
         let count = rec - 4;
-        for c in [0u32, 2, u32::MAX] {
+        for c in [0u32, 2, 3, u32::MAX] {
             assert_eq!(
                 decode("k", &edit(count, &c.to_le_bytes())),
                 None,

@@ -168,9 +168,9 @@ pub struct SolverSpec {
     /// twice as fast in dense contacts; it spins a core for a few ms after each):
     /// `false` (default) or `true`.
     pub helper_thread: bool,
-    /// Face caps: object leaves on flat faces stand for the face, not their sphere's bulge
-    /// (docs/DESIGN.md §Face caps): `true` (default) or `false` for whole spheres (the
-    /// paper's trees).
+    /// Face caps: object nodes on flat faces stand for the face, not their sphere's bulge
+    /// (docs/DESIGN.md §Face caps): `false` (default: whole spheres, the paper's trees) or
+    /// `true` (the built-in plate scenes).
     pub face_caps: bool,
 }
 
@@ -186,7 +186,7 @@ impl Default for SolverSpec {
             budget_us: 1000.0,
             reduce_rows: true,
             helper_thread: false,
-            face_caps: true,
+            face_caps: false,
         }
     }
 }
@@ -662,7 +662,7 @@ fn tree_for_mesh_with(
             let t1 = Instant::now();
             let caps = spheretree::caps::face_caps(mesh, &tree, &cp);
             // A tree without any cap stays uncapped (it then reads back equal from the cache).
-            if caps.iter().any(Option::is_some) {
+            if caps.iter().any(|c| !c.is_empty()) {
                 tree.set_caps(caps)
                     .map_err(|e| SceneError::caused(label, "face caps rejected", e))?;
             }
@@ -679,7 +679,7 @@ fn tree_for_mesh_with(
         ),
     };
     if with_caps {
-        let capped = tree.caps().iter().flatten().count();
+        let capped = tree.leaves().filter(|&n| !tree.cap(n).is_empty()).count();
         let leaves = tree.leaves().count();
         line += &format!(
             ", {} of {} leaves face-capped",
@@ -874,7 +874,7 @@ mod tests {
         };
         let mut log = Vec::new();
         let built = object_tree_for_mesh(&plate, params, &cache, "plate", &mut log).unwrap();
-        let capped = built.caps().iter().flatten().count();
+        let capped = built.leaves().filter(|&n| !built.cap(n).is_empty()).count();
         assert!(capped > 0);
         assert_eq!(
             built.caps(),

@@ -1,8 +1,9 @@
-//! Face caps of a tree's leaves from its mesh ([`face_caps`]): the leaves on flat faces get
+//! Face caps of a tree's nodes from its mesh ([`face_caps`]): the nodes on flat faces get
 //! the face's plane ([`FaceCap`]), so the face is a plane to the tool instead of a layer of
-//! sphere bumps.
+//! sphere bumps. Inner nodes are capped by the same rule; a cap on an inner node lets its face
+//! stand for its whole subtree (docs/DESIGN.md §Face caps).
 //!
-//! The rule, for a leaf sphere `B(C, R)` (tree frame = mesh frame, mesh units):
+//! The rule, for a node sphere `B(C, R)` (tree frame = mesh frame, mesh units):
 //!
 //! 1. Gather every triangle that meets the closed ball (exact point–triangle distance
 //!    `<= R`, plus a few `flat_tol` so rounding never drops one: gathering more is only
@@ -13,8 +14,10 @@
 //!    that of its largest triangle, and split into single triangles if it drifts from it by
 //!    more than `flat_tol`, so slow curvature cannot chain into a "flat" patch). A facet's
 //!    score is the exact area of its triangles inside the ball (each triangle clipped by the
-//!    disc its plane cuts from the ball). The highest score wins (ties: the lowest facet).
-//! 3. The winner's plane `n . x = d` is kept only if
+//!    disc its plane cuts from the ball). Facets are tried in order of score (ties: the lowest
+//!    facet first); the first [`MAX_CAPS`] accepted by steps 3–4 with a reach above 0 are
+//!    the node's own caps.
+//! 3. A facet's plane `n . x = d` is kept only if
 //!    - it covers at least [`CapParams::min_cover`] of that disc (a face, not one small
 //!      triangle of a tessellated curved surface: a sphere mesh gets no caps),
 //!    - **every** vertex of **every** gathered triangle satisfies `n . v <= d + flat_tol` (all
@@ -31,11 +34,16 @@
 //!    facet: a point above the plane whose foot is in the disc is above the face. The facet
 //!    is the *connected* coplanar patch, a subset of all the mesh's coplanar triangles, so the
 //!    reach is conservative (never larger than the brief's union of all coplanar triangles).
+//!    The disc's centre is stored with the cap (`FaceCap::center`). A cap whose reach is 0 is
+//!    dropped: no tool point is ever above its face.
+//! 5. A node's caps hold for its whole subtree (every sphere inside its sphere meets only
+//!    surface below them); the collision code adds an ancestor's caps to the nodes near its
+//!    disc (`collide::PackedTree::fit_face_cuts`), so they are not repeated here.
 //!
-//! Cost: a uniform grid over the triangles' bounding boxes finds the triangles near each leaf;
-//! leaves run in parallel (rayon). The reach scans the winning facet's boundary edges
-//! (`O(boundary edges)` per capped leaf). The output depends only on the input (no
-//! randomness, per-leaf results in slot order).
+//! Cost: a uniform grid over the triangles' bounding boxes finds the triangles near each node;
+//! nodes run in parallel (rayon). The reach scans the winning facet's boundary edges
+//! (`O(boundary edges)` per capped node). The output depends only on the input (no
+//! randomness, per-node results in slot order).
 
 #![allow(clippy::needless_range_loop)] // per-triangle tables read better indexed
 
@@ -43,11 +51,11 @@ use mesh::vec3::{cross, dot, norm, scale, sub};
 use mesh::TriMesh;
 use rayon::prelude::*;
 
-use crate::{FaceCap, SphereTree};
+use crate::{FaceCap, SphereTree, MAX_CAPS};
 
 /// Version of the face-cap rule: bumped whenever [`face_caps`] gives different caps for the
 /// same input (fold it into any cache key of capped trees).
-pub const CAPS_VERSION: u32 = 1;
+pub const CAPS_VERSION: u32 = 4;
 
 /// Options of [`face_caps`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -83,13 +91,13 @@ impl CapParams {
     }
 }
 
-/// The face caps of `tree`'s leaves from `mesh` (both in the same frame and units): one entry
-/// per slot, `Some` only on leaves that the rule of the module docs accepts, ready for
-/// [`SphereTree::set_caps`]. Deterministic.
-pub fn face_caps(mesh: &TriMesh, tree: &SphereTree, params: &CapParams) -> Vec<Option<FaceCap>> {
+/// The face caps of `tree`'s nodes from `mesh` (both in the same frame and units): one list
+/// per slot, ready for [`SphereTree::set_caps`]: each node's own caps (module docs), best
+/// first, up to [`MAX_CAPS`]. Deterministic.
+pub fn face_caps(mesh: &TriMesh, tree: &SphereTree, params: &CapParams) -> Vec<Vec<FaceCap>> {
     let n = tree.len();
     if mesh.triangles.is_empty() || mesh.vertices.is_empty() {
-        return vec![None; n];
+        return vec![Vec::new(); n];
     }
     let tol = params.flat_tol(mesh);
     let tris = Tris::new(mesh);
@@ -99,17 +107,18 @@ pub fn face_caps(mesh: &TriMesh, tree: &SphereTree, params: &CapParams) -> Vec<O
     (0..n)
         .into_par_iter()
         .map(|slot| {
-            if !tree.is_leaf(slot) {
-                return None;
-            }
             let s = tree.sphere(slot);
-            leaf_cap(&tris, &facets, &grid, s.center, s.radius, tol, params)
+            if !s.is_used() {
+                return Vec::new();
+            }
+            node_caps(&tris, &facets, &grid, s.center, s.radius, tol, params)
         })
         .collect()
 }
 
-/// The cap of one leaf sphere `B(c, r)` (module docs, steps 1–4).
-fn leaf_cap(
+/// The caps of one node sphere `B(c, r)`: every facet the rule accepts (module docs, steps
+/// 1–4) with a reach above 0, most area inside the ball first, at most [`MAX_CAPS`].
+fn node_caps(
     tris: &Tris,
     facets: &Facets,
     grid: &Grid,
@@ -117,16 +126,16 @@ fn leaf_cap(
     r: f64,
     tol: f64,
     params: &CapParams,
-) -> Option<FaceCap> {
+) -> Vec<FaceCap> {
     if r.is_nan() || r <= 0.0 {
-        return None;
+        return Vec::new();
     }
     // 1. Triangles meeting the ball (a little inflated: more is only stricter).
     let reach_r = r + 4.0 * tol;
     let mut near = grid.query(c, reach_r);
     near.retain(|&t| tri_dist2(c, &tris.v[t as usize]) <= reach_r * reach_r);
     if near.is_empty() {
-        return None;
+        return Vec::new();
     }
     // 2. Facet scores: the area of each facet's triangles inside the ball. `near` is sorted,
     // so the sums are in a fixed order.
@@ -138,21 +147,36 @@ fn leaf_cap(
         })
         .collect();
     scores.sort_by_key(|&(f, _)| f);
-    let mut best: Option<(u32, f64)> = None;
-    let mut i = 0;
-    while i < scores.len() {
-        let f = scores[i].0;
-        let mut sum = 0.0;
-        while i < scores.len() && scores[i].0 == f {
-            sum += scores[i].1;
-            i += 1;
-        }
-        // Strictly greater: ties keep the lower facet id.
-        if best.is_none_or(|(_, b)| sum > b) {
-            best = Some((f, sum));
+    let mut sums: Vec<(u32, f64)> = Vec::new();
+    for &(f, a) in &scores {
+        match sums.last_mut() {
+            Some((g, sum)) if *g == f => *sum += a,
+            _ => sums.push((f, a)),
         }
     }
-    let (f, area) = best?;
+    // Most area first; ties keep the lower facet id.
+    sums.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+    sums.iter()
+        .filter_map(|&(f, area)| facet_cap(tris, facets, &near, f, area, c, r, tol, params))
+        .filter(|cap| cap.reach > 0.0)
+        .take(MAX_CAPS)
+        .collect()
+}
+
+/// The cap facet `f` (with `area` inside the ball) gives node sphere `B(c, r)`, if the rule
+/// accepts it (module docs, steps 3–4); `near` are the triangles meeting the ball.
+#[allow(clippy::too_many_arguments)]
+fn facet_cap(
+    tris: &Tris,
+    facets: &Facets,
+    near: &[u32],
+    f: u32,
+    area: f64,
+    c: [f64; 3],
+    r: f64,
+    tol: f64,
+    params: &CapParams,
+) -> Option<FaceCap> {
     let facet = &facets.list[f as usize];
     let nrm = facet.normal;
     // 3. Covers enough of the disc the plane cuts from the ball.
@@ -163,7 +187,7 @@ fn leaf_cap(
     }
     // All the surface in the ball lies below the plane (up to tol, then exactly).
     let mut offset = facet.offset;
-    for &t in &near {
+    for &t in near {
         for v in &tris.v[t as usize] {
             let e = dot(nrm, *v);
             if e > facet.offset + tol {
@@ -196,9 +220,11 @@ fn leaf_cap(
     };
     // A facet without boundary cannot be (a closed surface is not flat); 0 stays safe.
     let reach = if reach.is_finite() { reach } else { 0.0 };
+    let foot_height = dot(nrm, c) - offset;
     Some(FaceCap {
         normal: nrm,
         offset,
+        center: std::array::from_fn(|k| c[k] - foot_height * nrm[k]),
         reach,
     })
 }

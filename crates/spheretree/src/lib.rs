@@ -27,7 +27,7 @@ pub mod eval;
 pub mod sph;
 mod tree;
 
-pub use tree::{slot_count, FaceCap, Sphere, SphereTree};
+pub use tree::{slot_count, FaceCap, Sphere, SphereTree, MAX_CAPS};
 
 /// Errors of this crate.
 #[derive(Debug, thiserror::Error)]

@@ -41,11 +41,12 @@ impl Sphere {
     }
 }
 
-/// A leaf's face cap: the leaf stands for its sphere cut by the half-space
+/// A node's face cap: the node stands for its sphere cut by the half-space
 /// `normal . x <= offset` (tree frame), because every point of the mesh's surface inside the
-/// leaf sphere lies in that half-space (docs/DESIGN.md §Face caps).
+/// node's sphere lies in that half-space (docs/DESIGN.md §Face caps). A node may have up to
+/// [`MAX_CAPS`]; they hold for its whole subtree, and its children carry them too.
 ///
-/// On a flat face this makes the leaf's outer boundary the face itself instead of the sphere's
+/// On a flat face this makes the node's outer boundary the face itself instead of the sphere's
 /// bulge: a tool sliding over the face meets a plane, not a layer of sphere bumps.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FaceCap {
@@ -53,18 +54,22 @@ pub struct FaceCap {
     pub normal: [f64; 3],
     /// The plane's offset `normal . x` (mm, tree frame units); the solid side is below it.
     pub offset: f64,
-    /// Radius (mm) of the disc on the plane, centred at the foot of the leaf sphere's centre,
-    /// that lies inside the mesh's flat face: a point above the plane whose foot falls in this
-    /// disc is above the face itself. `0` when the foot is not on the face.
+    /// Centre of a disc on the face (mm, tree frame; on the plane).
+    pub center: [f64; 3],
+    /// Radius (mm) of that disc, which lies inside the mesh's flat face: a point above the
+    /// plane whose foot falls in it is above the face itself.
     pub reach: f64,
 }
+
+/// Most face caps one node carries.
+pub const MAX_CAPS: usize = 2;
 
 impl FaceCap {
     /// True when the cap is usable: finite numbers, a unit normal (to `1e-9`), `reach >= 0`.
     pub fn is_valid(&self) -> bool {
         let n = self.normal;
         let len2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
-        n.iter().all(|v| v.is_finite())
+        n.iter().chain(&self.center).all(|v| v.is_finite())
             && (len2 - 1.0).abs() <= 2e-9
             && self.offset.is_finite()
             && self.reach.is_finite()
@@ -78,8 +83,8 @@ pub struct SphereTree {
     branching: u32,
     levels: u32,
     spheres: Vec<Sphere>,
-    /// Face caps by slot (empty: none; else one entry per slot).
-    caps: Vec<Option<FaceCap>>,
+    /// Face caps by slot (empty: none; else one list per slot, at most [`MAX_CAPS`] each).
+    caps: Vec<Vec<FaceCap>>,
 }
 
 /// Number of slots in a full tree with `levels` levels and branching `branching`
@@ -135,41 +140,45 @@ impl SphereTree {
         })
     }
 
-    /// The face caps by slot: empty when the tree has none, else one entry per slot.
+    /// The face caps by slot: empty when the tree has none, else one list per slot.
     #[inline]
-    pub fn caps(&self) -> &[Option<FaceCap>] {
+    pub fn caps(&self) -> &[Vec<FaceCap>] {
         &self.caps
     }
 
-    /// The face cap of slot `n`, if any.
+    /// The face caps of slot `n` (empty if none).
     #[inline]
-    pub fn cap(&self, n: usize) -> Option<&FaceCap> {
-        self.caps.get(n).and_then(Option::as_ref)
+    pub fn cap(&self, n: usize) -> &[FaceCap] {
+        self.caps.get(n).map_or(&[], Vec::as_slice)
     }
 
-    /// Sets the face caps (one entry per slot; an empty vector removes them). Errors unless
-    /// every cap is valid ([`FaceCap::is_valid`]) and sits on a used slot. A cap on an inner
-    /// node holds for its whole subtree: all of the surface inside its sphere is below the
-    /// plane.
-    pub fn set_caps(&mut self, caps: Vec<Option<FaceCap>>) -> Result<(), TreeError> {
+    /// Sets the face caps (one list per slot; an empty vector removes them). Errors unless
+    /// every cap is valid ([`FaceCap::is_valid`]), sits on a used slot, and no slot has more
+    /// than [`MAX_CAPS`]. A cap holds for the node's whole subtree: all of the surface inside
+    /// its sphere is below the plane.
+    pub fn set_caps(&mut self, caps: Vec<Vec<FaceCap>>) -> Result<(), TreeError> {
         if !caps.is_empty() && caps.len() != self.spheres.len() {
             return Err(TreeError::SlotCount {
                 expected: self.spheres.len(),
                 found: caps.len(),
             });
         }
-        for (n, cap) in caps.iter().enumerate() {
-            if let Some(cap) = cap {
-                if !cap.is_valid() {
-                    return Err(TreeError::Invalid(format!(
-                        "slot {n} has a bad face cap: {cap:?}"
-                    )));
-                }
-                if !self.spheres[n].is_used() {
-                    return Err(TreeError::Invalid(format!(
-                        "slot {n} has a face cap but is unused"
-                    )));
-                }
+        for (n, list) in caps.iter().enumerate() {
+            if list.len() > MAX_CAPS {
+                return Err(TreeError::Invalid(format!(
+                    "slot {n} has {} face caps (at most {MAX_CAPS})",
+                    list.len()
+                )));
+            }
+            if let Some(cap) = list.iter().find(|c| !c.is_valid()) {
+                return Err(TreeError::Invalid(format!(
+                    "slot {n} has a bad face cap: {cap:?}"
+                )));
+            }
+            if !list.is_empty() && !self.spheres[n].is_used() {
+                return Err(TreeError::Invalid(format!(
+                    "slot {n} has a face cap but is unused"
+                )));
             }
         }
         self.caps = caps;

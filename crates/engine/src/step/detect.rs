@@ -27,8 +27,34 @@ impl GodObject {
         let pairs = &mut self.pairs;
         let dropped = &mut self.dropped;
         let mut min_gap = f64::INFINITY;
+        self.face_stamp = self.face_stamp.wrapping_add(1);
+        if self.face_stamp == 0 {
+            self.face_seen.iter_mut().for_each(|s| *s = (0, 0));
+            self.face_stamp = 1;
+        }
+        let (seen, stamp) = (&mut self.face_seen, self.face_stamp);
         let mut collect = |p: &LeafPair| {
             min_gap = min_gap.min(p.gap);
+            // A tool leaf above a face meets it through every object leaf on it: the rows
+            // would be the same; keep one (the smallest gap, should the offsets differ by
+            // rounding).
+            if p.stands_for_face() {
+                if let Some(mark) = seen.get_mut(p.tool_slot as usize) {
+                    if mark.0 == stamp {
+                        if let Some(kept) = pairs.get_mut(mark.1 as usize) {
+                            if same_face(kept, p) {
+                                if p.gap < kept.gap {
+                                    *kept = *p;
+                                }
+                                return;
+                            }
+                        }
+                    }
+                    if pairs.len() < pairs.capacity() {
+                        *mark = (stamp, pairs.len() as u32);
+                    }
+                }
+            }
             if pairs.len() < pairs.capacity() {
                 pairs.push(*p);
             } else {
@@ -420,5 +446,19 @@ impl GodObject {
         let dt = (b.translation() - a.translation()).norm();
         let th = rotation_angle(&b.rotation_matrix(), &a.rotation_matrix());
         dt + th * self.reach
+    }
+}
+
+/// True when two pairs of the same tool leaf stand for the same face (normals and offsets
+/// equal to 1e-9: one plane met through different object leaves).
+fn same_face(a: &LeafPair, b: &LeafPair) -> bool {
+    match (a.on_face, b.on_face, &a.face, &b.face) {
+        (true, true, Some(f), Some(g)) => {
+            a.tool_slot == b.tool_slot
+                && a.object == b.object
+                && (f.offset - g.offset).abs() <= 1e-9
+                && (0..3).all(|k| (f.normal[k] - g.normal[k]).abs() <= 1e-9)
+        }
+        _ => false,
     }
 }

@@ -272,7 +272,12 @@ pub fn scene(cache: &TreeCache, tool: PlateTool, script: Script) -> Result<Scene
         objects: vec![(plate_tree, Pose::identity())],
         object_meshes: vec![Some(plate)],
         coupling: Coupling::default(),
-        solver: SolverSpec::default(),
+        // The plate's faces are large rectangles: face caps make them planes (docs/DESIGN.md
+        // §Face caps).
+        solver: SolverSpec {
+            face_caps: true,
+            ..SolverSpec::default()
+        },
         safety: SafetyParams::default(),
         start,
         rate_hz: 1000.0,
