@@ -148,7 +148,10 @@ fn frames_with_the_helper_thread_do_not_allocate() {
 fn neighbour_lists_do_not_allocate() {
     use scene::scenes::plate::{self, PlateTool, SpeedMotion};
     let run = plate::speed_script(PlateTool::Puck, SpeedMotion::Slide(50.0), 1000.0, 0.15);
-    let scene = plate::scene(&common::test_cache(), PlateTool::Puck, run.script).unwrap();
+    let mut scene = plate::scene(&common::test_cache(), PlateTool::Puck, run.script).unwrap();
+    // Whole spheres: the dense flat-on-flat contact lists are for (with face caps the puck's
+    // regions are cheap and no list is kept; `face_capped_frames_do_not_allocate`).
+    scene.solver.face_caps = false;
     let traj = scene.trajectory();
     for helper in [false, true] {
         let mut params = scene.engine_config();
@@ -182,5 +185,28 @@ fn neighbour_lists_do_not_allocate() {
             enough,
             "helper {helper}: {filtered} regions filtered from lists, {traversed} traversed"
         );
+    }
+}
+
+/// Face caps (merged pairs, the same face kept once per tool leaf) cost no allocation either:
+/// the puck sliding and the ball at 1 m/s on the face-capped plate, with and without the helper.
+#[test]
+fn face_capped_frames_do_not_allocate() {
+    use scene::scenes::plate::{self, PlateTool, SpeedMotion};
+    for tool in [PlateTool::Puck, PlateTool::Ball] {
+        let run = plate::speed_script(tool, SpeedMotion::Slide(1000.0), 1000.0, 0.15);
+        let mut scene = plate::scene(&common::test_cache(), tool, run.script).unwrap();
+        assert!(scene.solver.face_caps);
+        let traj = scene.trajectory();
+        for helper in [false, true] {
+            scene.solver.helper_thread = helper;
+            let (n, allocs, records) = warm_then_count(&scene, &traj);
+            assert_eq!(n, traj.len());
+            assert_eq!(
+                allocs, 0,
+                "{tool:?}, helper {helper}: {allocs} (de)allocations"
+            );
+            assert!(records.iter().any(|r| r.frame.pairs > 10), "no contact");
+        }
     }
 }

@@ -60,6 +60,9 @@ fn spline_frames_are_the_same_reduced() {
 #[test]
 fn pressed_puck_frames_are_the_same_reduced() {
     let run = plate::speed_script(PlateTool::Puck, SpeedMotion::Slide(200.0), 1000.0, 0.3);
-    let scene = plate::scene(&common::test_cache(), PlateTool::Puck, run.script).unwrap();
+    let mut scene = plate::scene(&common::test_cache(), PlateTool::Puck, run.script).unwrap();
+    // Whole spheres: the dense contact the reduction is for (with face caps the puck's
+    // contact is a few tens of rows of one plane).
+    scene.solver.face_caps = false;
     same_frames(scene);
 }
