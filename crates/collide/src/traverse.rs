@@ -132,6 +132,72 @@ impl FaceCut {
         let room = self.reach - r;
         height - r > margin && lateral2 <= room * room
     }
+
+    /// [`FaceCut::clears`] for a tool node's leaf box (tighter than its ball on flat parts):
+    /// the box's lowest point, over the sweep if any, above the face by more than `margin`
+    /// (mm), and every point's foot in the disc. The box holds every leaf sphere under the
+    /// node, so each of them clears the face.
+    #[inline(always)]
+    pub(crate) fn clears_box(&self, b: &PosedBox, margin: f64) -> bool {
+        let n = self.normal;
+        let dot = |a: &[f64; 3]| n[0] * a[0] + n[1] * a[1] + n[2] * a[2];
+        let depth: f64 = (0..3).map(|k| dot(&b.axes[k]).abs() * b.half[k]).sum();
+        let along = dot(&b.disp);
+        let (height, lateral2) = self.place(b.center);
+        let lowest = height - depth + along.min(0.0) - b.spread;
+        if lowest <= margin {
+            return false;
+        }
+        let d = &b.disp;
+        let h = &b.half;
+        let stray = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt()
+            + (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+            + b.spread;
+        let room = self.reach - stray;
+        room >= 0.0 && lateral2 <= room * room
+    }
+}
+
+/// A tool node's leaf box as posed (and swept) by the workspace, for the face-cut prune: its
+/// world centre, the tool axes in the world, its half-extents (mm), and in a swept query the
+/// centre's displacement and the spread of displacements inside it.
+pub(crate) struct PosedBox {
+    center: [f64; 3],
+    axes: [[f64; 3]; 3],
+    half: [f64; 3],
+    disp: [f64; 3],
+    spread: f64,
+}
+
+#[inline(always)]
+fn posed_box<const SWEPT: bool>(ws: &CollideWorkspace, tool: &PackedTree, n: usize) -> PosedBox {
+    let (ct, half) = (tool.box_center[n], tool.box_half[n]);
+    let r = &ws.rot;
+    let center: [f64; 3] =
+        std::array::from_fn(|i| r[i][0] * ct[0] + r[i][1] * ct[1] + r[i][2] * ct[2] + ws.t[i]);
+    let axes = std::array::from_fn(|k| [r[0][k], r[1][k], r[2][k]]);
+    let (disp, spread) = if SWEPT {
+        let (v, w) = (ws.sweep.translation, ws.sweep.rotation);
+        let x = [center[0] - ws.t[0], center[1] - ws.t[1], center[2] - ws.t[2]];
+        let diag = (half[0] * half[0] + half[1] * half[1] + half[2] * half[2]).sqrt();
+        (
+            [
+                v[0] + w[1] * x[2] - w[2] * x[1],
+                v[1] + w[2] * x[0] - w[0] * x[2],
+                v[2] + w[0] * x[1] - w[1] * x[0],
+            ],
+            ws.sweep_turn * diag,
+        )
+    } else {
+        ([0.0; 3], 0.0)
+    };
+    PosedBox {
+        center,
+        axes,
+        half,
+        disp,
+        spread,
+    }
 }
 
 /// The face that stands for a tool sphere at `w` (radius `r_tool`, mm) against a node with
@@ -1099,7 +1165,11 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
                             } else {
                                 (w, r)
                             };
-                            if cuts.iter().any(|c| c.clears(cw, cr, m)) {
+                            let tool_box = posed_box::<SWEPT>(ws, tool, ti);
+                            if cuts
+                                .iter()
+                                .any(|c| c.clears(cw, cr, m) || c.clears_box(&tool_box, m))
+                            {
                                 ws.stats.face_pruned += 1;
                                 continue;
                             }
