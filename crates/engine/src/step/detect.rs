@@ -371,7 +371,10 @@ impl GodObject {
         let costs = self.list_splits as f64 / life.max(1.0);
         let pays = self.splits_per_region >= LIST_MIN_REGION_SPLITS
             && (self.team.is_some() || costs <= LIST_PAYOFF * spared);
-        if self.pairs.is_empty() || life < LIST_MIN_LIFE_FRAMES || !pays {
+        // A list holds leaf pairs without the faces' merging and pruning: with face caps its
+        // build would cost the whole-sphere traversal the faces spare, so none is kept.
+        let faces = self.objects.iter().any(|o| o.face_cut_count() > 0);
+        if self.pairs.is_empty() || life < LIST_MIN_LIFE_FRAMES || !pays || faces {
             // Free space (the proofs serve), too fast for a list to last, or not worth it.
             self.next_neighbours.cancel();
             return;
