@@ -23,13 +23,6 @@ use crate::traverse::{
 use crate::{CollideError, FaceCut, LeafPair, PackedTree, Pose, Sweep};
 use spheretree::MAX_CAPS;
 
-/// Filler for unused cut slots of a listed pair.
-const NO_FACE: FaceCut = FaceCut {
-    normal: [0.0; 3],
-    offset: 0.0,
-    center: [0.0; 3],
-    reach: 0.0,
-};
 use std::sync::atomic::{AtomicU64, AtomicU8, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -63,8 +56,10 @@ struct Columns {
     oz: Vec<f64>,
     r_tool: Vec<f64>,
     r_object: Vec<f64>,
-    /// The object leaf's face cuts (the first `.1` of `.0`).
-    face: Vec<([FaceCut; MAX_CAPS], u8)>,
+    /// The object node's face cuts: a range of `cuts` (8 bytes a pair, the cuts themselves
+    /// only where there are some).
+    face: Vec<[u32; 2]>,
+    cuts: Vec<FaceCut>,
 }
 
 impl Columns {
@@ -80,6 +75,7 @@ impl Columns {
             r_tool: column(),
             r_object: column(),
             face: Vec::with_capacity(capacity),
+            cuts: Vec::with_capacity(capacity * MAX_CAPS),
         }
     }
 
@@ -110,15 +106,18 @@ impl Columns {
         for (column, v) in self.all().into_iter().zip(values) {
             column.push(v);
         }
-        let mut kept = [NO_FACE; MAX_CAPS];
-        let n = cuts.len().min(MAX_CAPS);
-        kept[..n].copy_from_slice(&cuts[..n]);
-        self.face.push((kept, n as u8));
+        // Within the reserved room (a node carries at most MAX_CAPS cuts of its own, plus
+        // ancestors' near it; past the room the pair keeps its sphere, which is safe).
+        let first = self.cuts.len();
+        let room = self.cuts.capacity() - first;
+        self.cuts.extend_from_slice(&cuts[..cuts.len().min(room)]);
+        self.face.push([first as u32, self.cuts.len() as u32]);
     }
 
     fn clear(&mut self) {
         self.all().into_iter().for_each(Vec::clear);
         self.face.clear();
+        self.cuts.clear();
     }
 }
 
@@ -373,8 +372,12 @@ impl NeighbourList {
             };
             if near {
                 let mut pair = self.pairs[i];
-                let (cuts, n) = &c.face[i];
-                let on_face = face_gap(&cuts[..usize::from(*n)], w, c.r_tool[i]);
+                let [a, b] = c.face[i];
+                let on_face = if a == b {
+                    None
+                } else {
+                    face_gap(&c.cuts[a as usize..b as usize], w, c.r_tool[i])
+                };
                 if sweep.is_none() && on_face.is_some_and(|(g, _)| g > m) {
                     continue;
                 }
@@ -382,7 +385,7 @@ impl NeighbourList {
                     Some((g, _)) => g,
                     None => d2.sqrt() - (c.r_tool[i] + c.r_object[i]),
                 };
-                pair.face = on_face.map(|(_, f)| *f);
+                pair.face = on_face.map(|(_, f)| f.plane());
                 pair.on_face = on_face.is_some();
                 count += 1;
                 if !visit(&pair) {

@@ -31,9 +31,9 @@ pub struct LeafPair {
     /// The gap at the query pose (mm; negative = penetration depth): on the face
     /// (`on_face`), `normal . c - offset - r_tool`, else `|c - o| - (r_tool + r_object)`.
     pub gap: f64,
-    /// The face cut whose half-space the pair stands for (world), if any
-    /// (docs/DESIGN.md §Face caps): the object node lies below `normal . x = offset`.
-    pub face: Option<FaceCut>,
+    /// The face whose half-space the pair stands for (world), if any (docs/DESIGN.md §Face
+    /// caps): the object node lies below `normal . x = offset`.
+    pub face: Option<FacePlane>,
     /// True when the pair stands for `face`'s half-space instead of the object sphere: the
     /// tool centre was on the outer side of the cut's plane, its foot in the cut's disc. Both
     /// stand-ins contain the object node's part of the surface, so either is a safe
@@ -58,7 +58,18 @@ impl LeafPair {
     /// With the tool at `pose`: the point of the tool sphere nearest what the pair stands for
     /// (world, mm), the gap (mm) and the unit normal pointing from the object to the tool.
     pub fn contact_at(&self, pose: &Pose) -> ([f64; 3], f64, [f64; 3]) {
-        let c = pose.rotation_matrix() * Vector3::from(self.p_in_tool) + pose.translation();
+        self.contact_posed(&pose.rotation_matrix(), &pose.translation())
+    }
+
+    /// [`LeafPair::contact_at`] for the pose's rotation matrix and translation (mm), computed
+    /// once for many pairs.
+    #[inline]
+    pub fn contact_posed(
+        &self,
+        rotation: &nalgebra::Matrix3<f64>,
+        translation: &Vector3<f64>,
+    ) -> ([f64; 3], f64, [f64; 3]) {
+        let c = rotation * Vector3::from(self.p_in_tool) + translation;
         let (gap, n) = match (self.on_face, &self.face) {
             (true, Some(f)) => {
                 let n = Vector3::from(f.normal);
@@ -73,6 +84,16 @@ impl LeafPair {
         };
         ((c - n * self.r_tool).into(), gap, n.into())
     }
+}
+
+/// The plane of a face a pair stands for (world): unit outward `normal`, `offset` (mm); the
+/// object is below `normal . x = offset`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FacePlane {
+    /// Unit outward normal.
+    pub normal: [f64; 3],
+    /// The plane's offset `normal . x` (mm).
+    pub offset: f64,
 }
 
 /// A node's face cut in the frame its tree is packed in (world for objects): the half-space
@@ -92,6 +113,15 @@ pub struct FaceCut {
 }
 
 impl FaceCut {
+    /// The cut's plane.
+    #[inline(always)]
+    pub fn plane(&self) -> FacePlane {
+        FacePlane {
+            normal: self.normal,
+            offset: self.offset,
+        }
+    }
+
     /// Height (mm) of the world point `w` above the plane, and the squared distance (mm²) of its
     /// foot from the disc's centre.
     #[inline(always)]
@@ -178,7 +208,11 @@ fn posed_box<const SWEPT: bool>(ws: &CollideWorkspace, tool: &PackedTree, n: usi
     let axes = std::array::from_fn(|k| [r[0][k], r[1][k], r[2][k]]);
     let (disp, spread) = if SWEPT {
         let (v, w) = (ws.sweep.translation, ws.sweep.rotation);
-        let x = [center[0] - ws.t[0], center[1] - ws.t[1], center[2] - ws.t[2]];
+        let x = [
+            center[0] - ws.t[0],
+            center[1] - ws.t[1],
+            center[2] - ws.t[2],
+        ];
         let diag = (half[0] * half[0] + half[1] * half[1] + half[2] * half[2]).sqrt();
         (
             [
@@ -1042,7 +1076,7 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
                 Some((g, _)) => g,
                 None => d2.sqrt() - (tool.r[t] + obj.r[o]),
             },
-            face: on_face.map(|(_, f)| *f),
+            face: on_face.map(|(_, f)| f.plane()),
             on_face: on_face.is_some(),
         }))
     };

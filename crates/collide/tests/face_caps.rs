@@ -425,11 +425,9 @@ fn face_rows_match_finite_differences() {
             o_in_world: [0.0; 3],
             r_object: 1.0,
             gap: 0.0,
-            face: Some(collide::FaceCut {
+            face: Some(collide::FacePlane {
                 normal: n,
                 offset: d,
-                center: [0.0; 3],
-                reach: 1.0,
             }),
             on_face: true,
         };

@@ -200,8 +200,9 @@ impl GodObject {
         self.patch = None;
         // A pair's contact point at q: on the tool sphere, toward what the pair stands for
         // (the object sphere or its face); and its gap.
+        let (rot, t) = (q.rotation_matrix(), q.translation());
         let point = |p: &LeafPair| {
-            let (at, gap, _) = p.contact_at(q);
+            let (at, gap, _) = p.contact_posed(&rot, &t);
             (Vector3::from(at), gap)
         };
         let y = self.rows_solver.multipliers();

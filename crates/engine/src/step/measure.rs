@@ -44,9 +44,10 @@ impl GodObject {
     /// linearization's undershoot, zero at a converged pose; and how many pairs touch (exact
     /// gap at most [`TOUCH_MM`]).
     pub(super) fn gaps_at(&self, q: &Pose, dq: &[f64; 6], n_pairs: usize) -> (f64, f64, u32) {
+        let (rot, t) = (q.rotation_matrix(), q.translation());
         let (mut deepest, mut slack, mut touching) = (0.0f64, 0.0f64, 0u32);
         for (i, p) in self.pairs.iter().enumerate().take(n_pairs) {
-            let gap = p.gap_at(q);
+            let gap = p.contact_posed(&rot, &t).1;
             deepest = deepest.max(-gap);
             touching += u32::from(gap <= TOUCH_MM);
             let row = &self.rows[i];
