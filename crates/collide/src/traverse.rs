@@ -146,7 +146,7 @@ impl FaceCut {
     #[inline(always)]
     pub(crate) fn gap(&self, w: [f64; 3], r_tool: f64) -> Option<f64> {
         let (height, lateral2) = self.place(w);
-        (height >= 0.0 && lateral2 <= self.reach * self.reach).then(|| height - r_tool)
+        (height >= 0.0 && lateral2 <= self.reach * self.reach).then_some(height - r_tool)
     }
 
     /// True when a whole tool node (ball at world centre `w`, radius `r`, mm) is above the

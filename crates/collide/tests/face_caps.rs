@@ -42,8 +42,8 @@ fn plate(seed: u64, inner: bool) -> SphereTree {
             let (i, j) = (bi * 4 + k % 4, bj * 4 + k / 4);
             let x = -HALF + spacing * (i as f64 + 0.5);
             let y = -HALF + spacing * (j as f64 + 0.5);
-            let z = rng.gen_range(-0.3..0.3) * spacing;
-            let r = spacing * rng.gen_range(0.75..1.0);
+            let z = rng.random_range(-0.3..0.3) * spacing;
+            let r = spacing * rng.random_range(0.75..1.0);
             let slot = 1 + 16 + block * 16 + k;
             let foot_to_edge = (HALF - x.abs()).min(HALF - y.abs());
             caps[slot] = vec![FaceCap {
@@ -151,7 +151,7 @@ fn reference_pairs(
             }
         }
     }
-    out.sort_by(|a, b| (a.0, a.1).cmp(&(b.0, b.1)));
+    out.sort_by_key(|a| (a.0, a.1));
     out
 }
 
@@ -164,7 +164,7 @@ fn traversal_pairs(
 ) -> Vec<LeafPair> {
     let mut pairs = Vec::new();
     overlap_tree_trees(tool, q, objects, margin, ws, |p| pairs.push(*p)).unwrap();
-    pairs.sort_by(|a, b| (a.tool_slot, a.object_slot).cmp(&(b.tool_slot, b.object_slot)));
+    pairs.sort_by_key(|a| (a.tool_slot, a.object_slot));
     pairs
 }
 
@@ -184,17 +184,17 @@ fn small_tool(seed: u64) -> SphereTree {
 /// A tool pose over the plate: its origin at `(u, v)` on the face, `h` above it, turned.
 fn pose_over(rng: &mut ChaCha8Rng, extent: f64) -> Pose {
     let p = on_plate(
-        rng.gen_range(-HALF - 2.0..HALF + 2.0),
-        rng.gen_range(-HALF - 2.0..HALF + 2.0),
-        rng.gen_range(-1.0..extent + 1.5),
+        rng.random_range(-HALF - 2.0..HALF + 2.0),
+        rng.random_range(-HALF - 2.0..HALF + 2.0),
+        rng.random_range(-1.0..extent + 1.5),
     );
     Pose::from_array([
         p[0],
         p[1],
         p[2],
-        rng.gen_range(-3.0..3.0),
-        rng.gen_range(-1.5..1.5),
-        rng.gen_range(-3.0..3.0),
+        rng.random_range(-3.0..3.0),
+        rng.random_range(-1.5..1.5),
+        rng.random_range(-3.0..3.0),
     ])
 }
 
@@ -211,7 +211,7 @@ fn traversal_matches_the_reference_rule() {
         let mut ws = CollideWorkspace::for_trees(&tool, &objects);
         for _ in 0..150 {
             let q = pose_over(&mut rng, 3.0);
-            let margin = [0.0, 0.05, 0.5, 2.0][rng.gen_range(0..4)];
+            let margin = [0.0, 0.05, 0.5, 2.0][rng.random_range(0..4)];
             let got = traversal_pairs(&tool, &q, &objects, margin, &mut ws);
             let want = reference_pairs(&tool_tree, &q, &plate, margin);
             let mut uncut = objects[0].clone();
@@ -294,7 +294,7 @@ fn pairs_are_safe_and_complete() {
     let mut near = 0;
     for _ in 0..300 {
         let q = pose_over(&mut rng, 3.0);
-        let margin = [0.0, 0.2, 1.0][rng.gen_range(0..3)];
+        let margin = [0.0, 0.2, 1.0][rng.random_range(0..3)];
         let got = traversal_pairs(&tool, &q, &objects, margin, &mut ws);
         for t in tool_tree.leaves() {
             let ts = tool_tree.sphere(t);
@@ -384,12 +384,12 @@ fn neighbour_lists_filter_cut_leaves_exactly() {
         for _ in 0..20 {
             let mut q = c;
             for k in 0..3 {
-                q.q[k] += rng.gen_range(-0.3..0.3);
+                q.q[k] += rng.random_range(-0.3..0.3);
             }
             for k in 3..6 {
-                q.q[k] += rng.gen_range(-0.02..0.02);
+                q.q[k] += rng.random_range(-0.02..0.02);
             }
-            let margin = rng.gen_range(0.0..0.5);
+            let margin = rng.random_range(0.0..0.5);
             let mut filtered = Vec::new();
             let Some(_) = list.filter(&q, None, margin, |p| {
                 filtered.push(common::pair_key(p));
@@ -420,8 +420,8 @@ fn face_rows_match_finite_differences() {
             object: 0,
             tool_slot: 1,
             object_slot: 2,
-            p_in_tool: std::array::from_fn(|_| rng.gen_range(-3.0..3.0)),
-            r_tool: rng.gen_range(0.1..1.0),
+            p_in_tool: std::array::from_fn(|_| rng.random_range(-3.0..3.0)),
+            r_tool: rng.random_range(0.1..1.0),
             o_in_world: [0.0; 3],
             r_object: 1.0,
             gap: 0.0,
@@ -437,7 +437,7 @@ fn face_rows_match_finite_differences() {
             let (value, grad) = lin.face_value_gradient(&pair.p_in_tool, pair.r_tool, &n, d);
             let exact = pair_constraint_value(form, &q, &pair);
             assert!((value - exact).abs() <= 1e-9 * exact.abs().max(1.0));
-            for k in 0..6 {
+            for (k, &g) in grad.iter().enumerate() {
                 let h = 1e-6;
                 let (mut plus, mut minus) = (q, q);
                 plus.q[k] += h;
@@ -446,9 +446,8 @@ fn face_rows_match_finite_differences() {
                     - pair_constraint_value(form, &minus, &pair))
                     / (2.0 * h);
                 assert!(
-                    (fd - grad[k]).abs() <= 1e-5 * fd.abs().max(1.0),
-                    "{k}: {fd} vs {}",
-                    grad[k]
+                    (fd - g).abs() <= 1e-5 * fd.abs().max(1.0),
+                    "{k}: {fd} vs {g}"
                 );
             }
             // The row goes through the pair (row = J, rhs = J (q_lin - q_h) - C).
@@ -487,7 +486,7 @@ fn inner_cuts_stand_for_their_subtree() {
     let (mut splits_inner, mut splits_leaf) = (0, 0);
     for _ in 0..300 {
         let q = pose_over(&mut rng, 3.0);
-        let margin = [0.0, 0.2, 1.0][rng.gen_range(0..3)];
+        let margin = [0.0, 0.2, 1.0][rng.random_range(0..3)];
         let got = traversal_pairs(&tool, &q, &objects, margin, &mut ws);
         splits_inner += ws.stats().node_pairs_split;
         traversal_pairs(&tool, &q, &leaves_only, margin, &mut ws);
@@ -550,12 +549,12 @@ fn inner_cuts_in_swept_queries() {
     let (mut near, mut settled) = (0, 0);
     for _ in 0..200 {
         let q = pose_over(&mut rng, 3.0);
-        let v: [f64; 3] = std::array::from_fn(|_| rng.gen_range(-2.0..2.0));
+        let v: [f64; 3] = std::array::from_fn(|_| rng.random_range(-2.0..2.0));
         let sweep = collide::Sweep {
             translation: v,
             rotation: [0.0; 3],
         };
-        let margin = [0.0, 0.2][rng.gen_range(0..2)];
+        let margin = [0.0, 0.2][rng.random_range(0..2)];
         let mut got = Vec::new();
         collide::overlap_swept(&tool, &q, &sweep, &objects, margin, &mut ws, |p| {
             got.push(*p)

@@ -39,8 +39,8 @@ fn caps_of(mesh: &TriMesh, tree: &mut SphereTree) -> Vec<Vec<FaceCap>> {
     check_lists(tree, &caps);
     tree.set_caps(caps.clone()).unwrap();
     assert_eq!(tree.caps(), caps.as_slice());
-    for n in 0..tree.len() {
-        assert_eq!(tree.cap(n), caps[n].as_slice());
+    for (n, list) in caps.iter().enumerate() {
+        assert_eq!(tree.cap(n), list.as_slice());
     }
     caps
 }
