@@ -255,19 +255,7 @@ impl Linearization {
                 }
             }
         };
-        let g = dir * scale;
-        let m = rp.cross(&g);
-        (
-            value,
-            [
-                g.x,
-                g.y,
-                g.z,
-                self.axes[0].dot(&m),
-                self.axes[1].dot(&m),
-                self.axes[2].dot(&m),
-            ],
-        )
+        (value, self.gradient(&rp, &(dir * scale)))
     }
 
     /// `C(q_lin)` and `J = dC/dq (q_lin)` for a tool sphere (`p_in_tool`, `r_tool`; mm) and a
@@ -294,19 +282,22 @@ impl Linearization {
             ConstraintForm::Squared => 2.0 * r_tool,
             ConstraintForm::Distance => 1.0,
         };
-        let g = n * scale;
-        let m = rp.cross(&g);
-        (
-            scale * gap,
-            [
-                g.x,
-                g.y,
-                g.z,
-                self.axes[0].dot(&m),
-                self.axes[1].dot(&m),
-                self.axes[2].dot(&m),
-            ],
-        )
+        (scale * gap, self.gradient(&rp, &(n * scale)))
+    }
+
+    /// The 1×6 gradient of a constraint whose derivative with respect to the tool point
+    /// `R p + t` is `g`, with `rp = R p` (mm): `[g, axes_k . (rp x g)]`.
+    #[inline]
+    fn gradient(&self, rp: &Vector3<f64>, g: &Vector3<f64>) -> [f64; 6] {
+        let m = rp.cross(g);
+        [
+            g.x,
+            g.y,
+            g.z,
+            self.axes[0].dot(&m),
+            self.axes[1].dot(&m),
+            self.axes[2].dot(&m),
+        ]
     }
 
     fn fallback_direction(&self, o: &Vector3<f64>) -> Vector3<f64> {

@@ -15,6 +15,10 @@
 //! - [`NeighbourList`]: every leaf pair within a wide margin of a pose, filtered instead of
 //!   traversed while later queries stay inside its cover (exactly the traversal's pairs);
 //!   [`BackgroundList`] builds the next one in slices, or on a [`TraversalTeam`]'s helper.
+//! - Face cuts ([`FaceCut`], from a tree's [`spheretree::FaceCap`]s): above a flat face a pair
+//!   stands for the face's half-space ([`LeafPair::on_face`], [`FacePlane`]), exact and without
+//!   sphere bumps; a cut inner node's face stands for its subtree
+//!   ([`PackedTree::fit_face_cuts`], docs/DESIGN.md §Face caps).
 //! - [`ConstraintForm`], [`Linearization`], [`fill_constraints`]: rows `J dq >= d`.
 //!
 //! ```

@@ -168,6 +168,18 @@ fn traversal_pairs(
     pairs
 }
 
+/// True when `leaf` is `slot` or lies under it in `tree`.
+fn is_under(tree: &SphereTree, slot: usize, leaf: usize) -> bool {
+    let mut n = Some(leaf);
+    while let Some(k) = n {
+        if k == slot {
+            return true;
+        }
+        n = tree.parent(k);
+    }
+    false
+}
+
 fn small_tool(seed: u64) -> SphereTree {
     random_tree(
         seed,
@@ -472,16 +484,7 @@ fn inner_cuts_stand_for_their_subtree() {
     let tool_tree = small_tool(13);
     let tool = PackedTree::new(&tool_tree).unwrap();
     let mut ws = CollideWorkspace::for_trees(&tool, &objects);
-    let under = |slot: usize, leaf: usize| {
-        let mut n = Some(leaf);
-        while let Some(k) = n {
-            if k == slot {
-                return true;
-            }
-            n = flat.parent(k);
-        }
-        false
-    };
+    let under = |slot: usize, leaf: usize| is_under(&flat, slot, leaf);
     let (mut collapsed, mut near) = (0, 0);
     let (mut splits_inner, mut splits_leaf) = (0, 0);
     for _ in 0..300 {
@@ -536,16 +539,7 @@ fn inner_cuts_in_swept_queries() {
     let tool_tree = small_tool(17);
     let tool = PackedTree::new(&tool_tree).unwrap();
     let mut ws = CollideWorkspace::for_trees(&tool, &objects);
-    let under = |slot: usize, leaf: usize| {
-        let mut n = Some(leaf);
-        while let Some(k) = n {
-            if k == slot {
-                return true;
-            }
-            n = flat.parent(k);
-        }
-        false
-    };
+    let under = |slot: usize, leaf: usize| is_under(&flat, slot, leaf);
     let (mut near, mut settled) = (0, 0);
     for _ in 0..200 {
         let q = pose_over(&mut rng, 3.0);
