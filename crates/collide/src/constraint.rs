@@ -30,7 +30,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::{CollideError, LeafPair, Pose};
+use crate::{CollideError, FacePlane, LeafPair, Pose, StandIn};
 
 /// Which constraint function the rows linearize (see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -285,6 +285,32 @@ impl Linearization {
         (scale * gap, self.gradient(&rp, &(n * scale)))
     }
 
+    /// `C(q_lin)` and `J` for a pair that stands for a lens (the object sphere cut by the face's
+    /// plane, [`StandIn::Lens`]): the row of the plane tangent to the lens at its point nearest
+    /// the tool sphere's centre ([`Linearization::face_value_gradient`] with that plane), whose
+    /// value and gradient are the distance's at `q_lin` (the distance to a convex set is
+    /// differentiable outside it, its gradient the unit direction from the nearest point).
+    ///
+    /// # Real-time
+    /// No allocation, no panic, constant time.
+    #[inline]
+    pub fn lens_value_gradient(&self, pair: &LeafPair, face: &FacePlane) -> (f64, [f64; 6]) {
+        let c = self.rot * Vector3::from(pair.p_in_tool) + self.t;
+        match face.lens_distance(pair.o_in_world, pair.r_object, c.into()) {
+            Some((d, n)) => {
+                let n = Vector3::from(n);
+                // The tangent plane `n . x = n . c - d` passes through the nearest point.
+                self.face_value_gradient(&pair.p_in_tool, pair.r_tool, &n.into(), n.dot(&c) - d)
+            }
+            None => self.value_gradient(
+                &pair.p_in_tool,
+                pair.r_tool,
+                &pair.o_in_world,
+                pair.r_object,
+            ),
+        }
+    }
+
     /// The 1×6 gradient of a constraint whose derivative with respect to the tool point
     /// `R p + t` is `g`, with `rp = R p` (mm): `[g, axes_k . (rp x g)]`.
     #[inline]
@@ -316,11 +342,12 @@ impl Linearization {
     /// No allocation, no panic, constant time.
     #[inline]
     pub fn row(&self, pair: &LeafPair) -> ([f64; 6], f64) {
-        let (c, j) = match (pair.on_face, &pair.face) {
-            (true, Some(f)) => {
+        let (c, j) = match pair.stand_in() {
+            StandIn::HalfSpace(f) => {
                 self.face_value_gradient(&pair.p_in_tool, pair.r_tool, &f.normal, f.offset)
             }
-            _ => self.value_gradient(
+            StandIn::Lens(f) => self.lens_value_gradient(pair, &f),
+            StandIn::Sphere => self.value_gradient(
                 &pair.p_in_tool,
                 pair.r_tool,
                 &pair.o_in_world,
@@ -355,7 +382,8 @@ pub fn constraint_value(
 /// sphere's ([`constraint_value`]) or, on a face ([`LeafPair::on_face`]), its face's
 /// ([`Linearization::face_value_gradient`]).
 pub fn pair_constraint_value(form: ConstraintForm, pose: &Pose, pair: &LeafPair) -> f64 {
-    if pair.stands_for_face() {
+    if pair.face.is_some() {
+        // A half-space or a lens: the distance form's gap, scaled as the face rows are.
         let gap = pair.gap_at(pose);
         match form {
             ConstraintForm::Squared => 2.0 * pair.r_tool * gap,

@@ -17,8 +17,8 @@
 //!   [`BackgroundList`] builds the next one in slices, or on a [`TraversalTeam`]'s helper.
 //! - Face cuts ([`FaceCut`], from a tree's [`spheretree::FaceCap`]s): above a flat face a pair
 //!   stands for the face's half-space ([`LeafPair::on_face`], [`FacePlane`]), exact and without
-//!   sphere bumps; a cut inner node's face stands for its subtree
-//!   ([`PackedTree::fit_face_cuts`], docs/DESIGN.md §Face caps).
+//!   sphere bumps; elsewhere a cut leaf stands for its sphere cut by the plane (the lens,
+//!   [`StandIn`]); a cut inner node's face stands for its subtree (docs/DESIGN.md §Face caps).
 //! - [`ConstraintForm`], [`Linearization`], [`fill_constraints`]: rows `J dq >= d`.
 //!
 //! ```
@@ -60,14 +60,14 @@ pub use constraint::{
     RotationCoordinates, DEGENERATE_DISTANCE,
 };
 pub use neighbours::{BackgroundList, ListStatus, NeighbourList};
-pub use packed::{PackedTree, FACE_CUT_SLACK_MM};
+pub use packed::PackedTree;
 pub use pose::{rotation_exp, rotation_log, rotation_zyx, rotation_zyx_partials, Pose};
 pub use probe::{FreeSpaceProbe, ProbeStatus};
 pub use team::{overlap_shared, SharedTraversal, TraversalTeam, SHARE_MIN_PAIRS, SPIN_WINDOW};
 pub use traverse::{
     any_pair_within, any_pair_within_until, collect_pairs, overlap_swept, overlap_tree_tree,
-    overlap_tree_trees, overlap_until, CollideWorkspace, FaceCut, FacePlane, LeafPair, Sweep,
-    Traversal, TraversalStats,
+    overlap_tree_trees, overlap_until, CollideWorkspace, FaceCut, FacePlane, LeafPair, StandIn,
+    Sweep, Traversal, TraversalStats,
 };
 
 /// Errors of this crate.

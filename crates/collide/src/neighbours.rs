@@ -18,10 +18,9 @@
 use crate::probe::lock_by;
 use crate::team::{self, JobState, TraversalTeam};
 use crate::traverse::{
-    arc_allowance, clean_margin, descend_as_queried, face_gap, segment_dist2, CollideWorkspace,
+    arc_allowance, clean_margin, descend_as_queried, leaf_stand_in, segment_dist2, CollideWorkspace,
 };
 use crate::{CollideError, FaceCut, LeafPair, PackedTree, Pose, Sweep};
-use spheretree::MAX_CAPS;
 
 use std::sync::atomic::{AtomicU64, AtomicU8, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
@@ -63,7 +62,8 @@ struct Columns {
 }
 
 impl Columns {
-    fn with_capacity(capacity: usize) -> Self {
+    /// Room for `capacity` pairs and `cuts` face cuts.
+    fn with_capacity(capacity: usize, cuts: usize) -> Self {
         let column = || Vec::with_capacity(capacity);
         Self {
             px: column(),
@@ -75,7 +75,7 @@ impl Columns {
             r_tool: column(),
             r_object: column(),
             face: Vec::with_capacity(capacity),
-            cuts: Vec::with_capacity(capacity * MAX_CAPS),
+            cuts: Vec::with_capacity(cuts),
         }
     }
 
@@ -106,12 +106,16 @@ impl Columns {
         for (column, v) in self.all().into_iter().zip(values) {
             column.push(v);
         }
-        // Within the reserved room (a node carries at most MAX_CAPS cuts of its own, plus
-        // ancestors' near it; past the room the pair keeps its sphere, which is safe).
+        // Within the reserved room (the caller checks `has_room`).
         let first = self.cuts.len();
         let room = self.cuts.capacity() - first;
         self.cuts.extend_from_slice(&cuts[..cuts.len().min(room)]);
         self.face.push([first as u32, self.cuts.len() as u32]);
+    }
+
+    /// True when `n` more cuts fit in the reserved room.
+    fn has_room(&self, n: usize) -> bool {
+        self.cuts.capacity() - self.cuts.len() >= n
     }
 
     fn clear(&mut self) {
@@ -150,6 +154,7 @@ impl NeighbourList {
     /// (allocates; not real-time).
     pub fn for_trees(tool: &PackedTree, objects: &[PackedTree], capacity: usize) -> Self {
         let leaf_radius = tool.leaves().map(|n| tool.radius(n)).fold(0.0, f64::max);
+        let cuts_per_pair = objects.iter().map(|o| o.max_leaf_cuts()).max().unwrap_or(0);
         Self {
             ws: {
                 let mut ws = CollideWorkspace::for_trees(tool, objects);
@@ -162,7 +167,9 @@ impl NeighbourList {
             object: 0,
             resume: false,
             pairs: Vec::with_capacity(capacity),
-            columns: Columns::with_capacity(capacity),
+            // A leaf carries its own cuts and its ancestors' crossing it; room for a typical
+            // share (a list whose cuts do not fit overflows, as one with too many pairs).
+            columns: Columns::with_capacity(capacity, capacity * cuts_per_pair),
             reach: tool.reach(),
             leaf_radius,
         }
@@ -221,12 +228,15 @@ impl NeighbourList {
                 let mut left = slice;
                 let (pairs, ws, columns) = (&mut self.pairs, &mut self.ws, &mut self.columns);
                 let mut keep = |p: &LeafPair| {
-                    if pairs.len() >= capacity {
+                    let cuts = o.cuts_of_slot(p.object_slot as usize);
+                    // A pair whose cuts do not fit would stand for a larger stand-in than the
+                    // traversal's: the list overflows instead.
+                    if pairs.len() >= capacity || !columns.has_room(cuts.len()) {
                         overflow = true;
                         return false;
                     }
                     pairs.push(*p);
-                    columns.push(p, o.cuts_of_slot(p.object_slot as usize));
+                    columns.push(p, cuts);
                     true
                 };
                 let d = descend_as_queried(
@@ -373,20 +383,15 @@ impl NeighbourList {
             if near {
                 let mut pair = self.pairs[i];
                 let [a, b] = c.face[i];
-                let on_face = if a == b {
-                    None
-                } else {
-                    face_gap(&c.cuts[a as usize..b as usize], w, c.r_tool[i])
-                };
-                if sweep.is_none() && on_face.is_some_and(|(g, _)| g > m) {
+                let cuts = c.cuts.get(a as usize..b as usize).unwrap_or(&[]);
+                let (gap, face, on_face) =
+                    leaf_stand_in(cuts, pair.o_in_world, c.r_object[i], w, c.r_tool[i], d2);
+                if sweep.is_none() && face.is_some() && gap > m {
                     continue;
                 }
-                pair.gap = match on_face {
-                    Some((g, _)) => g,
-                    None => d2.sqrt() - (c.r_tool[i] + c.r_object[i]),
-                };
-                pair.face = on_face.map(|(_, f)| f.plane());
-                pair.on_face = on_face.is_some();
+                pair.gap = gap;
+                pair.face = face;
+                pair.on_face = on_face;
                 count += 1;
                 if !visit(&pair) {
                     break;

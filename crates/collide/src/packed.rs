@@ -36,10 +36,6 @@ pub(crate) fn round_up(v: f64) -> f32 {
     }
 }
 
-/// The default of [`PackedTree::fit_face_cuts`] (mm): tool spheres up to 2 mm within margins
-/// up to 4 mm.
-pub const FACE_CUT_SLACK_MM: f64 = 6.0;
-
 /// `node_of_slot` of an unused slot.
 const NO_NODE: u32 = u32::MAX;
 
@@ -88,8 +84,8 @@ pub struct PackedTree {
     /// The cuts `cut_of` points into (a range per node); 8 bytes per node keep the hot loop's
     /// lookups in cache.
     pub(crate) cut_list: Vec<FaceCut>,
-    /// Each node's own cuts (from its tree's caps), by the same scheme; the node's cuts in use
-    /// (`cut_of`) add its ancestors' that can matter near it ([`PackedTree::fit_face_cuts`]).
+    /// Each node's own cuts (from its tree's caps), by the same scheme; a leaf's cuts in use
+    /// (`cut_of`) add its ancestors' whose planes cross it ([`PackedTree::fit_face_cuts`]).
     own_cut_of: Vec<[u32; 2]>,
     own_cuts: Vec<FaceCut>,
     /// The packed node of every used slot of the original tree (`u32::MAX` for unused ones),
@@ -172,7 +168,7 @@ impl PackedTree {
         packed.compute_single();
         packed.own_cut_of = std::mem::take(&mut packed.cut_of);
         packed.own_cuts = std::mem::take(&mut packed.cut_list);
-        packed.fit_face_cuts(FACE_CUT_SLACK_MM);
+        packed.fit_face_cuts();
         Ok(packed)
     }
 
@@ -310,14 +306,14 @@ impl PackedTree {
         self.node_of_slot = Vec::new();
     }
 
-    /// Sets each node's cuts in use: its own, then every ancestor's whose disc comes within
-    /// `slack` (mm) plus the node's radius of the foot of its centre (laterally), without
-    /// repeats. A tool sphere of radius `r` within a margin `m` of the node, above an
-    /// ancestor's disc, then finds that cut here too when `r + m <= slack`: the node decides
-    /// it as the ancestor's merged pair does (with the same face, or a higher one), so a
-    /// descent that stops at the ancestor and one that reaches the node (a neighbour list)
-    /// agree. [`PackedTree::with_pose`] uses [`FACE_CUT_SLACK_MM`].
-    pub fn fit_face_cuts(&mut self, slack: f64) {
+    /// Sets each node's cuts in use: an inner node's own (its face stands for its subtree when a
+    /// tool leaf is above its disc); a leaf's own, then every ancestor's whose plane crosses
+    /// the leaf's ball, without repeats. The leaf's sphere lies inside each ancestor's (trees
+    /// keep parents around children), so the ancestor's rule (all surface in its ball below the
+    /// plane) holds for the leaf: the plane trims the leaf's lens. The lens then lies inside
+    /// every half-space a merged pair above it can stand for, so a pose proven free against one
+    /// is free against the other (docs/DESIGN.md §Face caps).
+    fn fit_face_cuts(&mut self) {
         self.cut_of = Vec::new();
         self.cut_list = Vec::new();
         if self.own_cut_of.is_empty() {
@@ -337,17 +333,18 @@ impl PackedTree {
             mine.clear();
             let [a, b] = self.own_cut_of[node];
             mine.extend_from_slice(&self.own_cuts[a as usize..b as usize]);
-            if let Some(&p) = parent.get(node).filter(|&&p| p != u32::MAX) {
-                let [a, b] = cut_of[p as usize];
+            if self.child_count[node] == 0 {
                 let c = [self.x[node], self.y[node], self.z[node]];
-                let room = self.r[node] + slack.max(0.0);
-                for k in a as usize..b as usize {
-                    let cut = list[k];
-                    let (_, lateral2) = cut.place(c);
-                    let near = lateral2 <= (cut.reach + room).powi(2);
-                    if near && !mine.contains(&cut) {
-                        mine.push(cut);
+                let mut up = parent[node];
+                while up != u32::MAX {
+                    let [a, b] = self.own_cut_of[up as usize];
+                    for cut in &self.own_cuts[a as usize..b as usize] {
+                        let crosses = cut.place(c).0.abs() < self.r[node];
+                        if crosses && !mine.contains(cut) {
+                            mine.push(*cut);
+                        }
                     }
+                    up = parent[up as usize];
                 }
             }
             let first = list.len() as u32;
@@ -356,6 +353,15 @@ impl PackedTree {
         }
         self.cut_of = cut_of;
         self.cut_list = list;
+    }
+
+    /// Most cuts a leaf carries (its own and its ancestors' crossing it).
+    pub(crate) fn max_leaf_cuts(&self) -> usize {
+        (0..self.len())
+            .filter(|&n| self.child_count[n] == 0)
+            .map(|n| self.cuts(n).len())
+            .max()
+            .unwrap_or(0)
     }
 
     /// The face cuts of node `n` (the traversal's lookup).

@@ -31,14 +31,26 @@ pub struct LeafPair {
     /// The gap at the query pose (mm; negative = penetration depth): on the face
     /// (`on_face`), `normal . c - offset - r_tool`, else `|c - o| - (r_tool + r_object)`.
     pub gap: f64,
-    /// The face whose half-space the pair stands for (world), if any (docs/DESIGN.md §Face
-    /// caps): the object node lies below `normal . x = offset`.
+    /// The face cut of the pair, if any (docs/DESIGN.md §Face caps): the object node lies below
+    /// `normal . x <= offset`. With [`LeafPair::on_face`] the pair stands for the face's
+    /// half-space; without, for the *lens* `B ∩ H` (the object sphere cut by the plane).
     pub face: Option<FacePlane>,
-    /// True when the pair stands for `face`'s half-space instead of the object sphere: the
-    /// tool centre was on the outer side of the cut's plane, its foot in the cut's disc. Both
-    /// stand-ins contain the object node's part of the surface, so either is a safe
-    /// constraint; the half-space is exact above the face (no sphere bump).
+    /// True when the pair stands for `face`'s half-space: the tool centre was on the outer side
+    /// of the cut's plane, its foot in the cut's disc (on the face). Every stand-in (sphere,
+    /// lens, half-space) contains the object node's part of the surface, so each gives a safe
+    /// constraint; the half-space and the lens are exact above the face (no sphere bump).
     pub on_face: bool,
+}
+
+/// What a leaf pair stands for on the object's side ([`LeafPair::stand_in`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StandIn {
+    /// The object sphere.
+    Sphere,
+    /// The face's half-space (the tool above the face).
+    HalfSpace(FacePlane),
+    /// The object sphere cut by the face's plane (`B ∩ H`, convex).
+    Lens(FacePlane),
 }
 
 impl LeafPair {
@@ -48,8 +60,18 @@ impl LeafPair {
         self.on_face && self.face.is_some()
     }
 
+    /// What the pair stands for.
+    #[inline]
+    pub fn stand_in(&self) -> StandIn {
+        match (self.on_face, self.face) {
+            (true, Some(f)) => StandIn::HalfSpace(f),
+            (false, Some(f)) => StandIn::Lens(f),
+            _ => StandIn::Sphere,
+        }
+    }
+
     /// The pair's gap (mm) with the tool at `pose`: the tool sphere against what the pair
-    /// stands for (the face's half-space or the object sphere).
+    /// stands for (the face's half-space, the lens or the object sphere).
     #[inline]
     pub fn gap_at(&self, pose: &Pose) -> f64 {
         self.contact_at(pose).1
@@ -70,17 +92,22 @@ impl LeafPair {
         translation: &Vector3<f64>,
     ) -> ([f64; 3], f64, [f64; 3]) {
         let c = rotation * Vector3::from(self.p_in_tool) + translation;
-        let (gap, n) = match (self.on_face, &self.face) {
-            (true, Some(f)) => {
+        let sphere = || {
+            let u = c - Vector3::from(self.o_in_world);
+            let d = u.norm();
+            let n = if d > 0.0 { u / d } else { Vector3::z() };
+            (d - (self.r_tool + self.r_object), n)
+        };
+        let (gap, n) = match self.stand_in() {
+            StandIn::HalfSpace(f) => {
                 let n = Vector3::from(f.normal);
                 (n.dot(&c) - f.offset - self.r_tool, n)
             }
-            _ => {
-                let u = c - Vector3::from(self.o_in_world);
-                let d = u.norm();
-                let n = if d > 0.0 { u / d } else { Vector3::z() };
-                (d - (self.r_tool + self.r_object), n)
-            }
+            StandIn::Lens(f) => match f.lens_distance(self.o_in_world, self.r_object, c.into()) {
+                Some((d, n)) => (d - self.r_tool, Vector3::from(n)),
+                None => sphere(),
+            },
+            StandIn::Sphere => sphere(),
         };
         ((c - n * self.r_tool).into(), gap, n.into())
     }
@@ -94,6 +121,62 @@ pub struct FacePlane {
     pub normal: [f64; 3],
     /// The plane's offset `normal . x` (mm).
     pub offset: f64,
+}
+
+impl FacePlane {
+    /// Signed distance (mm) from the world point `w` to the lens `B(o, r) ∩ H` (the ball cut by
+    /// this plane), with the unit direction from the lens's nearest point to `w` (the
+    /// distance's gradient; inside, the normal of the nearer boundary). `None` when the plane
+    /// misses the ball's interior (`|n . o - offset| >= r`): the lens is then the ball or
+    /// empty.
+    ///
+    /// Outside, the nearest point is one of: the ball's radial projection (if below the
+    /// plane), the plane's foot (if in the ball), or the rim circle; each lies in the lens and
+    /// the true projection is among them, so the least of their distances is exact.
+    #[inline]
+    pub fn lens_distance(&self, o: [f64; 3], r: f64, w: [f64; 3]) -> Option<(f64, [f64; 3])> {
+        let n = Vector3::from(self.normal);
+        let (o, w) = (Vector3::from(o), Vector3::from(w));
+        let h_o = n.dot(&o) - self.offset;
+        // (NaN fails too.)
+        if h_o.abs() >= r || h_o.is_nan() {
+            return None;
+        }
+        let h = n.dot(&w) - self.offset;
+        let q = w - o;
+        let dq = q.norm();
+        let radial = if dq > 0.0 { q / dq } else { n };
+        let sd_ball = dq - r;
+        if h <= 0.0 && sd_ball <= 0.0 {
+            // Inside both: the nearer boundary (the intersection's signed distance).
+            return Some(if h >= sd_ball {
+                (h, self.normal)
+            } else {
+                (sd_ball, radial.into())
+            });
+        }
+        // The rim circle: centre on the plane under `o`, radius `rho`.
+        let rho = (r * r - h_o * h_o).max(0.0).sqrt();
+        let u = q - n * (h - h_o); // w's offset from the rim's centre, along the plane
+        let l = u.norm();
+        let along = if l > 0.0 {
+            u / l
+        } else {
+            radial - n * n.dot(&radial)
+        };
+        let to_rim = u - along * rho + n * h; // w minus its nearest rim point
+        let mut best = (to_rim.norm(), to_rim);
+        if h > 0.0 && l <= rho {
+            // The foot lies on the flat disc.
+            best = (h, n * h);
+        }
+        if sd_ball > 0.0 && n.dot(&(o + radial * r)) - self.offset <= 0.0 && sd_ball < best.0 {
+            best = (sd_ball, radial * sd_ball);
+        }
+        let (d, v) = best;
+        let dir = if d > 0.0 { v / d } else { n };
+        Some((d, dir.into()))
+    }
 }
 
 /// A node's face cut in the frame its tree is packed in (world for objects): the half-space
@@ -248,6 +331,53 @@ pub(crate) fn face_gap(cuts: &[FaceCut], w: [f64; 3], r_tool: f64) -> Option<(f6
         }
     }
     best
+}
+
+/// What a leaf pair stands for, decided at the query pose for a tool sphere at world centre
+/// `w` (radius `r_tool`) and an object leaf `B(o, r_object)` with `cuts`, `d2 = |w - o|^2`
+/// (mm): its gap, its cut's plane and whether it stands for the half-space.
+///
+/// Above a cut's disc the face's half-space (the highest such cut, [`face_gap`]); else, of the
+/// cuts whose plane crosses the ball, the lens `B ∩ H` farthest from the tool (every lens holds
+/// the node's surface, so the farthest is the tightest safe one; its gap is at least the
+/// sphere's); else the sphere. A lens depends only on the pose, not on where a region was
+/// detected: a pose proven free against a face's half-space is free against the lenses of the
+/// face's nodes too, so a later region never finds the accepted pose inside a bump.
+#[inline(always)]
+pub(crate) fn leaf_stand_in(
+    cuts: &[FaceCut],
+    o: [f64; 3],
+    r_object: f64,
+    w: [f64; 3],
+    r_tool: f64,
+    d2: f64,
+) -> (f64, Option<FacePlane>, bool) {
+    if cuts.is_empty() {
+        return (d2.sqrt() - (r_tool + r_object), None, false);
+    }
+    if let Some((g, cut)) = face_gap(cuts, w, r_tool) {
+        return (g, Some(cut.plane()), true);
+    }
+    let mut best: Option<(f64, FacePlane)> = None;
+    for (k, cut) in cuts.iter().enumerate() {
+        let plane = cut.plane();
+        // Ancestors' cuts repeat a plane with other discs: one lens per plane.
+        if cuts[..k]
+            .iter()
+            .any(|c| c.normal == cut.normal && c.offset == cut.offset)
+        {
+            continue;
+        }
+        if let Some((d, _)) = plane.lens_distance(o, r_object, w) {
+            if best.is_none_or(|(b, _)| d > b) {
+                best = Some((d, plane));
+            }
+        }
+    }
+    match best {
+        Some((d, plane)) => (d - r_tool, Some(plane), false),
+        None => (d2.sqrt() - (r_tool + r_object), None, false),
+    }
 }
 
 /// Caller-owned scratch memory for the traversal: the descent stack and a cache of posed tool
@@ -1060,8 +1190,9 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
     // test passed).
     // Returns None when the pair is not reported, else what `visit` returned.
     let report = |t: usize, o: usize, w: [f64; 3], d2: f64, visit: &mut F| {
-        let on_face = face_gap(obj.cuts(o), w, tool.r[t]);
-        if drop_far_faces && on_face.is_some_and(|(g, _)| g > m) {
+        let oc = [obj.x[o], obj.y[o], obj.z[o]];
+        let (gap, face, on_face) = leaf_stand_in(obj.cuts(o), oc, obj.r[o], w, tool.r[t], d2);
+        if drop_far_faces && face.is_some() && gap > m {
             return None;
         }
         Some(visit(&LeafPair {
@@ -1070,14 +1201,11 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
             object_slot: obj.slot[o],
             p_in_tool: [tool.x[t], tool.y[t], tool.z[t]],
             r_tool: tool.r[t],
-            o_in_world: [obj.x[o], obj.y[o], obj.z[o]],
+            o_in_world: oc,
             r_object: obj.r[o],
-            gap: match on_face {
-                Some((g, _)) => g,
-                None => d2.sqrt() - (tool.r[t] + obj.r[o]),
-            },
-            face: on_face.map(|(_, f)| f.plane()),
-            on_face: on_face.is_some(),
+            gap,
+            face,
+            on_face,
         }))
     };
     // A tool node (moving along `path`) within `s` of the object centre `o`, `x` apart at the
@@ -1199,11 +1327,25 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
                             } else {
                                 (w, r)
                             };
-                            let tool_box = posed_box::<SWEPT>(ws, tool, ti);
-                            if cuts
-                                .iter()
-                                .any(|c| c.clears(cw, cr, m) || c.clears_box(&tool_box, m))
-                            {
+                            // Either test needs the ball's top above the margin and the ball
+                            // meeting the disc's cylinder (the leaf spheres, and the box's
+                            // lowest point and feet, are inside it): most cuts fail this, and
+                            // the box is posed only for those that pass.
+                            let mut tool_box = None;
+                            let mut clears = |c: &FaceCut| {
+                                let (height, lateral2) = c.place(cw);
+                                if height + cr <= m || lateral2 > (c.reach + cr) * (c.reach + cr) {
+                                    return false;
+                                }
+                                c.clears(cw, cr, m)
+                                    || c.clears_box(
+                                        tool_box.get_or_insert_with(|| {
+                                            posed_box::<SWEPT>(ws, tool, ti)
+                                        }),
+                                        m,
+                                    )
+                            };
+                            if cuts.iter().any(&mut clears) {
                                 ws.stats.face_pruned += 1;
                                 continue;
                             }

@@ -37,8 +37,9 @@
 //!    The disc's centre is stored with the cap (`FaceCap::center`). A cap whose reach is 0 is
 //!    dropped: no tool point is ever above its face.
 //! 5. A node's caps hold for its whole subtree (every sphere inside its sphere meets only
-//!    surface below them); the collision code adds an ancestor's caps to the nodes near its
-//!    disc (`collide::PackedTree::fit_face_cuts`), so they are not repeated here.
+//!    surface below them); the collision code adds an ancestor's caps to the leaves whose
+//!    balls its plane crosses (`collide::PackedTree`, at packing), so they are not repeated
+//!    here.
 //!
 //! Cost: a uniform grid over the triangles' bounding boxes finds the triangles near each node;
 //! nodes run in parallel (rayon). The reach scans the winning facet's boundary edges

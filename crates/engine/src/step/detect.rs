@@ -372,9 +372,9 @@ impl GodObject {
         let pays = self.splits_per_region >= LIST_MIN_REGION_SPLITS
             && (self.team.is_some() || costs <= LIST_PAYOFF * spared);
         // A list holds leaf pairs without the faces' merging and pruning: with face caps its
-        // build would cost the whole-sphere traversal the faces spare, so none is kept.
-        let faces = self.objects.iter().any(|o| o.face_cut_count() > 0);
-        if self.pairs.is_empty() || life < LIST_MIN_LIFE_FRAMES || !pays || faces {
+        // build costs the whole-sphere traversal the faces spare, so none is kept (measured on
+        // the spline with caps: p99 579 µs without lists, 727 µs with).
+        if self.pairs.is_empty() || life < LIST_MIN_LIFE_FRAMES || !pays || self.faces {
             // Free space (the proofs serve), too fast for a list to last, or not worth it.
             self.next_neighbours.cancel();
             return;

@@ -169,10 +169,6 @@ const LIST_MARGIN_MM: f64 = 0.6;
 /// Bounds (mm) of a neighbour list's margin.
 const LIST_MIN_MM: f64 = 0.3;
 const LIST_MAX_MM: f64 = 2.0;
-/// Beyond the widest margin, how far (mm) a tool leaf of a path region may stray laterally
-/// from an object node it pairs with at the path's start, for the face cuts' reach
-/// (collide::PackedTree::fit_face_cuts).
-const PATH_CUT_ALLOWANCE_MM: f64 = 2.0;
 
 /// On the frame's own thread a neighbour list is built only when its cost per frame of its
 /// life is at most this many times the traversals it would spare (measured on the puck at
@@ -315,6 +311,8 @@ pub struct GodObject {
     params: EngineConfig,
     tool: PackedTree,
     objects: Vec<PackedTree>,
+    /// Some object has face cuts (then no neighbour lists are kept).
+    faces: bool,
     ws: CollideWorkspace,
     /// The helper thread that shares large traversals ([`EngineConfig::helper_thread`]).
     team: Option<TraversalTeam>,
@@ -412,7 +410,6 @@ impl GodObject {
         params.validate()?; // the same ranges as the scene file (crate::config)
         let bad = |body: String, source: collide::CollideError| EngineError::Tree { body, source };
         let tool = PackedTree::new(tool).map_err(|e| bad("tool tree".into(), e))?;
-        let tool_leaf_radius = tool.leaves().map(|n| tool.radius(n)).fold(0.0, f64::max);
         let objects = objects
             .iter()
             .enumerate()
@@ -421,14 +418,6 @@ impl GodObject {
                     PackedTree::with_pose(t, p).map_err(|e| bad(format!("object {}", i + 1), e))?;
                 if !params.face_caps {
                     packed.drop_face_cuts();
-                } else {
-                    // Ancestors' faces must reach every node a tool leaf within the widest
-                    // margin can meet (collide::PackedTree::fit_face_cuts).
-                    packed.fit_face_cuts(
-                        tool_leaf_radius
-                            + params.max_margin_mm.max(LIST_MAX_MM)
-                            + PATH_CUT_ALLOWANCE_MM,
-                    );
                 }
                 Ok::<_, EngineError>(packed)
             })
@@ -441,6 +430,7 @@ impl GodObject {
             })
             .fold(0.0, f64::max);
         let ws = CollideWorkspace::for_trees(&tool, &objects);
+        let faces = objects.iter().any(|o| o.face_cut_count() > 0);
         let tool_slots = (0..tool.len()).map(|n| tool.slot(n) + 1).max().unwrap_or(0);
         let team = if params.helper_thread {
             let team = TraversalTeam::new(&tool, &objects, params.max_pairs)
@@ -462,6 +452,7 @@ impl GodObject {
             params,
             tool,
             objects,
+            faces,
             ws,
             team,
             pairs: Vec::with_capacity(cap),
