@@ -4,7 +4,8 @@
 mod common;
 
 use collide::{
-    any_pair_within, CollideWorkspace, FreeSpaceProbe, PackedTree, Pose, ProbeStatus, TraversalTeam,
+    any_pair_within, overlap_swept, CollideWorkspace, FreeSpaceProbe, PackedTree, Pose,
+    ProbeStatus, Sweep, TraversalTeam,
 };
 use common::{random_tree, TreeShape};
 
@@ -134,4 +135,86 @@ fn a_probe_finished_in_the_background_is_seen_finished() {
         }
         assert_eq!(status, expected, "pose {k}");
     }
+}
+
+/// A probe along a straight path answers as the swept traversal does (free exactly when
+/// `overlap_swept` finds no pair), with or without the helper, and a free answer holds at
+/// every pose sampled along the path.
+#[test]
+fn a_probe_along_a_path_matches_the_swept_traversal() {
+    let tool = PackedTree::new(&random_tree(6, shape())).unwrap();
+    let objects = vec![PackedTree::new(&random_tree(7, shape())).unwrap()];
+    let team = TraversalTeam::new(&tool, &objects, 64).unwrap();
+    let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+    let mut alone = FreeSpaceProbe::for_trees(&tool, &objects);
+    let mut helped = FreeSpaceProbe::for_trees(&tool, &objects);
+    let (mut free, mut touching) = (0, 0);
+    for k in 0..60 {
+        // Start just clear of the object along a direction, then slide across or away.
+        let dir = 0.37 * f64::from(k);
+        let at = |s: f64| Pose::from_array([s * dir.cos(), s * dir.sin(), 0.0, 0.1, 0.2, 0.3]);
+        let (mut lo, mut hi) = (0.0, 400.0);
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            if any_pair_within(&tool, &at(mid), &objects, 0.0, &mut ws).unwrap() {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let q = at(hi + 1.0);
+        let turn = 0.5 + 0.2 * f64::from(k % 7);
+        let length = [0.5, 3.0, 10.0][k as usize % 3];
+        let path = [
+            length * (dir + turn).cos(),
+            length * (dir + turn).sin(),
+            0.3 * length,
+        ];
+        for margin in [0.0, 0.5] {
+            let sweep = Sweep {
+                translation: path,
+                rotation: [0.0; 3],
+            };
+            let mut swept_pairs = 0;
+            overlap_swept(&tool, &q, &sweep, &objects, margin, &mut ws, |_| {
+                swept_pairs += 1
+            })
+            .unwrap();
+            alone.start_along(&tool, &q, path, margin).unwrap();
+            helped.start_along(&tool, &q, path, margin).unwrap();
+            let status = loop {
+                let a = alone.advance(&tool, &objects, 3);
+                if a != ProbeStatus::Running {
+                    break a;
+                }
+            };
+            let with_helper = loop {
+                let h = helped.advance_shared(&tool, &objects, 3, Some(&team), None);
+                if h != ProbeStatus::Running {
+                    break h;
+                }
+            };
+            assert_eq!(with_helper, status);
+            assert_eq!(alone.path(), path);
+            if swept_pairs == 0 {
+                assert_eq!(status, ProbeStatus::Free, "k {k}, margin {margin}");
+                free += 1;
+                for i in 0..=20 {
+                    let s = f64::from(i) / 20.0;
+                    let mut p = q;
+                    for a in 0..3 {
+                        p.q[a] += s * path[a];
+                    }
+                    assert!(!any_pair_within(&tool, &p, &objects, margin, &mut ws).unwrap());
+                }
+            } else {
+                assert_eq!(status, ProbeStatus::Touching, "k {k}, margin {margin}");
+                touching += 1;
+            }
+        }
+    }
+    assert!(
+        free > 10 && touching > 10,
+        "{free} free, {touching} touching"
+    );
 }

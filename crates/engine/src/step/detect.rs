@@ -204,8 +204,16 @@ impl GodObject {
     pub(super) fn free_slack(&self, q: &Pose) -> f64 {
         self.free
             .iter()
-            .map(|p| p.radius - self.motion_bound(&p.center, q))
+            .map(|p| p.radius - self.proof_distance(p, q))
             .fold(f64::NEG_INFINITY, f64::max)
+    }
+
+    /// The motion bound (mm) of the tool at `q` from the nearest pose of `proof`'s path: the
+    /// distance of `q`'s translation from the path's segment plus the turn times the reach.
+    pub(super) fn proof_distance(&self, proof: &FreeProof, q: &Pose) -> f64 {
+        let turn = rotation_angle(&q.rotation_matrix(), &proof.center.rotation_matrix());
+        segment_distance(&(q.translation() - proof.center.translation()), &proof.path)
+            + turn * self.reach
     }
 
     /// Frames (at the tool's last motion per frame, continued) until the tool at `q` leaves
@@ -215,11 +223,10 @@ impl GodObject {
         let turn = rotation_angle(&q.rotation_matrix(), &proof.center.rotation_matrix());
         let r = proof.radius - used - turn * self.reach;
         let p = q.translation() - proof.center.translation();
-        if r <= 0.0 || p.norm() > r {
+        if r <= 0.0 || segment_distance(&p, &proof.path) > r {
             return 0.0;
         }
         let step = Vector3::from(self.last_step);
-        let (a, b, c) = (step.norm_squared(), p.dot(&step), p.norm_squared() - r * r);
         // The motion per frame that is not the translation (turning) uses up the radius too.
         let other = (self.last_motion - step.norm()).max(0.0);
         let by_turn = if other > 1e-12 {
@@ -227,24 +234,51 @@ impl GodObject {
         } else {
             f64::INFINITY
         };
-        let along = if a > 1e-18 {
-            (-b + (b * b - a * c).max(0.0).sqrt()) / a
+        let along = if step.norm_squared() > 1e-18 {
+            // The distance from the path is convex along the motion: inside now, the exit is
+            // where it first exceeds `r` (bisection, after doubling past it).
+            let inside = |k: f64| segment_distance(&(p + step * k), &proof.path) <= r;
+            let mut hi = 1.0;
+            while inside(hi) && hi < 1e9 {
+                hi *= 2.0;
+            }
+            let mut lo = 0.0;
+            for _ in 0..40 {
+                let mid = 0.5 * (lo + hi);
+                if inside(mid) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            lo
         } else {
             f64::INFINITY
         };
         along.min(by_turn)
     }
 
-    /// Keeps `center`/`radius` as a free-space proof in place of the one that would run out
-    /// first for a tool at `q` needing `used` mm.
-    pub(super) fn add_free_proof(&mut self, center: Pose, radius: f64, q: &Pose, used: f64) {
+    /// Keeps `center` (with its `path`)/`radius` as a free-space proof in place of the one
+    /// that would run out first for a tool at `q` needing `used` mm.
+    pub(super) fn add_free_proof(
+        &mut self,
+        center: Pose,
+        path: Vector3<f64>,
+        radius: f64,
+        q: &Pose,
+        used: f64,
+    ) {
         let lasts = |g: &Self, i: usize| g.frames_in(&g.free[i], q, used);
         let i = if lasts(self, 0) <= lasts(self, 1) {
             0
         } else {
             1
         };
-        self.free[i] = FreeProof { center, radius };
+        self.free[i] = FreeProof {
+            center,
+            path,
+            radius,
+        };
     }
 
     /// When the proofs have run out at `q` (a frame needing `used` mm) but the background
@@ -257,8 +291,13 @@ impl GodObject {
         if self.probe.status() != ProbeStatus::Running {
             return None;
         }
-        let (pose, margin) = self.probe.question();
-        if self.motion_bound(&pose, q) + used > margin {
+        let (center, radius) = self.probe.question();
+        let asked = FreeProof {
+            center,
+            path: Vector3::from(self.probe.path()),
+            radius,
+        };
+        if self.proof_distance(&asked, q) + used > radius {
             return None;
         }
         loop {
@@ -281,10 +320,31 @@ impl GodObject {
             self.probe.take();
             return None;
         }
-        self.probe_splits = self.probe.splits();
+        self.note_probe_cost();
+        let path = Vector3::from(self.probe.path());
         let (_, pose, radius) = self.probe.take();
-        self.add_free_proof(pose, radius, q, used);
+        self.add_free_proof(pose, path, radius, q, used);
         Some(true)
+    }
+
+    /// Remembers the finished probe's cost (node pairs split) for the next of its kind.
+    fn note_probe_cost(&mut self) {
+        if self.probe.path() != [0.0; 3] {
+            self.path_probe_splits = self.probe.splits();
+        } else {
+            self.probe_splits = self.probe.splits();
+        }
+    }
+
+    /// Node pairs the next probe along a path is expected to split: the last one's, or before
+    /// any, four times a probe at a pose (measured in the spline's hole: 3.4–6.7 times for a
+    /// 3 mm path).
+    fn path_probe_estimate(&self) -> f64 {
+        if self.path_probe_splits > 0 {
+            self.path_probe_splits as f64
+        } else {
+            4.0 * self.probe_splits as f64
+        }
     }
 
     /// Keeps the free-space proofs ahead of the tool without a long traversal in any one frame,
@@ -302,14 +362,22 @@ impl GodObject {
         let horizon =
             self.frames_in(&self.free[0], q, used)
                 .max(self.frames_in(&self.free[1], q, used));
+        // A tool sliding steadily (without turning) is probed along its way.
+        let step = Vector3::from(self.last_step);
+        let sliding =
+            step.norm() >= PATH_PROBE_MIN_STEP_MM && self.last_motion <= 1.25 * step.norm();
         if self.probe.status() == ProbeStatus::Running {
-            // The last probe's cost estimates this one's; one that runs past it (a deeper
-            // hole costs more) is given a quarter more at a time. It aims to finish a frame
-            // before the proofs run out.
-            let estimate = self.probe_splits as f64;
+            // The last probe's cost (of the same kind) estimates this one's; one that runs
+            // past it (a deeper hole costs more) is given a quarter more at a time. It aims to
+            // finish a frame before the proofs run out.
+            let (estimate, least) = if self.probe.path() != [0.0; 3] {
+                (self.path_probe_estimate(), PATH_PROBE_MIN_SLICE_SPLITS)
+            } else {
+                (self.probe_splits as f64, PROBE_MIN_SLICE_SPLITS)
+            };
             let left = (estimate - self.probe.splits() as f64).max(0.25 * estimate);
             let slice = (left / (horizon - 2.0).max(1.0))
-                .clamp(PROBE_MIN_SLICE_SPLITS as f64, PROBE_MAX_SLICE_SPLITS as f64);
+                .clamp(least as f64, PROBE_MAX_SLICE_SPLITS as f64);
             self.probe.advance_shared(
                 &self.tool,
                 &self.objects,
@@ -320,9 +388,10 @@ impl GodObject {
         }
         match self.probe.status() {
             ProbeStatus::Free => {
-                self.probe_splits = self.probe.splits();
+                self.note_probe_cost();
+                let path = Vector3::from(self.probe.path());
                 let (_, pose, radius) = self.probe.take();
-                self.add_free_proof(pose, radius, q, used);
+                self.add_free_proof(pose, path, radius, q, used);
             }
             ProbeStatus::Touching => {
                 self.probe.take();
@@ -331,19 +400,45 @@ impl GodObject {
                 // Where a whole proof costs less than a slice (open space), renewing it when
                 // it runs out is cheaper than probing ahead.
                 let worth_it = self.probe_splits > PROBE_SLICE_SPLITS;
-                let frames = self.probe_splits as f64 / PROBE_SLICE_SPLITS as f64;
-                let lead = (1.5 * frames + 2.0).max(PROBE_LEAD_FRAMES);
+                let (estimate, pace, ahead) = if sliding {
+                    (
+                        self.path_probe_estimate(),
+                        PATH_PROBE_SLICE_SPLITS,
+                        PATH_PROBE_LEAD,
+                    )
+                } else {
+                    (self.probe_splits as f64, PROBE_SLICE_SPLITS, 1.5)
+                };
+                let lead = (ahead * estimate / pace as f64 + 2.0).max(PROBE_LEAD_FRAMES);
                 if worth_it && horizon < lead {
-                    // The tool keeps moving as it did last frame: the new proof's ball is
-                    // centred past the point where the current ones run out, so that it takes
-                    // over a little before and lasts well after.
-                    let usable = (BACKGROUND_PROBE_MM - used).max(0.0);
-                    let ahead_frames = horizon + PROBE_AHEAD * usable / speed;
-                    let mut ahead = *q;
-                    for k in 0..3 {
-                        ahead.q[k] += ahead_frames * self.last_step[k];
+                    if sliding {
+                        // The probe goes along the tool's way from where the proofs run out
+                        // (a frame early), for many frames of the same motion.
+                        let length = (PATH_PROBE_FRAMES * step.norm())
+                            .clamp(PATH_PROBE_MIN_MM, PATH_PROBE_MAX_MM);
+                        let mut from = *q;
+                        for k in 0..3 {
+                            from.q[k] += (horizon - 1.0).max(0.0) * step[k];
+                        }
+                        let path = step * (length / step.norm());
+                        let _ = self.probe.start_along(
+                            &self.tool,
+                            &from,
+                            path.into(),
+                            BACKGROUND_PROBE_MM,
+                        );
+                    } else {
+                        // The tool keeps moving as it did last frame: the new proof's ball is
+                        // centred past the point where the current ones run out, so that it
+                        // takes over a little before and lasts well after.
+                        let usable = (BACKGROUND_PROBE_MM - used).max(0.0);
+                        let ahead_frames = horizon + PROBE_AHEAD * usable / speed;
+                        let mut ahead = *q;
+                        for k in 0..3 {
+                            ahead.q[k] += ahead_frames * self.last_step[k];
+                        }
+                        let _ = self.probe.start(&self.tool, &ahead, BACKGROUND_PROBE_MM);
                     }
-                    let _ = self.probe.start(&self.tool, &ahead, BACKGROUND_PROBE_MM);
                 }
             }
             ProbeStatus::Running => {}
@@ -381,7 +476,12 @@ impl GodObject {
         }
         let horizon = if self.neighbours.status() == ListStatus::Ready {
             let (center, radius) = self.neighbours.question();
-            self.frames_in(&FreeProof { center, radius }, q, used)
+            let list = FreeProof {
+                center,
+                path: Vector3::zeros(),
+                radius,
+            };
+            self.frames_in(&list, q, used)
         } else {
             0.0
         };
@@ -464,4 +564,15 @@ fn same_face(a: &LeafPair, b: &LeafPair) -> bool {
         }
         _ => false,
     }
+}
+
+/// Distance (mm) of the point `p` from the segment from the origin to `path`.
+fn segment_distance(p: &Vector3<f64>, path: &Vector3<f64>) -> f64 {
+    let len2 = path.norm_squared();
+    let s = if len2 > 0.0 {
+        (p.dot(path) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p - path * s).norm()
 }
