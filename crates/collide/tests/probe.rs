@@ -202,8 +202,8 @@ fn a_probe_along_a_path_matches_the_swept_traversal() {
                 for i in 0..=20 {
                     let s = f64::from(i) / 20.0;
                     let mut p = q;
-                    for a in 0..3 {
-                        p.q[a] += s * path[a];
+                    for (a, step) in path.iter().enumerate() {
+                        p.q[a] += s * step;
                     }
                     assert!(!any_pair_within(&tool, &p, &objects, margin, &mut ws).unwrap());
                 }
