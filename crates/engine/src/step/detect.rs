@@ -209,19 +209,19 @@ impl GodObject {
     }
 
     /// The motion bound (mm) of the tool at `q` from the nearest pose of `proof`'s path: the
-    /// distance of `q`'s translation from the path's segment plus the turn times the reach.
+    /// distance of `q`'s translation from the path's segment plus the turn's
+    /// ([`GodObject::turn_bound`]).
     pub(super) fn proof_distance(&self, proof: &FreeProof, q: &Pose) -> f64 {
-        let turn = rotation_angle(&q.rotation_matrix(), &proof.center.rotation_matrix());
         segment_distance(&(q.translation() - proof.center.translation()), &proof.path)
-            + turn * self.reach
+            + self.turn_bound(&proof.center.rotation_matrix(), &q.rotation_matrix())
     }
 
     /// Frames (at the tool's last motion per frame, continued) until the tool at `q` leaves
     /// `proof` for a frame that needs `used` mm of it: 0 if it already has, infinite for a tool
     /// at rest. A schedule, not a proof: each frame checks its slack exactly.
     pub(super) fn frames_in(&self, proof: &FreeProof, q: &Pose, used: f64) -> f64 {
-        let turn = rotation_angle(&q.rotation_matrix(), &proof.center.rotation_matrix());
-        let r = proof.radius - used - turn * self.reach;
+        let turn = self.turn_bound(&proof.center.rotation_matrix(), &q.rotation_matrix());
+        let r = proof.radius - used - turn;
         let p = q.translation() - proof.center.translation();
         if r <= 0.0 || segment_distance(&p, &proof.path) > r {
             return 0.0;
@@ -541,6 +541,40 @@ impl GodObject {
             }
             ListStatus::Building => {}
         }
+    }
+
+    /// How far (mm) a tool leaf centre moves at most when the tool turns from `r_a` to `r_b`:
+    /// the angle `θ` times the lever arm about the turn's axis `û` (`R_b R_a^T = exp(θ û)`:
+    /// a centre `x = R_a p` moves by `2 sin(θ/2) |û × x| <= θ |û × x|`). A shaft turning about
+    /// its own axis moves its centres by 17.7 mm per radian, not its reach of 56.5.
+    pub(super) fn turn_bound(&self, r_a: &Matrix3<f64>, r_b: &Matrix3<f64>) -> f64 {
+        let w = rotation_log(&(r_b * r_a.transpose()));
+        let th = w.norm();
+        if th > 0.0 && th.is_finite() {
+            th * self.arm(r_a, &(w / th))
+        } else if th == 0.0 {
+            0.0
+        } else {
+            rotation_angle(r_b, r_a) * self.reach
+        }
+    }
+
+    /// The lever arm (mm) of the tool at rotation `r` about the unit world axis `u` through
+    /// its origin: the largest distance `|u × R p|` of a leaf centre `p` from it, at most the
+    /// largest over the centres' box corners (the distance is convex in `p`) and the reach.
+    pub(super) fn arm(&self, r: &Matrix3<f64>, u: &Vector3<f64>) -> f64 {
+        let a = r.transpose() * u;
+        let (lo, hi) = (&self.centres_lo, &self.centres_hi);
+        let mut far = 0.0f64;
+        for corner in 0..8 {
+            let c = Vector3::new(
+                if corner & 1 == 0 { lo.x } else { hi.x },
+                if corner & 2 == 0 { lo.y } else { hi.y },
+                if corner & 4 == 0 { lo.z } else { hi.z },
+            );
+            far = far.max(a.cross(&c).norm_squared());
+        }
+        far.sqrt().min(self.reach)
     }
 
     /// The motion bound (mm) of any tool leaf centre between `a` and `b`:

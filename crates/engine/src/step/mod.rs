@@ -369,6 +369,10 @@ pub struct GodObject {
     warm_len: usize,
     warm_idx: [usize; 6],
     reach: f64,
+    /// Box of the tool's leaf centres (tool frame, mm): a turn about an axis moves them by at
+    /// most the angle times their largest distance from it ([`GodObject::arm`]).
+    centres_lo: Vector3<f64>,
+    centres_hi: Vector3<f64>,
     q_g: Pose,
     /// Motion bound of the graphic tool over the last frame, mm.
     last_motion: f64,
@@ -460,6 +464,15 @@ impl GodObject {
                 (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
             })
             .fold(0.0, f64::max);
+        let (mut centres_lo, mut centres_hi) = (Vector3::repeat(0.0), Vector3::repeat(0.0));
+        for (i, n) in tool.leaves().enumerate() {
+            let c = Vector3::from(tool.center(n));
+            if i == 0 {
+                (centres_lo, centres_hi) = (c, c);
+            }
+            centres_lo = centres_lo.inf(&c);
+            centres_hi = centres_hi.sup(&c);
+        }
         let ws = CollideWorkspace::for_trees(&tool, &objects);
         let faces = objects.iter().any(|o| o.face_cut_count() > 0);
         let tool_slots = (0..tool.len()).map(|n| tool.slot(n) + 1).max().unwrap_or(0);
@@ -501,6 +514,8 @@ impl GodObject {
             warm_len: 0,
             warm_idx: [0; 6],
             reach,
+            centres_lo,
+            centres_hi,
             q_g: Pose::identity(),
             last_motion: 0.0,
             last_step: [0.0; 3],
