@@ -610,3 +610,76 @@ fn segment_distance(p: &Vector3<f64>, path: &Vector3<f64>) -> f64 {
     };
     (p - path * s).norm()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use spheretree::Sphere;
+
+    /// A shaft-like tool (leaf centres on a cylinder of radius 12 mm, 0–50 mm along z) far
+    /// from one object sphere.
+    fn shaft() -> GodObject {
+        let mut tool = SphereTree::new_unused(2, 8).unwrap();
+        for k in 0..8 {
+            let a = std::f64::consts::FRAC_PI_4 * k as f64;
+            let z = 50.0 * (k % 4) as f64 / 3.0;
+            tool.spheres_mut()[1 + k] = Sphere::new([12.0 * a.cos(), 12.0 * a.sin(), z], 1.0);
+        }
+        tool.spheres_mut()[0] = Sphere::new([0.0, 0.0, 25.0], 40.0);
+        let mut object = SphereTree::new_unused(1, 8).unwrap();
+        object.spheres_mut()[0] = Sphere::new([500.0, 0.0, 0.0], 1.0);
+        GodObject::new(
+            &tool,
+            &[(object, Pose::identity())],
+            EngineConfig::default(),
+        )
+        .unwrap()
+    }
+
+    /// No leaf centre moves farther than the turn's bound, for random turns from random
+    /// rotations; a turn about the shaft's own axis is bounded by its radius, not its reach.
+    #[test]
+    fn turn_bound_holds_every_leaf_centre_and_is_tight_about_the_axis() {
+        let g = shaft();
+        let centres: Vec<Vector3<f64>> = g
+            .tool
+            .leaves()
+            .map(|n| Vector3::from(g.tool.center(n)))
+            .collect();
+        let mut rng = devkit::Rng::new(5);
+        let mut axis = || {
+            Vector3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            )
+            .normalize()
+        };
+        for _ in 0..2000 {
+            let r_a = rotation_exp(&(axis() * 2.0));
+            let turn = axis() * 1.5;
+            let r_b = rotation_exp(&turn) * r_a;
+            let bound = g.turn_bound(&r_a, &r_b);
+            let moved = centres
+                .iter()
+                .map(|p| (r_b * p - r_a * p).norm())
+                .fold(0.0, f64::max);
+            assert!(moved <= bound + 1e-9, "moved {moved} > bound {bound}");
+            assert!(bound <= turn.norm() * g.reach() + 1e-9);
+        }
+        // About the shaft's axis (at identity: world z), by 0.1 rad.
+        let about = g.turn_bound(
+            &Matrix3::identity(),
+            &rotation_exp(&Vector3::new(0.0, 0.0, 0.1)),
+        );
+        assert!(
+            (about - 0.1 * (12.0f64 * 12.0 * 2.0).sqrt()).abs() < 1e-6,
+            "{about}"
+        );
+        assert!(
+            about < 0.35 * 0.1 * g.reach(),
+            "{about} vs reach {}",
+            g.reach()
+        );
+    }
+}
