@@ -147,6 +147,42 @@ fn spline_insertion_succeeds_with_every_exact_solver() {
     }
 }
 
+/// With face caps on, the spline still inserts. Session 9's caps stalled at the hub's top face:
+/// a leaf's sphere bulged above the plane the last region had held the tool against, and no
+/// later frame could lift out (thousands kept the last safe pose). Now no frame keeps it, the
+/// goal is reached, and no accepted pose overlaps the capped hub as a traversal at that very
+/// pose decides each pair (not the regions' decisions).
+#[test]
+fn spline_insertion_succeeds_with_face_caps() {
+    let cache = common::test_cache();
+    let mut scene = scene::scenes::builtin("spline", &cache).unwrap();
+    scene.solver.face_caps = true;
+    let traj = scene.trajectory();
+    let frames = run(&scene, SolverKind::Dual, &traj);
+    let kept = frames
+        .iter()
+        .filter(|f| f.frame.status == FrameStatus::KeptLastSafe)
+        .count();
+    assert_eq!(kept, 0, "frames that kept the last safe pose");
+    let s = summarize(
+        "spline",
+        "dual",
+        "distance",
+        &frames,
+        &Default::default(),
+        scene.goal,
+        vec![],
+        0.0,
+    );
+    let goal = s.goal.clone().unwrap();
+    assert!(goal.success, "reached z {} mm", goal.reached_z_mm);
+    let mut overlap = common::overlap_of(&scene);
+    for f in &frames {
+        let depth = overlap(&Pose::from_array(f.frame.q_g));
+        assert!(depth <= 0.01, "overlap {depth} mm at t = {} s", f.t);
+    }
+}
+
 #[test]
 fn a_nan_device_frame_keeps_the_last_safe_pose() {
     let scene = scene::scenes::builtin("bunny", &common::test_cache()).unwrap();
