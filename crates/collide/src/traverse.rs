@@ -1044,9 +1044,10 @@ fn hit_mask(spheres: &[Sphere32], probe: Sphere32) -> u32 {
 /// their paths' midpoints (radius grown by `half` = `|v| / 2`), and a hit needs the capsule —
 /// the segment `mid ± v / 2` with the node's own radius — within the other sphere's reach.
 /// The capsules are `spheres` in a tool split, `probe` in an object split: either way the
-/// capsule's radius is the grown one less `half`, so one test serves both. Far tighter than the grown spheres for long paths. The `f32` projection may land a hair off
-/// the nearest point, which only lengthens the distance by `|v|² δs²` (~1e-12 mm here), far
-/// inside the margin's rounding allowance.
+/// capsule's radius is the grown one less `half`, so one test serves both. Far tighter than
+/// the grown spheres for long paths. The `f32` projection may land a hair off the nearest
+/// point, which only lengthens the distance by `|v|² δs²` (~1e-12 mm here), far inside the
+/// margin's rounding allowance.
 #[inline(always)]
 fn capsule_mask(spheres: &[Sphere32], probe: Sphere32, v: [f32; 3], vv: f32, half: f32) -> u32 {
     let mut mask = 0u32;
@@ -1373,25 +1374,11 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
                             } else {
                                 (w, r)
                             };
-                            // Either test needs the ball's top above the margin and the ball
-                            // meeting the disc's cylinder (the leaf spheres, and the box's
-                            // lowest point and feet, are inside it): most cuts fail this, and
-                            // the box is posed only for those that pass.
-                            let mut tool_box = None;
-                            let mut clears = |c: &FaceCut| {
-                                let (height, lateral2) = c.place(cw);
-                                if height + cr <= m || lateral2 > (c.reach + cr) * (c.reach + cr) {
-                                    return false;
-                                }
-                                c.clears(cw, cr, m)
-                                    || c.clears_box(
-                                        tool_box.get_or_insert_with(|| {
-                                            posed_box::<SWEPT>(ws, tool, ti)
-                                        }),
-                                        m,
-                                    )
-                            };
-                            if cuts.iter().any(&mut clears) {
+                            let tool_box = posed_box::<SWEPT>(ws, tool, ti);
+                            if cuts
+                                .iter()
+                                .any(|c| c.clears(cw, cr, m) || c.clears_box(&tool_box, m))
+                            {
                                 ws.stats.face_pruned += 1;
                                 continue;
                             }
