@@ -379,8 +379,8 @@ pub fn constraint_value(
 }
 
 /// The exact constraint value `C(q)` of `form` at `pose` (mm, rad) for a pair: its object
-/// sphere's ([`constraint_value`]) or, on a face ([`LeafPair::on_face`]), its face's
-/// ([`Linearization::face_value_gradient`]).
+/// sphere's ([`constraint_value`]) or, for a face's half-space or lens ([`LeafPair::stand_in`]),
+/// its gap scaled as the face rows are ([`Linearization::face_value_gradient`]).
 pub fn pair_constraint_value(form: ConstraintForm, pose: &Pose, pair: &LeafPair) -> f64 {
     if pair.face.is_some() {
         // A half-space or a lens: the distance form's gap, scaled as the face rows are.

@@ -167,8 +167,9 @@ impl NeighbourList {
             object: 0,
             resume: false,
             pairs: Vec::with_capacity(capacity),
-            // A leaf carries its own cuts and its ancestors' crossing it; room for a typical
-            // share (a list whose cuts do not fit overflows, as one with too many pairs).
+            // A leaf carries its own cuts and its ancestors' crossing it: room for every pair's
+            // leaf to carry as many as any leaf does (a list whose cuts did not fit would
+            // overflow, as one with too many pairs).
             columns: Columns::with_capacity(capacity, capacity * cuts_per_pair),
             reach: tool.reach(),
             leaf_radius,
