@@ -449,6 +449,24 @@ fn neighbour_lists_filter_cut_leaves_exactly() {
     assert!(checked > 300, "{checked}");
 }
 
+/// Asserts that `grad` is the central finite difference of the pair's exact constraint value
+/// at `q` (step 1e-6, relative tolerance 1e-5).
+fn assert_gradient_is_the_pairs(form: ConstraintForm, q: &Pose, pair: &LeafPair, grad: &[f64; 6]) {
+    for (k, &g) in grad.iter().enumerate() {
+        let h = 1e-6;
+        let (mut plus, mut minus) = (*q, *q);
+        plus.q[k] += h;
+        minus.q[k] -= h;
+        let fd = (pair_constraint_value(form, &plus, pair)
+            - pair_constraint_value(form, &minus, pair))
+            / (2.0 * h);
+        assert!(
+            (fd - g).abs() <= 1e-5 * fd.abs().max(1.0),
+            "{k}: {fd} vs {g}"
+        );
+    }
+}
+
 /// A face row's value and gradient are the pair's exact value at the linearization pose and
 /// its finite-difference gradient, in both forms and both rotation coordinates.
 #[test]
@@ -478,19 +496,7 @@ fn face_rows_match_finite_differences() {
             let (value, grad) = lin.face_value_gradient(&pair.p_in_tool, pair.r_tool, &n, d);
             let exact = pair_constraint_value(form, &q, &pair);
             assert!((value - exact).abs() <= 1e-9 * exact.abs().max(1.0));
-            for (k, &g) in grad.iter().enumerate() {
-                let h = 1e-6;
-                let (mut plus, mut minus) = (q, q);
-                plus.q[k] += h;
-                minus.q[k] -= h;
-                let fd = (pair_constraint_value(form, &plus, &pair)
-                    - pair_constraint_value(form, &minus, &pair))
-                    / (2.0 * h);
-                assert!(
-                    (fd - g).abs() <= 1e-5 * fd.abs().max(1.0),
-                    "{k}: {fd} vs {g}"
-                );
-            }
+            assert_gradient_is_the_pairs(form, &q, &pair, &grad);
             // The row goes through the pair (row = J, rhs = J (q_lin - q_h) - C).
             let (row, rhs) = lin.row(&pair);
             assert_eq!(row, grad);
@@ -542,19 +548,7 @@ fn lens_rows_match_finite_differences() {
             let (row, rhs) = lin.row(&pair);
             let exact = pair_constraint_value(form, &q, &pair);
             assert!((rhs + exact).abs() <= 1e-9 * exact.abs().max(1.0));
-            for (k, &g) in row.iter().enumerate() {
-                let h = 1e-6;
-                let (mut plus, mut minus) = (q, q);
-                plus.q[k] += h;
-                minus.q[k] -= h;
-                let fd = (pair_constraint_value(form, &plus, &pair)
-                    - pair_constraint_value(form, &minus, &pair))
-                    / (2.0 * h);
-                assert!(
-                    (fd - g).abs() <= 1e-5 * fd.abs().max(1.0),
-                    "{k}: {fd} vs {g}"
-                );
-            }
+            assert_gradient_is_the_pairs(form, &q, &pair, &row);
         }
         checked += 1;
     }

@@ -19,6 +19,48 @@ fn shape() -> TreeShape {
     }
 }
 
+/// The distance along `at` (mm) where the tool just stops touching the objects (bisection
+/// over 0–400 mm).
+fn clear_from(
+    tool: &PackedTree,
+    objects: &[PackedTree],
+    at: &dyn Fn(f64) -> Pose,
+    ws: &mut CollideWorkspace,
+) -> f64 {
+    let (mut lo, mut hi) = (0.0, 400.0);
+    for _ in 0..40 {
+        let mid = 0.5 * (lo + hi);
+        if any_pair_within(tool, &at(mid), objects, 0.0, ws).unwrap() {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    hi
+}
+
+/// Runs the started `probe` in slices of `splits` node pairs (on `team`'s helper if given)
+/// until it answers; the answer and the calls it took.
+fn answer(
+    probe: &mut FreeSpaceProbe,
+    tool: &PackedTree,
+    objects: &[PackedTree],
+    splits: usize,
+    team: Option<&TraversalTeam>,
+) -> (ProbeStatus, usize) {
+    let mut calls = 0;
+    loop {
+        calls += 1;
+        let status = match team {
+            Some(_) => probe.advance_shared(tool, objects, splits, team, None),
+            None => probe.advance(tool, objects, splits),
+        };
+        if status != ProbeStatus::Running {
+            return (status, calls);
+        }
+    }
+}
+
 #[test]
 fn probe_in_slices_matches_any_pair_within_with_or_without_a_helper() {
     let tool = PackedTree::new(&random_tree(3, shape())).unwrap();
@@ -49,37 +91,17 @@ fn probe_in_slices_matches_any_pair_within_with_or_without_a_helper() {
                 0.05 * f64::from(k),
             ])
         };
-        let (mut lo, mut hi) = (0.0, 400.0);
-        for _ in 0..40 {
-            let mid = 0.5 * (lo + hi);
-            if any_pair_within(&tool, &at(mid), &objects, 0.0, &mut ws).unwrap() {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
+        let hi = clear_from(&tool, &objects, &at, &mut ws);
         let x = hi + [0.05, -0.05, 0.6, 2.0][k as usize % 4];
         let q = at(x);
         for margin in [0.0, 0.5, 3.0] {
             let any = any_pair_within(&tool, &q, &objects, margin, &mut ws).unwrap();
             alone.start(&tool, &q, margin).unwrap();
             helped.start(&tool, &q, margin).unwrap();
-            let mut calls = 0;
-            let status = loop {
-                calls += 1;
-                let a = alone.advance(&tool, &objects, 2);
-                if a != ProbeStatus::Running {
-                    break a;
-                }
-            };
+            let (status, calls) = answer(&mut alone, &tool, &objects, 2, None);
             // With the helper the answer is the same (after the same calls unless the helper
             // was held up: then its stream catches up later).
-            let with_helper = loop {
-                let h = helped.advance_shared(&tool, &objects, 2, Some(&team), None);
-                if h != ProbeStatus::Running {
-                    break h;
-                }
-            };
+            let (with_helper, _) = answer(&mut helped, &tool, &objects, 2, Some(&team));
             assert_eq!(with_helper, status, "x {x}, margin {margin}");
             sliced += usize::from(calls > 2);
             let expected = if any {
@@ -153,15 +175,7 @@ fn a_probe_along_a_path_matches_the_swept_traversal() {
         // Start just clear of the object along a direction, then slide across or away.
         let dir = 0.37 * f64::from(k);
         let at = |s: f64| Pose::from_array([s * dir.cos(), s * dir.sin(), 0.0, 0.1, 0.2, 0.3]);
-        let (mut lo, mut hi) = (0.0, 400.0);
-        for _ in 0..40 {
-            let mid = 0.5 * (lo + hi);
-            if any_pair_within(&tool, &at(mid), &objects, 0.0, &mut ws).unwrap() {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
+        let hi = clear_from(&tool, &objects, &at, &mut ws);
         let q = at(hi + 1.0);
         let turn = 0.5 + 0.2 * f64::from(k % 7);
         let length = [0.5, 3.0, 10.0][k as usize % 3];
@@ -182,18 +196,8 @@ fn a_probe_along_a_path_matches_the_swept_traversal() {
             .unwrap();
             alone.start_along(&tool, &q, path, margin).unwrap();
             helped.start_along(&tool, &q, path, margin).unwrap();
-            let status = loop {
-                let a = alone.advance(&tool, &objects, 3);
-                if a != ProbeStatus::Running {
-                    break a;
-                }
-            };
-            let with_helper = loop {
-                let h = helped.advance_shared(&tool, &objects, 3, Some(&team), None);
-                if h != ProbeStatus::Running {
-                    break h;
-                }
-            };
+            let (status, _) = answer(&mut alone, &tool, &objects, 3, None);
+            let (with_helper, _) = answer(&mut helped, &tool, &objects, 3, Some(&team));
             assert_eq!(with_helper, status);
             assert_eq!(alone.path(), path);
             if swept_pairs == 0 {

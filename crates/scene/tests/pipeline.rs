@@ -104,6 +104,24 @@ fn axial_force_at(frames: &[FrameRecord], t: f64) -> f64 {
         .unwrap()
 }
 
+/// The run summary of a spline replay (distance form, no device or safety statistics).
+fn spline_summary(
+    scene: &Scene,
+    kind: SolverKind,
+    frames: &[FrameRecord],
+) -> scene::report::RunSummary {
+    summarize(
+        "spline",
+        kind.name(),
+        "distance",
+        frames,
+        &Default::default(),
+        scene.goal,
+        vec![],
+        0.0,
+    )
+}
+
 #[test]
 fn spline_insertion_succeeds_with_every_exact_solver() {
     let cache = common::test_cache();
@@ -111,16 +129,7 @@ fn spline_insertion_succeeds_with_every_exact_solver() {
     let traj = scene.trajectory();
     for kind in [SolverKind::Dual, SolverKind::ActiveSet] {
         let frames = run(&scene, kind, &traj);
-        let s = summarize(
-            "spline",
-            kind.name(),
-            "distance",
-            &frames,
-            &Default::default(),
-            scene.goal,
-            vec![],
-            0.0,
-        );
+        let s = spline_summary(&scene, kind, &frames);
         let goal = s.goal.clone().unwrap();
         assert!(goal.success, "{kind:?}: reached z {} mm", goal.reached_z_mm);
         assert!(
@@ -164,16 +173,7 @@ fn spline_insertion_succeeds_with_face_caps() {
         .filter(|f| f.frame.status == FrameStatus::KeptLastSafe)
         .count();
     assert_eq!(kept, 0, "frames that kept the last safe pose");
-    let s = summarize(
-        "spline",
-        "dual",
-        "distance",
-        &frames,
-        &Default::default(),
-        scene.goal,
-        vec![],
-        0.0,
-    );
+    let s = spline_summary(&scene, SolverKind::Dual, &frames);
     let goal = s.goal.clone().unwrap();
     assert!(goal.success, "reached z {} mm", goal.reached_z_mm);
     let mut overlap = common::overlap_of(&scene);
