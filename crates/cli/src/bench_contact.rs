@@ -2,7 +2,8 @@
 //! QP hold hundreds to thousands of pairs.
 //!
 //! - **flat on flat**: the plate scene's puck pressed 1 mm onto the plate, resting, then slid
-//!   at 50 mm/s ([`scene::scenes::plate`]).
+//!   at 50 mm/s ([`scene::scenes::plate`]); again with the dense puck (its tree a level
+//!   deeper: thousands of pairs).
 //! - **spline**: the built-in splined shaft and hub, by phase of its script: on the hub's face
 //!   with the keys misaligned, turning until they align, inserting, and the frames inside the
 //!   hole with no pair at all (the tight 1 mm clearance).
@@ -166,16 +167,22 @@ fn row<'a>(
     }
 }
 
-/// Runs the study (the flat-on-flat slide is shorter with `quick`), replayed as `mode` says.
-pub fn contact_study(cache: &TreeCache, quick: bool, mode: ReplayMode) -> Result<Vec<ContactRow>> {
-    let mut rows = Vec::new();
+/// The flat-on-flat rows: `tool` pressed 1 mm onto the plate, resting, then slid at 50 mm/s
+/// (the slide shorter with `quick`).
+fn flat_on_flat(
+    cache: &TreeCache,
+    label: &str,
+    tool: PlateTool,
+    quick: bool,
+    mode: ReplayMode,
+) -> Result<Vec<ContactRow>> {
     let run = plate::speed_script(
-        PlateTool::Puck,
+        tool,
         SpeedMotion::Slide(50.0),
         1000.0,
         if quick { 0.3 } else { 1.0 },
     );
-    let mut scene = plate::scene(cache, PlateTool::Puck, run.script.clone())?;
+    let mut scene = plate::scene(cache, tool, run.script.clone())?;
     scene.solver.helper_thread = mode.helper_thread;
     if let Some(on) = mode.face_caps {
         scene.solver.face_caps = on;
@@ -194,6 +201,7 @@ pub fn contact_study(cache: &TreeCache, quick: bool, mode: ReplayMode) -> Result
             .map(|(_, (_, o))| o)
             .collect::<Vec<_>>()
     };
+    let mut rows = Vec::new();
     for (phase, keep) in [
         (
             "resting, 1 mm press",
@@ -201,8 +209,20 @@ pub fn contact_study(cache: &TreeCache, quick: bool, mode: ReplayMode) -> Result
         ),
         ("sliding 50 mm/s", &sliding),
     ] {
-        let r = row("flat on flat", phase, pick(keep).into_iter());
+        let r = row(label, phase, pick(keep).into_iter());
         rows.push(with_audit(r, &t, &audits, keep));
+    }
+    Ok(rows)
+}
+
+/// Runs the study (the flat-on-flat slide is shorter with `quick`), replayed as `mode` says.
+pub fn contact_study(cache: &TreeCache, quick: bool, mode: ReplayMode) -> Result<Vec<ContactRow>> {
+    let mut rows = Vec::new();
+    for (label, tool) in [
+        ("flat on flat", PlateTool::Puck),
+        ("flat on flat, dense", PlateTool::DensePuck),
+    ] {
+        rows.extend(flat_on_flat(cache, label, tool, quick, mode)?);
     }
     let mut scene = scene::scenes::builtin("spline", cache)?;
     scene.solver.helper_thread = mode.helper_thread;

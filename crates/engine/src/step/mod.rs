@@ -56,6 +56,7 @@ use spheretree::SphereTree;
 use crate::{EngineConfig, EngineError};
 
 mod constrain;
+mod density;
 mod detect;
 mod friction;
 mod measure;
@@ -240,9 +241,11 @@ const MIN_OVERFLOW_ALLOW_MM: f64 = 0.005;
 /// path region pays off only for a hand in motion.
 const MIN_SWEEP_MM: f64 = 0.1;
 
-/// Largest pair list reused from an earlier frame (about what a small region's traversal
-/// costs to rebuild, in solving time).
-const REUSE_MAX_PAIRS: usize = 400;
+/// Largest pair list reused from an earlier frame: a list about [`PAIR_TARGET`] costs ~20 µs to
+/// solve again, ~150 µs to find again (measured on the dense puck at 50 mm/s: p50 150–195 µs
+/// at 400, 35–42 at 2 000; the spline's p99 the same over three runs each). (Deterministic:
+/// a rule on measured times would make frames depend on the machine.)
+const REUSE_MAX_PAIRS: usize = 2000;
 
 /// A path region is taken only while its length plus width stays within this many times the
 /// allowance that keeps a ball region near [`PAIR_TARGET`] pairs (measured: at 1, the spline's
@@ -378,8 +381,8 @@ pub struct GodObject {
     last_motion: f64,
     /// Translation of the graphic tool over the last frame, mm.
     last_step: [f64; 3],
-    /// Leaf pairs per mm of detection margin near the tool, as last seen (for sizing regions).
-    pairs_per_mm: f64,
+    /// How the pair count grows with the margin near the tool, as last seen (sizes regions).
+    density: density::PairDensity,
     /// Free-space proofs: poses at which no leaf pair was within a radius (mm). Each spares
     /// traversals while the tool stays near it; two, so that one placed ahead of the tool by a
     /// background probe can be ready before the other runs out.
@@ -519,7 +522,7 @@ impl GodObject {
             q_g: Pose::identity(),
             last_motion: 0.0,
             last_step: [0.0; 3],
-            pairs_per_mm: 0.0,
+            density: density::PairDensity::default(),
             free: [FreeProof::none(); 2],
             probe,
             probe_splits: 0,
@@ -611,7 +614,7 @@ impl GodObject {
         self.hand_offset = (Vector3::zeros(), Vector3::zeros());
         // A new run: nothing learnt from the last one (prediction, pair density) carries over.
         self.prediction_error = 0.0;
-        self.pairs_per_mm = 0.0;
+        self.density = density::PairDensity::default();
         self.sliding = false;
         self.patch = None;
         self.cached = None;
@@ -781,7 +784,7 @@ impl GodObject {
                 let need = need_t + need_r;
                 // Dense contacts (flat on flat) hold many pairs per mm of margin: keep the
                 // expected count near PAIR_TARGET by taking smaller regions (more passes).
-                let dense_cap = PAIR_TARGET / self.pairs_per_mm.max(1e-9) - skin;
+                let dense_cap = self.density.margin_for(PAIR_TARGET) - skin;
                 let mut allowed = need.min(allow).min(cap).min(dense_cap.max(MIN_ALLOW_MM));
                 // Inside a neighbour list a region costs a filter, not a traversal: one that
                 // stays inside it (and a trust region) beats a wider one traversed.
@@ -794,12 +797,19 @@ impl GodObject {
                 // predicted for the tool instead (a sliding contact holds far fewer pairs along
                 // its path than within the path's length all around).
                 // (Within twice the pair-density cap of a ball, length and width together: a
-                // wide path through a dense contact costs more than a second pass.)
-                let path_cap = dense_cap.max(MIN_ALLOW_MM).min(cap);
+                // wide path through a dense contact costs more than a second pass. Along the
+                // way pairs come in at the contact's leading edge, about linearly with the
+                // length; its width alone within the ball's cap, since every pair within it
+                // at the start is in the path's list.)
+                let path_cap = (self.density.path_margin_for(PAIR_TARGET) - skin)
+                    .max(MIN_ALLOW_MM)
+                    .min(cap);
                 let mut sweep = if trust && path_regions {
+                    let width = self.path_width();
                     self.predicted_sweep(&q_lin, q_h, path_cap)
                         .filter(|&(_, len)| {
-                            len + self.path_width() <= PATH_DENSITY_FACTOR * path_cap
+                            width <= dense_cap.max(MIN_ALLOW_MM)
+                                && len + width <= PATH_DENSITY_FACTOR * path_cap
                         })
                 } else {
                     None
@@ -839,9 +849,11 @@ impl GodObject {
                     // A full traversal gives a fresh answer; an unfinished background probe is
                     // dropped.
                     self.probe.cancel();
-                    // In free space, probe a little wider so the proof lasts several frames.
+                    // In free space, probe a little wider so the proof lasts several frames
+                    // (no wider than a dense contact just left allows).
                     let probe = if self.pairs.is_empty() {
-                        (allowed + skin).max(FREE_PROBE_MM)
+                        (allowed + skin)
+                            .max(FREE_PROBE_MM.min(self.density.margin_for(PAIR_TARGET)))
                     } else {
                         allowed + skin
                     };
@@ -893,16 +905,13 @@ impl GodObject {
                     out.pairs = self.pairs.len() as u32;
                     out.margin_mm = if sweep.is_some() { width } else { allowed } + skin;
                 }
-                if !self.pairs.is_empty() {
-                    // Pairs per mm of margin, remembered (slowly forgotten) for the next choice.
-                    // (A path region's count over its width overstates the density all
-                    // around: the safe side, smaller ball regions after it.)
-                    let margin = if sweep.is_some() { width } else { allowed } + skin;
-                    let density = (self.pairs.len() + self.dropped) as f64 / margin;
-                    self.pairs_per_mm = density.max(0.9 * self.pairs_per_mm);
-                } else {
-                    self.pairs_per_mm *= 0.9;
-                }
+                // Pairs against margin, remembered for the next choice. (A path region's
+                // count over its width overstates the density all around: the safe side,
+                // smaller ball regions after it.)
+                let margin = if sweep.is_some() { width } else { allowed } + skin;
+                self.density
+                    .record(margin, self.pairs.len() + self.dropped, sweep.is_some());
+
                 if self.dropped > 0 {
                     // More pairs than the storage holds: the list is not complete, so no answer
                     // from it is proven. Try a smaller region (fewer pairs) next pass.

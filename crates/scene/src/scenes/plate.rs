@@ -43,23 +43,29 @@ pub const SETTLE_FRAMES: usize = 20;
 pub enum PlateTool {
     /// A 40 × 40 × 10 mm box lying flat.
     Puck,
+    /// The same box, its tree one level deeper (depth 5, leaves of about 0.3 mm): its face on
+    /// the plate is a flat-on-flat contact of thousands of leaf pairs.
+    DensePuck,
     /// A 10 mm ball.
     Ball,
 }
 
 impl PlateTool {
-    /// The name used in tables: `puck` or `ball`.
+    /// The name used in tables: `puck`, `dense puck` or `ball`.
     pub fn name(&self) -> &'static str {
         match self {
             Self::Puck => "puck",
+            Self::DensePuck => "dense puck",
             Self::Ball => "ball",
         }
     }
 
-    /// Its tree depth: 4 for the puck, 3 for the ball (leaves of about 1 mm).
+    /// Its tree depth: 4 for the puck, 3 for the ball (leaves of about 1 mm), 5 for the dense
+    /// puck.
     pub fn depth(&self) -> u32 {
         match self {
             Self::Puck => 4,
+            Self::DensePuck => 5,
             Self::Ball => 3,
         }
     }
@@ -67,7 +73,7 @@ impl PlateTool {
     /// The tool mesh in its own frame (lowest point at the origin), mm.
     pub fn mesh(&self) -> TriMesh {
         match self {
-            Self::Puck => {
+            Self::Puck | Self::DensePuck => {
                 let [sx, sy, sz] = PUCK_SIZE_MM;
                 box_mesh([-sx / 2.0, -sy / 2.0, 0.0], [sx / 2.0, sy / 2.0, sz])
             }
@@ -188,7 +194,7 @@ pub fn speed_script(
     let (axis, amplitude, speed) = match motion {
         SpeedMotion::Slide(v) => {
             let half = match tool {
-                PlateTool::Puck => PUCK_SIZE_MM[0] / 2.0,
+                PlateTool::Puck | PlateTool::DensePuck => PUCK_SIZE_MM[0] / 2.0,
                 PlateTool::Ball => BALL_RADIUS_MM,
             };
             (
