@@ -66,8 +66,8 @@ pub use probe::{FreeSpaceProbe, ProbeStatus};
 pub use team::{overlap_shared, SharedTraversal, TraversalTeam, SHARE_MIN_PAIRS, SPIN_WINDOW};
 pub use traverse::{
     any_pair_within, any_pair_within_until, collect_pairs, overlap_swept, overlap_tree_tree,
-    overlap_tree_trees, overlap_until, CollideWorkspace, FaceCut, FacePlane, LeafPair, StandIn,
-    Sweep, Traversal, TraversalStats,
+    overlap_tree_trees, overlap_until, CollideWorkspace, FaceCut, FacePlane, FaceSlab, LeafPair,
+    StandIn, Sweep, Traversal, TraversalStats,
 };
 
 /// Errors of this crate.

@@ -24,7 +24,7 @@
 use crate::neighbours::ListJob;
 use crate::probe::ProbeJob;
 use crate::traverse::{
-    arc_allowance, clean_margin, descend_as_queried, CollideWorkspace, Descent, LeafPair,
+    arc_allowance, clean_margin, descend_as_queried, CollideWorkspace, Descent, FaceSlab, LeafPair,
     SPLITS_PER_CHECK,
 };
 use crate::{CollideError, PackedTree, Pose, Sweep};
@@ -80,6 +80,8 @@ struct Work {
     sweep: Option<Sweep>,
     /// Margin of the descent (mm, allowances included).
     margin: f64,
+    /// Slab margins of face pairs ([`FaceSlab`]).
+    slab: Option<FaceSlab>,
     object: usize,
     deadline: Option<Instant>,
     entries: Vec<(u32, u32)>,
@@ -144,6 +146,7 @@ impl TraversalTeam {
                 pose: Pose::identity(),
                 sweep: None,
                 margin: 0.0,
+                slab: None,
                 object: 0,
                 deadline: None,
                 entries: Vec::with_capacity(stack_cap),
@@ -260,6 +263,7 @@ fn descend_second_half(work: &mut Work, tool: &PackedTree, objects: &[PackedTree
         pose,
         sweep,
         margin,
+        slab,
         object,
         deadline,
         entries,
@@ -277,6 +281,7 @@ fn descend_second_half(work: &mut Work, tool: &PackedTree, objects: &[PackedTree
     };
     ws.reserve(tool, obj);
     ws.start(tool, pose, sweep.as_ref());
+    ws.slab = *slab;
     // The handed node pairs' tool nodes are posed in the caller's workspace, not in this one.
     for &(t, _) in entries.iter() {
         ws.pose_range(tool, t as usize, t as usize + 1);
@@ -359,7 +364,8 @@ fn descend_to_deadline<F: FnMut(&LeafPair) -> bool>(
 /// Every leaf pair of `tool` (posed by `world_from_tool`, swept along `sweep` if given) and
 /// `objects` within `margin` (mm) of touching, as [`crate::overlap_until`], in the fixed
 /// order of the module docs; the second half of each object's descent goes to `team`'s helper
-/// when it is free. Stops at `deadline` (then incomplete).
+/// when it is free. Stops at `deadline` (then incomplete). With a `slab` (queries at a pose),
+/// half-space pairs of its faces are kept within its thinner margin ([`FaceSlab`]).
 ///
 /// # Real-time
 /// Allocation-free with `ws` from [`CollideWorkspace::for_trees`] for these trees; never
@@ -371,6 +377,7 @@ pub fn overlap_shared<F: FnMut(&LeafPair)>(
     sweep: Option<&Sweep>,
     objects: &[PackedTree],
     margin: f64,
+    slab: Option<FaceSlab>,
     ws: &mut CollideWorkspace,
     team: Option<&TraversalTeam>,
     deadline: Option<Instant>,
@@ -383,6 +390,7 @@ pub fn overlap_shared<F: FnMut(&LeafPair)>(
         ws.reserve(tool, o);
     }
     ws.start(tool, world_from_tool, sweep);
+    ws.slab = slab.filter(|_| sweep.is_none());
     let m = match sweep {
         None => clean_margin(margin),
         Some(sw) => clean_margin(margin) + arc_allowance(tool.reach(), sw.angle()),
@@ -417,8 +425,18 @@ pub fn overlap_shared<F: FnMut(&LeafPair)>(
         let CollideWorkspace { stack, second, .. } = ws;
         second.clear();
         keep_half(stack, 0, |e| second.push(e));
-        let posted =
-            team.is_some_and(|t| post(t, world_from_tool, sweep, m, i, deadline, &ws.second));
+        let posted = team.is_some_and(|t| {
+            post(
+                t,
+                world_from_tool,
+                sweep,
+                m,
+                ws.slab,
+                i,
+                deadline,
+                &ws.second,
+            )
+        });
         let half_start = Instant::now();
         if !descend_to_deadline(tool, obj, id, m, ws, &mut counted, deadline) {
             if posted {
@@ -583,11 +601,13 @@ fn idle_helper(team: &TraversalTeam) -> Option<std::sync::MutexGuard<'_, Work>> 
 }
 
 /// Hands `entries` (one object's second half) to the helper if it is free; true if posted.
+#[allow(clippy::too_many_arguments)]
 fn post(
     team: &TraversalTeam,
     pose: &Pose,
     sweep: Option<&Sweep>,
     margin: f64,
+    slab: Option<FaceSlab>,
     object: usize,
     deadline: Option<Instant>,
     entries: &[(u32, u32)],
@@ -603,6 +623,7 @@ fn post(
     work.pose = *pose;
     work.sweep = sweep.copied();
     work.margin = margin;
+    work.slab = slab;
     work.object = object;
     work.deadline = deadline;
     work.entries.clear();

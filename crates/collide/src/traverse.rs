@@ -233,25 +233,33 @@ impl FaceCut {
     }
 
     /// True when a whole tool node (ball at world centre `w`, radius `r`, mm) is above the
-    /// face by more than `margin` (mm) with its foot disc inside the cut's disc: every tool
-    /// leaf inside it stands for the face's half-space with a gap beyond the margin, so no
-    /// pair under the two is reported.
+    /// face by more than `margin` (mm) with its foot disc inside the cut's disc, `inset` (mm)
+    /// from its rim: every tool leaf inside it stands for the face's half-space with a gap
+    /// beyond the margin (and still does after sliding `inset` along the face), so no pair
+    /// under the two is reported.
     #[inline(always)]
-    pub(crate) fn clears(&self, w: [f64; 3], r: f64, margin: f64) -> bool {
-        if r > self.reach {
+    pub(crate) fn clears(&self, w: [f64; 3], r: f64, margin: f64, inset: f64) -> bool {
+        let room = self.reach - r - inset;
+        if room < 0.0 {
             return false;
         }
         let (height, lateral2) = self.place(w);
-        let room = self.reach - r;
         height - r > margin && lateral2 <= room * room
+    }
+
+    /// True when the foot of the world point `w` lies in the disc, `inset` (mm) from its rim.
+    #[inline(always)]
+    pub(crate) fn holds_foot(&self, w: [f64; 3], inset: f64) -> bool {
+        let room = self.reach - inset;
+        room >= 0.0 && self.place(w).1 <= room * room
     }
 
     /// [`FaceCut::clears`] for a tool node's leaf box (tighter than its ball on flat parts):
     /// the box's lowest point, over the sweep if any, above the face by more than `margin`
-    /// (mm), and every point's foot in the disc. The box holds every leaf sphere under the
+    /// (mm), and every point's foot in the disc, `inset` (mm) from its rim. The box holds every leaf sphere under the
     /// node, so each of them clears the face.
     #[inline(always)]
-    pub(crate) fn clears_box(&self, b: &PosedBox, margin: f64) -> bool {
+    pub(crate) fn clears_box(&self, b: &PosedBox, margin: f64, inset: f64) -> bool {
         let n = self.normal;
         let dot = |a: &[f64; 3]| n[0] * a[0] + n[1] * a[1] + n[2] * a[2];
         let depth: f64 = (0..3).map(|k| dot(&b.axes[k]).abs() * b.half[k]).sum();
@@ -266,7 +274,7 @@ impl FaceCut {
         let stray = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt()
             + (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
             + b.spread;
-        let room = self.reach - stray;
+        let room = self.reach - stray - inset;
         room >= 0.0 && lateral2 <= room * room
     }
 }
@@ -315,6 +323,78 @@ fn posed_box<const SWEPT: bool>(ws: &CollideWorkspace, tool: &PackedTree, n: usi
         disp,
         spread,
     }
+}
+
+/// A slab region's margins for face pairs ([`crate::overlap_shared`]): a tool sliding along a
+/// face moves its spheres far along it and little across it, and the gap of a sphere to a
+/// face's half-space changes only with the motion across. So a half-space pair of a face with
+/// this normal is kept within `margin` (plus `tangent` per unit of normal difference, for
+/// faces turned from it) instead of the query's whole margin, which then covers the slide.
+/// Only where no other plane can stand for the pair after a slide of up to `tangent`: a leaf
+/// whose cuts are one plane, an inner node with one plane whose disc holds the tool node's
+/// foot `tangent` from its rim; every other pair keeps the query's margin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FaceSlab {
+    /// Unit normal of the faces (world).
+    pub normal: [f64; 3],
+    /// Margin of their half-space pairs, mm (at most the query's).
+    pub margin: f64,
+    /// Largest slide along the face the region allows, mm.
+    pub tangent: f64,
+}
+
+impl FaceSlab {
+    /// The margin (mm, at most `m`) of a half-space pair of a face with unit normal `n`: a
+    /// slide by `tangent` moves a point across that face by at most `tangent · |n - normal|`
+    /// more than across this one.
+    #[inline(always)]
+    pub fn margin_for(&self, n: &[f64; 3], m: f64) -> f64 {
+        let d = [
+            n[0] - self.normal[0],
+            n[1] - self.normal[1],
+            n[2] - self.normal[2],
+        ];
+        let diff = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        (self.margin + self.tangent * diff).min(m)
+    }
+
+    /// True when a pair of a tool sphere at `w` (radius `r_tool`) and a node with `cuts` is
+    /// beyond the slab's margin for good: some cut holds the tool above its face by more than
+    /// [`FaceSlab::margin_for`] its normal, and still stands for the pair after any allowed
+    /// slide (the stand-in is then that half-space or a tighter one: never nearer). Where the
+    /// cuts are one plane that holds anywhere (past the disc the pair stands for the lens or
+    /// sphere inside the plane's half-space); else the foot must stay in the disc, `tangent`
+    /// from its rim (another plane's half-space could stand for it past the rim).
+    #[inline(always)]
+    pub(crate) fn lets_go(
+        slab: Option<&FaceSlab>,
+        cuts: &[FaceCut],
+        w: [f64; 3],
+        r_tool: f64,
+        m: f64,
+    ) -> bool {
+        let Some(s) = slab else {
+            return false;
+        };
+        let inset = if one_plane(cuts) { 0.0 } else { s.tangent };
+        cuts.iter().any(|c| {
+            c.holds_foot(w, inset)
+                && c.gap(w, r_tool)
+                    .is_some_and(|g| g > s.margin_for(&c.normal, m))
+        })
+    }
+}
+
+/// True when every cut lies in the first one's plane, to 1e-9 (an ancestor's cut repeats it
+/// with another disc; caps fitted on different nodes of one face differ in rounding).
+#[inline(always)]
+fn one_plane(cuts: &[FaceCut]) -> bool {
+    cuts.first().is_none_or(|first| {
+        cuts.iter().all(|c| {
+            (c.offset - first.offset).abs() <= 1e-9
+                && (0..3).all(|k| (c.normal[k] - first.normal[k]).abs() <= 1e-9)
+        })
+    })
 }
 
 /// The face that stands for a tool sphere at `w` (radius `r_tool`, mm) against a node with
@@ -403,6 +483,8 @@ pub struct CollideWorkspace {
     /// beyond the margin (a neighbour list keeps them: the tool may leave the face's reach
     /// before the list's next query, and then the sphere stands for the pair).
     pub(crate) keep_sphere_pairs: bool,
+    /// The slab margins of the current query at a pose ([`FaceSlab`]; none in other queries).
+    pub(crate) slab: Option<FaceSlab>,
     /// `children_posed[n] == epoch` when `n`'s children are posed for the current query.
     children_posed: Vec<u32>,
     epoch: u32,
@@ -547,6 +629,7 @@ impl CollideWorkspace {
         sweep: Option<&Sweep>,
     ) {
         self.swept = sweep.is_some();
+        self.slab = None;
         self.sweep = sweep.copied().unwrap_or_default();
         self.sweep_turn = self.sweep.angle();
         let m = world_from_tool.rotation_matrix();
@@ -1225,6 +1308,9 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
     // list's build, which keeps every leaf pair the spheres pass.
     let use_faces = !ws.keep_sphere_pairs;
     let drop_far_faces = !SWEPT && use_faces;
+    // A slab region's thin margin for half-space pairs (queries at a pose only).
+    let slab = ws.slab.filter(|_| drop_far_faces);
+    let slab = slab.as_ref();
     // The leaf pair (tool node `t` at world centre `w`, object node `o`, `x = w - o`,
     // `d2 = |x|^2`) if it is to be reported: a cut leaf whose face stands for it is reported
     // only when the face comes within the margin (a swept query keeps every pair its sphere
@@ -1232,8 +1318,12 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
     // Returns None when the pair is not reported, else what `visit` returned.
     let report = |t: usize, o: usize, w: [f64; 3], d2: f64, visit: &mut F| {
         let oc = [obj.x[o], obj.y[o], obj.z[o]];
-        let (gap, face, on_face) = leaf_stand_in(obj.cuts(o), oc, obj.r[o], w, tool.r[t], d2);
-        if drop_far_faces && face.is_some() && gap > m {
+        let cuts = obj.cuts(o);
+        let (gap, face, on_face) = leaf_stand_in(cuts, oc, obj.r[o], w, tool.r[t], d2);
+        if drop_far_faces
+            && face.is_some()
+            && (gap > m || (on_face && FaceSlab::lets_go(slab, cuts, w, tool.r[t], m)))
+        {
             return None;
         }
         Some(visit(&LeafPair {
@@ -1375,10 +1465,19 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
                                 (w, r)
                             };
                             let tool_box = posed_box::<SWEPT>(ws, tool, ti);
-                            if cuts
-                                .iter()
-                                .any(|c| c.clears(cw, cr, m) || c.clears_box(&tool_box, m))
-                            {
+                            // (A slab's thin margin where the node's cuts are one plane.)
+                            // A slab's thinner margin for a face, where its disc holds the
+                            // node's foot after the slide too (leaves beneath may have other
+                            // planes' caps, which could stand for them past its rim).
+                            let clears = |c: &FaceCut, fm: f64, inset: f64| {
+                                c.clears(cw, cr, fm, inset) || c.clears_box(&tool_box, fm, inset)
+                            };
+                            if cuts.iter().any(|c| {
+                                clears(c, m, 0.0)
+                                    || slab.is_some_and(|s| {
+                                        clears(c, s.margin_for(&c.normal, m), s.tangent)
+                                    })
+                            }) {
                                 ws.stats.face_pruned += 1;
                                 continue;
                             }
@@ -1404,7 +1503,7 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
                                 })
                             };
                             if let Some(closest) = closest {
-                                if closest <= m {
+                                if closest <= m && !FaceSlab::lets_go(slab, cuts, w, r, m) {
                                     if let Some(go_on) = report(ti, oi, w, d2, visit) {
                                         count += 1;
                                         if !go_on {

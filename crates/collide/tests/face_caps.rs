@@ -1,13 +1,15 @@
 //! Face cuts: an object leaf with a [`spheretree::FaceCap`] stands for its sphere cut by the
 //! face's half-space. Checked against an independent brute force, against the exact distance
 //! to the cut leaf (safe and complete), for flatness (no sphere bumps), through neighbour
-//! lists, and its constraint rows against finite differences.
+//! lists, and its constraint rows against finite differences; slab regions (a thin margin for
+//! half-space pairs) against a traversal at every pose the slab allows.
 
 mod common;
 
 use collide::{
-    overlap_tree_trees, pair_constraint_value, CollideWorkspace, ConstraintForm, LeafPair,
-    Linearization, ListStatus, NeighbourList, PackedTree, Pose, RotationCoordinates, StandIn,
+    overlap_shared, overlap_tree_trees, pair_constraint_value, CollideWorkspace, ConstraintForm,
+    FaceSlab, LeafPair, Linearization, ListStatus, NeighbourList, PackedTree, Pose,
+    RotationCoordinates, StandIn,
 };
 use common::{dist, random_tree, to_world, TreeShape};
 use rand::{Rng, SeedableRng};
@@ -749,4 +751,129 @@ fn inner_cuts_in_swept_queries() {
         }
     }
     assert!(near > 300 && settled > 300, "{near} {settled}");
+}
+
+/// Pairs within `margin` of `tool` at `q`, half-space pairs of the face within `slab`'s thinner
+/// margin ([`FaceSlab`]).
+fn slab_pairs(
+    tool: &PackedTree,
+    q: &Pose,
+    objects: &[PackedTree],
+    margin: f64,
+    slab: FaceSlab,
+    ws: &mut CollideWorkspace,
+) -> Vec<LeafPair> {
+    let mut pairs = Vec::new();
+    overlap_shared(
+        tool,
+        q,
+        None,
+        objects,
+        margin,
+        Some(slab),
+        ws,
+        None,
+        None,
+        |p| pairs.push(*p),
+    )
+    .unwrap();
+    pairs.sort_by_key(|a| (a.tool_slot, a.object_slot));
+    pairs
+}
+
+/// A slab region lists every pair that can overlap while the tool slides along the face within
+/// the query's margin and moves across it within the slab's: at any such pose, a leaf pair
+/// that overlaps (decided by a traversal there) has a listed pair of the same tool leaf at
+/// least as deep. The slab's list is a part of the whole margin's, and much shorter.
+#[test]
+fn slab_regions_hold_every_pair_that_can_overlap() {
+    const HEIGHTS: (f64, f64) = (2.0, 4.0);
+    let mut rng = ChaCha8Rng::seed_from_u64(77);
+    let flat = plate(9, true);
+    let objects = [PackedTree::with_pose(&flat, &plate_pose()).unwrap()];
+    let tool = PackedTree::new(&small_tool(23)).unwrap();
+    let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+    let (normal, _) = world_face();
+    let (margin, thin) = (1.0, 0.1);
+    let slab = FaceSlab {
+        normal,
+        margin: thin,
+        tangent: margin,
+    };
+    let (mut overlaps, mut slab_total, mut full_total) = (0, 0, 0);
+    for _ in 0..300 {
+        // The tool resting near the face, hardly turned (as it slides on it).
+        let p = on_plate(
+            rng.random_range(-HALF - 2.0..HALF + 2.0),
+            rng.random_range(-HALF - 2.0..HALF + 2.0),
+            rng.random_range(HEIGHTS.0..HEIGHTS.1),
+        );
+        let q = Pose::from_array([
+            p[0],
+            p[1],
+            p[2],
+            rng.random_range(-0.2..0.2),
+            rng.random_range(-0.2..0.2),
+            rng.random_range(-3.0..3.0),
+        ]);
+        let listed = slab_pairs(&tool, &q, &objects, margin, slab, &mut ws);
+        let full = traversal_pairs(&tool, &q, &objects, margin, &mut ws);
+        for l in &listed {
+            assert!(
+                full.iter().any(|f| f == l),
+                "a slab pair the traversal does not list: {l:?}"
+            );
+        }
+        slab_total += listed.len();
+        full_total += full.len();
+
+        for _ in 0..8 {
+            // A slide along the face (up to the margin, less a hair) and a move across it
+            // (up to the slab's margin, less a hair), no turn.
+            let along: f64 = rng.random_range(0.0..margin - 1e-6);
+            let across: f64 = rng.random_range(-(thin - 1e-6)..thin - 1e-6);
+            let mut dir = [
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            ];
+            let dn = dot(&dir, &normal);
+            for k in 0..3 {
+                dir[k] -= dn * normal[k];
+            }
+            let len = dot(&dir, &dir).sqrt().max(1e-12);
+            let mut q2 = q;
+            for k in 0..3 {
+                let slide = along * dir[k] / len;
+                // Total motion within the margin.
+                let scale = (margin - 1e-6) / (along + across.abs()).max(margin - 1e-6);
+                q2.q[k] += scale * (slide + across * normal[k]);
+            }
+            for hit in traversal_pairs(&tool, &q2, &objects, 0.0, &mut ws) {
+                if hit.gap >= -1e-9 {
+                    continue;
+                }
+                overlaps += 1;
+                let deepest = listed
+                    .iter()
+                    .filter(|l| l.tool_slot == hit.tool_slot)
+                    .map(|l| l.gap_at(&q2))
+                    .fold(f64::INFINITY, f64::min);
+                assert!(
+                    deepest <= hit.gap + 1e-9,
+                    "tool leaf {} overlaps by {} at the slid pose; the slab lists it at {deepest}",
+                    hit.tool_slot,
+                    -hit.gap
+                );
+            }
+        }
+    }
+    assert!(
+        overlaps > 200,
+        "only {overlaps} overlaps: the case does not test the slab"
+    );
+    assert!(
+        10 * slab_total < 9 * full_total,
+        "the slab lists {slab_total} pairs, the whole margin {full_total}"
+    );
 }

@@ -25,6 +25,7 @@ fn shared(
         sweep,
         objects,
         margin,
+        None,
         ws,
         team,
         deadline,

@@ -77,6 +77,30 @@ impl GodObject {
                     n += self.push_slab(n, &e, base[k] - rot, base[k] + rot);
                 }
             }
+            Some((
+                Trust::Slab {
+                    normal,
+                    across,
+                    along,
+                    spin,
+                    tilt,
+                },
+                base,
+                _,
+            )) => {
+                // Translation and rotation each in the basis (normal, e1, e2).
+                let (e1, e2) = complement(&normal);
+                for (u, w) in [(normal, across), (e1, along), (e2, along)] {
+                    let row = [u[0], u[1], u[2], 0.0, 0.0, 0.0];
+                    let c = u[0] * base[0] + u[1] * base[1] + u[2] * base[2];
+                    n += self.push_slab(n, &row, c - w, c + w);
+                }
+                for (u, w) in [(normal, spin), (e1, tilt), (e2, tilt)] {
+                    let row = [0.0, 0.0, 0.0, u[0], u[1], u[2]];
+                    let c = u[0] * base[3] + u[1] * base[4] + u[2] * base[5];
+                    n += self.push_slab(n, &row, c - w, c + w);
+                }
+            }
             Some((Trust::Path(a), base, end)) => {
                 // In the variable scaled by reach for rotations (a sphere's motion is at most
                 // sqrt(2) times the scaled norm): one direction along the path, five across it
@@ -153,6 +177,18 @@ impl GodObject {
                     1 | 2 => across,
                     _ => rot,
                 },
+                Trust::Slab {
+                    across,
+                    along,
+                    spin,
+                    tilt,
+                    ..
+                } => match (i - from) / 2 {
+                    0 => across,
+                    1 | 2 => along,
+                    3 => spin,
+                    _ => tilt,
+                },
             };
             let value: f64 = (0..6).map(|k| self.rows[i][k] * dq[k]).sum();
             value - self.rhs[i] <= 1e-3 * width
@@ -207,6 +243,40 @@ impl GodObject {
             along: 0.85 * budget,
             across: 0.37 * budget,
             rot,
+        }
+    }
+
+    /// The trust box of a slab region across the face with unit normal `n` (`across`, mm) and
+    /// sliding along it (`slide`, mm): every tool sphere moves at most `across` across the face
+    /// (translation half of it, tilts the other half: a turn `w` moves a point across by at
+    /// most `|n × w| reach`) and at most `slide` in all (the rest of the slide shared by
+    /// translation along the face and spin about `n`, in proportion to last frame's, each
+    /// keeping 0.3 of it at least).
+    pub(super) fn trust_slab(&self, n: &Vector3<f64>, across: f64, slide: f64) -> Trust {
+        let reach = self.reach.max(1e-9);
+        let t_across = 0.5 * across;
+        let tilt = 0.5 * across / (2f64.sqrt() * reach);
+        let step = Vector3::from(self.last_step);
+        let turn = Vector3::from(self.last_turn);
+        let (moved, spun) = (step.norm(), n.dot(&turn).abs() * reach);
+        let share_t = if moved + spun > 0.0 {
+            (moved / (moved + spun)).clamp(0.3, 0.7)
+        } else {
+            0.5
+        };
+        // |dt| <= sqrt(t_across² + 2 along²) <= slide · share_t and
+        // |w| reach <= sqrt(spin² + 2 tilt²) reach <= slide · (1 - share_t).
+        let (budget_t, budget_r) = (slide * share_t, slide * (1.0 - share_t));
+        let along = ((budget_t * budget_t - t_across * t_across).max(0.0) / 2.0).sqrt();
+        let spin = ((budget_r / reach).powi(2) - 2.0 * tilt * tilt)
+            .max(0.0)
+            .sqrt();
+        Trust::Slab {
+            normal: (*n).into(),
+            across: t_across,
+            along,
+            spin,
+            tilt,
         }
     }
 }

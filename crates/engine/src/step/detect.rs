@@ -7,7 +7,7 @@ impl GodObject {
     /// Collects pairs at `q` within `margin` into `self.pairs` (at most `max_pairs`; the rest
     /// are counted in `self.dropped`); returns the smallest gap seen (mm, +inf if none).
     pub(super) fn detect(&mut self, q: &Pose, margin: f64) -> Result<f64, collide::CollideError> {
-        self.detect_along(q, None, margin, None)
+        self.detect_along(q, None, margin, None, None)
     }
 
     /// [`GodObject::detect`], or with a sweep for a path region: the pairs that come within
@@ -19,6 +19,7 @@ impl GodObject {
         sweep: Option<&Sweep>,
         margin: f64,
         deadline: Option<Instant>,
+        slab: Option<FaceSlab>,
     ) -> Result<f64, collide::CollideError> {
         self.cached = None;
         self.pairs.clear();
@@ -80,6 +81,7 @@ impl GodObject {
             sweep,
             &self.objects,
             margin,
+            slab,
             &mut self.ws,
             self.team.as_ref(),
             deadline,
@@ -173,6 +175,44 @@ impl GodObject {
         };
         let on_path = lin.configuration(&std::array::from_fn(|k| base[k] + s * (end[k] - base[k])));
         self.motion_bound(&on_path, q)
+    }
+
+    /// How far (mm) a tool leaf centre moves at most across a face with unit normal `n`
+    /// between the poses `a` and `b`: the translation's part along `n`, plus the turn's tilt of
+    /// `n` times the reach (a turn `w` moves `x` by `(R - I) x`, whose part along `n` is at
+    /// most `|n × w| |x|`: a turn about `n` moves nothing across the face).
+    pub(super) fn across_bound(&self, n: &Vector3<f64>, a: &Pose, b: &Pose) -> f64 {
+        let dt = b.translation() - a.translation();
+        let w = rotation_log(&(b.rotation_matrix() * a.rotation_matrix().transpose()));
+        n.dot(&dt).abs() + n.cross(&w).norm() * self.reach
+    }
+
+    /// The widths of a slab region (mm: across the face, along it) for a tool held by one
+    /// flat face ([`GodObject::contact_face`]), or `None` where a ball serves as well: the
+    /// slide along the face as a ball region would take it (`need`, `allow`, `cap`), at least
+    /// [`SLAB_SLIDE_MM`]; across it 1.5 times last frame's motion across plus
+    /// [`SLAB_ACROSS_MIN_MM`], within the pair density's allowance `dense_cap` (the face's
+    /// pairs grow with this margin, not the slide's). Only where the face's margin is at most
+    /// half the slide's, and not while slabs rest after a failure ([`SLAB_REST_FRAMES`]).
+    pub(super) fn slab_widths(
+        &self,
+        need: f64,
+        allow: f64,
+        cap: f64,
+        dense_cap: f64,
+    ) -> Option<(Vector3<f64>, f64, f64)> {
+        if self.slab_rest > 0 {
+            return None;
+        }
+        let n = self.contact_face?;
+        let step = Vector3::from(self.last_step);
+        let turn = Vector3::from(self.last_turn);
+        let across = n.dot(&step).abs() + n.cross(&turn).norm() * self.reach;
+        let slide = need.min(allow.max(SLAB_SLIDE_MM)).min(cap);
+        let face = (1.5 * across + SLAB_ACROSS_MIN_MM)
+            .min(dense_cap.max(SLAB_ACROSS_MIN_MM))
+            .min(slide);
+        (face <= 0.5 * slide).then_some((n, face, slide))
     }
 
     /// Width (mm) of a path region: twice the recent prediction error, within bounds.

@@ -45,9 +45,9 @@
 use std::time::Instant;
 
 use collide::{
-    rotation_exp, rotation_log, BackgroundList, CollideWorkspace, FreeSpaceProbe, LeafPair,
-    Linearization, ListStatus, NeighbourList, PackedTree, Pose, ProbeStatus, RotationCoordinates,
-    Sweep, TraversalTeam,
+    rotation_exp, rotation_log, BackgroundList, CollideWorkspace, FaceSlab, FreeSpaceProbe,
+    LeafPair, Linearization, ListStatus, NeighbourList, PackedTree, Pose, ProbeStatus,
+    RotationCoordinates, Sweep, TraversalTeam,
 };
 use nalgebra::{Matrix3, Vector3};
 use qp::{Problem, RowGeneration, Solver, Status};
@@ -263,6 +263,21 @@ const PATH_MIN_MM: f64 = 0.2;
 const PATH_WIDTH_MIN_MM: f64 = 0.1;
 const PATH_WIDTH_MAX_MM: f64 = 0.4;
 
+/// A slab region (a tool held by one flat face) allows a slide along the face of at least this
+/// much (mm): its pairs do not grow with it, only with the margin across.
+const SLAB_SLIDE_MM: f64 = 0.5;
+
+/// Least margin (mm) across the face of a slab region, over 1.5 times last frame's motion
+/// across it.
+const SLAB_ACROSS_MIN_MM: f64 = 0.03;
+
+/// Frames without slab regions after one that failed (stopped at the deadline, overflowed or
+/// listed more than [`PAIR_TARGET`] pairs: the other pairs within the slide, of faces whose
+/// discs are too small or of the tool's own bumps, can be many), doubled after each failure in
+/// a row up to [`SLAB_REST_MAX_FRAMES`].
+const SLAB_REST_FRAMES: u32 = 100;
+const SLAB_REST_MAX_FRAMES: u32 = 12_800;
+
 /// The trust region that keeps a pass's iterates inside its detected region.
 #[derive(Clone, Copy, Debug)]
 enum Trust {
@@ -279,6 +294,16 @@ enum Trust {
         along: f64,
         across: f64,
         rot: f64,
+    },
+    /// A slab region's box, turned to the face's unit `normal`: translation half-widths
+    /// across the face (`normal`) and along it (each of two axes), rotation half-widths about
+    /// `normal` (`spin`) and about the two axes along the face (`tilt`; mm and rad).
+    Slab {
+        normal: [f64; 3],
+        across: f64,
+        along: f64,
+        spin: f64,
+        tilt: f64,
     },
 }
 
@@ -314,6 +339,9 @@ struct Region {
     /// Largest sphere motion along the sweep, mm (0 without one).
     length: f64,
     width: f64,
+    /// A slab region: the face's unit normal and the region's width across it (mm; `width`
+    /// is then the slide along it).
+    slab: Option<(Vector3<f64>, f64)>,
 }
 
 impl Region {
@@ -381,6 +409,14 @@ pub struct GodObject {
     last_motion: f64,
     /// Translation of the graphic tool over the last frame, mm.
     last_step: [f64; 3],
+    /// Turn of the graphic tool over the last frame (rotation vector, world, rad).
+    last_turn: [f64; 3],
+    /// The unit normal of the one flat face whose half-space pairs alone held the tool in the
+    /// last solve (a slab region's face), if so.
+    contact_face: Option<Vector3<f64>>,
+    /// Frames left without slab regions, and the rest after the next failure.
+    slab_rest: u32,
+    slab_next_rest: u32,
     /// How the pair count grows with the margin near the tool, as last seen (sizes regions).
     density: density::PairDensity,
     /// Free-space proofs: poses at which no leaf pair was within a radius (mm). Each spares
@@ -522,6 +558,10 @@ impl GodObject {
             q_g: Pose::identity(),
             last_motion: 0.0,
             last_step: [0.0; 3],
+            last_turn: [0.0; 3],
+            contact_face: None,
+            slab_rest: 0,
+            slab_next_rest: SLAB_REST_FRAMES,
             density: density::PairDensity::default(),
             free: [FreeProof::none(); 2],
             probe,
@@ -611,6 +651,10 @@ impl GodObject {
         self.warm_len = 0;
         self.last_motion = 0.0;
         self.last_step = [0.0; 3];
+        self.last_turn = [0.0; 3];
+        self.contact_face = None;
+        self.slab_rest = 0;
+        self.slab_next_rest = SLAB_REST_FRAMES;
         self.hand_offset = (Vector3::zeros(), Vector3::zeros());
         // A new run: nothing learnt from the last one (prediction, pair density) carries over.
         self.prediction_error = 0.0;
@@ -718,6 +762,7 @@ impl GodObject {
             sweep: None,
             length: 0.0,
             width: 0.0,
+            slab: None,
         };
         let mut boxed: Option<Trust> = None;
         let mut detect_now = true;
@@ -735,7 +780,10 @@ impl GodObject {
         if let Some((cached, trust)) = self.cached.filter(|_| reusable) {
             if let Some(lin) = self.linearization(&q_lin, q_h) {
                 let depth = self.distance_from_region(&lin, &cached, &q_lin, &lin.delta());
-                if depth <= 0.5 * cached.width {
+                let across_ok = cached
+                    .slab
+                    .is_none_or(|(n, w)| self.across_bound(&n, &cached.center, &q_lin) <= 0.5 * w);
+                if depth <= 0.5 * cached.width && across_ok {
                     region = cached;
                     boxed = Some(trust);
                     detect_now = false;
@@ -793,6 +841,19 @@ impl GodObject {
                     allowed = allowed.min(list_room);
                 }
                 let mut trust = need > allowed;
+                // A tool held by one flat face: a slab region (its face's half-space pairs
+                // within a thin margin across the face, every other pair within the slide
+                // along it), with its own trust box.
+                let slab = if path_regions && self.faces {
+                    self.slab_widths(need, allow, cap, dense_cap)
+                } else {
+                    None
+                };
+                if let Some((_, _, slide)) = slab {
+                    allowed = slide;
+                    trust = true;
+                }
+                let mut slab_used = false;
                 // A hand in motion that the ball cannot follow: a region along the motion
                 // predicted for the tool instead (a sliding contact holds far fewer pairs along
                 // its path than within the path's length all around).
@@ -804,7 +865,7 @@ impl GodObject {
                 let path_cap = (self.density.path_margin_for(PAIR_TARGET) - skin)
                     .max(MIN_ALLOW_MM)
                     .min(cap);
-                let mut sweep = if trust && path_regions {
+                let mut sweep = if trust && path_regions && slab.is_none() {
                     let width = self.path_width();
                     self.predicted_sweep(&q_lin, q_h, path_cap)
                         .filter(|&(_, len)| {
@@ -834,7 +895,7 @@ impl GodObject {
                     Ok(f64::INFINITY)
                 } else if let Some((path, _)) = sweep {
                     self.probe.cancel();
-                    self.detect_along(&q_lin, Some(&path), width + skin, Some(deadline))
+                    self.detect_along(&q_lin, Some(&path), width + skin, Some(deadline), None)
                 } else if let Some(free) = self.finish_probe(&q_lin, extent + skin, deadline) {
                     // The background probe covers this pose: finished now, it proves free
                     // space (no pair); out of time, the frame ends here and the next one
@@ -857,7 +918,13 @@ impl GodObject {
                     } else {
                         allowed + skin
                     };
-                    let d = self.detect_along(&q_lin, None, probe, Some(deadline));
+                    let face_slab = slab.map(|(n, across, slide)| FaceSlab {
+                        normal: n.into(),
+                        margin: across + skin,
+                        tangent: slide + skin,
+                    });
+                    slab_used = face_slab.is_some();
+                    let d = self.detect_along(&q_lin, None, probe, Some(deadline), face_slab);
                     // Only a complete traversal proves free space (one the deadline stopped
                     // may have missed pairs).
                     if d.is_ok() && self.pairs.is_empty() && !self.interrupted {
@@ -872,6 +939,22 @@ impl GodObject {
                     }
                     d
                 };
+                if slab_used {
+                    if self.interrupted || self.dropped > 0 || self.pairs.len() as f64 > PAIR_TARGET
+                    {
+                        self.slab_rest = self.slab_next_rest;
+                        self.slab_next_rest = (2 * self.slab_next_rest).min(SLAB_REST_MAX_FRAMES);
+                    } else {
+                        self.slab_next_rest = SLAB_REST_FRAMES;
+                    }
+                }
+                // An empty slab region lists nothing within its thin margin either: a ball of
+                // that width.
+                let mut slab_face = slab.filter(|_| slab_used).map(|(n, across, _)| (n, across));
+                if let Some((_, across)) = slab_face.filter(|_| self.pairs.is_empty()) {
+                    allowed = across;
+                    slab_face = None;
+                }
                 if trust && self.pairs.is_empty() && detected.is_ok() {
                     // Nothing within the allowance: if nothing is within the whole way to q_h
                     // either, the path is free and no trust box is needed (no lag in free
@@ -908,7 +991,11 @@ impl GodObject {
                 // Pairs against margin, remembered for the next choice. (A path region's
                 // count over its width overstates the density all around: the safe side,
                 // smaller ball regions after it.)
-                let margin = if sweep.is_some() { width } else { allowed } + skin;
+                let margin = match (slab_face, sweep) {
+                    (Some((_, across)), _) => across,
+                    (None, Some(_)) => width,
+                    (None, None) => allowed,
+                } + skin;
                 self.density
                     .record(margin, self.pairs.len() + self.dropped, sweep.is_some());
 
@@ -934,18 +1021,21 @@ impl GodObject {
                         sweep: Some(path),
                         length,
                         width,
+                        slab: None,
                     },
                     None => Region {
                         center: q_lin,
                         sweep: None,
                         length: 0.0,
                         width: allowed,
+                        slab: slab_face,
                     },
                 };
                 // A path slab of half-width a keeps every sphere within sqrt(12) a of the path.
-                boxed = trust.then(|| match sweep {
-                    Some(_) => Trust::Path(width / 12f64.sqrt()),
-                    None if path_regions => {
+                boxed = trust.then(|| match (slab_face, sweep) {
+                    (Some((n, across)), _) => self.trust_slab(&n, across, allowed),
+                    (None, Some(_)) => Trust::Path(width / 12f64.sqrt()),
+                    (None, None) if path_regions => {
                         // Each part gets the larger of its shares of the need and of the
                         // predicted motion (the hand's press into a surface is need the tool
                         // will not follow; a turn it follows may be a small part of the need).
@@ -967,7 +1057,7 @@ impl GodObject {
                         let step = q_pred.translation() - q_lin.translation();
                         self.trust_oriented(allowed, t, r, &step)
                     }
-                    None => self.trust_box(allowed, need_t, need_r),
+                    (None, None) => self.trust_box(allowed, need_t, need_r),
                 });
                 if !self.pairs.is_empty() {
                     // Reused in later frames with a trust region (even where this pass needs
@@ -1042,7 +1132,10 @@ impl GodObject {
             }
             let t2 = Instant::now();
             let moved = self.distance_from_region(&lin, &region, &q_new, &dq);
-            if moved > region.width + skin {
+            let moved_across = region.slab.map_or(0.0, |(n, across)| {
+                self.across_bound(&n, &region.center, &q_new) - across
+            });
+            if moved > region.width + skin || moved_across > skin {
                 // Pairs that can touch on the way to q_new may be missing: not proven. Detect
                 // again from q_lin with a margin covering the motion (a box if over the cap).
                 allow = (self.motion_bound(&q_lin, &q_new) * 1.25).min(cap);
@@ -1121,6 +1214,10 @@ impl GodObject {
         for k in 0..3 {
             self.last_step[k] = q_safe.q[k] - self.q_g.q[k];
         }
+        self.slab_rest = self.slab_rest.saturating_sub(1);
+        self.last_turn =
+            rotation_log(&(q_safe.rotation_matrix() * self.q_g.rotation_matrix().transpose()))
+                .into();
         let error = self.motion_bound(&self.predicted_pose(q_h), &q_safe);
         self.prediction_error = error.max(0.9 * self.prediction_error);
         self.q_g = q_safe;

@@ -101,13 +101,24 @@ impl GodObject {
     /// Remembers the identities of the active pairs of the last solve.
     pub(super) fn remember_active(&mut self, n_pairs: usize) {
         let mut m = 0;
+        // The one face whose half-space pairs alone hold the tool, if so.
+        let mut face: Option<[f64; 3]> = None;
+        let mut one_face = true;
         for &i in self.rows_solver.active_set() {
-            if i < n_pairs && m < 6 {
-                let p = &self.pairs[i];
+            if i >= n_pairs {
+                continue;
+            }
+            let p = &self.pairs[i];
+            if m < 6 {
                 self.warm[m] = (p.object, p.tool_slot, p.object_slot);
                 m += 1;
             }
+            match (p.stands_for_face(), p.face) {
+                (true, Some(f)) if face.is_none_or(|n| n == f.normal) => face = Some(f.normal),
+                _ => one_face = false,
+            }
         }
         self.warm_len = m;
+        self.contact_face = face.filter(|_| one_face).map(Vector3::from);
     }
 }
