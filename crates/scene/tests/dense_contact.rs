@@ -7,7 +7,7 @@
 
 mod common;
 
-use collide::{overlap_tree_trees, CollideWorkspace, PackedTree, Pose};
+use collide::Pose;
 use engine::step::FrameStatus;
 use scene::scenes::plate::{self, PlateTool, SpeedMotion, PRESS_MM};
 use scene::trajectory::{Ease, Script};
@@ -64,14 +64,11 @@ fn the_dense_puck_slides_in_regions_of_bounded_size_and_never_overlaps_the_plate
 /// only).
 fn assert_free_of_the_plate(scene: &Scene, frames: &[engine::step::FrameOutput]) {
     let traj = scene.trajectory();
-    let tool = PackedTree::new(&scene.tool).unwrap();
-    let objects: Vec<PackedTree> = scene
-        .objects
-        .iter()
-        .map(|(t, p)| PackedTree::with_pose(t, p).unwrap())
-        .collect();
-    assert!(objects[0].face_cut_count() > 0, "the plate is capped");
-    let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+    assert!(
+        common::packed(scene).1[0].face_cut_count() > 0,
+        "the plate is capped"
+    );
+    let mut overlap = common::overlap_of(scene);
     for (i, (o, s)) in frames.iter().zip(&traj.samples).enumerate() {
         assert_eq!(o.status, FrameStatus::Ok, "frame {i} at {:.3} s", s.t);
         assert!(
@@ -79,21 +76,11 @@ fn assert_free_of_the_plate(scene: &Scene, frames: &[engine::step::FrameOutput])
             "frame {i}: {} mm",
             o.penetration_mm
         );
-        let mut deepest = f64::INFINITY;
-        overlap_tree_trees(
-            &tool,
-            &Pose::from_array(o.q_g),
-            &objects,
-            0.0,
-            &mut ws,
-            |p| deepest = deepest.min(p.gap),
-        )
-        .unwrap();
+        let deepest = overlap(&Pose::from_array(o.q_g));
         assert!(
-            deepest >= -0.01,
-            "frame {i} at {:.3} s overlaps the plate by {} mm",
-            s.t,
-            -deepest
+            deepest <= 0.01,
+            "frame {i} at {:.3} s overlaps the plate by {deepest} mm",
+            s.t
         );
     }
 }

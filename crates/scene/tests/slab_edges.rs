@@ -42,12 +42,7 @@ fn listed(
 fn slab_regions_hold_every_pair_that_can_overlap_at_a_capped_boxs_edges() {
     let run = plate::speed_script(PlateTool::Ball, SpeedMotion::Slide(50.0), 1000.0, 0.1);
     let scene = plate::scene(&common::test_cache(), PlateTool::Ball, run.script).unwrap();
-    let tool = PackedTree::new(&scene.tool).unwrap();
-    let objects: Vec<PackedTree> = scene
-        .objects
-        .iter()
-        .map(|(t, p)| PackedTree::with_pose(t, p).unwrap())
-        .collect();
+    let (tool, objects) = common::packed(&scene);
     assert!(objects[0].face_cut_count() > 0, "the plate is capped");
     let mut ws = CollideWorkspace::for_trees(&tool, &objects);
     let mut rng = ChaCha8Rng::seed_from_u64(5);

@@ -66,11 +66,7 @@ impl GodObject {
             )) => {
                 // Translation in the basis (dir, e1, e2); rotation per component.
                 let (e1, e2) = complement(&dir);
-                for (u, w) in [(dir, along), (e1, across), (e2, across)] {
-                    let row = [u[0], u[1], u[2], 0.0, 0.0, 0.0];
-                    let c = u[0] * base[0] + u[1] * base[1] + u[2] * base[2];
-                    n += self.push_slab(n, &row, c - w, c + w);
-                }
+                n += self.push_turned(n, 0, [(dir, along), (e1, across), (e2, across)], &base);
                 for k in 3..6 {
                     let mut e = [0.0; 6];
                     e[k] = 1.0;
@@ -90,16 +86,8 @@ impl GodObject {
             )) => {
                 // Translation and rotation each in the basis (normal, e1, e2).
                 let (e1, e2) = complement(&normal);
-                for (u, w) in [(normal, across), (e1, along), (e2, along)] {
-                    let row = [u[0], u[1], u[2], 0.0, 0.0, 0.0];
-                    let c = u[0] * base[0] + u[1] * base[1] + u[2] * base[2];
-                    n += self.push_slab(n, &row, c - w, c + w);
-                }
-                for (u, w) in [(normal, spin), (e1, tilt), (e2, tilt)] {
-                    let row = [0.0, 0.0, 0.0, u[0], u[1], u[2]];
-                    let c = u[0] * base[3] + u[1] * base[4] + u[2] * base[5];
-                    n += self.push_slab(n, &row, c - w, c + w);
-                }
+                n += self.push_turned(n, 0, [(normal, across), (e1, along), (e2, along)], &base);
+                n += self.push_turned(n, 3, [(normal, spin), (e1, tilt), (e2, tilt)], &base);
             }
             Some((Trust::Path(a), base, end)) => {
                 // In the variable scaled by reach for rotations (a sphere's motion is at most
@@ -146,6 +134,26 @@ impl GodObject {
             }
         }
         n
+    }
+
+    /// Writes, at `n`, the rows `|u . (dq - base)| <= w` for each `(u, w)` of `axes`, `u` in
+    /// the translation part of `dq` (`part` 0) or its rotation part (`part` 3); returns the
+    /// number of rows written.
+    fn push_turned(
+        &mut self,
+        n: usize,
+        part: usize,
+        axes: [([f64; 3], f64); 3],
+        base: &[f64; 6],
+    ) -> usize {
+        let mut written = 0;
+        for (u, w) in axes {
+            let mut row = [0.0; 6];
+            row[part..part + 3].copy_from_slice(&u);
+            let c = u[0] * base[part] + u[1] * base[part + 1] + u[2] * base[part + 2];
+            written += self.push_slab(n + written, &row, c - w, c + w);
+        }
+        written
     }
 
     /// Writes the two rows `lo <= row . dq <= hi` at `n`; returns 2.

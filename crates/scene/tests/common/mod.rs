@@ -35,14 +35,21 @@ pub fn replay(scene: &scene::Scene) -> Vec<engine::step::FrameOutput> {
 /// The deepest overlap of the scene's tool with its objects at a pose, measured here (leaf
 /// pairs at margin 0), not by the engine: `overlap(q)` in mm, 0 when free.
 pub fn overlap_of(scene: &scene::Scene) -> impl FnMut(&collide::Pose) -> f64 {
+    let (tool, objects) = packed(scene);
+    let mut ws = collide::CollideWorkspace::for_trees(&tool, &objects);
+    move |q| (-scene::scenes::min_gap(&tool, &objects, q, 0.0, &mut ws)).max(0.0)
+}
+
+/// The scene's tool and objects packed as the engine packs them (objects placed, with their
+/// face caps).
+pub fn packed(scene: &scene::Scene) -> (collide::PackedTree, Vec<collide::PackedTree>) {
     let tool = collide::PackedTree::new(&scene.tool).unwrap();
-    let objects: Vec<collide::PackedTree> = scene
+    let objects = scene
         .objects
         .iter()
         .map(|(t, p)| collide::PackedTree::with_pose(t, p).unwrap())
         .collect();
-    let mut ws = collide::CollideWorkspace::for_trees(&tool, &objects);
-    move |q| (-scene::scenes::min_gap(&tool, &objects, q, 0.0, &mut ws)).max(0.0)
+    (tool, objects)
 }
 
 /// An error and its sources on one line, `a: b: c`, as the command line prints them.
