@@ -19,6 +19,9 @@
 //!   stands for the face's half-space ([`LeafPair::on_face`], [`FacePlane`]), exact and without
 //!   sphere bumps; elsewhere a cut leaf stands for its sphere cut by the plane (the lens,
 //!   [`StandIn`]); a cut inner node's face stands for its subtree (docs/DESIGN.md §Face caps).
+//!   A [`FaceSlab`] in [`overlap_shared`] keeps a face's half-space pairs within a thinner
+//!   margin than the rest (a tool sliding on the face: its gaps to the face change only with
+//!   the motion across it).
 //! - [`ConstraintForm`], [`Linearization`], [`fill_constraints`]: rows `J dq >= d`.
 //!
 //! ```
