@@ -124,6 +124,14 @@ pub struct FacePlane {
 }
 
 impl FacePlane {
+    /// True when `other` is this plane to 1e-9 (normal components and offset, mm): one face
+    /// met through different nodes, whose caps differ in rounding.
+    #[inline(always)]
+    pub fn coincides(&self, other: &FacePlane) -> bool {
+        (self.offset - other.offset).abs() <= 1e-9
+            && (0..3).all(|k| (self.normal[k] - other.normal[k]).abs() <= 1e-9)
+    }
+
     /// Signed distance (mm) from the world point `w` to the lens `B(o, r) ∩ H` (the ball cut by
     /// this plane), with the unit direction from the lens's nearest point to `w` (the
     /// distance's gradient; inside, the normal of the nearer boundary). `None` when the plane
@@ -389,12 +397,8 @@ impl FaceSlab {
 /// with another disc; caps fitted on different nodes of one face differ in rounding).
 #[inline(always)]
 fn one_plane(cuts: &[FaceCut]) -> bool {
-    cuts.first().is_none_or(|first| {
-        cuts.iter().all(|c| {
-            (c.offset - first.offset).abs() <= 1e-9
-                && (0..3).all(|k| (c.normal[k] - first.normal[k]).abs() <= 1e-9)
-        })
-    })
+    cuts.first()
+        .is_none_or(|first| cuts.iter().all(|c| c.plane().coincides(&first.plane())))
 }
 
 /// The face that stands for a tool sphere at `w` (radius `r_tool`, mm) against a node with

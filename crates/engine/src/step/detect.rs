@@ -631,10 +631,7 @@ impl GodObject {
 fn same_face(a: &LeafPair, b: &LeafPair) -> bool {
     match (a.on_face, b.on_face, &a.face, &b.face) {
         (true, true, Some(f), Some(g)) => {
-            a.tool_slot == b.tool_slot
-                && a.object == b.object
-                && (f.offset - g.offset).abs() <= 1e-9
-                && (0..3).all(|k| (f.normal[k] - g.normal[k]).abs() <= 1e-9)
+            a.tool_slot == b.tool_slot && a.object == b.object && f.coincides(g)
         }
         _ => false,
     }
