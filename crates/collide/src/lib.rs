@@ -51,6 +51,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod constraint;
+mod near;
 mod neighbours;
 mod packed;
 mod pose;
@@ -62,6 +63,7 @@ pub use constraint::{
     constraint_value, fill_constraints, pair_constraint_value, ConstraintForm, Linearization,
     RotationCoordinates, DEGENERATE_DISTANCE,
 };
+pub use near::near_box;
 pub use neighbours::{BackgroundList, ListStatus, NeighbourList};
 pub use packed::PackedTree;
 pub use pose::{rotation_exp, rotation_log, rotation_zyx, rotation_zyx_partials, Pose};

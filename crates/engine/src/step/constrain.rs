@@ -209,7 +209,9 @@ impl GodObject {
     /// least a fifth, so the constraints can still push the tool out): translation half-width
     /// `a` per axis moves a point by at most `sqrt(3) a`; rotation half-width `b` per coordinate
     /// by at most `sqrt(3) b reach` (rotation vector) or `3 b reach` (Euler increments).
-    pub(super) fn trust_box(&self, allowed: f64, need_t: f64, need_r: f64) -> Trust {
+    /// `reach` is the tool's ([`GodObject::reach`]) or, in a ball region with a near part, the
+    /// near leaves' ([`Lever::trust_reach`]).
+    pub(super) fn trust_box(&self, allowed: f64, need_t: f64, need_r: f64, reach: f64) -> Trust {
         let need = need_t + need_r;
         let share_t = if need > 0.0 {
             (need_t / need).clamp(0.2, 0.8)
@@ -221,7 +223,7 @@ impl GodObject {
             RotationCoordinates::RotationVector => 3f64.sqrt(),
             RotationCoordinates::Euler => 3.0,
         };
-        let b = (allowed * (1.0 - share_t) / (per_axis * self.reach.max(1e-9))).min(0.5);
+        let b = (allowed * (1.0 - share_t) / (per_axis * reach.max(1e-9))).min(0.5);
         Trust::Box(a, b)
     }
 
@@ -236,9 +238,10 @@ impl GodObject {
         need_t: f64,
         need_r: f64,
         step: &Vector3<f64>,
+        reach: f64,
     ) -> Trust {
-        let Trust::Box(a, rot) = self.trust_box(allowed, need_t, need_r) else {
-            return self.trust_box(allowed, need_t, need_r);
+        let Trust::Box(a, rot) = self.trust_box(allowed, need_t, need_r, reach) else {
+            return self.trust_box(allowed, need_t, need_r, reach);
         };
         let len = step.norm();
         if !len.is_finite() || len <= 1e-9 * allowed.max(1e-9) {

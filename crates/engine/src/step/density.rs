@@ -1,5 +1,6 @@
 //! How a region's leaf-pair count grows with its margin near the tool, as last seen: sizes the
-//! next region so that it holds about [`PAIR_TARGET`](super::PAIR_TARGET) pairs.
+//! next region so that it holds about its target count ([`BALL_PAIR_TARGET`](super::BALL_PAIR_TARGET)
+//! pairs for a ball region, [`PAIR_TARGET`](super::PAIR_TARGET) for a path or a probe).
 //!
 //! Over a curved or sparse contact the count grows about linearly with the margin; over two
 //! bumpy flat faces pressed together it grows as a high power of it (every leaf of the face is

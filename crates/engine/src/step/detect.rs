@@ -157,7 +157,10 @@ impl GodObject {
         dq: &[f64; 6],
     ) -> f64 {
         if region.sweep.is_none() {
-            return self.motion_bound(&region.center, q);
+            return match &region.lever {
+                None => self.motion_bound(&region.center, q),
+                Some(lever) => self.lever_bound(lever, region, q),
+            };
         }
         let base = lin.variable(&region.center);
         let end = lin.variable(&region.end());
@@ -603,18 +606,62 @@ impl GodObject {
     /// its origin: the largest distance `|u × R p|` of a leaf centre `p` from it, at most the
     /// largest over the centres' box corners (the distance is convex in `p`) and the reach.
     pub(super) fn arm(&self, r: &Matrix3<f64>, u: &Vector3<f64>) -> f64 {
-        let a = r.transpose() * u;
-        let (lo, hi) = (&self.centres_lo, &self.centres_hi);
-        let mut far = 0.0f64;
-        for corner in 0..8 {
-            let c = Vector3::new(
-                if corner & 1 == 0 { lo.x } else { hi.x },
-                if corner & 2 == 0 { lo.y } else { hi.y },
-                if corner & 4 == 0 { lo.z } else { hi.z },
-            );
-            far = far.max(a.cross(&c).norm_squared());
+        box_arm(&self.centres_lo, &self.centres_hi, r, u).min(self.reach)
+    }
+
+    /// The near part of the tool ([`Lever`]) at `q` for a ball region of margin `margin` (mm),
+    /// or `None` where it is most of the tool (then the whole tool's bound serves). The box is
+    /// found [`LEVER_SPARE_MM`] wider than needed and kept while the tool stays within that of
+    /// where it was found: a leaf outside it, farther than `M` from the objects there, is
+    /// farther than `M - b` at a pose the motion bound `b` away.
+    pub(super) fn lever_at(&mut self, q: &Pose, margin: f64) -> Option<Lever> {
+        let need = margin + LEVER_MARGIN_MM;
+        if let Some((at, found, lever)) = self.lever_cache {
+            if found - self.motion_bound(&at, q) >= need {
+                return lever;
+            }
         }
-        far.sqrt().min(self.reach)
+        let found = need + LEVER_SPARE_MM;
+        let lever = collide::near_box(
+            &self.tool,
+            q,
+            &self.objects,
+            found,
+            LEVER_LEVEL,
+            LEVER_LEVEL,
+            LEVER_MAX_TESTS,
+        )
+        .and_then(|(lo, hi)| {
+            let (lo, hi) = (Vector3::from(lo), Vector3::from(hi));
+            let reach = (0..8)
+                .map(|c| corner(&lo, &hi, c).norm())
+                .fold(0.0, f64::max)
+                .min(self.reach);
+            // Worth it only where the near leaves turn on a shorter arm than the tool.
+            (reach < 0.9 * self.reach).then_some(Lever { lo, hi, reach })
+        });
+        self.lever_cache = Some((*q, found, lever));
+        lever
+    }
+
+    /// How far (mm) the pose `q` is from the ball region `region` with the near part `lever`:
+    /// the near leaves' motion bound (translation plus the turn times their arm about its
+    /// axis), or the whole tool's less [`LEVER_MARGIN_MM`] where that is larger (every other
+    /// leaf was that much farther from the objects at the centre).
+    pub(super) fn lever_bound(&self, lever: &Lever, region: &Region, q: &Pose) -> f64 {
+        let (r_a, r_b) = (region.center.rotation_matrix(), q.rotation_matrix());
+        let dt = (q.translation() - region.center.translation()).norm();
+        let w = rotation_log(&(r_b * r_a.transpose()));
+        let th = w.norm();
+        let near = if th > 0.0 && th.is_finite() {
+            th * box_arm(&lever.lo, &lever.hi, &r_a, &(w / th)).min(lever.reach)
+        } else if th == 0.0 {
+            0.0
+        } else {
+            f64::INFINITY
+        };
+        let all = dt + self.turn_bound(&r_a, &r_b);
+        (dt + near).max(all - LEVER_MARGIN_MM)
     }
 
     /// The motion bound (mm) of any tool leaf centre between `a` and `b`:
@@ -624,6 +671,26 @@ impl GodObject {
         let th = rotation_angle(&b.rotation_matrix(), &a.rotation_matrix());
         dt + th * self.reach
     }
+}
+
+/// Corner `c` (0–7: bit 0 x, bit 1 y, bit 2 z high) of the box from `lo` to `hi`.
+fn corner(lo: &Vector3<f64>, hi: &Vector3<f64>, c: usize) -> Vector3<f64> {
+    Vector3::new(
+        if c & 1 == 0 { lo.x } else { hi.x },
+        if c & 2 == 0 { lo.y } else { hi.y },
+        if c & 4 == 0 { lo.z } else { hi.z },
+    )
+}
+
+/// The largest distance (mm) of a point of the box from `lo` to `hi` (tool frame), the tool at
+/// rotation `r`, from the unit world axis `u` through the origin: the distance is convex, so
+/// its largest value is at a corner.
+fn box_arm(lo: &Vector3<f64>, hi: &Vector3<f64>, r: &Matrix3<f64>, u: &Vector3<f64>) -> f64 {
+    let a = r.transpose() * u;
+    (0..8)
+        .map(|c| a.cross(&corner(lo, hi, c)).norm_squared())
+        .fold(0.0, f64::max)
+        .sqrt()
 }
 
 /// True when two pairs of the same tool leaf stand for the same face (normals and offsets
@@ -717,6 +784,131 @@ mod tests {
             about < 0.35 * 0.1 * g.reach(),
             "{about} vs reach {}",
             g.reach()
+        );
+    }
+
+    /// A probe of 64 leaves (radius 1 mm): a tip ring of radius 1 mm at z = 0 and 7 rings of
+    /// radius 12 mm up to z = 50 mm (a ring per level-1 node), over 6 object spheres 0.05 mm
+    /// under its tip, with one object sphere 0.15 mm beside the tip and one 1.5 mm beside the
+    /// far end.
+    fn probe_over_a_plate() -> GodObject {
+        let mut tool = SphereTree::new_unused(3, 8).unwrap();
+        tool.spheres_mut()[0] = Sphere::new([0.0, 0.0, 25.0], 60.0);
+        for ring in 0..8 {
+            let (z, radius) = (50.0 * ring as f64 / 7.0, if ring == 0 { 1.0 } else { 12.0 });
+            tool.spheres_mut()[1 + ring] = Sphere::new([0.0, 0.0, z], radius + 1.5);
+            for k in 0..8 {
+                let a = std::f64::consts::FRAC_PI_4 * k as f64;
+                tool.spheres_mut()[9 + 8 * ring + k] =
+                    Sphere::new([radius * a.cos(), radius * a.sin(), z], 1.0);
+            }
+        }
+        let mut object = SphereTree::new_unused(2, 8).unwrap();
+        object.spheres_mut()[0] = Sphere::new([0.0, 0.0, 25.0], 60.0);
+        for k in 0..6 {
+            let a = std::f64::consts::FRAC_PI_4 * k as f64;
+            object.spheres_mut()[1 + k] = Sphere::new([a.cos(), a.sin(), -2.05], 1.0);
+        }
+        object.spheres_mut()[7] = Sphere::new([0.0, 3.15, 0.0], 1.0);
+        object.spheres_mut()[8] = Sphere::new([15.5, 0.0, 50.0], 1.0);
+        GodObject::new(
+            &tool,
+            &[(object, Pose::identity())],
+            EngineConfig::default(),
+        )
+        .unwrap()
+    }
+
+    /// A ball region with the near part of the tool keeps its promise: at every pose it admits,
+    /// every leaf pair that overlaps was within the region's margin at its centre. A turn
+    /// about the contact is admitted beyond the whole tool's bound; a tilt that brings the far
+    /// end (1.5 mm from an object) into contact is not.
+    #[test]
+    fn a_region_with_a_lever_admits_no_pose_where_an_unlisted_pair_overlaps() {
+        let mut g = probe_over_a_plate();
+        let (width, skin) = (0.1, 0.02);
+        let lever = g
+            .lever_at(&Pose::identity(), width + skin)
+            .expect("a near part");
+        // The tip alone is near: its box (4 mm square) reaches 2.9 mm from the origin.
+        assert!(
+            lever.reach < 0.1 * g.reach(),
+            "{} of {}",
+            lever.reach,
+            g.reach()
+        );
+        let region = Region {
+            center: Pose::identity(),
+            sweep: None,
+            length: 0.0,
+            width,
+            slab: None,
+            lever: Some(lever),
+        };
+        let tool: Vec<(Vector3<f64>, f64)> = g
+            .tool
+            .leaves()
+            .map(|n| (Vector3::from(g.tool.center(n)), g.tool.radius(n)))
+            .collect();
+        let object: Vec<(Vector3<f64>, f64)> = g.objects[0]
+            .leaves()
+            .map(|n| {
+                (
+                    Vector3::from(g.objects[0].center(n)),
+                    g.objects[0].radius(n),
+                )
+            })
+            .collect();
+        let gap = |q: &Pose, (p, r): &(Vector3<f64>, f64), (o, s): &(Vector3<f64>, f64)| {
+            (q.rotation_matrix() * p + q.translation() - o).norm() - r - s
+        };
+        let mut rng = devkit::Rng::new(11);
+        let (mut beyond_reach, mut unlisted_caught) = (0, 0);
+        for i in 0..20_000 {
+            // Tilts that swing the far end toward its neighbour, spins about the axis, small
+            // translations (toward the sphere beside the tip), and all of them mixed.
+            let mut r = |a: f64| rng.range(-a, a);
+            let (w, t) = match i % 4 {
+                0 => (
+                    Vector3::new(r(0.005), 0.03 + r(0.03), r(0.005)),
+                    Vector3::zeros(),
+                ),
+                1 => (Vector3::new(r(0.002), r(0.002), r(0.05)), Vector3::zeros()),
+                2 => (
+                    Vector3::new(r(0.01), r(0.01), r(0.01)),
+                    Vector3::new(r(0.05), 0.1 + r(0.1), r(0.05)),
+                ),
+                _ => (
+                    Vector3::new(r(0.06), r(0.06), r(0.05)),
+                    Vector3::new(r(0.1), r(0.1), r(0.1)),
+                ),
+            };
+            let q = Pose::from_translation_rotation(&t, &rotation_exp(&w));
+            let admitted = g.lever_bound(&lever, &region, &q) <= width + skin;
+            let unlisted_overlap = tool.iter().any(|a| {
+                object
+                    .iter()
+                    .any(|b| gap(&q, a, b) < 0.0 && gap(&Pose::identity(), a, b) > width + skin)
+            });
+            if admitted {
+                assert!(
+                    !unlisted_overlap,
+                    "pose {i} admitted with an unlisted pair overlapping"
+                );
+                if g.motion_bound(&Pose::identity(), &q) > width + skin {
+                    beyond_reach += 1;
+                }
+            } else if unlisted_overlap {
+                unlisted_caught += 1;
+            }
+        }
+        assert!(
+            beyond_reach > 100,
+            "few turns admitted beyond the reach: {beyond_reach}"
+        );
+        assert!(
+            unlisted_caught > 10,
+            "few unlisted contacts tried: {unlisted_caught}"
         );
     }
 }

@@ -121,6 +121,18 @@ const CONVERGED_MM: f64 = 0.005;
 /// rather than one region of tens of thousands of rows.
 const PAIR_TARGET: f64 = 1500.0;
 
+/// Leaf pairs a ball region aims at in a dense contact (paths and free-space probes keep
+/// [`PAIR_TARGET`]). A ball region is detected again every few frames of a turning or pressed
+/// contact, and a dense one's cost grows faster than its life: measured on the spline's
+/// alignment (shaft spun on the hub's face), 500 pairs against 1 500 took its frames over
+/// 250 µs from 64 to 6 (cost model fitted to measured frames; measured p99 401 → 252 µs).
+const BALL_PAIR_TARGET: f64 = 500.0;
+
+/// Least allowance (mm) the pair density may give a ball region: a dense contact's regions
+/// may be thinner than [`MIN_ALLOW_MM`] (the spline's alignment: ~0.1 mm of margin holds
+/// 1 500 pairs of its bumpy faces).
+const DENSE_MIN_ALLOW_MM: f64 = 0.03;
+
 /// Margin (mm) of a detection made in free space: an empty result proves free space this far,
 /// and later frames near the same pose skip their traversals.
 const FREE_PROBE_MM: f64 = 0.3;
@@ -285,6 +297,28 @@ const SLAB_REST_MAX_FRAMES: u32 = 12_800;
 const SLAB_MAX_PAIRS: usize = 500;
 const SLAB_MAX_SPLITS: usize = 8_000;
 
+/// How much farther (mm) than a ball region's margin the rest of the tool is from the objects
+/// ([`Lever`]): a turn about the contact (the spline's shaft spinning and rocking on its tip)
+/// is bounded by the near leaves' lever arm, not the far end's reach, while the far end moves
+/// less than this.
+const LEVER_MARGIN_MM: f64 = 0.8;
+
+/// Tool and object levels at which the near part of the tool is decided ([`Lever`]): 512
+/// nodes of a tree of branching 8, a few hundred sphere tests in a contact.
+const LEVER_LEVEL: u32 = 3;
+
+/// A near part of the tool is found this much (mm) wider than a region needs, and kept for
+/// later regions while the tool stays within it of where it was found ([`Lever`]).
+const LEVER_SPARE_MM: f64 = 0.5;
+
+/// Most sphere tests spent finding the near part of the tool (~7 ns each with the descent:
+/// the spline's shaft on its hub takes 5 300–5 600, ~37 µs, once every ~15 regions).
+const LEVER_MAX_TESTS: usize = 8_000;
+
+/// Fewest pairs of a ball region that looks for the near part of the tool: a small contact's
+/// regions are cheap to detect again (a first contact then costs no more than it did).
+const LEVER_MIN_PAIRS: usize = 100;
+
 /// The trust region that keeps a pass's iterates inside its detected region.
 #[derive(Clone, Copy, Debug)]
 enum Trust {
@@ -349,6 +383,34 @@ struct Region {
     /// A slab region: the face's unit normal and the region's width across it (mm; `width`
     /// is then the slide along it).
     slab: Option<(Vector3<f64>, f64)>,
+    /// A ball region's near part of the tool: the only leaves that can touch within a wider
+    /// margin, so a turn is bounded by their lever arm ([`Lever`]).
+    lever: Option<Lever>,
+}
+
+/// The part of the tool near the objects at a ball region's centre: the box (tool frame, mm)
+/// of every leaf centre within `width + skin + LEVER_MARGIN_MM` of an object
+/// ([`collide::near_box`]). A pose is in the region while those leaves move at most
+/// `width + skin` and every other leaf at most that plus [`LEVER_MARGIN_MM`]
+/// ([`GodObject::distance_from_region`]).
+#[derive(Clone, Copy, Debug)]
+struct Lever {
+    lo: Vector3<f64>,
+    hi: Vector3<f64>,
+    /// The largest distance (mm) of a box corner from the tool origin: a turn by `θ` moves
+    /// the near leaves by at most `θ` times it.
+    reach: f64,
+}
+
+impl Lever {
+    /// The reach (mm) a ball region's trust box takes for its rotation part, allowing a motion
+    /// of `allowed` mm (skin `skin`): the near leaves' reach, or more where the whole tool
+    /// (`tool_reach`) turned that far would move more than [`LEVER_MARGIN_MM`] plus the skin.
+    fn trust_reach(&self, tool_reach: f64, allowed: f64, skin: f64) -> f64 {
+        self.reach
+            .max(allowed * tool_reach / (LEVER_MARGIN_MM + skin))
+            .min(tool_reach)
+    }
 }
 
 impl Region {
@@ -421,6 +483,9 @@ pub struct GodObject {
     /// The unit normal of the one flat face whose half-space pairs alone held the tool in the
     /// last solve (a slab region's face), if so.
     contact_face: Option<Vector3<f64>>,
+    /// The last near part of the tool ([`Lever`]): the pose it was found at, and the margin
+    /// (mm) every leaf outside it was beyond there.
+    lever_cache: Option<(Pose, f64, Option<Lever>)>,
     /// Frames left without slab regions, and the rest after the next failure.
     slab_rest: u32,
     slab_next_rest: u32,
@@ -568,6 +633,7 @@ impl GodObject {
             last_turn: [0.0; 3],
             contact_face: None,
             slab_rest: 0,
+            lever_cache: None,
             slab_next_rest: SLAB_REST_FRAMES,
             density: density::PairDensity::default(),
             free: [FreeProof::none(); 2],
@@ -770,6 +836,7 @@ impl GodObject {
             length: 0.0,
             width: 0.0,
             slab: None,
+            lever: None,
         };
         let mut boxed: Option<Trust> = None;
         let mut detect_now = true;
@@ -839,8 +906,11 @@ impl GodObject {
                 let need = need_t + need_r;
                 // Dense contacts (flat on flat) hold many pairs per mm of margin: keep the
                 // expected count near PAIR_TARGET by taking smaller regions (more passes).
-                let dense_cap = self.density.margin_for(PAIR_TARGET) - skin;
-                let mut allowed = need.min(allow).min(cap).min(dense_cap.max(MIN_ALLOW_MM));
+                let dense_cap = self.density.margin_for(BALL_PAIR_TARGET) - skin;
+                let mut allowed = need
+                    .min(allow)
+                    .min(cap)
+                    .min(dense_cap.max(DENSE_MIN_ALLOW_MM));
                 // Inside a neighbour list a region costs a filter, not a traversal: one that
                 // stays inside it (and a trust region) beats a wider one traversed.
                 let list_room = self.neighbours.slack(&q_lin, None, skin);
@@ -1032,6 +1102,7 @@ impl GodObject {
                         length,
                         width,
                         slab: None,
+                        lever: None,
                     },
                     None => Region {
                         center: q_lin,
@@ -1039,8 +1110,21 @@ impl GodObject {
                         length: 0.0,
                         width: allowed,
                         slab: slab_face,
+                        // A ball in contact: how far its near leaves may turn.
+                        lever: if path_regions
+                            && slab_face.is_none()
+                            && self.pairs.len() >= LEVER_MIN_PAIRS
+                        {
+                            self.lever_at(&q_lin, allowed + skin)
+                        } else {
+                            None
+                        },
                     },
                 };
+                // The trust box's rotation is bounded by the near leaves' arm.
+                let lever_reach = region
+                    .lever
+                    .map_or(self.reach, |l| l.trust_reach(self.reach, allowed, skin));
                 // A path slab of half-width a keeps every sphere within sqrt(12) a of the path.
                 boxed = trust.then(|| match (slab_face, sweep) {
                     (Some((n, across)), _) => self.trust_slab(&n, across, allowed),
@@ -1065,14 +1149,15 @@ impl GodObject {
                         let t = s_need.max(s_pred);
                         let r = (1.0 - s_need).max(1.0 - s_pred);
                         let step = q_pred.translation() - q_lin.translation();
-                        self.trust_oriented(allowed, t, r, &step)
+                        self.trust_oriented(allowed, t, r, &step, lever_reach)
                     }
-                    (None, None) => self.trust_box(allowed, need_t, need_r),
+                    (None, None) => self.trust_box(allowed, need_t, need_r, self.reach),
                 });
                 if !self.pairs.is_empty() {
                     // Reused in later frames with a trust region (even where this pass needs
                     // none: the hand will have moved).
-                    let keep = boxed.unwrap_or_else(|| self.trust_box(allowed, 1.0, 1.0));
+                    let keep =
+                        boxed.unwrap_or_else(|| self.trust_box(allowed, 1.0, 1.0, lever_reach));
                     self.cached = Some((region, keep));
                 }
                 detect_now = false;
