@@ -125,7 +125,8 @@ const PAIR_TARGET: f64 = 1500.0;
 /// [`PAIR_TARGET`]). A ball region is detected again every few frames of a turning or pressed
 /// contact, and a dense one's cost grows faster than its life: measured on the spline's
 /// alignment (shaft spun on the hub's face), 500 pairs against 1 500 took its frames over
-/// 250 µs from 64 to 6 (cost model fitted to measured frames; measured p99 401 → 252 µs).
+/// 250 µs from 64 to 6 (cost model fitted to measured frames; measured p99 401 → 249 µs,
+/// docs/BENCHMARKS.md §Session 12).
 const BALL_PAIR_TARGET: f64 = 500.0;
 
 /// Least allowance (mm) the pair density may give a ball region: a dense contact's regions
@@ -304,7 +305,7 @@ const SLAB_MAX_SPLITS: usize = 8_000;
 const LEVER_MARGIN_MM: f64 = 0.8;
 
 /// Tool and object levels at which the near part of the tool is decided ([`Lever`]): 512
-/// nodes of a tree of branching 8, a few hundred sphere tests in a contact.
+/// nodes of a tree of branching 8 (the spline's shaft on its hub: 5 300–5 600 sphere tests).
 const LEVER_LEVEL: u32 = 3;
 
 /// A near part of the tool is found this much (mm) wider than a region needs, and kept for
