@@ -129,10 +129,17 @@ impl GodObject {
         q_lin: &Pose,
         q_h: &Pose,
         cap: f64,
+        falling: bool,
     ) -> Option<(Sweep, f64)> {
-        let q_pred = self.predicted_pose(q_h);
-        let v = q_pred.translation() - q_lin.translation();
-        let w = rotation_log(&(q_pred.rotation_matrix() * q_lin.rotation_matrix().transpose()));
+        let (v, w) = if falling {
+            (q_h.translation() - q_lin.translation(), Vector3::zeros())
+        } else {
+            let q_pred = self.predicted_pose(q_h);
+            (
+                q_pred.translation() - q_lin.translation(),
+                rotation_log(&(q_pred.rotation_matrix() * q_lin.rotation_matrix().transpose())),
+            )
+        };
         let length = v.norm() + w.norm() * self.reach;
         if length.is_nan() || length < MIN_SWEEP_MM {
             return None;

@@ -320,6 +320,14 @@ const LEVER_MAX_TESTS: usize = 8_000;
 /// regions are cheap to detect again (a first contact then costs no more than it did).
 const LEVER_MIN_PAIRS: usize = 100;
 
+/// A tool left behind that moved at least this far (mm) in its last frame is falling toward
+/// the hand: its path region is the straight way there.
+const FALL_MIN_STEP_MM: f64 = 0.1;
+
+/// ... and moved toward the hand: the cosine between its last step and the way to the hand
+/// is at least this (a tool sliding across a face the hand presses into is not falling).
+const FALL_MIN_COS: f64 = 0.9;
+
 /// The trust region that keeps a pass's iterates inside its detected region.
 #[derive(Clone, Copy, Debug)]
 enum Trust {
@@ -487,6 +495,8 @@ pub struct GodObject {
     /// The last near part of the tool ([`Lever`]): the pose it was found at, and the margin
     /// (mm) every leaf outside it was beyond there.
     lever_cache: Option<(Pose, f64, Option<Lever>)>,
+    /// The last frame ended before the constrained optimum (passes or time ran out).
+    behind: bool,
     /// Frames left without slab regions, and the rest after the next failure.
     slab_rest: u32,
     slab_next_rest: u32,
@@ -635,6 +645,7 @@ impl GodObject {
             contact_face: None,
             slab_rest: 0,
             lever_cache: None,
+            behind: false,
             slab_next_rest: SLAB_REST_FRAMES,
             density: density::PairDensity::default(),
             free: [FreeProof::none(); 2],
@@ -943,21 +954,30 @@ impl GodObject {
                 let path_cap = (self.density.path_margin_for(PAIR_TARGET) - skin)
                     .max(MIN_ALLOW_MM)
                     .min(cap);
+                // A tool left behind while falling (the last frame ran out before its optimum
+                // with the tool moving on): its path is the straight way to the hand.
+                let falling = {
+                    let step = Vector3::from(self.last_step);
+                    let way = q_h.translation() - q_lin.translation();
+                    self.behind
+                        && step.norm() >= FALL_MIN_STEP_MM
+                        && step.dot(&way) >= FALL_MIN_COS * step.norm() * way.norm()
+                };
+                let path_w = if falling {
+                    PATH_WIDTH_MIN_MM
+                } else {
+                    self.path_width()
+                };
                 let mut sweep = if trust && path_regions && slab.is_none() {
-                    let width = self.path_width();
-                    self.predicted_sweep(&q_lin, q_h, path_cap)
+                    self.predicted_sweep(&q_lin, q_h, path_cap, falling)
                         .filter(|&(_, len)| {
-                            width <= dense_cap.max(MIN_ALLOW_MM)
-                                && len + width <= PATH_DENSITY_FACTOR * path_cap
+                            path_w <= dense_cap.max(MIN_ALLOW_MM)
+                                && len + path_w <= PATH_DENSITY_FACTOR * path_cap
                         })
                 } else {
                     None
                 };
-                let width = if sweep.is_some() {
-                    self.path_width()
-                } else {
-                    allowed
-                };
+                let width = if sweep.is_some() { path_w } else { allowed };
                 let extent = sweep.map_or(0.0, |(_, len)| len) + width;
                 // Free space proven by an earlier empty detection: no pair within a proof's
                 // radius at its centre, so none within `m` of q_lin while
@@ -1305,6 +1325,7 @@ impl GodObject {
             self.patch = None;
         }
         self.pen_g = pen_safe;
+        self.behind = !reached;
         self.contacts_g = out.contacts;
         self.last_motion = self.motion_bound(&self.q_g, &q_safe);
         for k in 0..3 {
