@@ -135,8 +135,8 @@ fn frames_with_the_helper_thread_do_not_allocate() {
     assert_eq!(n, traj.len());
     assert_eq!(allocs, 0, "{allocs} (de)allocations in {n} frames");
     assert!(
-        records.iter().any(|r| r.frame.pairs > 1000),
-        "no dense contact"
+        records.iter().any(|r| r.frame.pairs > 500),
+        "no dense contact (regions aim at 500 pairs)"
     );
 }
 

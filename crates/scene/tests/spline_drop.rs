@@ -41,3 +41,25 @@ fn the_shaft_drops_into_the_grooves_within_two_frames() {
         assert!(measured <= tol, "overlap {measured} mm at frame {i}");
     }
 }
+
+/// In the alignment the shaft turns on the hub's face: a path region capped by the pair
+/// density is short (measured at the whole shaft's reach), so a path that stopped the answer
+/// is followed by a longer one or a ball. Five capped paths in a row took 7 passes (~1 ms);
+/// now no frame before the drop takes more than 5 (no time budget).
+#[test]
+fn turning_on_the_face_takes_at_most_five_passes_a_frame() {
+    let mut scene = scene::scenes::builtin("spline", &common::test_cache()).unwrap();
+    scene.solver.budget_us = engine::config::BUDGET_US.hi;
+    let frames = common::replay(&scene);
+    let drop = frames
+        .iter()
+        .position(|f| f.q_g[2] < -0.01)
+        .expect("the shaft never dropped");
+    let (most, at) = frames[..drop]
+        .iter()
+        .enumerate()
+        .map(|(i, f)| (f.passes, i))
+        .max()
+        .unwrap();
+    assert!(most <= 5, "{most} passes at frame {at}");
+}

@@ -898,6 +898,12 @@ impl GodObject {
         // The last solve was on the current pair list (its multipliers are the contact's).
         let mut solved_current = false;
         let mut solved_in_frame = false;
+        // Least length (mm) of the next path region: a path whose trust region stopped the
+        // answer is followed by one twice as long, or by a ball region where the pair density
+        // allows no such path (a turning tool's path is measured at the whole tool's reach,
+        // a ball's turn at its near part's: five short paths in a row cost 600 µs where two
+        // balls cost 150).
+        let mut min_path_len = 0.0;
         let (mut cd, mut opt, mut longest_pass) = (0.0, 0.0, 0.0f64);
         for pass in 0..max_passes {
             let t_pass = Instant::now();
@@ -969,10 +975,16 @@ impl GodObject {
                     self.path_width()
                 };
                 let mut sweep = if trust && path_regions && slab.is_none() {
-                    self.predicted_sweep(&q_lin, q_h, path_cap, falling)
+                    // A falling tool's path goes the whole way to the hand (within the cap):
+                    // its pairs come in at the keys' leading edges, not by the density of
+                    // paths per mm of width (the spline's 1.64 mm fall: 351 pairs; capped
+                    // at 0.6 mm by that density, the fall took a frame more).
+                    let length_cap = if falling { cap } else { path_cap };
+                    self.predicted_sweep(&q_lin, q_h, length_cap, falling)
                         .filter(|&(_, len)| {
                             path_w <= dense_cap.max(MIN_ALLOW_MM)
-                                && len + path_w <= PATH_DENSITY_FACTOR * path_cap
+                                && len + path_w <= PATH_DENSITY_FACTOR * length_cap
+                                && (falling || len >= min_path_len)
                         })
                 } else {
                     None
@@ -1012,7 +1024,7 @@ impl GodObject {
                     // (no wider than a dense contact just left allows).
                     let probe = if self.pairs.is_empty() {
                         (allowed + skin)
-                            .max(FREE_PROBE_MM.min(self.density.margin_for(PAIR_TARGET)))
+                            .max(FREE_PROBE_MM.min(self.density.probe_margin_for(PAIR_TARGET)))
                     } else {
                         allowed + skin
                     };
@@ -1283,6 +1295,9 @@ impl GodObject {
                 // allowance instead).
                 if !reused {
                     allow = (2.0 * region.extent()).max(MIN_ALLOW_MM).min(cap);
+                }
+                if region.sweep.is_some() {
+                    min_path_len = 2.0 * region.length;
                 }
                 reused = false;
                 detect_now = true;
