@@ -308,8 +308,39 @@ impl GodObject {
         along.min(by_turn)
     }
 
+    /// Frames (at the tool's last motion per frame, continued) each free-space proof serves a
+    /// tool at `q` needing `used` mm: until it leaves the proof, for one it is in; for one
+    /// ahead, until it leaves that one after the other hands it over (a frame before the
+    /// other runs out); 0 for one it will not enter. A schedule, not a proof.
+    pub(super) fn proof_reach(&self, q: &Pose, used: f64) -> [f64; 2] {
+        let direct = [0, 1].map(|i| self.frames_in(&self.free[i], q, used));
+        let mut reach = direct;
+        for (i, j) in [(0, 1), (1, 0)] {
+            if direct[j] > 0.0 || !(direct[i] > 1.0 && direct[i].is_finite()) {
+                continue;
+            }
+            let handover = (direct[i] - 1.0).floor();
+            let mut there = *q;
+            for k in 0..3 {
+                there.q[k] += handover * self.last_step[k];
+            }
+            let more = self.frames_in(&self.free[j], &there, used);
+            if more > 0.0 {
+                reach[j] = handover + more;
+            }
+        }
+        reach
+    }
+
+    /// Frames until a tool at `q` needing `used` mm, moving on as it did, leaves the free-space
+    /// proofs, handed over from one to the other: [`GodObject::proof_reach`]'s longest.
+    pub(super) fn proof_horizon(&self, q: &Pose, used: f64) -> f64 {
+        let [a, b] = self.proof_reach(q, used);
+        a.max(b)
+    }
+
     /// Keeps `center` (with its `path`)/`radius` as a free-space proof in place of the one
-    /// that would run out first for a tool at `q` needing `used` mm.
+    /// that serves a tool at `q` needing `used` mm the fewest frames ahead.
     pub(super) fn add_free_proof(
         &mut self,
         center: Pose,
@@ -318,17 +349,21 @@ impl GodObject {
         q: &Pose,
         used: f64,
     ) {
-        let lasts = |g: &Self, i: usize| g.frames_in(&g.free[i], q, used);
-        let i = if lasts(self, 0) <= lasts(self, 1) {
-            0
-        } else {
-            1
-        };
-        self.free[i] = FreeProof {
+        let [a, b] = self.proof_reach(q, used);
+        self.free[usize::from(a > b)] = FreeProof {
             center,
             path,
             radius,
         };
+    }
+
+    /// Whether a new proof may replace one now without cutting short a proof the tool is in
+    /// (both serve it: one now, one ahead). A finished background probe then waits.
+    fn proof_slot_free(&self, q: &Pose, used: f64) -> bool {
+        let [a, b] = self.proof_reach(q, used);
+        let i = usize::from(a > b);
+        self.frames_in(&self.free[i], q, used) <= 0.0
+            || self.frames_in(&self.free[1 - i], q, used) > 0.0
     }
 
     /// When the proofs have run out at `q` (a frame needing `used` mm) but the background
@@ -409,9 +444,7 @@ impl GodObject {
             team.keep_awake();
         }
         let speed = self.last_motion.max(1e-4);
-        let horizon =
-            self.frames_in(&self.free[0], q, used)
-                .max(self.frames_in(&self.free[1], q, used));
+        let horizon = self.proof_horizon(q, used);
         // A tool sliding steadily (without turning) is probed along its way.
         let step = Vector3::from(self.last_step);
         let sliding =
@@ -437,6 +470,7 @@ impl GodObject {
             );
         }
         match self.probe.status() {
+            ProbeStatus::Free if !self.proof_slot_free(q, used) => {}
             ProbeStatus::Free => {
                 self.note_probe_cost();
                 let path = Vector3::from(self.probe.path());
@@ -745,6 +779,46 @@ mod tests {
             EngineConfig::default(),
         )
         .unwrap()
+    }
+
+    /// A tool sliding along z at 0.04 mm per frame through two free-space proofs along its
+    /// way, the second starting where the first runs out: the proofs serve it until it leaves
+    /// the second, and a finished probe waits rather than replace either.
+    #[test]
+    fn free_space_proofs_hand_the_tool_over_along_its_way() {
+        let mut g = shaft();
+        let step = 0.04;
+        g.last_step = [0.0, 0.0, step];
+        g.last_motion = step;
+        let at = |z: f64| Pose::from_array([0.0, 0.0, z, 0.0, 0.0, 0.0]);
+        let proof = |z: f64, length: f64| FreeProof {
+            center: at(z),
+            path: Vector3::new(0.0, 0.0, length),
+            radius: 0.3,
+        };
+        let used = 0.1;
+        // The tool at z = 0 in a proof along 0..1 mm (it leaves it near z = 1.2: 30 frames),
+        // the next along 1.1..5.1 mm (to z = 5.3: 132 frames in all).
+        g.free = [proof(0.0, 1.0), proof(1.1, 4.0)];
+        let q = at(0.0);
+        let direct = g.frames_in(&g.free[0], &q, used);
+        assert!((direct - 30.0).abs() < 0.01, "{direct}");
+        // (Before the handover was counted, the horizon was the first proof's 30 frames
+        // only, and probes ahead were sized to finish in them.)
+        let horizon = g.proof_horizon(&q, used);
+        assert!((horizon - 132.0).abs() < 1.01, "{horizon}");
+        // A third proof takes neither place while the tool needs both.
+        assert!(!g.proof_slot_free(&q, used));
+        // Past the first, it takes the first's place.
+        let q = at(1.5);
+        assert_eq!(g.frames_in(&g.free[0], &q, used), 0.0);
+        assert!(g.proof_slot_free(&q, used));
+        g.add_free_proof(at(5.2), Vector3::new(0.0, 0.0, 4.0), 0.3, &q, used);
+        assert_eq!(g.free[0].center.q[2], 5.2);
+        assert_eq!(g.free[1].center.q[2], 1.1);
+        // A proof the tool will never enter serves it no frame.
+        g.free[0] = proof(-3.0, 1.0);
+        assert_eq!(g.proof_reach(&q, used)[0], 0.0);
     }
 
     /// No leaf centre moves farther than the turn's bound, for random turns from random
