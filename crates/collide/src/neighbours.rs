@@ -26,7 +26,8 @@ use std::sync::atomic::{AtomicU64, AtomicU8, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-/// Node-pair splits between two clock reads while a list is built against a deadline.
+/// Work (node pairs split plus pairs listed) between two clock reads while a list is built
+/// against a deadline, and of the helper's slices.
 const SPLITS_PER_CLOCK: usize = 128;
 
 /// State of a [`NeighbourList`].
@@ -204,8 +205,10 @@ impl NeighbourList {
         self.columns.clear();
     }
 
-    /// Builds on for at most `budget` node-pair splits, stopping early past `deadline`; the
-    /// list's status. The same trees as given to [`NeighbourList::for_trees`].
+    /// Builds on for about `budget` units of [work](NeighbourList::work) (node pairs split
+    /// plus pairs listed: the pairs of a chunk of a quarter of what is left are counted after
+    /// it, so a call may end that chunk's pairs past its budget), stopping early past
+    /// `deadline`; the list's status. The same trees as given to [`NeighbourList::for_trees`].
     pub fn advance(
         &mut self,
         tool: &PackedTree,
@@ -222,11 +225,14 @@ impl NeighbourList {
             let id = self.object as u32;
             self.ws.reserve(tool, o);
             loop {
-                let slice = budget.min(SPLITS_PER_CLOCK);
+                // Chunks of a quarter of what is left (the pairs a chunk lists are counted
+                // after it): a slice ends within about a quarter of its budget past it.
+                let slice = (budget / 4).clamp(budget.min(1), SPLITS_PER_CLOCK);
                 if slice == 0 {
                     return self.status;
                 }
                 let mut left = slice;
+                let listed_before = self.pairs.len();
                 let (pairs, ws, columns) = (&mut self.pairs, &mut self.ws, &mut self.columns);
                 let mut keep = |p: &LeafPair| {
                     let cuts = o.cuts_of_slot(p.object_slot as usize);
@@ -251,7 +257,7 @@ impl NeighbourList {
                     &mut left,
                 );
                 self.resume = true;
-                budget -= slice - left;
+                budget = budget.saturating_sub(slice - left + (self.pairs.len() - listed_before));
                 if overflow {
                     self.status = ListStatus::Overflowed;
                     return self.status;
@@ -280,9 +286,18 @@ impl NeighbourList {
         (self.center, self.margin)
     }
 
-    /// Node pairs split by the current (or last) build: its cost.
+    /// Node pairs split by the current (or last) build.
     pub fn splits(&self) -> usize {
         self.ws.stats.node_pairs_split
+    }
+
+    /// The build's work so far (its cost once finished): node pairs split plus pairs listed.
+    /// Listing a pair costs about what a split does, and at a list's wide margin a dense
+    /// contact lists more pairs than it splits node pairs (the spline's grooves: 3 500 pairs
+    /// for 5 000 splits), so a budget of splits alone lets a slice run several times longer
+    /// there than on a sparse contact.
+    pub fn work(&self) -> usize {
+        self.ws.stats.node_pairs_split + self.pairs.len()
     }
 
     /// Pairs listed so far.
@@ -404,14 +419,14 @@ impl NeighbourList {
 }
 
 /// Longest the caller waits for the list's lock held by the helper (it holds it for one
-/// slice of [`SPLITS_PER_CLOCK`] splits at a time).
+/// slice of [`SPLITS_PER_CLOCK`] units of work at a time).
 const LOCK_WAIT: Duration = Duration::from_micros(50);
 
 /// How far a background build is, readable without its lock.
 #[derive(Debug, Default)]
 struct Published {
     status: AtomicU8,
-    splits: AtomicUsize,
+    work: AtomicUsize,
 }
 
 fn status_code(s: ListStatus) -> u8 {
@@ -437,13 +452,13 @@ fn status_of(code: u8) -> ListStatus {
 ///
 /// **The schedule decides, not the threads.** Each [`BackgroundList::advance`] call grants
 /// the build a number of node pairs; the list counts as finished at the first call by which
-/// the granted splits reach the build's total, whichever thread did them. A helper that runs
+/// the granted work reaches the build's total, whichever thread did it. A helper that runs
 /// ahead only spares the caller the work; one that lags is caught up by the caller, as far as
 /// the call allows. So for a given schedule of grants the list becomes usable at the same call
 /// with or without a helper, unless the helper is held up past what the caller may catch up.
 ///
 /// **Two buffers.** The helper builds in a buffer it shares with the caller (a lock, released
-/// between slices of 128 splits); the caller builds in one of its own,
+/// between slices of 128 units of work); the caller builds in one of its own,
 /// without a lock. A helper that stops making progress while it holds the shared buffer (on a
 /// busy machine its `SCHED_IDLE` thread can wait for long) is abandoned: the caller starts the
 /// build again in its own buffer, so a starved helper never keeps the lists from coming.
@@ -458,16 +473,16 @@ pub struct BackgroundList {
     generation: Arc<AtomicU64>,
     /// The helper's job number, while one was posted for this build.
     job: Option<u64>,
-    /// Splits granted since the start.
+    /// Work granted since the start (node pairs split plus pairs listed).
     granted: usize,
-    /// Splits done as of the last call (a helper that made none since is held up).
-    seen_splits: usize,
+    /// Work done as of the last call (a helper that did none since is held up).
+    seen_work: usize,
     center: Pose,
     margin: f64,
     status: ListStatus,
 }
 
-/// A build the helper runs in the background: slices of [`SPLITS_PER_CLOCK`] splits, the
+/// A build the helper runs in the background: slices of [`SPLITS_PER_CLOCK`] units of work, the
 /// lock released between them, to the end or until the build is replaced.
 pub(crate) struct ListJob {
     list: Arc<Mutex<NeighbourList>>,
@@ -507,7 +522,7 @@ impl ListJob {
 }
 
 fn publish(shown: &Published, list: &NeighbourList) {
-    shown.splits.store(list.splits(), Ordering::Release);
+    shown.work.store(list.work(), Ordering::Release);
     shown
         .status
         .store(status_code(list.status()), Ordering::Release);
@@ -527,7 +542,7 @@ impl BackgroundList {
             generation: Arc::new(AtomicU64::new(0)),
             job: None,
             granted: 0,
-            seen_splits: 0,
+            seen_work: 0,
             center: Pose::identity(),
             margin: 0.0,
             status: ListStatus::Empty,
@@ -553,7 +568,7 @@ impl BackgroundList {
         self.own.start(tool, center, margin)?;
         self.in_own = true;
         self.granted = 0;
-        self.seen_splits = 0;
+        self.seen_work = 0;
         self.center = *center;
         self.margin = self.own.margin;
         self.status = ListStatus::Building;
@@ -577,24 +592,25 @@ impl BackgroundList {
         (self.center, self.margin)
     }
 
-    /// Node pairs split so far (the build's cost once finished).
-    pub fn splits(&self) -> usize {
+    /// The build's [work](NeighbourList::work) so far (its cost once finished).
+    pub fn work(&self) -> usize {
         if self.in_own {
-            self.own.splits()
+            self.own.work()
         } else {
-            self.published.splits.load(Ordering::Acquire)
+            self.published.work.load(Ordering::Acquire)
         }
     }
 
-    /// Grants the build `grant` more node-pair splits and returns its status. With `team`,
+    /// Grants the build `grant` more units of [work](NeighbourList::work) and returns its
+    /// status. With `team`,
     /// its helper builds in the background; this call does only what the helper has not
-    /// done of the granted splits, at most `max_here` of them (a helper held up makes the
+    /// done of the granted work, at most `max_here` of it (a helper held up makes the
     /// list late, never the call long). `objects` (and `tool`) must be the trees of
     /// [`BackgroundList::for_trees`] and the team's. `deadline` stops this call's own work
     /// early (the list may then be late).
     ///
     /// # Real-time
-    /// No allocation, no panic; at most `max_here` splits here, and a wait of at most ~50 µs
+    /// No allocation, no panic; at most `max_here` units of work here, and a wait of at most ~50 µs
     /// for the helper to let go of the shared buffer.
     #[allow(clippy::too_many_arguments)]
     pub fn advance(
@@ -616,11 +632,11 @@ impl BackgroundList {
             self.advance_shared(tool, objects, max_here, team, deadline);
         }
         if self.in_own {
-            let left = self.granted.saturating_sub(self.own.splits()).min(max_here);
+            let left = self.granted.saturating_sub(self.own.work()).min(max_here);
             if self.own.status() == ListStatus::Building && left > 0 {
                 self.own.advance(tool, objects, left, deadline);
             }
-            if self.own.status() != ListStatus::Building && self.own.splits() <= self.granted {
+            if self.own.status() != ListStatus::Building && self.own.work() <= self.granted {
                 self.status = self.own.status();
             }
         }
@@ -630,7 +646,7 @@ impl BackgroundList {
     /// A build not yet begun in the caller's buffer goes to the helper's, if it is free: true
     /// when it was handed over.
     fn hand_over(&mut self, tool: &PackedTree, team: &TraversalTeam) -> bool {
-        if !self.in_own || self.own.splits() > 0 {
+        if !self.in_own || self.own.work() > 0 {
             return false;
         }
         let Ok(mut shared) = self.shared.try_lock() else {
@@ -649,7 +665,7 @@ impl BackgroundList {
         };
         self.job = team::post_list_job(team, job);
         self.in_own = false;
-        self.seen_splits = 0;
+        self.seen_work = 0;
         true
     }
 
@@ -670,7 +686,7 @@ impl BackgroundList {
         if let (Some(team), true) = (team, building) {
             let state = self.job.and_then(|id| team::job_state(team, id));
             if matches!(state, Some(JobState::Posted | JobState::Running)) {
-                helper_on_it = self.splits() > self.seen_splits;
+                helper_on_it = self.work() > self.seen_work;
             } else {
                 let job = ListJob {
                     list: self.shared.clone(),
@@ -683,10 +699,10 @@ impl BackgroundList {
             }
         }
         let shown = status_of(self.published.status.load(Ordering::Acquire));
-        if shown == ListStatus::Building && self.splits() < self.granted && !helper_on_it {
+        if shown == ListStatus::Building && self.work() < self.granted && !helper_on_it {
             match lock_by(&self.shared, Instant::now() + LOCK_WAIT) {
                 Some(mut list) => {
-                    let left = self.granted.saturating_sub(list.splits()).min(max_here);
+                    let left = self.granted.saturating_sub(list.work()).min(max_here);
                     if list.status() == ListStatus::Building && left > 0 {
                         list.advance(tool, objects, left, deadline);
                     }
@@ -706,8 +722,8 @@ impl BackgroundList {
             }
         }
         let shown = status_of(self.published.status.load(Ordering::Acquire));
-        self.seen_splits = self.splits();
-        if shown != ListStatus::Building && self.seen_splits <= self.granted {
+        self.seen_work = self.work();
+        if shown != ListStatus::Building && self.seen_work <= self.granted {
             self.status = shown;
         }
     }

@@ -268,14 +268,54 @@ fn run_background(
     calls
 }
 
+/// A slice's budget counts the pairs it lists as well as the node pairs it splits: where a
+/// list holds many pairs per split (a dense contact at a list's wide margin), a slice of
+/// splits alone runs several times its budget's time.
+#[test]
+fn a_slice_of_a_dense_list_stays_within_its_work() {
+    let (tool, objects) = trees();
+    let center = Pose::from_array([20.0, 1.0, -2.0, 0.1, -0.2, 0.3]);
+    let mut list = NeighbourList::for_trees(&tool, &objects, 1 << 18);
+    list.start(&tool, &center, 3.0).unwrap();
+    let budget = 97;
+    // Past the budget by at most a quarter chunk's pairs (a few per split), and one split's
+    // (at most one pair per child tested).
+    let most_children = 32;
+    let (mut calls, mut largest) = (0, 0);
+    while list.status() == ListStatus::Building {
+        let before = list.splits() + list.len();
+        list.advance(&tool, &objects, budget, None);
+        let done = list.splits() + list.len() - before;
+        assert_eq!(list.work(), list.splits() + list.len());
+        largest = largest.max(done);
+        calls += 1;
+        assert!(calls < 1_000_000, "the build does not end");
+    }
+    assert_eq!(list.status(), ListStatus::Ready);
+    // Dense: the list holds at least one pair per two splits (so splits alone would not do).
+    assert!(
+        2 * list.len() >= list.splits(),
+        "{} pairs for {} splits",
+        list.len(),
+        list.splits()
+    );
+    assert!(
+        largest <= budget + budget / 2 + most_children,
+        "a slice did {largest} units of work for a budget of {budget}"
+    );
+}
+
 #[test]
 fn a_background_list_is_the_list_on_its_schedule_with_or_without_a_helper() {
     let (tool, objects) = trees();
     let center = Pose::from_array([20.0, 1.0, -2.0, 0.1, -0.2, 0.3]);
     let mut direct = NeighbourList::for_trees(&tool, &objects, 1 << 18);
     build(&mut direct, &tool, &objects, &center, 1.0, usize::MAX);
-    let total = direct.splits();
-    assert!(total > 1000, "{total} splits: too small a build to spread");
+    let total = direct.work();
+    assert!(
+        total > 1000,
+        "{total} units of work: too small a build to spread"
+    );
     let team = TraversalTeam::new(&tool, &objects, 1 << 16).unwrap();
     for team in [None, Some(&team)] {
         let mut bg = BackgroundList::for_trees(&tool, &objects, 1 << 18);
@@ -283,7 +323,7 @@ fn a_background_list_is_the_list_on_its_schedule_with_or_without_a_helper() {
         let grant = 97;
         let calls = run_background(&mut bg, &tool, &objects, grant, team);
         assert_eq!(bg.status(), ListStatus::Ready);
-        assert_eq!(bg.splits(), total);
+        assert_eq!(bg.work(), total);
         // Finished at the call by which the grants reached its cost, not before; without a
         // helper exactly then (a held-up helper may make it later).
         let on_schedule = total.div_ceil(grant);

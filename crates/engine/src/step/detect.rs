@@ -572,15 +572,15 @@ impl GodObject {
         // With a helper thread the build runs in the background, as fast as it goes (its
         // grant per frame is large); alone, a slice per frame, sized to finish in time.
         let pace = if self.team.is_some() {
-            LIST_HELPER_SPLITS_PER_FRAME
+            LIST_HELPER_WORK_PER_FRAME
         } else {
             PROBE_SLICE_SPLITS
         };
         if self.next_neighbours.status() == ListStatus::Building && Instant::now() < deadline {
-            let estimate = self.list_splits as f64;
-            let left = (estimate - self.next_neighbours.splits() as f64).max(0.25 * estimate);
+            let estimate = self.list_work as f64;
+            let left = (estimate - self.next_neighbours.work() as f64).max(0.25 * estimate);
             let slice = (left / (horizon - 1.0).max(1.0))
-                .clamp(PROBE_MIN_SLICE_SPLITS as f64, LIST_MAX_SLICE_SPLITS as f64);
+                .clamp(PROBE_MIN_SLICE_SPLITS as f64, LIST_MAX_SLICE_WORK as f64);
             let grant = (slice as usize).max(if self.team.is_some() { pace } else { 0 });
             self.next_neighbours.advance(
                 &self.tool,
@@ -593,9 +593,10 @@ impl GodObject {
         }
         match self.next_neighbours.status() {
             ListStatus::Ready => {
-                let splits = self.next_neighbours.splits();
+                let work = self.next_neighbours.work();
                 if self.next_neighbours.take(&mut self.neighbours) {
-                    self.list_splits = splits;
+                    self.list_work = work;
+                    self.list_splits = self.neighbours.splits();
                     let n = self.neighbours.len().max(1) as f64;
                     let (_, built) = self.neighbours.question();
                     // Pairs grow about as the margin cubed over a bumpy flat contact.
@@ -606,11 +607,11 @@ impl GodObject {
             ListStatus::Overflowed => {
                 let (_, built) = self.next_neighbours.question();
                 self.list_margin = (0.6 * built).max(LIST_MIN_MM);
-                self.list_splits = self.list_splits.max(self.next_neighbours.splits());
+                self.list_work = self.list_work.max(self.next_neighbours.work());
                 self.next_neighbours.cancel();
             }
             ListStatus::Empty => {
-                let frames = self.list_splits as f64 / pace as f64;
+                let frames = self.list_work as f64 / pace as f64;
                 // (With a helper, measured paced: starting each build as soon as the last
                 // list is taken placed it too far ahead, p99 262–319 against 84–133 µs.)
                 let lead = 1.5 * frames + 2.0;

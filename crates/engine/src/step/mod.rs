@@ -228,21 +228,26 @@ const LIST_TARGET_PAIRS: f64 = 3000.0;
 /// Most pairs a neighbour list holds; a build past it is dropped and the margin shrunk.
 const LIST_MAX_PAIRS: usize = 8192;
 
-/// Node pairs the first neighbour list is expected to split (its slices' size).
+/// Work (node pairs split plus pairs listed) the first neighbour list is expected to cost
+/// (its slices' size), and the node pairs it is expected to split (its cost as
+/// [`LIST_PAYOFF`] weighs it).
+const LIST_FIRST_WORK: usize = 8000;
 const LIST_FIRST_SPLITS: usize = 5000;
 
 /// A neighbour list is built only when it would serve at least this many frames at the
 /// tool's current motion (a fast tool outruns it: its regions are traversed).
 const LIST_MIN_LIFE_FRAMES: f64 = 3.0;
 
-/// Most node pairs a frame splits building the next neighbour list on its own thread (~50 µs
-/// on a flat-on-flat contact): a list late for its use costs the traversals it would have
-/// spared, a long slice costs the frame.
-const LIST_MAX_SLICE_SPLITS: usize = 1280;
+/// Most work (node pairs split plus pairs listed, [`collide::NeighbourList::work`]) a frame
+/// spends building the next neighbour list on its own thread (~50–100 µs): a list late for
+/// its use costs the traversals it would have spared, a long slice costs the frame. (Counted
+/// in splits alone, the same slice took 140–430 µs in the spline's grooves, where a list
+/// holds 3 500 pairs for 5 000 splits.)
+const LIST_MAX_SLICE_WORK: usize = 1280;
 
-/// Node pairs a frame grants the next neighbour list's build when a helper thread builds it
+/// Work a frame grants the next neighbour list's build when a helper thread builds it
 /// (~300 µs of the helper's time): the list is then ready a frame or two after it starts.
-const LIST_HELPER_SPLITS_PER_FRAME: usize = 8192;
+const LIST_HELPER_WORK_PER_FRAME: usize = 8192;
 
 /// Smallest motion allowance of a detected region, mm.
 const MIN_ALLOW_MM: f64 = 0.1;
@@ -520,7 +525,10 @@ pub struct GodObject {
     next_neighbours: BackgroundList,
     /// Margin (mm) of the next neighbour list: adapted to the pairs the last one held.
     list_margin: f64,
-    /// Node pairs the last finished list split (its cost, to size the next one's slices).
+    /// Work of the last finished list (node pairs split plus pairs listed: its cost, to size
+    /// the next one's slices), and the node pairs it split (its cost against the traversals
+    /// it spares, as [`LIST_PAYOFF`] was measured).
+    list_work: usize,
     list_splits: usize,
     /// Node pairs a region's traversal splits in the current contact (running mean), and
     /// regions detected per frame (running mean; this frame's count): what a list spares.
@@ -655,6 +663,7 @@ impl GodObject {
             neighbours,
             next_neighbours,
             list_margin: LIST_MARGIN_MM,
+            list_work: LIST_FIRST_WORK,
             list_splits: LIST_FIRST_SPLITS,
             splits_per_region: 0.0,
             detections_per_frame: 0.0,
@@ -753,6 +762,7 @@ impl GodObject {
         self.neighbours.clear();
         self.next_neighbours.cancel();
         self.list_margin = LIST_MARGIN_MM;
+        self.list_work = LIST_FIRST_WORK;
         self.list_splits = LIST_FIRST_SPLITS;
         self.splits_per_region = 0.0;
         self.detections_per_frame = 0.0;
