@@ -102,7 +102,7 @@ pub fn replay_audited(
     for s in &traj.samples {
         times.push(s.t);
         if realtime {
-            pacer.wait();
+            pacer.wait_warming(|until| god.warm_caches(until));
         }
         out.push(god.step(&Pose::from_array(s.q)));
         if realtime {

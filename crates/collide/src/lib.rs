@@ -65,7 +65,7 @@ pub use constraint::{
 };
 pub use near::near_box;
 pub use neighbours::{BackgroundList, ListStatus, NeighbourList};
-pub use packed::PackedTree;
+pub use packed::{PackedTree, WARM_CHUNK_NODES};
 pub use pose::{rotation_exp, rotation_log, rotation_zyx, rotation_zyx_partials, Pose};
 pub use probe::{FreeSpaceProbe, ProbeStatus};
 pub use team::{overlap_shared, SharedTraversal, TraversalTeam, SHARE_MIN_PAIRS, SPIN_WINDOW};

@@ -64,3 +64,28 @@ fn queries_do_not_allocate() {
         counts.allocations
     );
 }
+
+/// A warm-up reads every node's chunk once, top levels first, and allocates nothing.
+#[test]
+fn warming_reads_every_chunk_and_allocates_nothing() {
+    let shape = TreeShape {
+        levels: 5,
+        branching: 8,
+        extent: 50.0,
+        p_used: 0.9,
+        p_early_leaf: 0.0,
+    };
+    let tree = PackedTree::new(&random_tree(4, shape)).unwrap();
+    let chunks = tree.len().div_ceil(collide::WARM_CHUNK_NODES);
+    assert!(chunks > 2, "{} nodes: too few to need chunks", tree.len());
+    let (read, counts) = devkit::count_allocations(|| {
+        let mut acc = 0u32;
+        let read = (0..chunks + 3)
+            .filter(|&k| tree.warm_chunk(k, &mut acc))
+            .count();
+        std::hint::black_box(acc);
+        read
+    });
+    assert_eq!(read, chunks);
+    assert_eq!(counts.events(), 0);
+}

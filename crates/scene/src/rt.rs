@@ -227,6 +227,10 @@ pub fn set_realtime_priority(_priority: i32) -> bool {
 /// --realtime` and `haptic6d serve`).
 pub const DEFAULT_SPIN_US: f64 = 400.0;
 
+/// How long before a deadline a warm-up in [`Pacer::wait_warming`] must end, µs (a chunk's
+/// reads past its limit cannot delay the frame).
+pub const WARM_STOP_EARLY_US: u64 = 20;
+
 /// The pacing of a haptic loop, shared by [`run_frames`] and the viewer's loop: frame `i`
 /// starts at its deadline, `start + i` periods; the thread sleeps until `spin` before it, then
 /// spins. A frame that ends after the next deadline is an overrun; a loop more than a whole
@@ -263,6 +267,35 @@ impl Pacer {
                 std::thread::sleep(left - self.spin);
             } else {
                 // Spins when the core is free; on a busy machine lets other threads run.
+                std::thread::yield_now();
+            }
+        }
+    }
+
+    /// [`Pacer::wait`], calling `warm` once as the spin begins with the time it must return
+    /// by ([`WARM_STOP_EARLY_US`] before the deadline): the wait's idle time lets the caches
+    /// go cold, and a frame that starts from memory is slower (e.g.
+    /// [`engine::Engine::warm_caches`]).
+    ///
+    /// # Real-time
+    /// No allocation; sleeps, warms, then spins.
+    pub fn wait_warming(&self, mut warm: impl FnMut(Instant)) {
+        let mut warmed = false;
+        loop {
+            let now = Instant::now();
+            if now >= self.deadline {
+                return;
+            }
+            let left = self.deadline - now;
+            if left > self.spin {
+                std::thread::sleep(left - self.spin);
+            } else if !warmed {
+                warmed = true;
+                let early = Duration::from_micros(WARM_STOP_EARLY_US);
+                if left > early {
+                    warm(self.deadline - early);
+                }
+            } else {
                 std::thread::yield_now();
             }
         }
@@ -318,7 +351,7 @@ pub fn run_frames<D: Device + ?Sized>(
     let mut link = DeviceLink::new(device, params.device);
     while records.len() < records.capacity() {
         if params.realtime {
-            pacer.wait();
+            pacer.wait_warming(|until| engine.warm_caches(until));
         }
         let now = Instant::now();
         let t_wall = (now - start).as_secs_f64();
@@ -432,4 +465,29 @@ pub fn run_loop<D: Device>(
         frames: records,
         stats,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_paced_wait_warms_once_and_returns_at_its_deadline() {
+        let period = Duration::from_millis(2);
+        let spin = Duration::from_micros(800);
+        let mut pacer = Pacer::new(period, spin);
+        pacer.end_frame();
+        let deadline = pacer.deadline;
+        let mut calls = Vec::new();
+        pacer.wait_warming(|until| calls.push((Instant::now(), until)));
+        let woke = Instant::now();
+        assert!(woke >= deadline, "returned before the deadline");
+        // Once, as the spin begins (a thread preempted past that point may find no time left
+        // and skip it), with a limit short of the deadline.
+        assert!(calls.len() <= 1, "{} calls", calls.len());
+        for (at, until) in calls {
+            assert!(at + spin >= deadline, "warmed before the spin");
+            assert_eq!(until + Duration::from_micros(WARM_STOP_EARLY_US), deadline);
+        }
+    }
 }

@@ -141,6 +141,11 @@ impl Simulation for SceneSim {
         }
     }
 
+    /// [`Engine::warm_caches`]: the collision trees.
+    fn warm_caches(&self, until: std::time::Instant) {
+        self.engine.warm_caches(until);
+    }
+
     fn reset(&mut self, pose: &Pose) {
         if let Ok(p) = self.engine.reset(pose) {
             self.start = p;

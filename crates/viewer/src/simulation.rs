@@ -238,4 +238,14 @@ pub trait Simulation: Send + 'static {
     /// Re-seats the god-object at `pose` (a free configuration), e.g. after the user asks to
     /// reset. Called from the haptic thread between frames.
     fn reset(&mut self, pose: &Pose);
+
+    /// Brings what the next [`Simulation::step`] reads into cache, returning by `until`
+    /// (called once per frame as the loop's spin before the deadline begins). Must change no
+    /// state. The default does nothing.
+    ///
+    /// # Real-time
+    /// Must not allocate, block or panic.
+    fn warm_caches(&self, until: std::time::Instant) {
+        let _ = until;
+    }
 }
