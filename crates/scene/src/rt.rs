@@ -257,19 +257,7 @@ impl Pacer {
     /// # Real-time
     /// No allocation; sleeps, then spins.
     pub fn wait(&self) {
-        loop {
-            let now = Instant::now();
-            if now >= self.deadline {
-                return;
-            }
-            let left = self.deadline - now;
-            if left > self.spin {
-                std::thread::sleep(left - self.spin);
-            } else {
-                // Spins when the core is free; on a busy machine lets other threads run.
-                std::thread::yield_now();
-            }
-        }
+        self.wait_warming(|_| {});
     }
 
     /// [`Pacer::wait`], calling `warm` once as the spin begins with the time it must return
@@ -296,6 +284,7 @@ impl Pacer {
                     warm(self.deadline - early);
                 }
             } else {
+                // Spins when the core is free; on a busy machine lets other threads run.
                 std::thread::yield_now();
             }
         }
