@@ -451,7 +451,7 @@ fn status_of(code: u8) -> ListStatus {
 /// by a [`TraversalTeam`]'s helper thread.
 ///
 /// **The schedule decides, not the threads.** Each [`BackgroundList::advance`] call grants
-/// the build a number of node pairs; the list counts as finished at the first call by which
+/// the build a number of units of work; the list counts as finished at the first call by which
 /// the granted work reaches the build's total, whichever thread did it. A helper that runs
 /// ahead only spares the caller the work; one that lags is caught up by the caller, as far as
 /// the call allows. So for a given schedule of grants the list becomes usable at the same call
