@@ -344,6 +344,20 @@ int32_t h6d_engine_step(struct H6dEngine *engine,
                         double *q_g,
                         struct H6dFrameInfo *info);
 
+// Brings the engine's collision trees into cache for at most `max_us` µs (0 to 1 000 000),
+// top levels first. A paced device loop calls it as it stops sleeping before a frame's
+// deadline (with the time left until then): the sleep lets the caches go cold, and a frame
+// whose traversal starts from memory is slower (`haptic6d run --realtime` does the same;
+// docs/DESIGN.md §The haptic loop). Changes no state. A `max_us` outside its range returns
+// `H6D_STATUS_INVALID_ARGUMENT` naming it.
+//
+// # Real-time
+// No allocation, no lock, no panic; returns within a few µs of `max_us`.
+//
+// # Safety
+// `engine` is NULL or a live engine used by no other thread meanwhile.
+int32_t h6d_engine_warm_caches(struct H6dEngine *engine, double max_us);
+
 // The leaf-sphere pairs of the last detected region (for display): writes their number to
 // `*count` and copies them into `contacts` (room for `capacity`). When `capacity` is too
 // small, returns `H6D_STATUS_BUFFER_TOO_SMALL`, with `*count` the number needed and the

@@ -359,6 +359,39 @@ pub unsafe extern "C" fn h6d_engine_step(
     }
 }
 
+/// Brings the engine's collision trees into cache for at most `max_us` µs (0 to 1 000 000),
+/// top levels first. A paced device loop calls it as it stops sleeping before a frame's
+/// deadline (with the time left until then): the sleep lets the caches go cold, and a frame
+/// whose traversal starts from memory is slower (`haptic6d run --realtime` does the same;
+/// docs/DESIGN.md §The haptic loop). Changes no state. A `max_us` outside its range returns
+/// `H6D_STATUS_INVALID_ARGUMENT` naming it.
+///
+/// # Real-time
+/// No allocation, no lock, no panic; returns within a few µs of `max_us`.
+///
+/// # Safety
+/// `engine` is NULL or a live engine used by no other thread meanwhile.
+#[no_mangle]
+pub unsafe extern "C" fn h6d_engine_warm_caches(engine: *mut H6dEngine, max_us: f64) -> i32 {
+    const CALL: &str = "h6d_engine_warm_caches";
+    // SAFETY: the caller's contract.
+    unsafe {
+        with_engine(CALL, engine, |e| {
+            if !(0.0..=1e6).contains(&max_us) {
+                return Err(fail!(
+                    CALL,
+                    InvalidArgument,
+                    "max_us = {max_us}: the warm-up's limit must be within 0 to 1000000 µs"
+                ));
+            }
+            let until =
+                std::time::Instant::now() + std::time::Duration::from_secs_f64(max_us * 1e-6);
+            e.warm_caches(until);
+            Ok(())
+        })
+    }
+}
+
 /// The leaf-sphere pairs of the last detected region (for display): writes their number to
 /// `*count` and copies them into `contacts` (room for `capacity`). When `capacity` is too
 /// small, returns `H6D_STATUS_BUFFER_TOO_SMALL`, with `*count` the number needed and the

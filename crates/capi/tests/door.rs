@@ -720,3 +720,54 @@ fn friction_is_set_per_object_and_bad_values_are_named() {
         h6d_engine_destroy(engine);
     }
 }
+
+#[test]
+fn warming_the_caches_changes_no_frame_and_a_bad_limit_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |warm: bool| {
+        let engine = spheres(dir.path());
+        let (mut w, mut q_g, mut info) = ([0.0; 6], [0.0; 6], H6dFrameInfo::default());
+        let mut frames = Vec::new();
+        // SAFETY: valid pointers.
+        unsafe {
+            for i in 0..200 {
+                if warm {
+                    expect(h6d_engine_warm_caches(engine, 50.0), H6dStatus::Ok, &[]);
+                }
+                let q = [0.0, 0.0, 40.0 - 0.1 * i as f64, 0.0, 0.0, 0.0];
+                expect(
+                    h6d_engine_step(
+                        engine,
+                        i as f64 * 1e-3,
+                        q.as_ptr(),
+                        w.as_mut_ptr(),
+                        q_g.as_mut_ptr(),
+                        &mut info,
+                    ),
+                    H6dStatus::Ok,
+                    &[],
+                );
+                frames.push((w, q_g));
+            }
+            if warm {
+                for bad in [f64::NAN, -1.0, 2e6] {
+                    expect(
+                        h6d_engine_warm_caches(engine, bad),
+                        H6dStatus::InvalidArgument,
+                        &["h6d_engine_warm_caches", "max_us"],
+                    );
+                }
+                expect(
+                    h6d_engine_warm_caches(null_mut(), 10.0),
+                    H6dStatus::NullArgument,
+                    &["h6d_engine_warm_caches", "engine"],
+                );
+            }
+            h6d_engine_destroy(engine);
+        }
+        frames
+    };
+    let plain = run(false);
+    assert!(plain.last().unwrap().0[2] > 1.0, "pushed up");
+    assert_eq!(plain, run(true));
+}
