@@ -76,6 +76,33 @@ fn spheres(dir: &Path) -> *mut H6dEngine {
     engine
 }
 
+/// Frame `i` (1 ms apart) of the tool pressed down into the object of [`spheres`] at 0.1 mm a
+/// frame from z = 40 mm; the frame must succeed.
+///
+/// # Safety
+/// `engine` is a live engine.
+unsafe fn press_frame(
+    engine: *mut H6dEngine,
+    i: usize,
+    w: &mut [f64; 6],
+    q_g: &mut [f64; 6],
+    info: &mut H6dFrameInfo,
+) {
+    let q = [0.0, 0.0, 40.0 - 0.1 * i as f64, 0.0, 0.0, 0.0];
+    // SAFETY: the caller's engine; the other pointers are valid references.
+    let s = unsafe {
+        h6d_engine_step(
+            engine,
+            i as f64 * 1e-3,
+            q.as_ptr(),
+            w.as_mut_ptr(),
+            q_g.as_mut_ptr(),
+            info,
+        )
+    };
+    expect(s, H6dStatus::Ok, &[]);
+}
+
 #[test]
 fn null_pointers_are_named() {
     let dir = tempfile::tempdir().unwrap();
@@ -392,19 +419,7 @@ fn a_nan_pose_is_refused_and_the_wrench_stays_safe() {
     unsafe {
         // Press into the object so the wrench is not zero, then send NaN.
         for i in 0..200 {
-            let q = [0.0, 0.0, 40.0 - 0.1 * i as f64, 0.0, 0.0, 0.0];
-            expect(
-                h6d_engine_step(
-                    engine,
-                    i as f64 * 1e-3,
-                    q.as_ptr(),
-                    w.as_mut_ptr(),
-                    q_g.as_mut_ptr(),
-                    &mut info,
-                ),
-                H6dStatus::Ok,
-                &[],
-            );
+            press_frame(engine, i, &mut w, &mut q_g, &mut info);
         }
         assert!(w[2] > 1.0, "pushed up: {w:?}");
         let kept = q_g;
@@ -734,19 +749,7 @@ fn warming_the_caches_changes_no_frame_and_a_bad_limit_is_named() {
                 if warm {
                     expect(h6d_engine_warm_caches(engine, 50.0), H6dStatus::Ok, &[]);
                 }
-                let q = [0.0, 0.0, 40.0 - 0.1 * i as f64, 0.0, 0.0, 0.0];
-                expect(
-                    h6d_engine_step(
-                        engine,
-                        i as f64 * 1e-3,
-                        q.as_ptr(),
-                        w.as_mut_ptr(),
-                        q_g.as_mut_ptr(),
-                        &mut info,
-                    ),
-                    H6dStatus::Ok,
-                    &[],
-                );
+                press_frame(engine, i, &mut w, &mut q_g, &mut info);
                 frames.push((w, q_g));
             }
             if warm {
