@@ -249,6 +249,20 @@ impl GodObject {
         }
     }
 
+    /// Where the tool at `q` is `frames` frames on if it keeps moving as it did over the last
+    /// frame: its translation continued along the last step, its rotation turned on by the
+    /// last turn (about the tool origin). A schedule's guess, not a bound.
+    pub(super) fn pose_ahead(&self, q: &Pose, frames: f64) -> Pose {
+        let t = q.translation() + Vector3::from(self.last_step) * frames;
+        let turn = Vector3::from(self.last_turn) * frames;
+        let r = rotation_exp(&turn) * q.rotation_matrix();
+        if t.iter().all(|v| v.is_finite()) && r.iter().all(|v| v.is_finite()) {
+            Pose::from_translation_rotation(&t, &r)
+        } else {
+            *q
+        }
+    }
+
     /// Slack (mm) of the free-space proofs at `q`: how much farther than `q` the better one
     /// proves free space (negative when neither reaches `q`).
     pub(super) fn free_slack(&self, q: &Pose) -> f64 {
@@ -320,10 +334,7 @@ impl GodObject {
                 continue;
             }
             let handover = (direct[i] - 1.0).floor();
-            let mut there = *q;
-            for k in 0..3 {
-                there.q[k] += handover * self.last_step[k];
-            }
+            let there = self.pose_ahead(q, handover);
             let more = self.frames_in(&self.free[j], &there, used);
             if more > 0.0 {
                 reach[j] = handover + more;
@@ -461,12 +472,21 @@ impl GodObject {
             let left = (estimate - self.probe.splits() as f64).max(0.25 * estimate);
             let slice = (left / (horizon - 2.0).max(1.0))
                 .clamp(least as f64, PROBE_MAX_SLICE_SPLITS as f64);
+            let tt = Instant::now();
+            // A slice's node pairs cost 0.05–0.3 µs each (a path's more, a cold tree's more):
+            // while the proofs still serve, it also stops at its share of the frame's budget.
+            let slice_deadline = if horizon > 1.0 {
+                let share = PROBE_SLICE_MAX_SHARE * self.params.budget_us.max(0.0) * 1e-6;
+                deadline.min(tt + std::time::Duration::from_secs_f64(share))
+            } else {
+                deadline
+            };
             self.probe.advance_shared(
                 &self.tool,
                 &self.objects,
                 slice as usize,
                 self.team.as_ref(),
-                Some(deadline),
+                Some(slice_deadline),
             );
         }
         match self.probe.status() {
@@ -476,9 +496,13 @@ impl GodObject {
                 let path = Vector3::from(self.probe.path());
                 let (_, pose, radius) = self.probe.take();
                 self.add_free_proof(pose, path, radius, q, used);
+                self.probe_margin = (PROBE_MARGIN_GROWTH * radius).min(BACKGROUND_PROBE_MM);
             }
             ProbeStatus::Touching => {
+                // Something lies within the margin asked: the next probe asks for less.
+                let (_, radius) = self.probe.question();
                 self.probe.take();
+                self.probe_margin = (PROBE_MARGIN_SHRINK * radius).max(BACKGROUND_PROBE_MIN_MM);
             }
             ProbeStatus::Idle => {
                 // Where a whole proof costs less than a slice (open space), renewing it when
@@ -494,7 +518,9 @@ impl GodObject {
                     (self.probe_splits as f64, PROBE_SLICE_SPLITS, 1.5)
                 };
                 let lead = (ahead * estimate / pace as f64 + 2.0).max(PROBE_LEAD_FRAMES);
-                if worth_it && horizon < lead {
+                let margin = self.probe_margin;
+                let lasts = margin - used >= PROBE_MIN_USABLE_FRAMES * speed;
+                if worth_it && horizon < lead && lasts {
                     if sliding {
                         // The probe goes along the tool's way from where the proofs run out
                         // (a frame early), for many frames of the same motion.
@@ -505,23 +531,17 @@ impl GodObject {
                             from.q[k] += (horizon - 1.0).max(0.0) * step[k];
                         }
                         let path = step * (length / step.norm());
-                        let _ = self.probe.start_along(
-                            &self.tool,
-                            &from,
-                            path.into(),
-                            BACKGROUND_PROBE_MM,
-                        );
+                        let _ = self
+                            .probe
+                            .start_along(&self.tool, &from, path.into(), margin);
                     } else {
-                        // The tool keeps moving as it did last frame: the new proof's ball is
-                        // centred past the point where the current ones run out, so that it
-                        // takes over a little before and lasts well after.
-                        let usable = (BACKGROUND_PROBE_MM - used).max(0.0);
+                        // The tool keeps moving (and turning) as it did last frame: the new
+                        // proof's ball is centred past the point where the current ones run
+                        // out, so that it takes over a little before and lasts well after.
+                        let usable = (margin - used).max(0.0);
                         let ahead_frames = horizon + PROBE_AHEAD * usable / speed;
-                        let mut ahead = *q;
-                        for k in 0..3 {
-                            ahead.q[k] += ahead_frames * self.last_step[k];
-                        }
-                        let _ = self.probe.start(&self.tool, &ahead, BACKGROUND_PROBE_MM);
+                        let ahead = self.pose_ahead(q, ahead_frames);
+                        let _ = self.probe.start(&self.tool, &ahead, margin);
                     }
                 }
             }
@@ -820,6 +840,93 @@ mod tests {
         // A proof the tool will never enter serves it no frame.
         g.free[0] = proof(-3.0, 1.0);
         assert_eq!(g.proof_reach(&q, used)[0], 0.0);
+    }
+
+    /// A tool turning about its axis (no translation) through two free-space proofs, the
+    /// second centred where the turn takes it as the first runs out: the schedule counts the
+    /// handover (when it continued the translation alone, the second proof served no frame
+    /// and probes ahead were sized to finish within the first).
+    #[test]
+    fn a_turning_tool_is_handed_over_to_the_proof_ahead_of_its_turn() {
+        let mut g = shaft();
+        let turn = 0.001; // rad per frame: 0.012 mm at the leaves' 12 mm arm
+        g.last_turn = [0.0, 0.0, turn];
+        g.last_motion = turn * 12.0;
+        let at = |a: f64| Pose::from_array([0.0, 0.0, 0.0, 0.0, 0.0, a]);
+        let proof = |a: f64| FreeProof {
+            center: at(a),
+            path: Vector3::zeros(),
+            radius: 0.3,
+        };
+        let used = 0.06;
+        // The first proof serves (0.3 - 0.06) / 0.012 = 20 frames; the second is centred 25
+        // frames on.
+        g.free = [proof(0.0), proof(25.0 * turn)];
+        let q = at(0.0);
+        let direct = g.frames_in(&g.free[0], &q, used);
+        assert!((direct - 20.0).abs() < 0.01, "{direct}");
+        assert_eq!(g.frames_in(&g.free[1], &q, used), 0.0);
+        let horizon = g.proof_horizon(&q, used);
+        assert!(
+            horizon > 30.0,
+            "the turn's handover is not counted: {horizon}"
+        );
+        // The pose ahead is the turn continued (and the step, none here).
+        let ahead = g.pose_ahead(&q, 25.0);
+        assert!((ahead.q[5] - 25.0 * turn).abs() < 1e-12);
+        assert_eq!(ahead.translation(), q.translation());
+        // A non-finite guess keeps the pose.
+        g.last_turn = [f64::NAN, 0.0, 0.0];
+        assert_eq!(g.pose_ahead(&q, 3.0), q);
+    }
+
+    /// A tool held 0.2 mm from an object, turning slowly: a background probe at the full
+    /// margin touches and proves nothing; the next ones ask for less until one proves free
+    /// space, and its proof then serves the tool (with a fixed margin every probe touched).
+    #[test]
+    fn a_probe_that_touches_asks_for_less_until_one_proves_free_space() {
+        let mut tool = SphereTree::new_unused(2, 8).unwrap();
+        for k in 0..8 {
+            let a = std::f64::consts::FRAC_PI_4 * k as f64;
+            tool.spheres_mut()[1 + k] = Sphere::new([12.0 * a.cos(), 12.0 * a.sin(), 0.0], 1.0);
+        }
+        tool.spheres_mut()[0] = Sphere::new([0.0, 0.0, 0.0], 14.0);
+        // The object's sphere is 0.2 mm beyond the leaf at +x.
+        let mut object = SphereTree::new_unused(1, 8).unwrap();
+        object.spheres_mut()[0] = Sphere::new([14.2, 0.0, 0.0], 1.0);
+        let mut g = GodObject::new(
+            &tool,
+            &[(object, Pose::identity())],
+            EngineConfig::default(),
+        )
+        .unwrap();
+        g.last_motion = 0.002;
+        // Probes pay here (a region's traversal costs more than a slice).
+        g.probe_splits = 10 * PROBE_SLICE_SPLITS;
+        let q = Pose::identity();
+        let used = 0.02;
+        let deadline = Instant::now() + std::time::Duration::from_secs(10);
+        let mut margins = vec![g.probe_margin];
+        for _ in 0..40 {
+            g.tend_probe(&q, used, deadline);
+            if margins.last() != Some(&g.probe_margin) {
+                margins.push(g.probe_margin);
+            }
+            if g.free_slack(&q) > used {
+                break;
+            }
+        }
+        assert!(
+            g.free_slack(&q) > used,
+            "no proof; margins asked {margins:?}"
+        );
+        let proven = g.free.iter().map(|p| p.radius).fold(0.0, f64::max);
+        assert!(
+            proven < 0.2 && proven > used,
+            "{proven} (margins {margins:?})"
+        );
+        assert_eq!(margins[0], BACKGROUND_PROBE_MM);
+        assert!(margins.len() >= 3, "{margins:?}");
     }
 
     /// No leaf centre moves farther than the turn's bound, for random turns from random

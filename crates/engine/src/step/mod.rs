@@ -143,9 +143,25 @@ const FREE_PROBE_MM: f64 = 0.3;
 /// hole: 0.4 mm costs ~20 % more than 0.3 mm and covers ~40 % more of the way).
 const BACKGROUND_PROBE_MM: f64 = 0.4;
 
+/// Least margin (mm) of a background probe. A probe that finds a pair within its margin (a
+/// tool turning in a tight groove: the spline's keys 0.1–0.4 mm from the keyways' flanks)
+/// proves nothing; the next one asks for less ([`PROBE_MARGIN_SHRINK`]), down to this.
+const BACKGROUND_PROBE_MIN_MM: f64 = 0.05;
+
+/// Frames of the tool's motion a background probe's margin must hold beyond the frame's own
+/// need, or it is not started (a proof that lasts fewer frames than its slices take is no
+/// use: fresh traversals serve).
+const PROBE_MIN_USABLE_FRAMES: f64 = 2.0;
+
 /// Node pairs a background free-space probe aims to split per frame (~15–25 µs): it starts
 /// early enough to finish at this pace before the current proof runs out.
 const PROBE_SLICE_SPLITS: usize = 800;
+
+/// Share of the frame's budget a background probe's slice may take while the free-space
+/// proofs still serve the next frame (50 µs at 1 kHz): its node pairs are counted ahead of
+/// time at a pose probe's cost, and a path probe's cost ~3 times as much (measured: 2 330
+/// node pairs of a path probe in the spline's hole took 736 µs).
+const PROBE_SLICE_MAX_SHARE: f64 = 0.05;
 
 /// Node pairs between two clock reads when a probe is finished within a frame's deadline.
 const PROBE_FINISH_SLICE_SPLITS: usize = 256;
@@ -190,6 +206,14 @@ const PROBE_LEAD_FRAMES: f64 = 8.0;
 /// share of a proof's usable radius: a tool moving on as it did crosses the new proof's ball
 /// instead of leaving it from its centre (a proof covers ~1.7 times as much of the way).
 const PROBE_AHEAD: f64 = 0.7;
+
+/// A background probe that proved free space lets the next one ask for this many times its
+/// margin (up to [`BACKGROUND_PROBE_MM`]): a tool that left a tight groove gets its wide
+/// proofs back within a few probes.
+const PROBE_MARGIN_GROWTH: f64 = 1.5;
+
+/// A background probe that touched lets the next one ask for this share of its margin.
+const PROBE_MARGIN_SHRINK: f64 = 0.7;
 
 /// A pass starts only if the frame's time so far plus this many times its longest pass stays
 /// within `budget_us` (measured: 1.5 kept the puck at 1 m/s lagging in ~220 frames of 1 341, 1.25
@@ -517,6 +541,9 @@ pub struct GodObject {
     /// size the next one's slices).
     probe_splits: usize,
     path_probe_splits: usize,
+    /// Margin (mm) of the next background probe: [`BACKGROUND_PROBE_MM`], halved after a
+    /// probe that touched, grown back after one that proved free space.
+    probe_margin: f64,
     /// The neighbour list in use: every leaf pair within a wide margin of a pose near the tool,
     /// filtered instead of traversed while a region's query stays inside it.
     neighbours: NeighbourList,
@@ -660,6 +687,7 @@ impl GodObject {
             probe,
             probe_splits: 0,
             path_probe_splits: 0,
+            probe_margin: BACKGROUND_PROBE_MM,
             neighbours,
             next_neighbours,
             list_margin: LIST_MARGIN_MM,
@@ -781,6 +809,7 @@ impl GodObject {
         self.free = [FreeProof::none(); 2];
         self.probe.cancel();
         self.path_probe_splits = 0;
+        self.probe_margin = BACKGROUND_PROBE_MM;
         self.neighbours.clear();
         self.next_neighbours.cancel();
         self.list_margin = LIST_MARGIN_MM;
