@@ -497,6 +497,7 @@ impl GodObject {
                 let (_, pose, radius) = self.probe.take();
                 self.add_free_proof(pose, path, radius, q, used);
                 self.probe_margin = (PROBE_MARGIN_GROWTH * radius).min(BACKGROUND_PROBE_MM);
+                self.probe_proven_mm = radius;
             }
             ProbeStatus::Touching => {
                 // Something lies within the margin asked: the next probe asks for less.
@@ -520,7 +521,15 @@ impl GodObject {
                 let lead = (ahead * estimate / pace as f64 + 2.0).max(PROBE_LEAD_FRAMES);
                 let margin = self.probe_margin;
                 let lasts = margin - used >= PROBE_MIN_USABLE_FRAMES * speed;
-                if worth_it && horizon < lead && lasts {
+                // A tool at rest in free space has time to spare: a wider proof about it,
+                // built a slice a frame, serves the first frames of its next motion while the
+                // probes ahead of that motion get going (the spline's insertion starts from
+                // rest in the hole: ~100 µs traversals without one).
+                let widen = horizon >= REST_HORIZON_FRAMES
+                    && self.free_slack(q) + used < PROBE_WIDEN_RATIO * margin;
+                if worth_it && widen {
+                    let _ = self.probe.start(&self.tool, q, margin);
+                } else if worth_it && horizon < lead && lasts {
                     if sliding {
                         // The probe goes along the tool's way from where the proofs run out
                         // (a frame early), for many frames of the same motion.
@@ -880,29 +889,56 @@ mod tests {
         assert_eq!(g.pose_ahead(&q, 3.0), q);
     }
 
-    /// A tool held 0.2 mm from an object, turning slowly: a background probe at the full
-    /// margin touches and proves nothing; the next ones ask for less until one proves free
-    /// space, and its proof then serves the tool (with a fixed margin every probe touched).
-    #[test]
-    fn a_probe_that_touches_asks_for_less_until_one_proves_free_space() {
+    /// A ring of eight leaves (radius 1 mm, 12 mm from the tool's axis) with one object
+    /// sphere `gap` mm beyond the leaf at +x; probes pay (a region's traversal is taken to
+    /// cost ten slices).
+    fn ring_near_object(gap: f64) -> GodObject {
         let mut tool = SphereTree::new_unused(2, 8).unwrap();
         for k in 0..8 {
             let a = std::f64::consts::FRAC_PI_4 * k as f64;
             tool.spheres_mut()[1 + k] = Sphere::new([12.0 * a.cos(), 12.0 * a.sin(), 0.0], 1.0);
         }
         tool.spheres_mut()[0] = Sphere::new([0.0, 0.0, 0.0], 14.0);
-        // The object's sphere is 0.2 mm beyond the leaf at +x.
         let mut object = SphereTree::new_unused(1, 8).unwrap();
-        object.spheres_mut()[0] = Sphere::new([14.2, 0.0, 0.0], 1.0);
+        object.spheres_mut()[0] = Sphere::new([14.0 + gap, 0.0, 0.0], 1.0);
         let mut g = GodObject::new(
             &tool,
             &[(object, Pose::identity())],
             EngineConfig::default(),
         )
         .unwrap();
-        g.last_motion = 0.002;
-        // Probes pay here (a region's traversal costs more than a slice).
         g.probe_splits = 10 * PROBE_SLICE_SPLITS;
+        g
+    }
+
+    /// A tool at rest 0.2 mm from an object, with a proof of 0.05 mm about it: background
+    /// probes widen the proof (as far as the object allows) while it rests, so its next
+    /// motion does not start on traversals.
+    #[test]
+    fn a_tool_at_rest_gets_a_wider_proof() {
+        let mut g = ring_near_object(0.2);
+        let q = Pose::identity();
+        let used = 0.02;
+        g.free[0] = FreeProof {
+            center: q,
+            path: Vector3::zeros(),
+            radius: 0.05,
+        };
+        let deadline = Instant::now() + std::time::Duration::from_secs(10);
+        for _ in 0..40 {
+            g.tend_probe(&q, used, deadline);
+        }
+        let slack = g.free_slack(&q);
+        assert!(slack > 0.1 && slack < 0.2, "{slack}");
+    }
+
+    /// A tool held 0.2 mm from an object, turning slowly: a background probe at the full
+    /// margin touches and proves nothing; the next ones ask for less until one proves free
+    /// space, and its proof then serves the tool (with a fixed margin every probe touched).
+    #[test]
+    fn a_probe_that_touches_asks_for_less_until_one_proves_free_space() {
+        let mut g = ring_near_object(0.2);
+        g.last_motion = 0.002;
         let q = Pose::identity();
         let used = 0.02;
         let deadline = Instant::now() + std::time::Duration::from_secs(10);

@@ -158,10 +158,10 @@ const PROBE_MIN_USABLE_FRAMES: f64 = 2.0;
 const PROBE_SLICE_SPLITS: usize = 800;
 
 /// Share of the frame's budget a background probe's slice may take while the free-space
-/// proofs still serve the next frame (50 µs at 1 kHz): its node pairs are counted ahead of
+/// proofs still serve the next frame (30 µs at 1 kHz): its node pairs are counted ahead of
 /// time at a pose probe's cost, and a path probe's cost ~3 times as much (measured: 2 330
 /// node pairs of a path probe in the spline's hole took 736 µs).
-const PROBE_SLICE_MAX_SHARE: f64 = 0.05;
+const PROBE_SLICE_MAX_SHARE: f64 = 0.03;
 
 /// Node pairs between two clock reads when a probe is finished within a frame's deadline.
 const PROBE_FINISH_SLICE_SPLITS: usize = 256;
@@ -211,6 +211,14 @@ const PROBE_AHEAD: f64 = 0.7;
 /// margin (up to [`BACKGROUND_PROBE_MM`]): a tool that left a tight groove gets its wide
 /// proofs back within a few probes.
 const PROBE_MARGIN_GROWTH: f64 = 1.5;
+
+/// Frames the free-space proofs must serve a tool, at its last motion, for it to count as at
+/// rest (a second at 1 kHz): then a background probe widens its proof.
+const REST_HORIZON_FRAMES: f64 = 1000.0;
+
+/// A tool at rest gets a wider proof when the proofs about it reach less than this share of
+/// the next probe's margin.
+const PROBE_WIDEN_RATIO: f64 = 0.8;
 
 /// A background probe that touched lets the next one ask for this share of its margin.
 const PROBE_MARGIN_SHRINK: f64 = 0.7;
@@ -544,6 +552,9 @@ pub struct GodObject {
     /// Margin (mm) of the next background probe: [`BACKGROUND_PROBE_MM`], halved after a
     /// probe that touched, grown back after one that proved free space.
     probe_margin: f64,
+    /// Margin (mm) of the last background probe that proved free space since the last
+    /// detection that found pairs (0: none): a fresh proof in free space may be this wide.
+    probe_proven_mm: f64,
     /// The neighbour list in use: every leaf pair within a wide margin of a pose near the tool,
     /// filtered instead of traversed while a region's query stays inside it.
     neighbours: NeighbourList,
@@ -688,6 +699,7 @@ impl GodObject {
             probe_splits: 0,
             path_probe_splits: 0,
             probe_margin: BACKGROUND_PROBE_MM,
+            probe_proven_mm: 0.0,
             neighbours,
             next_neighbours,
             list_margin: LIST_MARGIN_MM,
@@ -810,6 +822,7 @@ impl GodObject {
         self.probe.cancel();
         self.path_probe_splits = 0;
         self.probe_margin = BACKGROUND_PROBE_MM;
+        self.probe_proven_mm = 0.0;
         self.neighbours.clear();
         self.next_neighbours.cancel();
         self.list_margin = LIST_MARGIN_MM;
@@ -1082,10 +1095,14 @@ impl GodObject {
                     // dropped.
                     self.probe.cancel();
                     // In free space, probe a little wider so the proof lasts several frames
-                    // (no wider than a dense contact just left allows).
+                    // (no wider than a dense contact just left allows, or than a background
+                    // probe proved free since).
                     let probe = if self.pairs.is_empty() {
-                        (allowed + skin)
-                            .max(FREE_PROBE_MM.min(self.density.probe_margin_for(PAIR_TARGET)))
+                        let wide = self
+                            .density
+                            .probe_margin_for(PAIR_TARGET)
+                            .max(self.probe_proven_mm);
+                        (allowed + skin).max(FREE_PROBE_MM.min(wide))
                     } else {
                         allowed + skin
                     };
@@ -1172,6 +1189,10 @@ impl GodObject {
                 } + skin;
                 self.density
                     .record(margin, self.pairs.len() + self.dropped, sweep.is_some());
+                if !self.pairs.is_empty() {
+                    // In contact: what a probe proved free before tells nothing of the way out.
+                    self.probe_proven_mm = 0.0;
+                }
 
                 if self.dropped > 0 {
                     // More pairs than the storage holds: the list is not complete, so no answer
