@@ -469,18 +469,25 @@ impl GodObject {
             } else {
                 (self.probe_splits as f64, PROBE_MIN_SLICE_SPLITS)
             };
-            let left = (estimate - self.probe.splits() as f64).max(0.25 * estimate);
-            let slice = (left / (horizon - 2.0).max(1.0))
+            // Paced to finish within half the horizon, for a quarter more than the estimate:
+            // the horizon is measured at the last frame's motion (a hand speeding up shortens
+            // it) and the estimate is the last probe's cost (the spline's withdrawal ran a path
+            // probe of 20 300 node pairs on an estimate of 16 300 at the least slice until its
+            // last frames, then finished 3 500 of them in one).
+            let left =
+                (PROBE_ESTIMATE_SPARE * estimate - self.probe.splits() as f64).max(0.25 * estimate);
+            let slice = (left / (PROBE_FINISH_WITHIN * horizon - 2.0).max(1.0))
                 .clamp(least as f64, PROBE_MAX_SLICE_SPLITS as f64);
             let tt = Instant::now();
             // A slice's node pairs cost 0.05–0.3 µs each (a path's more, a cold tree's more):
             // while the proofs still serve, it also stops at its share of the frame's budget.
-            let slice_deadline = if horizon > 1.0 {
-                let share = PROBE_SLICE_MAX_SHARE * self.params.budget_us.max(0.0) * 1e-6;
-                deadline.min(tt + std::time::Duration::from_secs_f64(share))
+            let share = if horizon > 2.0 {
+                PROBE_SLICE_MAX_SHARE
             } else {
-                deadline
+                PROBE_SLICE_URGENT_SHARE
             };
+            let slice_time = share * self.params.budget_us.max(0.0) * 1e-6;
+            let slice_deadline = deadline.min(tt + std::time::Duration::from_secs_f64(slice_time));
             self.probe.advance_shared(
                 &self.tool,
                 &self.objects,

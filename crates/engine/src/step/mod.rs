@@ -157,11 +157,23 @@ const PROBE_MIN_USABLE_FRAMES: f64 = 2.0;
 /// early enough to finish at this pace before the current proof runs out.
 const PROBE_SLICE_SPLITS: usize = 800;
 
+/// Share of the free-space proofs' horizon (frames at the tool's last motion) a running
+/// background probe is paced to finish within.
+const PROBE_FINISH_WITHIN: f64 = 0.5;
+
+/// A running background probe is paced for this many times its estimated cost.
+const PROBE_ESTIMATE_SPARE: f64 = 1.25;
+
 /// Share of the frame's budget a background probe's slice may take while the free-space
-/// proofs still serve the next frame (30 µs at 1 kHz): its node pairs are counted ahead of
+/// proofs still serve the next two frames (30 µs at 1 kHz): its node pairs are counted ahead of
 /// time at a pose probe's cost, and a path probe's cost ~3 times as much (measured: 2 330
 /// node pairs of a path probe in the spline's hole took 736 µs).
 const PROBE_SLICE_MAX_SHARE: f64 = 0.03;
+
+/// Share of the frame's budget a background probe's slice may take when the proofs run out
+/// within two frames (100 µs at 1 kHz). A probe still unfinished when they do is carried on
+/// to the frame's deadline, or replaced by a fresh traversal if it does not cover the tool.
+const PROBE_SLICE_URGENT_SHARE: f64 = 0.1;
 
 /// Node pairs between two clock reads when a probe is finished within a frame's deadline.
 const PROBE_FINISH_SLICE_SPLITS: usize = 256;
