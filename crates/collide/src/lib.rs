@@ -68,7 +68,10 @@ pub use neighbours::{BackgroundList, ListStatus, NeighbourList};
 pub use packed::{PackedTree, WARM_CHUNK_NODES};
 pub use pose::{rotation_exp, rotation_log, rotation_zyx, rotation_zyx_partials, Pose};
 pub use probe::{FreeSpaceProbe, ProbeStatus};
-pub use team::{overlap_shared, SharedTraversal, TraversalTeam, SHARE_MIN_PAIRS, SPIN_WINDOW};
+pub use team::{
+    overlap_shared, overlap_shared_proving, SharedTraversal, TraversalTeam, SHARE_MIN_PAIRS,
+    SPIN_WINDOW,
+};
 pub use traverse::{
     any_pair_within, any_pair_within_until, collect_pairs, overlap_swept, overlap_tree_tree,
     overlap_tree_trees, overlap_until, CollideWorkspace, FaceCut, FacePlane, FaceSlab, LeafPair,

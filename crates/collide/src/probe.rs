@@ -107,7 +107,14 @@ impl ProbeStream {
             let id = self.object as u32;
             ws.reserve(tool, o);
             if !self.resume {
-                let d = team::descend_until_shareable(tool, o, id, margin, ws, &mut stop_at_first);
+                let d = team::descend_until_shareable(
+                    tool,
+                    o,
+                    id,
+                    &std::cell::Cell::new(margin),
+                    ws,
+                    &mut stop_at_first,
+                );
                 if d.count > 0 {
                     self.status = ProbeStatus::Touching;
                     return self.status;

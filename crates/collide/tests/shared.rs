@@ -3,7 +3,10 @@
 
 mod common;
 
-use collide::{overlap_shared, CollideWorkspace, PackedTree, Pose, Sweep, TraversalTeam};
+use collide::{
+    overlap_shared, overlap_shared_proving, CollideWorkspace, PackedTree, Pose, Sweep,
+    TraversalTeam,
+};
 use common::{dense_shape, pair_key, random_tree, traversal_keys, PairKey};
 use std::time::{Duration, Instant};
 
@@ -178,5 +181,66 @@ fn dropping_the_team_stops_its_thread() {
     assert!(
         finished.recv_timeout(Duration::from_secs(30)).is_ok(),
         "dropping a team did not stop its helper thread"
+    );
+}
+
+/// A proving traversal reports exactly the plain traversal's pairs within its margin, and
+/// proves the least gap beyond it (or its proof margin when no pair is that near), with or
+/// without a helper: checked against the plain traversal at the proof margin.
+#[test]
+fn a_proving_traversal_lists_the_margin_and_proves_the_nearest_gap_beyond() {
+    let tool = PackedTree::new(&random_tree(41, dense_shape())).unwrap();
+    let objects = vec![PackedTree::new(&random_tree(42, dense_shape())).unwrap()];
+    let team = TraversalTeam::new(&tool, &objects, 1 << 16).unwrap();
+    let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+    let mut rng = devkit::Rng::new(7);
+    let (mut narrowed, mut empty) = (0, 0);
+    for i in 0..300 {
+        // From a few pairs within the margins to none (the random clouds overlap nearer).
+        let pose = Pose::from_array([
+            rng.range(40.0, 100.0),
+            rng.range(-3.0, 3.0),
+            rng.range(-3.0, 3.0),
+            rng.range(-0.3, 0.3),
+            rng.range(-0.3, 0.3),
+            rng.range(-0.3, 0.3),
+        ]);
+        let margin = rng.range(0.0, 0.3);
+        let proof = margin + rng.range(0.0, 1.0);
+        let wide = traversal_keys(&tool, &pose, None, &objects, proof, &mut ws);
+        let gap = |k: &PairKey| f64::from_bits(k.3);
+        let mut within: Vec<PairKey> = wide.iter().copied().filter(|k| gap(k) <= margin).collect();
+        within.sort_unstable();
+        let nearest_beyond = wide
+            .iter()
+            .map(gap)
+            .filter(|&g| g > margin)
+            .fold(proof, f64::min);
+        for helper in [None, Some(&team)] {
+            let mut found = Vec::new();
+            let (t, proven) = overlap_shared_proving(
+                &tool,
+                &pose,
+                &objects,
+                margin,
+                proof,
+                &mut ws,
+                helper,
+                None,
+                |p| found.push(pair_key(p)),
+            )
+            .unwrap();
+            assert!(t.complete);
+            assert_eq!(t.pairs, found.len());
+            found.sort_unstable();
+            assert_eq!(found, within, "query {i}");
+            assert_eq!(proven, nearest_beyond, "query {i}");
+        }
+        narrowed += usize::from(nearest_beyond < proof);
+        empty += usize::from(within.is_empty());
+    }
+    assert!(
+        narrowed > 30 && empty > 30,
+        "{narrowed} narrowed, {empty} empty"
     );
 }

@@ -21,6 +21,22 @@ impl GodObject {
         deadline: Option<Instant>,
         slab: Option<FaceSlab>,
     ) -> Result<f64, collide::CollideError> {
+        self.detect_proving(q, sweep, margin, 0.0, deadline, slab)
+            .map(|(gap, _)| gap)
+    }
+
+    /// [`GodObject::detect_along`] that also proves free space beyond the pairs it lists, up
+    /// to `proof` mm ([`collide::overlap_shared_proving`]; at a pose without a slab, else
+    /// none): the least gap and the proven margin (mm; `margin` where nothing more is proven).
+    pub(super) fn detect_proving(
+        &mut self,
+        q: &Pose,
+        sweep: Option<&Sweep>,
+        margin: f64,
+        proof: f64,
+        deadline: Option<Instant>,
+        slab: Option<FaceSlab>,
+    ) -> Result<(f64, f64), collide::CollideError> {
         self.cached = None;
         self.pairs.clear();
         self.dropped = 0;
@@ -70,23 +86,38 @@ impl GodObject {
         });
         if listed.is_some() {
             self.regions_filtered += 1;
-            return Ok(min_gap);
+            return Ok((min_gap, margin));
         }
         self.regions_traversed += 1;
         // The shared traversal's order is the same with or without the helper, so the
         // frames are too.
-        let t = collide::overlap_shared(
-            &self.tool,
-            q,
-            sweep,
-            &self.objects,
-            margin,
-            slab,
-            &mut self.ws,
-            self.team.as_ref(),
-            deadline,
-            collect,
-        )?;
+        let (t, proven) = if proof > margin && sweep.is_none() && slab.is_none() {
+            collide::overlap_shared_proving(
+                &self.tool,
+                q,
+                &self.objects,
+                margin,
+                proof,
+                &mut self.ws,
+                self.team.as_ref(),
+                deadline,
+                collect,
+            )?
+        } else {
+            let t = collide::overlap_shared(
+                &self.tool,
+                q,
+                sweep,
+                &self.objects,
+                margin,
+                slab,
+                &mut self.ws,
+                self.team.as_ref(),
+                deadline,
+                collect,
+            )?;
+            (t, margin)
+        };
         self.dropped += t.unreported;
         self.interrupted = !t.complete;
         if !self.pairs.is_empty() {
@@ -94,7 +125,7 @@ impl GodObject {
             let splits = self.ws.stats().node_pairs_split as f64;
             self.splits_per_region = 0.9 * self.splits_per_region + 0.1 * splits;
         }
-        Ok(min_gap)
+        Ok((min_gap, proven))
     }
 
     /// True when some leaf pair is within `margin` (mm) of touching at `q`; stops at the first
@@ -504,7 +535,6 @@ impl GodObject {
                 let (_, pose, radius) = self.probe.take();
                 self.add_free_proof(pose, path, radius, q, used);
                 self.probe_margin = (PROBE_MARGIN_GROWTH * radius).min(BACKGROUND_PROBE_MM);
-                self.probe_proven_mm = radius;
             }
             ProbeStatus::Touching => {
                 // Something lies within the margin asked: the next probe asks for less.

@@ -138,6 +138,10 @@ const DENSE_MIN_ALLOW_MM: f64 = 0.03;
 /// and later frames near the same pose skip their traversals.
 const FREE_PROBE_MM: f64 = 0.3;
 
+/// How much less than the proven gap (mm) a free-space proof from a proving traversal claims:
+/// a pair may lie at the gap itself.
+const PROOF_ROUNDING_MM: f64 = 1e-6;
+
 /// Margin (mm) of a background probe: wider than a frame's own proof, since its cost is spread
 /// over frames and a wider proof lasts longer per node pair split (measured in the spline's
 /// hole: 0.4 mm costs ~20 % more than 0.3 mm and covers ~40 % more of the way).
@@ -564,9 +568,6 @@ pub struct GodObject {
     /// Margin (mm) of the next background probe: [`BACKGROUND_PROBE_MM`], halved after a
     /// probe that touched, grown back after one that proved free space.
     probe_margin: f64,
-    /// Margin (mm) of the last background probe that proved free space since the last
-    /// detection that found pairs (0: none): a fresh proof in free space may be this wide.
-    probe_proven_mm: f64,
     /// The neighbour list in use: every leaf pair within a wide margin of a pose near the tool,
     /// filtered instead of traversed while a region's query stays inside it.
     neighbours: NeighbourList,
@@ -711,7 +712,6 @@ impl GodObject {
             probe_splits: 0,
             path_probe_splits: 0,
             probe_margin: BACKGROUND_PROBE_MM,
-            probe_proven_mm: 0.0,
             neighbours,
             next_neighbours,
             list_margin: LIST_MARGIN_MM,
@@ -834,7 +834,6 @@ impl GodObject {
         self.probe.cancel();
         self.path_probe_splits = 0;
         self.probe_margin = BACKGROUND_PROBE_MM;
-        self.probe_proven_mm = 0.0;
         self.neighbours.clear();
         self.next_neighbours.cancel();
         self.list_margin = LIST_MARGIN_MM;
@@ -1107,14 +1106,11 @@ impl GodObject {
                     // dropped.
                     self.probe.cancel();
                     // In free space, probe a little wider so the proof lasts several frames
-                    // (no wider than a dense contact just left allows, or than a background
-                    // probe proved free since).
-                    let probe = if self.pairs.is_empty() {
-                        let wide = self
-                            .density
-                            .probe_margin_for(PAIR_TARGET)
-                            .max(self.probe_proven_mm);
-                        (allowed + skin).max(FREE_PROBE_MM.min(wide))
+                    // (no wider than a dense contact just left allows).
+                    let in_free_space = self.pairs.is_empty();
+                    let probe = if in_free_space {
+                        (allowed + skin)
+                            .max(FREE_PROBE_MM.min(self.density.probe_margin_for(PAIR_TARGET)))
                     } else {
                         allowed + skin
                     };
@@ -1124,11 +1120,36 @@ impl GodObject {
                         tangent: slide + skin,
                     });
                     slab_used = face_slab.is_some();
-                    let d = self.detect_along(&q_lin, None, probe, Some(deadline), face_slab);
+                    // Where a dense contact just left narrows the probe, the traversal lists
+                    // the pairs within it and proves free space as far as the nearest pair
+                    // beyond (up to FREE_PROBE_MM): one traversal gives the widest proof the
+                    // surfaces allow (a pair met beyond narrows the rest of the descent, so
+                    // the dense contact costs no long list). (Listing within the full probe
+                    // elsewhere gives a tool nearing a face its pairs ahead of the touch.)
+                    let (d, proven) = if in_free_space && face_slab.is_none() {
+                        match self.detect_proving(
+                            &q_lin,
+                            None,
+                            probe,
+                            FREE_PROBE_MM,
+                            Some(deadline),
+                            None,
+                        ) {
+                            Ok((gap, proven)) => (Ok(gap), proven),
+                            Err(e) => (Err(e), probe),
+                        }
+                    } else {
+                        (
+                            self.detect_along(&q_lin, None, probe, Some(deadline), face_slab),
+                            probe,
+                        )
+                    };
                     // Only a complete traversal proves free space (one the deadline stopped
                     // may have missed pairs).
                     if d.is_ok() && self.pairs.is_empty() && !self.interrupted {
-                        self.add_free_proof(q_lin, Vector3::zeros(), probe, &q_lin, probe);
+                        // (A pair may lie at the proven gap itself.)
+                        let radius = proven - PROOF_ROUNDING_MM;
+                        self.add_free_proof(q_lin, Vector3::zeros(), radius, &q_lin, probe);
                         // What a proof costs here: a background probe pays off only where it
                         // is more than a slice.
                         self.probe_splits = self.ws.stats().node_pairs_split;
@@ -1201,10 +1222,6 @@ impl GodObject {
                 } + skin;
                 self.density
                     .record(margin, self.pairs.len() + self.dropped, sweep.is_some());
-                if !self.pairs.is_empty() {
-                    // In contact: what a probe proved free before tells nothing of the way out.
-                    self.probe_proven_mm = 0.0;
-                }
 
                 if self.dropped > 0 {
                     // More pairs than the storage holds: the list is not complete, so no answer
