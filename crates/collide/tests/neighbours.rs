@@ -7,7 +7,7 @@ mod common;
 use collide::{
     rotation_exp, BackgroundList, ListStatus, NeighbourList, PackedTree, Pose, Sweep, TraversalTeam,
 };
-use common::{dense_shape, pair_key, random_tree, traversal_keys, PairKey};
+use common::{dense_shape, pair_key, random_pose, random_tree, traversal_keys, PairKey};
 
 fn trees() -> (PackedTree, Vec<PackedTree>) {
     let tool = PackedTree::new(&random_tree(21, dense_shape())).unwrap();
@@ -64,14 +64,7 @@ fn a_covered_query_gets_exactly_the_traversals_pairs() {
     let mut rng = devkit::Rng::new(7);
     let (mut covered, mut edge, mut dense, mut refused) = (0, 0, 0, 0);
     for i in 0..60 {
-        let center = Pose::from_array([
-            rng.range(-5.0, 45.0),
-            rng.range(-5.0, 5.0),
-            rng.range(-5.0, 5.0),
-            rng.range(-0.3, 0.3),
-            rng.range(-0.3, 0.3),
-            rng.range(-0.3, 0.3),
-        ]);
+        let center = random_pose(&mut rng, [-5.0, 45.0], 5.0);
         let big = rng.range(0.5, 2.0);
         assert_eq!(
             build(&mut list, &tool, &objects, &center, big, 1 << 30),

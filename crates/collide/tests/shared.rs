@@ -7,7 +7,7 @@ use collide::{
     overlap_shared, overlap_shared_proving, CollideWorkspace, PackedTree, Pose, Sweep,
     TraversalTeam,
 };
-use common::{dense_shape, pair_key, random_tree, traversal_keys, PairKey};
+use common::{dense_shape, pair_key, random_pose, random_tree, traversal_keys, PairKey};
 use std::time::{Duration, Instant};
 
 #[allow(clippy::too_many_arguments)]
@@ -56,14 +56,7 @@ fn shared_traversal_is_the_traversal_in_one_order_with_or_without_a_helper() {
     let mut helped = 0;
     let mut dense = 0;
     for i in 0..400 {
-        let pose = Pose::from_array([
-            rng.range(-5.0, 45.0),
-            rng.range(-5.0, 5.0),
-            rng.range(-5.0, 5.0),
-            rng.range(-0.3, 0.3),
-            rng.range(-0.3, 0.3),
-            rng.range(-0.3, 0.3),
-        ]);
+        let pose = random_pose(&mut rng, [-5.0, 45.0], 5.0);
         let sweep = Sweep {
             translation: [rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), 0.0],
             rotation: [0.0, 0.0, rng.range(-0.05, 0.05)],
@@ -197,14 +190,7 @@ fn a_proving_traversal_lists_the_margin_and_proves_the_nearest_gap_beyond() {
     let (mut narrowed, mut empty) = (0, 0);
     for i in 0..300 {
         // From a few pairs within the margins to none (the random clouds overlap nearer).
-        let pose = Pose::from_array([
-            rng.range(40.0, 100.0),
-            rng.range(-3.0, 3.0),
-            rng.range(-3.0, 3.0),
-            rng.range(-0.3, 0.3),
-            rng.range(-0.3, 0.3),
-            rng.range(-0.3, 0.3),
-        ]);
+        let pose = random_pose(&mut rng, [40.0, 100.0], 3.0);
         let margin = rng.range(0.0, 0.3);
         let proof = margin + rng.range(0.0, 1.0);
         let wide = traversal_keys(&tool, &pose, None, &objects, proof, &mut ws);

@@ -173,3 +173,17 @@ pub fn brute_force_gaps(
     }
     out
 }
+
+/// A random pose for the dense trees' tests: the tool origin at `x` in `[x_lo, x_hi]` mm and
+/// `y`, `z` within `across` mm of the axis, each rotation-vector component within 0.3 rad
+/// (the draws in that order).
+pub fn random_pose(rng: &mut devkit::Rng, x: [f64; 2], across: f64) -> Pose {
+    Pose::from_array([
+        rng.range(x[0], x[1]),
+        rng.range(-across, across),
+        rng.range(-across, across),
+        rng.range(-0.3, 0.3),
+        rng.range(-0.3, 0.3),
+        rng.range(-0.3, 0.3),
+    ])
+}
