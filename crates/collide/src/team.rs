@@ -412,7 +412,9 @@ pub fn overlap_shared<F: FnMut(&LeafPair)>(
 /// where the nearest surface is unknown, one traversal gives the widest proof it allows
 /// (with the spline's keys turning 0.1–0.2 mm from the keyways' flanks, a probe of 0.137 mm
 /// split 2 148 node pairs where one of 0.044 mm split 1 863). Incomplete (the deadline)
-/// proves nothing beyond the pairs within `margin` found so far.
+/// proves nothing beyond the pairs within `margin` found so far. A negative or NaN margin is
+/// taken as 0; a proof margin not above `margin` gives the plain traversal. Errors only on a
+/// non-finite pose.
 ///
 /// # Real-time
 /// As [`overlap_shared`].
