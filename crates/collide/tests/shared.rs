@@ -230,3 +230,28 @@ fn a_proving_traversal_lists_the_margin_and_proves_the_nearest_gap_beyond() {
         "{narrowed} narrowed, {empty} empty"
     );
 }
+
+/// Bad input to a proving traversal: a non-finite pose is an error; a NaN or negative margin
+/// is taken as 0, and a NaN proof margin gives the plain traversal (nothing proven beyond).
+#[test]
+fn a_proving_traversal_takes_bad_margins_as_the_plain_query_and_rejects_a_bad_pose() {
+    let tool = PackedTree::new(&random_tree(51, dense_shape())).unwrap();
+    let objects = vec![PackedTree::new(&random_tree(52, dense_shape())).unwrap()];
+    let mut ws = CollideWorkspace::for_trees(&tool, &objects);
+    let pose = Pose::from_array([60.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    let bad = Pose::from_array([f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    let prove = |ws: &mut CollideWorkspace, q: &Pose, m: f64, proof: f64| {
+        overlap_shared_proving(&tool, q, &objects, m, proof, ws, None, None, |_| {})
+    };
+    assert!(matches!(
+        prove(&mut ws, &bad, 0.1, 0.3),
+        Err(collide::CollideError::NonFinitePose)
+    ));
+    let at_zero = traversal_keys(&tool, &pose, None, &objects, 0.0, &mut ws).len();
+    for m in [f64::NAN, -1.0] {
+        let (t, proven) = prove(&mut ws, &pose, m, f64::NAN).unwrap();
+        assert!(t.complete);
+        assert_eq!(t.pairs, at_zero);
+        assert_eq!(proven, 0.0);
+    }
+}
