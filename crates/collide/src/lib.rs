@@ -66,7 +66,7 @@ pub use constraint::{
 pub use near::near_box;
 pub use neighbours::{BackgroundList, ListStatus, NeighbourList};
 pub use packed::{PackedTree, WARM_CHUNK_NODES};
-pub use pose::{rotation_exp, rotation_log, rotation_zyx, rotation_zyx_partials, Pose};
+pub use pose::{rotation_exp, rotation_log, rotation_zyx, rotation_zyx_partials, CentreBox, Pose};
 pub use probe::{FreeSpaceProbe, ProbeStatus};
 pub use team::{
     overlap_shared, overlap_shared_proving, SharedTraversal, TraversalTeam, SHARE_MIN_PAIRS,

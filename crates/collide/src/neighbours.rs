@@ -2,9 +2,11 @@
 //! wide margin `M` of touching at a pose `c`, built once (in slices, spread over frames) and
 //! then filtered instead of traversed while the queries stay near `c`.
 //!
-//! **Why it is exact.** No tool leaf centre moves more than `b = |t_q - t_c| + θ · reach`
-//! between `c` and a pose `q` (`θ` the angle of `R_q R_c^T`, `reach` the tool's
-//! [`PackedTree::reach`]). A pair whose gap at `q` is at most `m` has a gap of at most `m + b`
+//! **Why it is exact.** No tool leaf centre moves more than `b = |t_q - t_c| + θ · arm`
+//! between `c` and a pose `q` (`R_q R_c^T = exp(θ û)`, `arm` the largest distance of the
+//! box of the tool's leaf centres from the axis `û` through the tool origin,
+//! [`CentreBox::turn_bound`]: a shaft turning about its own axis moves its centres by its
+//! radius per radian, not its reach). A pair whose gap at `q` is at most `m` has a gap of at most `m + b`
 //! at `c`; so while `b + m <= M` it is in the list, and testing the listed pairs at `q` gives
 //! exactly the pairs a traversal at `q` would report. A swept query (the pairs that come within
 //! `m` along a [`Sweep`] from `q`) needs `M` to cover the sweep too: its translation `|v|`, its
@@ -20,7 +22,7 @@ use crate::team::{self, JobState, TraversalTeam};
 use crate::traverse::{
     arc_allowance, clean_margin, descend_as_queried, leaf_stand_in, segment_dist2, CollideWorkspace,
 };
-use crate::{CollideError, FaceCut, LeafPair, PackedTree, Pose, Sweep};
+use crate::{CentreBox, CollideError, FaceCut, LeafPair, PackedTree, Pose, Sweep};
 
 use std::sync::atomic::{AtomicU64, AtomicU8, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
@@ -145,8 +147,10 @@ pub struct NeighbourList {
     pairs: Vec<LeafPair>,
     /// The listed pairs' geometry, for the filter.
     columns: Columns,
-    /// The tool's reach (mm) and largest leaf radius (mm), for [`NeighbourList::covers`].
+    /// The tool's reach (mm), the box of its leaf centres (tool frame, mm) and its largest
+    /// leaf radius (mm), for [`NeighbourList::covers`].
     reach: f64,
+    centres: CentreBox,
     leaf_radius: f64,
 }
 
@@ -173,6 +177,7 @@ impl NeighbourList {
             // overflow, as one with too many pairs).
             columns: Columns::with_capacity(capacity, capacity * cuts_per_pair),
             reach: tool.reach(),
+            centres: CentreBox::of_points(tool.leaves().map(|n| tool.center(n))),
             leaf_radius,
         }
     }
@@ -323,9 +328,11 @@ impl NeighbourList {
             return f64::NEG_INFINITY;
         }
         let dt = (q.translation() - self.center.translation()).norm();
-        let rel = q.rotation_matrix() * self.center.rotation_matrix().transpose();
-        let turn_from_center = crate::rotation_log(&rel).norm();
-        let mut need = dt + turn_from_center * self.reach + clean_margin(margin);
+        // A turn moves the leaf centres by its angle times their arm about its axis.
+        let turn_from_center = self
+            .centres
+            .turn_bound(&self.center.rotation_matrix(), &q.rotation_matrix());
+        let mut need = dt + turn_from_center + clean_margin(margin);
         if let Some(s) = sweep {
             let v = s.translation;
             let turn = s.angle();

@@ -104,6 +104,74 @@ pub fn rotation_log(rot: &Matrix3<f64>) -> Vector3<f64> {
     v * scale
 }
 
+/// An axis-aligned box (tool frame, mm) holding points of a tool, typically its leaf centres:
+/// a turn moves them by at most the angle times their largest distance from the turn's axis,
+/// which for a long tool turning about its own axis is far less than the angle times its reach
+/// (a shaft of radius 17.7 mm and length 56.5 mm turning about its axis).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CentreBox {
+    /// Least corner (tool frame, mm).
+    pub lo: Vector3<f64>,
+    /// Greatest corner (tool frame, mm).
+    pub hi: Vector3<f64>,
+}
+
+impl CentreBox {
+    /// The box of the given points (tool frame, mm); the origin alone for none.
+    pub fn of_points(points: impl IntoIterator<Item = [f64; 3]>) -> Self {
+        let mut points = points.into_iter().map(Vector3::from);
+        let Some(first) = points.next() else {
+            return Self {
+                lo: Vector3::zeros(),
+                hi: Vector3::zeros(),
+            };
+        };
+        let (lo, hi) = points.fold((first, first), |(lo, hi), c| (lo.inf(&c), hi.sup(&c)));
+        Self { lo, hi }
+    }
+
+    /// Corner `c` (0–7: bit 0 x, bit 1 y, bit 2 z high).
+    pub fn corner(&self, c: usize) -> Vector3<f64> {
+        Vector3::new(
+            if c & 1 == 0 { self.lo.x } else { self.hi.x },
+            if c & 2 == 0 { self.lo.y } else { self.hi.y },
+            if c & 4 == 0 { self.lo.z } else { self.hi.z },
+        )
+    }
+
+    /// The largest distance (mm) of a corner from the tool origin.
+    pub fn reach(&self) -> f64 {
+        (0..8).map(|c| self.corner(c).norm()).fold(0.0, f64::max)
+    }
+
+    /// The largest distance (mm) of a point of the box, the tool at rotation `r`, from the
+    /// unit world axis `u` through the tool origin: `|u × R p|` is convex in `p`, so its
+    /// largest value over the box is at a corner.
+    pub fn arm(&self, r: &Matrix3<f64>, u: &Vector3<f64>) -> f64 {
+        let a = r.transpose() * u;
+        (0..8)
+            .map(|c| a.cross(&self.corner(c)).norm_squared())
+            .fold(0.0, f64::max)
+            .sqrt()
+    }
+
+    /// How far (mm) a point of the box moves at most when the tool turns from `r_a` to `r_b`
+    /// (about its origin): with `R_b R_a^T = exp(θ û)`, a point `x = R_a p` moves by
+    /// `2 sin(θ/2) |û × x| <= θ |û × x|`, and so does every point of the shortest turn between
+    /// them. `θ · reach` (the box's) where the axis is not defined (a non-finite input).
+    pub fn turn_bound(&self, r_a: &Matrix3<f64>, r_b: &Matrix3<f64>) -> f64 {
+        let w = rotation_log(&(r_b * r_a.transpose()));
+        let th = w.norm();
+        if th == 0.0 {
+            0.0
+        } else if th.is_finite() {
+            th * self.arm(r_a, &(w / th))
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
 /// The rotation matrix `exp([w]x)` of a rotation vector `w` (axis times angle, rad).
 #[inline]
 pub fn rotation_exp(w: &Vector3<f64>) -> Matrix3<f64> {
@@ -156,6 +224,59 @@ impl Pose {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every point of a centre box moves by at most its turn bound, for random boxes, turns and
+    /// points; the bound is the angle times the radius for a ring turning about its axis, and
+    /// never more than the angle times the box's reach.
+    #[test]
+    fn a_centre_box_bounds_every_points_turn_on_its_arm() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let v = |rng: &mut rand_chacha::ChaCha8Rng, s: f64| {
+            Vector3::new(
+                rng.random_range(-s..s),
+                rng.random_range(-s..s),
+                rng.random_range(-s..s),
+            )
+        };
+        let mut tight = 0;
+        for _ in 0..2000 {
+            let (a, b) = (v(&mut rng, 30.0), v(&mut rng, 30.0));
+            let centres = CentreBox::of_points([a.into(), b.into()]);
+            let r_a = rotation_exp(&v(&mut rng, 3.0));
+            let r_b = rotation_exp(&v(&mut rng, 0.3)) * r_a;
+            let bound = centres.turn_bound(&r_a, &r_b);
+            let angle = rotation_log(&(r_b * r_a.transpose())).norm();
+            assert!(bound <= angle * centres.reach() + 1e-9);
+            let mut largest = 0.0f64;
+            for _ in 0..20 {
+                let t = Vector3::new(
+                    rng.random_range(0.0..1.0),
+                    rng.random_range(0.0..1.0),
+                    rng.random_range(0.0..1.0),
+                );
+                let p = centres.lo + (centres.hi - centres.lo).component_mul(&t);
+                let moved = (r_b * p - r_a * p).norm();
+                assert!(moved <= bound + 1e-9, "{moved} > {bound}");
+                largest = largest.max(moved);
+            }
+            tight += usize::from(largest > 0.5 * bound);
+        }
+        assert!(
+            tight > 1000,
+            "{tight} of 2000 bounds within twice the motion"
+        );
+        // A ring of radius 2 mm, 40 mm long, turned 0.1 rad about its own axis: 0.2 mm on
+        // the box's corner arm 2·sqrt(2), against 2 mm on the reach.
+        let shaft = CentreBox::of_points([[-2.0, -2.0, -20.0], [2.0, 2.0, 20.0]]);
+        let turned = rotation_exp(&Vector3::new(0.0, 0.0, 0.1));
+        let about = shaft.turn_bound(&Matrix3::identity(), &turned);
+        assert!((about - 0.1 * 8f64.sqrt()).abs() < 1e-12, "{about}");
+        assert!(about < 0.15 * 0.1 * shaft.reach());
+        assert_eq!(shaft.turn_bound(&turned, &turned), 0.0);
+        let empty = CentreBox::of_points(std::iter::empty());
+        assert_eq!(empty.turn_bound(&Matrix3::identity(), &turned), 0.0);
+    }
 
     #[test]
     fn rotation_matches_product_of_axis_rotations() {

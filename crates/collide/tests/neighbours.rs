@@ -228,6 +228,74 @@ fn the_cover_counts_every_motion_at_its_edge() {
     assert_eq!(checked, 16);
 }
 
+/// A shaft (leaf rings of radius 2 mm at both ends, 40 mm apart) turning about its own axis
+/// inside a ring of object spheres: the cover counts the turn on the shaft's radius, not its
+/// reach, so a list answers turns up to seven times longer than the reach alone allows, and
+/// answers them exactly (the traversal's pairs), up to and past the edge of its cover.
+#[test]
+fn a_shaft_turning_about_its_axis_stays_covered_on_its_radius() {
+    use spheretree::{Sphere, SphereTree};
+    let mut shaft = SphereTree::new_unused(2, 8).unwrap();
+    shaft.spheres_mut()[0] = Sphere::new([0.0; 3], 22.0);
+    for k in 0..8 {
+        let a = std::f64::consts::FRAC_PI_2 * (k % 4) as f64;
+        let z = if k < 4 { 20.0 } else { -20.0 };
+        shaft.spheres_mut()[1 + k] = Sphere::new([2.0 * a.cos(), 2.0 * a.sin(), z], 1.0);
+    }
+    let tool = PackedTree::new(&shaft).unwrap();
+    // Object spheres (radius 1) on the leaves' circle at the ends, each 0.02–0.6 mm ahead of
+    // a leaf (the chord 2 + gap), so turns one way bring them in.
+    let mut rng = devkit::Rng::new(5);
+    let mut ring = SphereTree::new_unused(2, 8).unwrap();
+    ring.spheres_mut()[0] = Sphere::new([0.0; 3], 30.0);
+    for k in 0..8 {
+        let z = if k < 4 { 20.0 } else { -20.0 };
+        let ahead = 2.0 * ((2.0 + rng.range(0.02, 0.6)) / 4.0).asin();
+        let a = std::f64::consts::FRAC_PI_2 * (k % 4) as f64 + ahead;
+        ring.spheres_mut()[1 + k] = Sphere::new([2.0 * a.cos(), 2.0 * a.sin(), z], 1.0);
+    }
+    let objects = vec![PackedTree::new(&ring).unwrap()];
+    let mut list = NeighbourList::for_trees(&tool, &objects, 64);
+    let mut ws = collide::CollideWorkspace::for_trees(&tool, &objects);
+    let (center, big) = (Pose::identity(), 0.5);
+    assert_eq!(
+        build(&mut list, &tool, &objects, &center, big, 64),
+        ListStatus::Ready
+    );
+    let arm = 8f64.sqrt();
+    let (mut covered, mut past_reach, mut with_pairs, mut refused) = (0, 0, 0, 0);
+    for _ in 0..400 {
+        let margin = rng.range(0.0, 0.3);
+        // Up to 1.2 times the turn the radius allows, either way about the axis.
+        let turn = rng.range(-1.2, 1.2) * (big - margin) / arm;
+        let q = Pose::from_array([0.0, 0.0, 0.0, 0.0, 0.0, turn]);
+        let mut traversed = traversal_keys(&tool, &q, None, &objects, margin, &mut ws);
+        let mut filtered = Vec::new();
+        let answer = list.filter(&q, None, margin, |p| {
+            filtered.push(pair_key(p));
+            true
+        });
+        let Some(n) = answer else {
+            refused += 1;
+            continue;
+        };
+        assert_eq!(n, filtered.len());
+        traversed.sort_unstable();
+        filtered.sort_unstable();
+        assert_eq!(filtered, traversed, "turn {turn}, margin {margin}");
+        covered += 1;
+        past_reach += usize::from(turn.abs() * tool.reach() > big);
+        with_pairs += usize::from(!traversed.is_empty());
+    }
+    assert!(covered > 250, "{covered} covered");
+    assert!(
+        past_reach > 100,
+        "{past_reach} covered past the reach's bound"
+    );
+    assert!(with_pairs > 20, "{with_pairs} covered with pairs");
+    assert!(refused > 30, "{refused} refused");
+}
+
 /// The pairs of a list, as sorted keys.
 fn keys(list: &NeighbourList, at: &Pose, margin: f64) -> Vec<PairKey> {
     let mut v = Vec::new();

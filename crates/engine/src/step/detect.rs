@@ -699,22 +699,9 @@ impl GodObject {
     /// a centre `x = R_a p` moves by `2 sin(θ/2) |û × x| <= θ |û × x|`). A shaft turning about
     /// its own axis moves its centres by 17.7 mm per radian, not its reach of 56.5.
     pub(super) fn turn_bound(&self, r_a: &Matrix3<f64>, r_b: &Matrix3<f64>) -> f64 {
-        let w = rotation_log(&(r_b * r_a.transpose()));
-        let th = w.norm();
-        if th > 0.0 && th.is_finite() {
-            th * self.arm(r_a, &(w / th))
-        } else if th == 0.0 {
-            0.0
-        } else {
-            rotation_angle(r_b, r_a) * self.reach
-        }
-    }
-
-    /// The lever arm (mm) of the tool at rotation `r` about the unit world axis `u` through
-    /// its origin: the largest distance `|u × R p|` of a leaf centre `p` from it, at most the
-    /// largest over the centres' box corners (the distance is convex in `p`) and the reach.
-    pub(super) fn arm(&self, r: &Matrix3<f64>, u: &Vector3<f64>) -> f64 {
-        box_arm(&self.centres_lo, &self.centres_hi, r, u).min(self.reach)
+        self.centres
+            .turn_bound(r_a, r_b)
+            .min(rotation_angle(r_b, r_a) * self.reach)
     }
 
     /// The near part of the tool ([`Lever`]) at `q` for a ball region of margin `margin` (mm),
@@ -740,13 +727,13 @@ impl GodObject {
             LEVER_MAX_TESTS,
         )
         .and_then(|(lo, hi)| {
-            let (lo, hi) = (Vector3::from(lo), Vector3::from(hi));
-            let reach = (0..8)
-                .map(|c| corner(&lo, &hi, c).norm())
-                .fold(0.0, f64::max)
-                .min(self.reach);
+            let near = CentreBox {
+                lo: Vector3::from(lo),
+                hi: Vector3::from(hi),
+            };
+            let reach = near.reach().min(self.reach);
             // Worth it only where the near leaves turn on a shorter arm than the tool.
-            (reach < 0.9 * self.reach).then_some(Lever { lo, hi, reach })
+            (reach < 0.9 * self.reach).then_some(Lever { near, reach })
         });
         self.lever_cache = Some((*q, found, lever));
         lever
@@ -759,46 +746,18 @@ impl GodObject {
     pub(super) fn lever_bound(&self, lever: &Lever, region: &Region, q: &Pose) -> f64 {
         let (r_a, r_b) = (region.center.rotation_matrix(), q.rotation_matrix());
         let dt = (q.translation() - region.center.translation()).norm();
-        let w = rotation_log(&(r_b * r_a.transpose()));
-        let th = w.norm();
-        let near = if th > 0.0 && th.is_finite() {
-            th * box_arm(&lever.lo, &lever.hi, &r_a, &(w / th)).min(lever.reach)
-        } else if th == 0.0 {
-            0.0
-        } else {
-            f64::INFINITY
-        };
+        let near = lever.near.turn_bound(&r_a, &r_b);
         let all = dt + self.turn_bound(&r_a, &r_b);
         (dt + near).max(all - LEVER_MARGIN_MM)
     }
 
-    /// The motion bound (mm) of any tool leaf centre between `a` and `b`:
-    /// `|t_b - t_a| + angle(R_b R_a^T) · reach`.
+    /// The motion bound (mm) of any tool leaf centre between `a` and `b`: the translation
+    /// plus the turn's angle times the centres' arm about its axis
+    /// ([`GodObject::turn_bound`]; at most `angle(R_b R_a^T) · reach`).
     pub(super) fn motion_bound(&self, a: &Pose, b: &Pose) -> f64 {
         let dt = (b.translation() - a.translation()).norm();
-        let th = rotation_angle(&b.rotation_matrix(), &a.rotation_matrix());
-        dt + th * self.reach
+        dt + self.turn_bound(&a.rotation_matrix(), &b.rotation_matrix())
     }
-}
-
-/// Corner `c` (0–7: bit 0 x, bit 1 y, bit 2 z high) of the box from `lo` to `hi`.
-fn corner(lo: &Vector3<f64>, hi: &Vector3<f64>, c: usize) -> Vector3<f64> {
-    Vector3::new(
-        if c & 1 == 0 { lo.x } else { hi.x },
-        if c & 2 == 0 { lo.y } else { hi.y },
-        if c & 4 == 0 { lo.z } else { hi.z },
-    )
-}
-
-/// The largest distance (mm) of a point of the box from `lo` to `hi` (tool frame), the tool at
-/// rotation `r`, from the unit world axis `u` through the origin: the distance is convex, so
-/// its largest value is at a corner.
-fn box_arm(lo: &Vector3<f64>, hi: &Vector3<f64>, r: &Matrix3<f64>, u: &Vector3<f64>) -> f64 {
-    let a = r.transpose() * u;
-    (0..8)
-        .map(|c| a.cross(&corner(lo, hi, c)).norm_squared())
-        .fold(0.0, f64::max)
-        .sqrt()
 }
 
 /// True when two pairs of the same tool leaf stand for the same face (normals and offsets

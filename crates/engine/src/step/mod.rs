@@ -45,9 +45,9 @@
 use std::time::Instant;
 
 use collide::{
-    rotation_exp, rotation_log, BackgroundList, CollideWorkspace, FaceSlab, FreeSpaceProbe,
-    LeafPair, Linearization, ListStatus, NeighbourList, PackedTree, Pose, ProbeStatus,
-    RotationCoordinates, Sweep, TraversalTeam,
+    rotation_exp, rotation_log, BackgroundList, CentreBox, CollideWorkspace, FaceSlab,
+    FreeSpaceProbe, LeafPair, Linearization, ListStatus, NeighbourList, PackedTree, Pose,
+    ProbeStatus, RotationCoordinates, Sweep, TraversalTeam,
 };
 use nalgebra::{Matrix3, Vector3};
 use qp::{Problem, RowGeneration, Solver, Status};
@@ -457,8 +457,8 @@ struct Region {
 /// ([`GodObject::distance_from_region`]).
 #[derive(Clone, Copy, Debug)]
 struct Lever {
-    lo: Vector3<f64>,
-    hi: Vector3<f64>,
+    /// The box of the near leaves' centres (tool frame, mm).
+    near: CentreBox,
     /// The largest distance (mm) of a box corner from the tool origin: a turn by `θ` moves
     /// the near leaves by at most `θ` times it.
     reach: f64,
@@ -533,8 +533,7 @@ pub struct GodObject {
     reach: f64,
     /// Box of the tool's leaf centres (tool frame, mm): a turn about an axis moves them by at
     /// most the angle times their largest distance from it ([`GodObject::arm`]).
-    centres_lo: Vector3<f64>,
-    centres_hi: Vector3<f64>,
+    centres: CentreBox,
     q_g: Pose,
     /// Motion bound of the graphic tool over the last frame, mm.
     last_motion: f64,
@@ -645,15 +644,7 @@ impl GodObject {
                 (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
             })
             .fold(0.0, f64::max);
-        let (mut centres_lo, mut centres_hi) = (Vector3::repeat(0.0), Vector3::repeat(0.0));
-        for (i, n) in tool.leaves().enumerate() {
-            let c = Vector3::from(tool.center(n));
-            if i == 0 {
-                (centres_lo, centres_hi) = (c, c);
-            }
-            centres_lo = centres_lo.inf(&c);
-            centres_hi = centres_hi.sup(&c);
-        }
+        let centres = CentreBox::of_points(tool.leaves().map(|n| tool.center(n)));
         let ws = CollideWorkspace::for_trees(&tool, &objects);
         let faces = objects.iter().any(|o| o.face_cut_count() > 0);
         let tool_slots = (0..tool.len()).map(|n| tool.slot(n) + 1).max().unwrap_or(0);
@@ -695,8 +686,7 @@ impl GodObject {
             warm_len: 0,
             warm_idx: [0; 6],
             reach,
-            centres_lo,
-            centres_hi,
+            centres,
             q_g: Pose::identity(),
             last_motion: 0.0,
             last_step: [0.0; 3],
