@@ -361,22 +361,67 @@ impl NeighbourList {
         q: &Pose,
         sweep: Option<&Sweep>,
         margin: f64,
-        mut visit: F,
+        visit: F,
     ) -> Option<usize> {
         if !self.covers(q, sweep, margin) {
             return None;
         }
+        Some(self.scan(q, sweep, margin, margin, visit).0)
+    }
+
+    /// [`NeighbourList::filter`] at `q` (no sweep) that also proves free space beyond the
+    /// pairs it reports, in the same pass: up to `proof` mm or as far as the list reaches past
+    /// `q`, whichever is less, and no farther than the nearest listed pair beyond `margin`
+    /// (every pair the list does not hold is at least that far). Returns the number reported
+    /// and the proven margin (mm; at least `margin`'s cleaned value where nothing more is
+    /// proven), or `None` when the list does not cover `margin` at `q`. Matches
+    /// [`overlap_shared_proving`](crate::overlap_shared_proving) where the list reaches
+    /// `proof`.
+    pub fn filter_proving<F: FnMut(&LeafPair) -> bool>(
+        &self,
+        q: &Pose,
+        margin: f64,
+        proof: f64,
+        visit: F,
+    ) -> Option<(usize, f64)> {
+        if !self.covers(q, None, margin) {
+            return None;
+        }
+        let margin = clean_margin(margin);
+        let wide = clean_margin(proof)
+            .min(self.slack(q, None, 0.0))
+            .max(margin);
+        Some(self.scan(q, None, margin, wide, visit))
+    }
+
+    /// The filter's pass over the listed pairs: reports those within `margin` (mm) to `visit`
+    /// and returns their number and the least gap (mm) of the others within `wide` (at least
+    /// `margin`; `wide` where there is none).
+    fn scan<F: FnMut(&LeafPair) -> bool>(
+        &self,
+        q: &Pose,
+        sweep: Option<&Sweep>,
+        margin: f64,
+        wide: f64,
+        mut visit: F,
+    ) -> (usize, f64) {
         let m = q.rotation_matrix();
         let r: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)]));
         let t = [q.q[0], q.q[1], q.q[2]];
         let sweep = sweep.copied();
-        let (grow, m) = match &sweep {
-            None => (1.0, clean_margin(margin)),
-            Some(s) => (
-                1.0 + s.angle(),
-                clean_margin(margin) + arc_allowance(self.reach, s.angle()),
-            ),
+        let (grow, m, m_wide) = match &sweep {
+            None => (1.0, clean_margin(margin), clean_margin(wide)),
+            Some(s) => {
+                let arc = arc_allowance(self.reach, s.angle());
+                (
+                    1.0 + s.angle(),
+                    clean_margin(margin) + arc,
+                    clean_margin(wide) + arc,
+                )
+            }
         };
+        let m_wide = m_wide.max(m);
+        let mut nearest = m_wide;
         let mut count = 0;
         for i in 0..self.pairs.len() {
             let c = &self.columns;
@@ -388,10 +433,8 @@ impl NeighbourList {
                 r[2][0] * x + r[2][1] * y + r[2][2] * z + t[2],
             ];
             let d = [w[0] - c.ox[i], w[1] - c.oy[i], w[2] - c.oz[i]];
-            let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            let s = c.r_tool[i] * grow + c.r_object[i] + m;
-            let near = match &sweep {
-                None => d2 <= s * s,
+            let d2 = match &sweep {
+                None => d[0] * d[0] + d[1] * d[1] + d[2] * d[2],
                 Some(sw) => {
                     let (v, a) = (sw.translation, sw.rotation);
                     let p = [w[0] - t[0], w[1] - t[1], w[2] - t[2]];
@@ -400,28 +443,46 @@ impl NeighbourList {
                         v[1] + a[2] * p[0] - a[0] * p[2],
                         v[2] + a[0] * p[1] - a[1] * p[0],
                     ];
-                    segment_dist2(d, disp) <= s * s
+                    segment_dist2(d, disp)
                 }
             };
-            if near {
-                let mut pair = self.pairs[i];
+            let base = c.r_tool[i] * grow + c.r_object[i];
+            if d2 > (base + m_wide) * (base + m_wide) {
+                continue;
+            }
+            let near = d2 <= (base + m) * (base + m);
+            let stand_in = || {
                 let [a, b] = c.face[i];
                 let cuts = c.cuts.get(a as usize..b as usize).unwrap_or(&[]);
-                let (gap, face, on_face) =
-                    leaf_stand_in(cuts, pair.o_in_world, c.r_object[i], w, c.r_tool[i], d2);
-                if sweep.is_none() && face.is_some() && gap > m {
-                    continue;
-                }
-                pair.gap = gap;
-                pair.face = face;
-                pair.on_face = on_face;
-                count += 1;
-                if !visit(&pair) {
-                    break;
-                }
+                let d2_here = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                leaf_stand_in(
+                    cuts,
+                    self.pairs[i].o_in_world,
+                    c.r_object[i],
+                    w,
+                    c.r_tool[i],
+                    d2_here,
+                )
+            };
+            if !near {
+                nearest = nearest.min(stand_in().0);
+                continue;
+            }
+            let (gap, face, on_face) = stand_in();
+            if sweep.is_none() && face.is_some() && gap > m {
+                nearest = nearest.min(gap);
+                continue;
+            }
+            let mut pair = self.pairs[i];
+            pair.gap = gap;
+            pair.face = face;
+            pair.on_face = on_face;
+            count += 1;
+            if !visit(&pair) {
+                break;
             }
         }
-        Some(count)
+        (count, nearest)
     }
 }
 

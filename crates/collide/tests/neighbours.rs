@@ -296,6 +296,69 @@ fn a_shaft_turning_about_its_axis_stays_covered_on_its_radius() {
     assert!(refused > 30, "{refused} refused");
 }
 
+/// A list proves free space as the proving traversal does: the same pairs within the margin
+/// and, where it reaches the proof margin, the same proven margin (the nearest gap beyond);
+/// where it reaches less far, a proof no farther than it reaches and than the traversal's.
+#[test]
+fn a_list_proves_free_space_as_the_proving_traversal_does() {
+    let (tool, objects) = trees();
+    let mut list = NeighbourList::for_trees(&tool, &objects, 1 << 18);
+    let mut ws = collide::CollideWorkspace::for_trees(&tool, &objects);
+    let mut rng = devkit::Rng::new(17);
+    let (mut same, mut shorter, mut narrowed) = (0, 0, 0);
+    for i in 0..40 {
+        let center = random_pose(&mut rng, [-5.0, 45.0], 5.0);
+        let big = rng.range(0.5, 1.5);
+        assert_eq!(
+            build(&mut list, &tool, &objects, &center, big, 1 << 30),
+            ListStatus::Ready
+        );
+        for j in 0..15 {
+            let dt = rng.range(0.0, 0.3);
+            let q = moved(&center, &mut rng, dt, 0.0);
+            let margin = rng.range(0.0, 0.2);
+            let proof = margin + rng.range(0.0, 1.0);
+            let mut found = Vec::new();
+            let Some((n, proven)) = list.filter_proving(&q, margin, proof, |p| {
+                found.push(pair_key(p));
+                true
+            }) else {
+                assert!(!list.covers(&q, None, margin));
+                continue;
+            };
+            let mut expected = Vec::new();
+            let (_, traversal_proven) = collide::overlap_shared_proving(
+                &tool,
+                &q,
+                &objects,
+                margin,
+                proof,
+                &mut ws,
+                None,
+                None,
+                |p| expected.push(pair_key(p)),
+            )
+            .unwrap();
+            assert_eq!(n, found.len());
+            found.sort_unstable();
+            expected.sort_unstable();
+            assert_eq!(found, expected, "centre {i}, query {j}");
+            let reach = list.slack(&q, None, 0.0);
+            if reach >= proof {
+                assert_eq!(proven, traversal_proven, "centre {i}, query {j}");
+                same += 1;
+                narrowed += usize::from(proven < proof);
+            } else {
+                assert!(proven <= traversal_proven && proven <= reach.max(margin));
+                assert!(proven >= margin);
+                shorter += 1;
+            }
+        }
+    }
+    assert!(same > 100 && shorter > 50, "{same} same, {shorter} shorter");
+    assert!(narrowed > 30, "{narrowed} narrowed by a pair");
+}
+
 /// The pairs of a list, as sorted keys.
 fn keys(list: &NeighbourList, at: &Pose, margin: f64) -> Vec<PairKey> {
     let mut v = Vec::new();

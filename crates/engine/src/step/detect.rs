@@ -79,14 +79,24 @@ impl GodObject {
             }
         };
         self.frame_detections += 1;
-        // Inside the neighbour list: its pairs tested at `q` are the traversal's.
-        let listed = self.neighbours.filter(q, sweep, margin, |p| {
-            collect(p);
-            true
-        });
-        if listed.is_some() {
+        // Inside the neighbour list: its pairs tested at `q` are the traversal's, and the list
+        // proves free space as far as it reaches (every pair it does not hold is that far).
+        let listed = if proof > margin && sweep.is_none() && slab.is_none() {
+            self.neighbours.filter_proving(q, margin, proof, |p| {
+                collect(p);
+                true
+            })
+        } else {
+            self.neighbours
+                .filter(q, sweep, margin, |p| {
+                    collect(p);
+                    true
+                })
+                .map(|n| (n, margin))
+        };
+        if let Some((_, proven)) = listed {
             self.regions_filtered += 1;
-            return Ok((min_gap, margin));
+            return Ok((min_gap, proven));
         }
         self.regions_traversed += 1;
         // The shared traversal's order is the same with or without the helper, so the
@@ -905,6 +915,42 @@ mod tests {
         .unwrap();
         g.probe_splits = 10 * PROBE_SLICE_SPLITS;
         g
+    }
+
+    /// A tool in free space inside a neighbour list: the list lists its pairs and proves
+    /// free space as far as the traversal would (to the nearest pair beyond the margin), for
+    /// a filter instead of a traversal.
+    #[test]
+    fn a_neighbour_list_proves_free_space_as_far_as_the_traversal() {
+        let mut g = ring_near_object(0.2);
+        // 0.05 mm away from the object: 0.25 mm from it.
+        let q = Pose::from_array([-0.05, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let (margin, proof) = (0.05, 0.3);
+        let (gap, traversed) = g
+            .detect_proving(&q, None, margin, proof, None, None)
+            .unwrap();
+        assert!(g.pairs.is_empty() && gap.is_infinite());
+        assert!((traversed - 0.25).abs() < 1e-9, "{traversed}");
+        assert_eq!(g.region_counts(), (0, 1));
+        g.neighbours.start(&g.tool, &Pose::identity(), 0.5).unwrap();
+        while g.neighbours.status() == ListStatus::Building {
+            g.neighbours.advance(&g.tool, &g.objects, 1 << 20, None);
+        }
+        assert_eq!(g.neighbours.status(), ListStatus::Ready);
+        let (gap, listed) = g
+            .detect_proving(&q, None, margin, proof, None, None)
+            .unwrap();
+        assert!(g.pairs.is_empty() && gap.is_infinite());
+        assert_eq!(listed, traversed);
+        assert_eq!(g.region_counts(), (1, 1));
+        // Where the list reaches less far than the proof margin, it proves as far as it
+        // reaches (0.5 less the 0.4 mm moved).
+        let far = Pose::from_array([-0.4, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let (_, short) = g
+            .detect_proving(&far, None, margin, proof, None, None)
+            .unwrap();
+        assert!((short - 0.1).abs() < 1e-9, "{short}");
+        assert_eq!(g.region_counts(), (2, 1));
     }
 
     /// A tool at rest 0.2 mm from an object, with a proof of 0.05 mm about it: background

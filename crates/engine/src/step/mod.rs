@@ -1081,7 +1081,12 @@ impl GodObject {
                 } else if let Some((path, _)) = sweep {
                     self.probe.cancel();
                     self.detect_along(&q_lin, Some(&path), width + skin, Some(deadline), None)
-                } else if let Some(free) = self.finish_probe(&q_lin, extent + skin, deadline) {
+                } else if let Some(free) = if self.neighbours.covers(&q_lin, None, extent + skin) {
+                    // A neighbour list answers it for a filter: no probe is finished for it.
+                    None
+                } else {
+                    self.finish_probe(&q_lin, extent + skin, deadline)
+                } {
                     // The background probe covers this pose: finished now, it proves free
                     // space (no pair); out of time, the frame ends here and the next one
                     // carries on with it (a traversal too long for one frame's budget is then
@@ -1099,8 +1104,16 @@ impl GodObject {
                     // (no wider than a dense contact just left allows).
                     let in_free_space = self.pairs.is_empty();
                     let probe = if in_free_space {
-                        (allowed + skin)
-                            .max(FREE_PROBE_MM.min(self.density.probe_margin_for(PAIR_TARGET)))
+                        let wide = (allowed + skin)
+                            .max(FREE_PROBE_MM.min(self.density.probe_margin_for(PAIR_TARGET)));
+                        // Within a neighbour list, no wider than it reaches (a filter, not a
+                        // traversal: its proof goes as far anyway).
+                        let room = self.neighbours.slack(&q_lin, None, 0.0);
+                        if room >= allowed + skin {
+                            wide.min(room)
+                        } else {
+                            wide
+                        }
                     } else {
                         allowed + skin
                     };
