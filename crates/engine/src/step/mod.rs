@@ -1108,7 +1108,8 @@ impl GodObject {
                             .max(FREE_PROBE_MM.min(self.density.probe_margin_for(PAIR_TARGET)));
                         // Within a neighbour list, no wider than it reaches (a filter, not a
                         // traversal: its proof goes as far anyway).
-                        let room = self.neighbours.slack(&q_lin, None, 0.0);
+                        // (Short of its edge by a rounding, so that the list covers it.)
+                        let room = self.neighbours.slack(&q_lin, None, 0.0) - PROOF_ROUNDING_MM;
                         if room >= allowed + skin {
                             wide.min(room)
                         } else {
