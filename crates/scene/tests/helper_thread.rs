@@ -1,6 +1,9 @@
 //! The detection helper thread (`[solver] helper_thread`) changes how fast a frame is, and
-//! where it takes its regions from, not the answer it finds. Without neighbour lists (the puck
-//! sliding at 200 mm/s outruns them) the frames are bit-identical with it on and off. With
+//! where it takes its regions from, not the answer it finds. Where the lists are not worth
+//! keeping on one thread (the puck sliding at 200 mm/s outruns them) the answers are
+//! bit-identical with it on and off: the tool, the wrench, the status, the passes; a region's
+//! pair count may differ (with the helper a list may be ready where alone the last ball's own
+//! pairs serve, which hold more pairs than the region needs). With
 //! them (the spline's slow turn on the hub) the helper has the next list ready sooner, so
 //! frames take other regions: both runs are exact and never penetrate, and their graphic tools
 //! agree except for a few frames where the turning shaft has more than one local answer (as
@@ -94,8 +97,8 @@ fn sliding_puck_frames_are_the_same_with_the_helper_thread() {
             assert_eq!(a.q_g, h.q_g, "frame {i}, caps {caps}");
             assert_eq!(a.wrench, h.wrench, "frame {i}, caps {caps}");
             assert_eq!(
-                (a.status, a.pairs, a.passes, a.contacts),
-                (h.status, h.pairs, h.passes, h.contacts),
+                (a.status, a.passes, a.contacts),
+                (h.status, h.passes, h.contacts),
                 "frame {i}, caps {caps}"
             );
         }

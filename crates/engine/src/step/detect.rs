@@ -41,6 +41,7 @@ impl GodObject {
         self.pairs.clear();
         self.dropped = 0;
         self.interrupted = false;
+        self.pairs_question = None;
         let pairs = &mut self.pairs;
         let dropped = &mut self.dropped;
         let mut min_gap = f64::INFINITY;
@@ -96,6 +97,9 @@ impl GodObject {
         };
         if let Some((_, proven)) = listed {
             self.regions_filtered += 1;
+            if sweep.is_none() && slab.is_none() && self.dropped == 0 {
+                self.pairs_question = Some((*q, margin));
+            }
             return Ok((min_gap, proven));
         }
         self.regions_traversed += 1;
@@ -130,6 +134,9 @@ impl GodObject {
         };
         self.dropped += t.unreported;
         self.interrupted = !t.complete;
+        if sweep.is_none() && slab.is_none() && self.dropped == 0 && t.complete {
+            self.pairs_question = Some((*q, margin));
+        }
         if !self.pairs.is_empty() {
             // What a region's traversal costs in this contact (a neighbour list must beat it).
             let splits = self.ws.stats().node_pairs_split as f64;
@@ -1084,6 +1091,87 @@ mod tests {
             EngineConfig::default(),
         )
         .unwrap()
+    }
+
+    /// A ball's own pairs serve a region re-centred at a pose `q` (`GodObject::step`): every
+    /// pair within `m - b(c, q)` of touching at `q` (`b` the motion bound) was listed at `c`
+    /// within `m`, for spins about the probe's axis, tilts and slides; a bound that left out
+    /// the turn would take pairs the ball does not hold.
+    #[test]
+    fn a_balls_own_pairs_hold_every_pair_of_a_ball_recentred_within_them() {
+        let mut g = probe_over_a_plate();
+        let (c, m) = (Pose::identity(), 0.3);
+        g.detect_proving(&c, None, m, 0.0, None, None).unwrap();
+        assert_eq!(g.pairs_question, Some((c, m)));
+        let held: std::collections::HashSet<(u32, u32, u32)> = g
+            .pairs
+            .iter()
+            .map(|p| (p.object, p.tool_slot, p.object_slot))
+            .collect();
+        let mut ws = CollideWorkspace::for_trees(&g.tool, &g.objects);
+        let mut unheld_within = |g: &GodObject, q: &Pose, margin: f64| {
+            let (mut pairs, mut unheld) = (0, 0);
+            collide::overlap_shared(
+                &g.tool,
+                q,
+                None,
+                &g.objects,
+                margin,
+                None,
+                &mut ws,
+                None,
+                None,
+                |p| {
+                    pairs += 1;
+                    unheld += usize::from(!held.contains(&(p.object, p.tool_slot, p.object_slot)));
+                },
+            )
+            .unwrap();
+            (pairs, unheld)
+        };
+        let mut rng = devkit::Rng::new(3);
+        let (mut checked, mut with_pairs, mut wider_than_reach, mut turn_matters) = (0, 0, 0, 0);
+        for i in 0..4000 {
+            let mut r = |a: f64| rng.range(-a, a);
+            // Spins about the axis, slides with small turns, mixed turns, and tilts that swing
+            // the far end (1.5 mm from an object sphere) toward it.
+            let (w, t) = match i % 4 {
+                0 => (Vector3::new(0.0, 0.0, r(0.02)), Vector3::zeros()),
+                1 => (
+                    Vector3::new(r(0.002), r(0.002), r(0.002)),
+                    Vector3::new(r(0.1), r(0.1), r(0.1)),
+                ),
+                2 => (Vector3::new(r(0.004), r(0.004), r(0.01)), Vector3::zeros()),
+                _ => (
+                    Vector3::new(r(0.002), 0.03 + r(0.006), r(0.002)),
+                    Vector3::zeros(),
+                ),
+            };
+            let q = Pose::from_translation_rotation(&t, &rotation_exp(&w));
+            // A bound that left out the turn would take pairs the ball does not hold.
+            turn_matters += usize::from(unheld_within(&g, &q, m - t.norm()).1 > 0);
+            let room = m - g.motion_bound(&c, &q);
+            if room <= 0.0 {
+                continue;
+            }
+            let (pairs, unheld) = unheld_within(&g, &q, room);
+            assert_eq!(unheld, 0, "pose {i}: a pair within {room} mm not held");
+            checked += 1;
+            with_pairs += usize::from(pairs > 0);
+            wider_than_reach += usize::from(room > m - (t.norm() + w.norm() * g.reach()) + 0.05);
+        }
+        assert!(
+            checked > 2000 && with_pairs > 1000,
+            "{checked} checked, {with_pairs} with pairs"
+        );
+        assert!(
+            wider_than_reach > 500,
+            "{wider_than_reach} re-centred wider than the reach allows"
+        );
+        assert!(
+            turn_matters > 100,
+            "{turn_matters} poses where the turn matters"
+        );
     }
 
     /// A ball region with the near part of the tool keeps its promise: at every pose it admits,

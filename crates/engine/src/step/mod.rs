@@ -300,6 +300,10 @@ const LIST_HELPER_WORK_PER_FRAME: usize = 8192;
 /// Smallest motion allowance of a detected region, mm.
 const MIN_ALLOW_MM: f64 = 0.1;
 
+/// A ball region's own pairs serve the next region about a pose it still covers by at least
+/// this share of the allowance wanted (else a fresh detection pays).
+const RECENTRE_SHARE: f64 = 0.5;
+
 /// Below this allowance (mm) an overflowing pair list ends the frame (lagging, safe).
 const MIN_OVERFLOW_ALLOW_MM: f64 = 0.005;
 
@@ -585,9 +589,13 @@ pub struct GodObject {
     splits_per_region: f64,
     detections_per_frame: f64,
     frame_detections: u32,
-    /// Regions answered from a neighbour list, and by a traversal, since `new`.
+    /// Regions answered from a neighbour list or the last ball's own pairs, and by a
+    /// traversal, since `new`.
     regions_filtered: u64,
     regions_traversed: u64,
+    /// The ball detection that listed `pairs` (its pose and margin, mm), while they are
+    /// complete: every pair within that margin of touching there.
+    pairs_question: Option<(Pose, f64)>,
     /// Where the hand was relative to the graphic tool at the end of the last frame:
     /// translation `t_h - t_g` (mm) and rotation `log(R_h R_g^T)` (rad, world axes). A hand in
     /// steady motion keeps it, which predicts where this frame's answer lies.
@@ -712,6 +720,7 @@ impl GodObject {
             frame_detections: 0,
             regions_filtered: 0,
             regions_traversed: 0,
+            pairs_question: None,
             hand_offset: (Vector3::zeros(), Vector3::zeros()),
             cached: None,
             prediction_error: 0.0,
@@ -747,8 +756,9 @@ impl GodObject {
         self.reach
     }
 
-    /// Regions (detections) answered from a neighbour list, and by a traversal, since the
-    /// god-object was made: how much the lists spare.
+    /// Regions (detections) answered without a traversal (from a neighbour list, or from the
+    /// last ball's own pairs), and by a traversal, since the god-object was made: how much
+    /// the lists spare.
     pub fn region_counts(&self) -> (u64, u64) {
         (self.regions_filtered, self.regions_traversed)
     }
@@ -979,6 +989,9 @@ impl GodObject {
         // a ball's turn at its near part's: five short paths in a row cost 600 µs where two
         // balls cost 150).
         let mut min_path_len = 0.0;
+        // Once a frame: a re-centred ball that binds too is followed by a detection (the tool
+        // wants more room than the last ball's pairs give: a fall, not a slow turn).
+        let mut recentred_in_frame = false;
         let (mut cd, mut opt, mut longest_pass) = (0.0, 0.0, 0.0f64);
         for pass in 0..max_passes {
             let t_pass = Instant::now();
@@ -1010,6 +1023,15 @@ impl GodObject {
                 if list_room >= MIN_ALLOW_MM {
                     allowed = allowed.min(list_room);
                 }
+                // A tool left behind while falling (the last frame ran out before its optimum
+                // with the tool moving on): its path is the straight way to the hand.
+                let falling = {
+                    let step = Vector3::from(self.last_step);
+                    let way = q_h.translation() - q_lin.translation();
+                    self.behind
+                        && step.norm() >= FALL_MIN_STEP_MM
+                        && step.dot(&way) >= FALL_MIN_COS * step.norm() * way.norm()
+                };
                 let mut trust = need > allowed;
                 // A tool held by one flat face: a slab region (its face's half-space pairs
                 // within a thin margin across the face, every other pair within the slide
@@ -1035,15 +1057,6 @@ impl GodObject {
                 let path_cap = (self.density.path_margin_for(PAIR_TARGET) - skin)
                     .max(MIN_ALLOW_MM)
                     .min(cap);
-                // A tool left behind while falling (the last frame ran out before its optimum
-                // with the tool moving on): its path is the straight way to the hand.
-                let falling = {
-                    let step = Vector3::from(self.last_step);
-                    let way = q_h.translation() - q_lin.translation();
-                    self.behind
-                        && step.norm() >= FALL_MIN_STEP_MM
-                        && step.dot(&way) >= FALL_MIN_COS * step.norm() * way.norm()
-                };
                 let path_w = if falling {
                     PATH_WIDTH_MIN_MM
                 } else {
@@ -1064,6 +1077,29 @@ impl GodObject {
                 } else {
                     None
                 };
+                // Else (a ball, outside a list) the last ball's own pairs serve as a small list:
+                // every pair within `m` of touching at `c` is held, so a ball of
+                // `m - skin - b(c, q_lin)` about q_lin needs no detection (its trust box about
+                // q_lin lets the tool go on).
+                let own_room = match self.pairs_question {
+                    Some((c, m))
+                        if sweep.is_none()
+                            && list_room < MIN_ALLOW_MM
+                            && !self.pairs.is_empty() =>
+                    {
+                        m - skin - self.motion_bound(&c, &q_lin)
+                    }
+                    _ => f64::NEG_INFINITY,
+                };
+                let recentred = path_regions
+                    && slab.is_none()
+                    && !recentred_in_frame
+                    && own_room >= (RECENTRE_SHARE * allowed).max(DENSE_MIN_ALLOW_MM);
+                if recentred {
+                    allowed = allowed.min(own_room);
+                    trust = need > allowed;
+                    recentred_in_frame = true;
+                }
                 let width = if sweep.is_some() { path_w } else { allowed };
                 let extent = sweep.map_or(0.0, |(_, len)| len) + width;
                 // Free space proven by an earlier empty detection: no pair within a proof's
@@ -1081,6 +1117,10 @@ impl GodObject {
                 } else if let Some((path, _)) = sweep {
                     self.probe.cancel();
                     self.detect_along(&q_lin, Some(&path), width + skin, Some(deadline), None)
+                } else if recentred {
+                    // The pairs held already: no detection.
+                    self.regions_filtered += 1;
+                    Ok(f64::INFINITY)
                 } else if let Some(free) = if self.neighbours.covers(&q_lin, None, extent + skin) {
                     // A neighbour list answers it for a filter: no probe is finished for it.
                     None
@@ -1224,8 +1264,10 @@ impl GodObject {
                     (None, Some(_)) => width,
                     (None, None) => allowed,
                 } + skin;
-                self.density
-                    .record(margin, self.pairs.len() + self.dropped, sweep.is_some());
+                if !recentred {
+                    self.density
+                        .record(margin, self.pairs.len() + self.dropped, sweep.is_some());
+                }
 
                 if self.dropped > 0 {
                     // More pairs than the storage holds: the list is not complete, so no answer
