@@ -304,6 +304,10 @@ const MIN_ALLOW_MM: f64 = 0.1;
 /// this share of the allowance wanted (else a fresh detection pays).
 const RECENTRE_SHARE: f64 = 0.5;
 
+/// … and by at least this many times the motion predicted for the tool this frame (a tool
+/// about to move farther, as the spline's shaft dropping 2 mm, needs a detection anyway).
+const RECENTRE_MOTION_SPARE: f64 = 2.0;
+
 /// Below this allowance (mm) an overflowing pair list ends the frame (lagging, safe).
 const MIN_OVERFLOW_ALLOW_MM: f64 = 0.005;
 
@@ -1094,7 +1098,10 @@ impl GodObject {
                 let recentred = path_regions
                     && slab.is_none()
                     && !recentred_in_frame
-                    && own_room >= (RECENTRE_SHARE * allowed).max(DENSE_MIN_ALLOW_MM);
+                    && own_room >= (RECENTRE_SHARE * allowed).max(DENSE_MIN_ALLOW_MM)
+                    && own_room
+                        >= RECENTRE_MOTION_SPARE
+                            * self.motion_bound(&q_lin, &self.predicted_pose(q_h));
                 if recentred {
                     allowed = allowed.min(own_room);
                     trust = need > allowed;
