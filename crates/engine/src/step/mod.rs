@@ -996,6 +996,8 @@ impl GodObject {
         // Once a frame: a re-centred ball that binds too is followed by a detection (the tool
         // wants more room than the last ball's pairs give: a fall, not a slow turn).
         let mut recentred_in_frame = false;
+        // The last pass's answer was bound by a reused region's trust box.
+        let mut reused_bound = false;
         let (mut cd, mut opt, mut longest_pass) = (0.0, 0.0, 0.0f64);
         for pass in 0..max_passes {
             let t_pass = Instant::now();
@@ -1081,7 +1083,8 @@ impl GodObject {
                 } else {
                     None
                 };
-                // Else (a ball, outside a list) the last ball's own pairs serve as a small list:
+                // Else (a ball, outside a list, after a reused ball's trust box stopped the last
+                // answer: the alignment's slow turn) the last ball's own pairs serve as a small list:
                 // every pair within `m` of touching at `c` is held, so a ball of
                 // `m - skin - b(c, q_lin)` about q_lin needs no detection (its trust box about
                 // q_lin lets the tool go on).
@@ -1098,6 +1101,7 @@ impl GodObject {
                 let recentred = path_regions
                     && slab.is_none()
                     && !recentred_in_frame
+                    && reused_bound
                     && own_room >= (RECENTRE_SHARE * allowed).max(DENSE_MIN_ALLOW_MM)
                     && own_room
                         >= RECENTRE_MOTION_SPARE
@@ -1460,6 +1464,7 @@ impl GodObject {
                 if !reused {
                     allow = (2.0 * region.extent()).max(MIN_ALLOW_MM).min(cap);
                 }
+                reused_bound = reused;
                 if region.sweep.is_some() {
                     min_path_len = 2.0 * region.length;
                 }
