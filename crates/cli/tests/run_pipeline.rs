@@ -139,8 +139,13 @@ fn bunny_run_writes_frames_summary_plots_and_replays_identically() {
             max_dq = max_dq.max((a[k] - b[k]).abs());
         }
     }
-    // Two exact solvers on identical input agree on the graphic tool.
-    assert!(max_dq < 1e-3, "dual and active-set differ by {max_dq}");
+    // Two exact solvers on identical input agree on the graphic tool: a pass's answer is
+    // accepted within 0.005 mm of its linearization's optimum (docs/DESIGN.md §The frame
+    // step), so where the two take different passes (a tool dragged along the bunny, held
+    // ~1 mm behind the hand) their tools part by up to about that, and meet again.
+    assert!(max_dq < 0.01, "dual and active-set differ by {max_dq}");
+    let last = |r: &[f64]| r[7..13].to_vec();
+    assert_eq!(last(&rows[rows.len() - 1]), last(&rows2[rows2.len() - 1]));
     let _ = std::fs::remove_dir_all(&d);
 }
 
