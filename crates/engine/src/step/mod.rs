@@ -540,7 +540,7 @@ pub struct GodObject {
     warm_idx: [usize; 6],
     reach: f64,
     /// Box of the tool's leaf centres (tool frame, mm): a turn about an axis moves them by at
-    /// most the angle times their largest distance from it ([`GodObject::arm`]).
+    /// most the angle times their largest distance from it ([`CentreBox::turn_bound`]).
     centres: CentreBox,
     q_g: Pose,
     /// Motion bound of the graphic tool over the last frame, mm.
@@ -1029,15 +1029,6 @@ impl GodObject {
                 if list_room >= MIN_ALLOW_MM {
                     allowed = allowed.min(list_room);
                 }
-                // A tool left behind while falling (the last frame ran out before its optimum
-                // with the tool moving on): its path is the straight way to the hand.
-                let falling = {
-                    let step = Vector3::from(self.last_step);
-                    let way = q_h.translation() - q_lin.translation();
-                    self.behind
-                        && step.norm() >= FALL_MIN_STEP_MM
-                        && step.dot(&way) >= FALL_MIN_COS * step.norm() * way.norm()
-                };
                 let mut trust = need > allowed;
                 // A tool held by one flat face: a slab region (its face's half-space pairs
                 // within a thin margin across the face, every other pair within the slide
@@ -1063,6 +1054,15 @@ impl GodObject {
                 let path_cap = (self.density.path_margin_for(PAIR_TARGET) - skin)
                     .max(MIN_ALLOW_MM)
                     .min(cap);
+                // A tool left behind while falling (the last frame ran out before its optimum
+                // with the tool moving on): its path is the straight way to the hand.
+                let falling = {
+                    let step = Vector3::from(self.last_step);
+                    let way = q_h.translation() - q_lin.translation();
+                    self.behind
+                        && step.norm() >= FALL_MIN_STEP_MM
+                        && step.dot(&way) >= FALL_MIN_COS * step.norm() * way.norm()
+                };
                 let path_w = if falling {
                     PATH_WIDTH_MIN_MM
                 } else {
@@ -1084,8 +1084,8 @@ impl GodObject {
                     None
                 };
                 // Else (a ball, outside a list, after a reused ball's trust box stopped the last
-                // answer: the alignment's slow turn) the last ball's own pairs serve as a small list:
-                // every pair within `m` of touching at `c` is held, so a ball of
+                // answer: the alignment's slow turn) the last ball's own pairs serve as a small
+                // list: every pair within `m` of touching at `c` is held, so a ball of
                 // `m - skin - b(c, q_lin)` about q_lin needs no detection (its trust box about
                 // q_lin lets the tool go on).
                 let own_room = match self.pairs_question {
