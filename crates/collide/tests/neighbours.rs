@@ -359,6 +359,39 @@ fn a_list_proves_free_space_as_the_proving_traversal_does() {
     assert!(narrowed > 30, "{narrowed} narrowed by a pair");
 }
 
+/// Bad input to a list's proof: a non-finite pose is not covered (nothing reported); a NaN
+/// or negative margin is taken as 0, and a NaN proof margin proves nothing beyond the margin.
+#[test]
+fn a_lists_proof_takes_bad_margins_as_the_plain_filter_and_refuses_a_bad_pose() {
+    let (tool, objects) = trees();
+    let mut list = NeighbourList::for_trees(&tool, &objects, 1 << 18);
+    let center = Pose::from_array([20.0, 1.0, -2.0, 0.1, -0.2, 0.3]);
+    assert_eq!(
+        build(&mut list, &tool, &objects, &center, 1.0, 1 << 30),
+        ListStatus::Ready
+    );
+    let bad = Pose::from_array([f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    let mut visited = 0;
+    assert_eq!(
+        list.filter_proving(&bad, 0.1, 0.5, |_| {
+            visited += 1;
+            true
+        }),
+        None
+    );
+    assert_eq!(visited, 0);
+    let plain = |m: f64| list.filter(&center, None, m, |_| true).unwrap();
+    let (n, proven) = list
+        .filter_proving(&center, 0.1, f64::NAN, |_| true)
+        .unwrap();
+    assert_eq!((n, proven), (plain(0.1), 0.1));
+    for m in [f64::NAN, -1.0] {
+        let (n, proven) = list.filter_proving(&center, m, 0.5, |_| true).unwrap();
+        assert_eq!(n, plain(0.0));
+        assert!((0.0..=0.5).contains(&proven), "{proven}");
+    }
+}
+
 /// The pairs of a list, as sorted keys.
 fn keys(list: &NeighbourList, at: &Pose, margin: f64) -> Vec<PairKey> {
     let mut v = Vec::new();
