@@ -53,6 +53,9 @@ pub struct ContactRow {
     pub total_us: Summary,
     /// Passes per frame.
     pub passes: Summary,
+    /// Detection work per frame, node pairs ([`engine::Frame::work`]): what the times show,
+    /// without the machine's noise.
+    pub work: Summary,
     /// Frames that ended lagging, with a pair overflow, or kept the last safe pose.
     pub degraded_frames: usize,
     /// Deepest overlap, mm.
@@ -154,6 +157,7 @@ fn row<'a>(
         opt_us: Summary::of(f.clone().map(|o| o.opt_us)),
         total_us: Summary::of(f.clone().map(|o| o.total_us)),
         passes: Summary::of(f.clone().map(|o| f64::from(o.passes))),
+        work: Summary::of(f.clone().map(|o| f64::from(o.work))),
         degraded_frames: f
             .clone()
             .filter(|o| {
@@ -266,13 +270,13 @@ pub fn contact_markdown(rows: &[ContactRow]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "| scene | phase | frames | pairs p50 / max | rows solved p50 / max | cd µs p50 / p99 | opt µs p50 / p99 | total µs p50 / p99 / max | passes mean / max | degraded | max pen. mm | reduced vs full: solves, max ΔF N (rel.) |"
+        "| scene | phase | frames | pairs p50 / max | rows solved p50 / max | cd µs p50 / p99 | opt µs p50 / p99 | total µs p50 / p99 / max | work p50 / p99 / max | passes mean / max | degraded | max pen. mm | reduced vs full: solves, max ΔF N (rel.) |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for r in rows {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.0} / {:.0} | {:.0} / {:.0} | {:.1} / {:.1} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.2} / {:.0} | {} | {:.4} | {}, {:.1e} ({:.1e}) |",
+            "| {} | {} | {} | {:.0} / {:.0} | {:.0} / {:.0} | {:.1} / {:.1} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.0} / {:.0} / {:.0} | {:.2} / {:.0} | {} | {:.4} | {}, {:.1e} ({:.1e}) |",
             r.scene,
             r.phase,
             r.frames,
@@ -287,6 +291,9 @@ pub fn contact_markdown(rows: &[ContactRow]) -> String {
             r.total_us.p50,
             r.total_us.p99,
             r.total_us.max,
+            r.work.p50,
+            r.work.p99,
+            r.work.max,
             r.passes.mean,
             r.passes.max,
             r.degraded_frames,

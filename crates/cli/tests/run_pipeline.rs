@@ -37,9 +37,11 @@ fn csv_rows(path: &Path) -> (String, Vec<Vec<f64>>) {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
     let header = lines.next().unwrap().to_string();
+    let status_at = header.split(',').position(|c| c == "status").unwrap();
     let rows = lines
         .map(|l| {
-            let (numbers, status) = l.rsplit_once(',').unwrap();
+            let fields: Vec<&str> = l.split(',').collect();
+            let status = fields[status_at];
             assert!(
                 [
                     "ok",
@@ -51,9 +53,11 @@ fn csv_rows(path: &Path) -> (String, Vec<Vec<f64>>) {
                 .contains(&status),
                 "status {status}"
             );
-            numbers
-                .split(',')
-                .map(|v| v.parse::<f64>().unwrap())
+            fields
+                .iter()
+                .enumerate()
+                .filter(|&(k, _)| k != status_at)
+                .map(|(_, v)| v.parse::<f64>().unwrap())
                 .collect()
         })
         .collect();
@@ -84,12 +88,12 @@ fn bunny_run_writes_frames_summary_plots_and_replays_identically() {
     let (header, rows) = csv_rows(&out.join("frames.csv"));
     assert_eq!(
         header,
-        "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status"
+        "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,work"
     );
     assert_eq!(rows.len() as u64, summary["frames"].as_u64().unwrap());
     assert!(rows
         .iter()
-        .all(|r| r.len() == 26 && r.iter().all(|v| v.is_finite())));
+        .all(|r| r.len() == 27 && r.iter().all(|v| v.is_finite())));
     for key in [
         "cd_us",
         "opt_us",

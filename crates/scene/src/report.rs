@@ -12,7 +12,7 @@ use crate::Goal;
 use engine::step::FrameStatus;
 
 /// The header of `frames.csv`.
-pub const FRAMES_HEADER: &str = "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status";
+pub const FRAMES_HEADER: &str = "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,work";
 
 /// `frames.csv` text: one row per frame; the force/torque columns are the wrench sent to the
 /// device (after the safety layer).
@@ -28,7 +28,7 @@ pub fn frames_csv(frames: &[FrameRecord]) -> String {
         }
         let _ = writeln!(
             s,
-            ",{},{:.3},{:.3},{:.3},{},{},{},{}",
+            ",{},{:.3},{:.3},{:.3},{},{},{},{},{}",
             o.pairs,
             o.cd_us,
             o.opt_us,
@@ -36,7 +36,8 @@ pub fn frames_csv(frames: &[FrameRecord]) -> String {
             o.iterations,
             o.penetration_mm,
             o.passes,
-            o.status.name()
+            o.status.name(),
+            o.work
         );
     }
     s
@@ -147,6 +148,9 @@ pub struct RunSummary {
     pub iterations: Summary,
     /// Passes per frame (1 + re-linearisations).
     pub passes: Summary,
+    /// Detection work per frame, node pairs ([`engine::Frame::work`]): the machine-independent
+    /// twin of `cd_us`.
+    pub work: Summary,
     /// Measured penetration at `q_g`, mm.
     pub penetration_mm: Summary,
     /// Force/torque extremes and continuity.
@@ -233,6 +237,7 @@ pub fn summarize(
         pairs: Summary::of(frames.iter().map(|f| f64::from(f.frame.pairs))),
         iterations: Summary::of(frames.iter().map(|f| f64::from(f.frame.iterations))),
         passes: Summary::of(frames.iter().map(|f| f64::from(f.frame.passes))),
+        work: Summary::of(frames.iter().map(|f| f64::from(f.frame.work))),
         penetration_mm: Summary::of(frames.iter().map(|f| f.frame.penetration_mm)),
         force: force_report(frames),
         loop_stats: loop_stats.clone(),

@@ -57,12 +57,13 @@ fn old_path(scene: &Scene) -> String {
             row.push_str(&format!(",{v}"));
         }
         row.push_str(&format!(
-            ",{},{},{},{},{}\n",
+            ",{},{},{},{},{},{}\n",
             out.pairs,
             out.iterations,
             out.penetration_mm,
             out.passes,
-            out.status.name()
+            out.status.name(),
+            out.work
         ));
         csv.push_str(&row);
     }

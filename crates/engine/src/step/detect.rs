@@ -96,6 +96,7 @@ impl GodObject {
                 .map(|n| (n, margin))
         };
         if let Some((_, proven)) = listed {
+            self.frame_work += self.neighbours.len() as u64;
             self.regions_filtered += 1;
             if sweep.is_none() && slab.is_none() && self.dropped == 0 {
                 self.pairs_question = Some((*q, margin));
@@ -132,6 +133,7 @@ impl GodObject {
             )?;
             (t, margin)
         };
+        self.frame_work += self.ws.stats().node_pairs_split as u64;
         self.dropped += t.unreported;
         self.interrupted = !t.complete;
         if sweep.is_none() && slab.is_none() && self.dropped == 0 && t.complete {
@@ -160,12 +162,19 @@ impl GodObject {
             false
         });
         if listed.is_some() {
+            self.frame_work += self.neighbours.len() as u64;
             return Ok(any);
         }
-        collide::any_pair_within_until(&self.tool, q, &self.objects, margin, &mut self.ws, || {
-            deadline.is_none_or(|d| Instant::now() < d)
-        })
-        .map(|a| a.unwrap_or(true))
+        let any = collide::any_pair_within_until(
+            &self.tool,
+            q,
+            &self.objects,
+            margin,
+            &mut self.ws,
+            || deadline.is_none_or(|d| Instant::now() < d),
+        );
+        self.frame_work += self.ws.stats().node_pairs_split as u64;
+        any.map(|a| a.unwrap_or(true))
     }
 
     /// Where this frame's answer is expected, as a motion from `q_lin`: the hand keeps last
@@ -447,12 +456,14 @@ impl GodObject {
         loop {
             // Needed now: this thread works on it too (a helper running it in the background
             // goes on with the other stream).
+            let before = self.probe.splits();
             self.probe.advance_now(
                 &self.tool,
                 &self.objects,
                 PROBE_FINISH_SLICE_SPLITS,
                 Some(deadline),
             );
+            self.frame_work += self.probe.splits().saturating_sub(before) as u64;
             if self.probe.status() != ProbeStatus::Running {
                 break;
             }
@@ -536,6 +547,7 @@ impl GodObject {
             };
             let slice_time = share * self.params.budget_us.max(0.0) * 1e-6;
             let slice_deadline = deadline.min(tt + std::time::Duration::from_secs_f64(slice_time));
+            let before = self.probe.splits();
             self.probe.advance_shared(
                 &self.tool,
                 &self.objects,
@@ -543,6 +555,7 @@ impl GodObject {
                 self.team.as_ref(),
                 Some(slice_deadline),
             );
+            self.frame_work += self.probe.splits().saturating_sub(before) as u64;
         }
         match self.probe.status() {
             ProbeStatus::Free if !self.proof_slot_free(q, used) => {}
@@ -665,6 +678,7 @@ impl GodObject {
             let slice = (left / (horizon - 1.0).max(1.0))
                 .clamp(PROBE_MIN_SLICE_SPLITS as f64, LIST_MAX_SLICE_WORK as f64);
             let grant = (slice as usize).max(if self.team.is_some() { pace } else { 0 });
+            let before = self.next_neighbours.work();
             self.next_neighbours.advance(
                 &self.tool,
                 &self.objects,
@@ -673,6 +687,7 @@ impl GodObject {
                 self.team.as_ref(),
                 Some(deadline),
             );
+            self.frame_work += self.next_neighbours.work().saturating_sub(before) as u64;
         }
         match self.next_neighbours.status() {
             ListStatus::Ready => {

@@ -1,0 +1,58 @@
+//! A frame's detection work (`engine::Frame::work`, the `work` column of `frames.csv`) is a
+//! count, not a time: with no time budget cutting a traversal short and no helper thread, the
+//! same input gives the same counts, frame for frame, on any machine and under any load. That
+//! is what makes it the figure to compare two versions of the frame step by on a noisy machine.
+
+mod common;
+
+use collide::Pose;
+use engine::Frame;
+use scene::scenes::plate::{self, PlateTool, SpeedMotion};
+
+fn dense_puck_sliding() -> scene::Scene {
+    let run = plate::speed_script(PlateTool::Puck, SpeedMotion::Slide(200.0), 1000.0, 0.3);
+    let mut scene = plate::scene(&common::test_cache(), PlateTool::Puck, run.script).unwrap();
+    // On whole spheres the face is a dense contact: traversals, lists and probes all run.
+    scene.solver.face_caps = false;
+    scene.solver.helper_thread = false;
+    scene.solver.budget_us = engine::config::BUDGET_US.hi;
+    scene
+}
+
+#[test]
+fn the_same_input_gives_the_same_work_in_every_frame() {
+    let scene = dense_puck_sliding();
+    let first: Vec<Frame> = common::replay(&scene);
+    let second: Vec<Frame> = common::replay(&scene);
+    assert_eq!(first.len(), second.len());
+    for (i, (a, b)) in first.iter().zip(&second).enumerate() {
+        assert_eq!(a.work, b.work, "frame {i}");
+    }
+    // The counter counts: the contact's frames detect, and a dense region splits hundreds of
+    // node pairs.
+    let dense: Vec<&Frame> = first.iter().filter(|f| f.pairs >= 200).collect();
+    assert!(dense.len() >= 20, "only {} dense frames", dense.len());
+    let most = first.iter().map(|f| f.work).max().unwrap();
+    assert!(most >= 500, "largest frame work {most}");
+    let total: u64 = first.iter().map(|f| u64::from(f.work)).sum();
+    assert!(
+        total >= 10 * u64::from(most),
+        "total work {total}, largest {most}"
+    );
+}
+
+#[test]
+fn a_frame_that_detects_nothing_counts_no_work() {
+    let scene = dense_puck_sliding();
+    let traj = scene.trajectory();
+    let mut god = scene.god_object().unwrap();
+    god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+    let out = god.step(&Pose::from_array(traj.samples[0].q));
+    assert!(out.work > 0, "the first frame detects");
+    // A device fault keeps the last safe pose without a detection.
+    let mut bad = traj.samples[1].q;
+    bad[2] = f64::NAN;
+    let kept = god.step(&Pose::from_array(bad));
+    assert_eq!(kept.status, engine::FrameStatus::KeptLastSafe);
+    assert_eq!(kept.work, 0);
+}
