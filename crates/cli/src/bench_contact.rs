@@ -53,9 +53,11 @@ pub struct ContactRow {
     pub total_us: Summary,
     /// Passes per frame.
     pub passes: Summary,
-    /// Detection work per frame, node pairs ([`engine::Frame::work`]): what the times show,
-    /// without the machine's noise.
-    pub work: Summary,
+    /// Node pairs split per frame ([`engine::Frame::splits`]): the detection work the times
+    /// show, without the machine's noise.
+    pub splits: Summary,
+    /// Neighbour-list entries tested per frame ([`engine::Frame::scanned`]).
+    pub scanned: Summary,
     /// Frames that ended lagging, with a pair overflow, or kept the last safe pose.
     pub degraded_frames: usize,
     /// Deepest overlap, mm.
@@ -157,7 +159,8 @@ fn row<'a>(
         opt_us: Summary::of(f.clone().map(|o| o.opt_us)),
         total_us: Summary::of(f.clone().map(|o| o.total_us)),
         passes: Summary::of(f.clone().map(|o| f64::from(o.passes))),
-        work: Summary::of(f.clone().map(|o| f64::from(o.work))),
+        splits: Summary::of(f.clone().map(|o| f64::from(o.splits))),
+        scanned: Summary::of(f.clone().map(|o| f64::from(o.scanned))),
         degraded_frames: f
             .clone()
             .filter(|o| {
@@ -270,13 +273,16 @@ pub fn contact_markdown(rows: &[ContactRow]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "| scene | phase | frames | pairs p50 / max | rows solved p50 / max | cd µs p50 / p99 | opt µs p50 / p99 | total µs p50 / p99 / max | work p50 / p99 / max | passes mean / max | degraded | max pen. mm | reduced vs full: solves, max ΔF N (rel.) |"
+        "| scene | phase | frames | pairs p50 / max | rows solved p50 / max | cd µs p50 / p99 | opt µs p50 / p99 | total µs p50 / p99 / max | node pairs split p50 / p99 / max | list entries p50 / max | passes mean / max | degraded | max pen. mm | reduced vs full: solves, max ΔF N (rel.) |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(
+        s,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
     for r in rows {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.0} / {:.0} | {:.0} / {:.0} | {:.1} / {:.1} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.0} / {:.0} / {:.0} | {:.2} / {:.0} | {} | {:.4} | {}, {:.1e} ({:.1e}) |",
+            "| {} | {} | {} | {:.0} / {:.0} | {:.0} / {:.0} | {:.1} / {:.1} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.0} / {:.0} / {:.0} | {:.0} / {:.0} | {:.2} / {:.0} | {} | {:.4} | {}, {:.1e} ({:.1e}) |",
             r.scene,
             r.phase,
             r.frames,
@@ -291,9 +297,11 @@ pub fn contact_markdown(rows: &[ContactRow]) -> String {
             r.total_us.p50,
             r.total_us.p99,
             r.total_us.max,
-            r.work.p50,
-            r.work.p99,
-            r.work.max,
+            r.splits.p50,
+            r.splits.p99,
+            r.splits.max,
+            r.scanned.p50,
+            r.scanned.max,
             r.passes.mean,
             r.passes.max,
             r.degraded_frames,

@@ -88,12 +88,12 @@ fn bunny_run_writes_frames_summary_plots_and_replays_identically() {
     let (header, rows) = csv_rows(&out.join("frames.csv"));
     assert_eq!(
         header,
-        "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,work"
+        "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,splits,scanned"
     );
     assert_eq!(rows.len() as u64, summary["frames"].as_u64().unwrap());
     assert!(rows
         .iter()
-        .all(|r| r.len() == 27 && r.iter().all(|v| v.is_finite())));
+        .all(|r| r.len() == 28 && r.iter().all(|v| v.is_finite())));
     for key in [
         "cd_us",
         "opt_us",

@@ -143,13 +143,16 @@ pub struct Frame {
     pub opt_us: f64,
     /// Time of the whole step (without the safety layer), µs.
     pub total_us: f64,
-    /// Detection work of the frame, in node pairs: node pairs split by its traversals, its
-    /// free-space probe slices and its neighbour-list build slices, plus the neighbour-list
-    /// entries it scanned (the bounded near-part search is not counted). Unlike the times it
-    /// does not depend on the machine: on one thread, with no deadline cutting a traversal
-    /// short, the same input gives the same count — a figure to compare frame-step variants
-    /// by. Work a helper thread does in the background is counted when this frame reads it.
-    pub work: u32,
+    /// Detection work of the frame: node pairs split by its traversals, its free-space probe
+    /// slices and its neighbour-list build slices (a build also counts the pairs it lists), in
+    /// node pairs. The bounded near-part search is not counted. Unlike the times, the counts
+    /// do not depend on the machine: on one thread, with no deadline cutting a traversal
+    /// short, the same input gives the same counts, so frame-step variants can be compared by
+    /// them. Work a helper thread did in the background is counted when this frame reads it.
+    pub splits: u32,
+    /// Neighbour-list entries the frame tested (each a leaf-pair gap at the pose, ~10× cheaper
+    /// than a node pair split), entries. Machine-independent as [`Frame::splits`].
+    pub scanned: u32,
     /// Deepest leaf–leaf overlap at `q_g`, mm (0 when free).
     pub penetration_mm: f64,
     /// Largest linearised-constraint violation reported by the solver, mm (distance form).

@@ -713,7 +713,8 @@ impl PyEngine {
     /// rad; by default the scene's own) as `haptic6d run` does, in Rust with the GIL
     /// released: reset at the first row, one step per row. Returns a dict of numpy arrays
     /// named as the columns of frames.csv (`t`, `xh`..`ah`, `xg`..`ag`, `fx`..`tz`, `pairs`,
-    /// `cd_us`, `opt_us`, `total_us`, `iters`, `penetration_mm`, `passes`, `status`, `work`).
+    /// `cd_us`, `opt_us`, `total_us`, `iters`, `penetration_mm`, `passes`, `status`, `splits`,
+    /// `scanned`).
     #[pyo3(signature = (trajectory=None))]
     fn run<'py>(
         &mut self,

@@ -19,7 +19,7 @@ use crate::Failure;
 pub enum Column {
     /// Real values (times s, poses mm and rad, wrench N and N·mm, timings µs, depth mm).
     Real(Vec<f64>),
-    /// Counts (pairs, iterations, passes, work).
+    /// Counts (pairs, iterations, passes, splits, scanned).
     Count(Vec<i64>),
     /// The frame status names (`ok`, `lagging`, ...).
     Status(Vec<&'static str>),
@@ -127,7 +127,8 @@ pub fn columns(records: &[FrameRecord]) -> Vec<(&'static str, Column)> {
                 24 => real(&|r| r.frame.penetration_mm),
                 25 => count(&|r| r.frame.passes),
                 26 => Column::Status(records.iter().map(|r| r.frame.status.name()).collect()),
-                _ => count(&|r| r.frame.work),
+                27 => count(&|r| r.frame.splits),
+                _ => count(&|r| r.frame.scanned),
             };
             (name, col)
         })

@@ -12,7 +12,7 @@ use crate::Goal;
 use engine::step::FrameStatus;
 
 /// The header of `frames.csv`.
-pub const FRAMES_HEADER: &str = "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,work";
+pub const FRAMES_HEADER: &str = "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,splits,scanned";
 
 /// `frames.csv` text: one row per frame; the force/torque columns are the wrench sent to the
 /// device (after the safety layer).
@@ -28,7 +28,7 @@ pub fn frames_csv(frames: &[FrameRecord]) -> String {
         }
         let _ = writeln!(
             s,
-            ",{},{:.3},{:.3},{:.3},{},{},{},{},{}",
+            ",{},{:.3},{:.3},{:.3},{},{},{},{},{},{}",
             o.pairs,
             o.cd_us,
             o.opt_us,
@@ -37,7 +37,8 @@ pub fn frames_csv(frames: &[FrameRecord]) -> String {
             o.penetration_mm,
             o.passes,
             o.status.name(),
-            o.work
+            o.splits,
+            o.scanned
         );
     }
     s
@@ -148,9 +149,11 @@ pub struct RunSummary {
     pub iterations: Summary,
     /// Passes per frame (1 + re-linearisations).
     pub passes: Summary,
-    /// Detection work per frame, node pairs ([`engine::Frame::work`]): the machine-independent
-    /// twin of `cd_us`.
-    pub work: Summary,
+    /// Node pairs split per frame ([`engine::Frame::splits`]): with `scanned`, the
+    /// machine-independent twin of `cd_us`.
+    pub splits: Summary,
+    /// Neighbour-list entries tested per frame ([`engine::Frame::scanned`]).
+    pub scanned: Summary,
     /// Measured penetration at `q_g`, mm.
     pub penetration_mm: Summary,
     /// Force/torque extremes and continuity.
@@ -237,7 +240,8 @@ pub fn summarize(
         pairs: Summary::of(frames.iter().map(|f| f64::from(f.frame.pairs))),
         iterations: Summary::of(frames.iter().map(|f| f64::from(f.frame.iterations))),
         passes: Summary::of(frames.iter().map(|f| f64::from(f.frame.passes))),
-        work: Summary::of(frames.iter().map(|f| f64::from(f.frame.work))),
+        splits: Summary::of(frames.iter().map(|f| f64::from(f.frame.splits))),
+        scanned: Summary::of(frames.iter().map(|f| f64::from(f.frame.scanned))),
         penetration_mm: Summary::of(frames.iter().map(|f| f.frame.penetration_mm)),
         force: force_report(frames),
         loop_stats: loop_stats.clone(),

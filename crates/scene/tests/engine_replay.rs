@@ -57,13 +57,14 @@ fn old_path(scene: &Scene) -> String {
             row.push_str(&format!(",{v}"));
         }
         row.push_str(&format!(
-            ",{},{},{},{},{},{}\n",
+            ",{},{},{},{},{},{},{}\n",
             out.pairs,
             out.iterations,
             out.penetration_mm,
             out.passes,
             out.status.name(),
-            out.work
+            out.splits,
+            out.scanned
         ));
         csv.push_str(&row);
     }

@@ -1,5 +1,5 @@
-//! A frame's detection work (`engine::Frame::work`, the `work` column of `frames.csv`) is a
-//! count, not a time: with no time budget cutting a traversal short and no helper thread, the
+//! A frame's detection work (`engine::Frame::splits` and `scanned`, columns of `frames.csv`)
+//! is a count, not a time: with no time budget cutting a traversal short and no helper thread, the
 //! same input gives the same counts, frame for frame, on any machine and under any load. That
 //! is what makes it the figure to compare two versions of the frame step by on a noisy machine.
 
@@ -26,18 +26,21 @@ fn the_same_input_gives_the_same_work_in_every_frame() {
     let second: Vec<Frame> = common::replay(&scene);
     assert_eq!(first.len(), second.len());
     for (i, (a, b)) in first.iter().zip(&second).enumerate() {
-        assert_eq!(a.work, b.work, "frame {i}");
+        assert_eq!((a.splits, a.scanned), (b.splits, b.scanned), "frame {i}");
     }
-    // The counter counts: the contact's frames detect, and a dense region splits hundreds of
+    // The counters count: the contact's frames detect, and a dense region splits hundreds of
     // node pairs.
     let dense: Vec<&Frame> = first.iter().filter(|f| f.pairs >= 200).collect();
     assert!(dense.len() >= 20, "only {} dense frames", dense.len());
-    let most = first.iter().map(|f| f.work).max().unwrap();
-    assert!(most >= 500, "largest frame work {most}");
-    let total: u64 = first.iter().map(|f| u64::from(f.work)).sum();
+    let most = first.iter().map(|f| f.splits).max().unwrap();
+    assert!(most >= 500, "largest frame split {most} node pairs");
+    // The slide keeps a neighbour list, and frames answered from it test its entries.
+    let scanned: u64 = first.iter().map(|f| u64::from(f.scanned)).sum();
+    assert!(scanned > 0, "no list entry tested");
+    let total: u64 = first.iter().map(|f| u64::from(f.splits)).sum();
     assert!(
         total >= 10 * u64::from(most),
-        "total work {total}, largest {most}"
+        "{total} node pairs split in all, {most} in one frame"
     );
 }
 
@@ -48,11 +51,11 @@ fn a_frame_that_detects_nothing_counts_no_work() {
     let mut god = scene.god_object().unwrap();
     god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
     let out = god.step(&Pose::from_array(traj.samples[0].q));
-    assert!(out.work > 0, "the first frame detects");
+    assert!(out.splits > 0, "the first frame detects");
     // A device fault keeps the last safe pose without a detection.
     let mut bad = traj.samples[1].q;
     bad[2] = f64::NAN;
     let kept = god.step(&Pose::from_array(bad));
     assert_eq!(kept.status, engine::FrameStatus::KeptLastSafe);
-    assert_eq!(kept.work, 0);
+    assert_eq!((kept.splits, kept.scanned), (0, 0));
 }

@@ -96,7 +96,7 @@ impl GodObject {
                 .map(|n| (n, margin))
         };
         if let Some((_, proven)) = listed {
-            self.frame_work += self.neighbours.len() as u64;
+            self.frame_scanned += self.neighbours.len() as u64;
             self.regions_filtered += 1;
             if sweep.is_none() && slab.is_none() && self.dropped == 0 {
                 self.pairs_question = Some((*q, margin));
@@ -133,7 +133,7 @@ impl GodObject {
             )?;
             (t, margin)
         };
-        self.frame_work += self.ws.stats().node_pairs_split as u64;
+        self.frame_splits += self.ws.stats().node_pairs_split as u64;
         self.dropped += t.unreported;
         self.interrupted = !t.complete;
         if sweep.is_none() && slab.is_none() && self.dropped == 0 && t.complete {
@@ -162,7 +162,7 @@ impl GodObject {
             false
         });
         if listed.is_some() {
-            self.frame_work += self.neighbours.len() as u64;
+            self.frame_scanned += self.neighbours.len() as u64;
             return Ok(any);
         }
         let any = collide::any_pair_within_until(
@@ -173,7 +173,7 @@ impl GodObject {
             &mut self.ws,
             || deadline.is_none_or(|d| Instant::now() < d),
         );
-        self.frame_work += self.ws.stats().node_pairs_split as u64;
+        self.frame_splits += self.ws.stats().node_pairs_split as u64;
         any.map(|a| a.unwrap_or(true))
     }
 
@@ -463,7 +463,7 @@ impl GodObject {
                 PROBE_FINISH_SLICE_SPLITS,
                 Some(deadline),
             );
-            self.frame_work += self.probe.splits().saturating_sub(before) as u64;
+            self.frame_splits += self.probe.splits().saturating_sub(before) as u64;
             if self.probe.status() != ProbeStatus::Running {
                 break;
             }
@@ -555,7 +555,7 @@ impl GodObject {
                 self.team.as_ref(),
                 Some(slice_deadline),
             );
-            self.frame_work += self.probe.splits().saturating_sub(before) as u64;
+            self.frame_splits += self.probe.splits().saturating_sub(before) as u64;
         }
         match self.probe.status() {
             ProbeStatus::Free if !self.proof_slot_free(q, used) => {}
@@ -687,7 +687,7 @@ impl GodObject {
                 self.team.as_ref(),
                 Some(deadline),
             );
-            self.frame_work += self.next_neighbours.work().saturating_sub(before) as u64;
+            self.frame_splits += self.next_neighbours.work().saturating_sub(before) as u64;
         }
         match self.next_neighbours.status() {
             ListStatus::Ready => {

@@ -593,9 +593,10 @@ pub struct GodObject {
     splits_per_region: f64,
     detections_per_frame: f64,
     frame_detections: u32,
-    /// This frame's detection work so far: node pairs split (traversals, probes, list builds)
-    /// plus neighbour-list entries scanned ([`crate::Frame::work`]).
-    frame_work: u64,
+    /// This frame's detection work so far: node pairs split (traversals, probes, list builds;
+    /// [`crate::Frame::splits`]) and neighbour-list entries tested ([`crate::Frame::scanned`]).
+    frame_splits: u64,
+    frame_scanned: u64,
     /// Regions answered from a neighbour list or the last ball's own pairs, and by a
     /// traversal, since `new`.
     regions_filtered: u64,
@@ -725,7 +726,8 @@ impl GodObject {
             splits_per_region: 0.0,
             detections_per_frame: 0.0,
             frame_detections: 0,
-            frame_work: 0,
+            frame_splits: 0,
+            frame_scanned: 0,
             regions_filtered: 0,
             regions_traversed: 0,
             pairs_question: None,
@@ -894,7 +896,8 @@ impl GodObject {
     /// traversals and one QP solve (the solver's iteration cap).
     pub fn step(&mut self, q_h: &Pose) -> FrameOutput {
         let t_start = Instant::now();
-        self.frame_work = 0;
+        self.frame_splits = 0;
+        self.frame_scanned = 0;
         let mut out = FrameOutput {
             q_h: q_h.to_array(),
             ..FrameOutput::default()
@@ -1540,7 +1543,8 @@ impl GodObject {
         out.raw_wrench = out.wrench;
         out.cd_us = cd * 1e6;
         out.opt_us = opt * 1e6;
-        out.work = self.frame_work.min(u64::from(u32::MAX)) as u32;
+        out.splits = self.frame_splits.min(u64::from(u32::MAX)) as u32;
+        out.scanned = self.frame_scanned.min(u64::from(u32::MAX)) as u32;
         out.total_us = t_start.elapsed().as_secs_f64() * 1e6;
         out
     }
