@@ -514,7 +514,10 @@ impl GodObject {
             team.keep_awake();
         }
         let speed = self.last_motion.max(1e-4);
-        let horizon = self.proof_horizon(q, used);
+        // Inside a neighbour list, a proof that runs out is renewed by filtering the list (a
+        // pass over its entries, no traversal): the probe has until the list runs out.
+        let list_frames = (self.neighbours.slack(q, None, used) / speed).max(0.0);
+        let horizon = self.proof_horizon(q, used).max(list_frames);
         // A tool sliding steadily (without turning) is probed along its way.
         let step = Vector3::from(self.last_step);
         let sliding =
@@ -528,14 +531,14 @@ impl GodObject {
             } else {
                 (self.probe_splits as f64, PROBE_MIN_SLICE_SPLITS)
             };
-            // Paced to finish within half the horizon, for a quarter more than the estimate:
-            // the horizon is measured at the last frame's motion (a hand speeding up shortens
-            // it) and the estimate is the last probe's cost (the spline's withdrawal ran a path
-            // probe of 20 300 node pairs on an estimate of 16 300 at the least slice until its
-            // last frames, then finished 3 500 of them in one).
+            // Paced to finish a little before the horizon, for a quarter more than the
+            // estimate: the horizon is measured at the last frame's motion (a hand speeding up
+            // shortens it) and the estimate is the last probe's cost (the spline's withdrawal
+            // ran a path probe of 20 300 node pairs on an estimate of 16 300 at the least slice
+            // until its last frames, then finished 3 500 of them in one).
             let left =
                 (PROBE_ESTIMATE_SPARE * estimate - self.probe.splits() as f64).max(0.25 * estimate);
-            let slice = (left / (PROBE_FINISH_WITHIN * horizon - 2.0).max(1.0))
+            let slice = (left / (horizon - PROBE_FINISH_SPARE_FRAMES).max(1.0))
                 .clamp(least as f64, PROBE_MAX_SLICE_SPLITS as f64);
             let tt = Instant::now();
             // A slice's node pairs cost 0.05–0.3 µs each (a path's more, a cold tree's more):
@@ -574,8 +577,10 @@ impl GodObject {
             }
             ProbeStatus::Idle => {
                 // Where a whole proof costs less than a slice (open space), renewing it when
-                // it runs out is cheaper than probing ahead.
-                let worth_it = self.probe_splits > PROBE_SLICE_SPLITS;
+                // it runs out is cheaper than probing ahead; not where a neighbour list
+                // renewed the proofs (the tight gap it was built in costs a long traversal
+                // once it runs out).
+                let worth_it = self.probe_splits > PROBE_SLICE_SPLITS || list_frames > 0.0;
                 let (estimate, pace, ahead) = if sliding {
                     (
                         self.path_probe_estimate(),
