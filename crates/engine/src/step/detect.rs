@@ -531,15 +531,20 @@ impl GodObject {
             } else {
                 (self.probe_splits as f64, PROBE_MIN_SLICE_SPLITS)
             };
-            // Paced to finish a little before the horizon, for a quarter more than the
-            // estimate: the horizon is measured at the last frame's motion (a hand speeding up
+            // Paced to finish a little before the horizon (a probe at a pose), or within half
+            // of it (along a path: a hand speeding up along it shortens the horizon), for a
+            // quarter more than the estimate: the horizon is measured at the last frame's motion (a hand speeding up
             // shortens it) and the estimate is the last probe's cost (the spline's withdrawal
             // ran a path probe of 20 300 node pairs on an estimate of 16 300 at the least slice
             // until its last frames, then finished 3 500 of them in one).
             let left =
                 (PROBE_ESTIMATE_SPARE * estimate - self.probe.splits() as f64).max(0.25 * estimate);
-            let slice = (left / (horizon - PROBE_FINISH_SPARE_FRAMES).max(1.0))
-                .clamp(least as f64, PROBE_MAX_SLICE_SPLITS as f64);
+            let within = if self.probe.path() != [0.0; 3] {
+                PROBE_FINISH_WITHIN * horizon - PROBE_FINISH_SPARE_FRAMES
+            } else {
+                horizon - PROBE_FINISH_SPARE_FRAMES
+            };
+            let slice = (left / within.max(1.0)).clamp(least as f64, PROBE_MAX_SLICE_SPLITS as f64);
             let tt = Instant::now();
             // A slice's node pairs cost 0.05–0.3 µs each (a path's more, a cold tree's more):
             // while the proofs still serve, it also stops at its share of the frame's budget.

@@ -161,11 +161,17 @@ const PROBE_MIN_USABLE_FRAMES: f64 = 2.0;
 /// early enough to finish at this pace before the current proof runs out.
 const PROBE_SLICE_SPLITS: usize = 800;
 
-/// Frames before the free-space proofs run out (at the tool's last motion) a running
-/// background probe is paced to finish: slices spread over the whole horizon, not half of it
-/// (the spline's keys turning in their grooves: the largest in-hole frame splits 775 node
-/// pairs, against 1 948 finishing within half).
+/// A running background probe at a pose is paced to finish this many frames before the
+/// free-space proofs run out (at the tool's last motion); one along a path within
+/// [`PROBE_FINISH_WITHIN`] of their horizon, less these frames. Spread over the whole horizon,
+/// the spline's keys turning in their grooves split at most 775 node pairs a frame, against
+/// 1 948 finishing within half of it; a path probe so paced (the withdrawal, 20 000 node pairs,
+/// the hand speeding up) fell behind its time-capped slices and finished 4 000 in one frame.
 const PROBE_FINISH_SPARE_FRAMES: f64 = 2.0;
+
+/// Share of the proofs' horizon (frames) a running background probe along a path is paced to
+/// finish within.
+const PROBE_FINISH_WITHIN: f64 = 0.5;
 
 /// A running background probe is paced for this many times its estimated cost.
 const PROBE_ESTIMATE_SPARE: f64 = 1.25;
