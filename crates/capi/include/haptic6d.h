@@ -358,6 +358,22 @@ int32_t h6d_engine_step(struct H6dEngine *engine,
 // `engine` is NULL or a live engine used by no other thread meanwhile.
 int32_t h6d_engine_warm_caches(struct H6dEngine *engine, double max_us);
 
+// Uses a paced device loop's wait before the next frame, for at most `max_us` µs (0 to
+// 1 000 000): the background detection work the frames would otherwise do in slices (the next
+// free-space proof, the next neighbour list) runs here, then the collision trees are brought
+// into cache, as [`h6d_engine_warm_caches`] does. Call it as the loop stops sleeping before a
+// frame's deadline, with the time left until then (`haptic6d run --realtime` does the same;
+// docs/DESIGN.md §The haptic loop). The answers stay exact; which frames detect, and so their
+// times, may differ from a loop that does not call it. A `max_us` outside its range returns
+// `H6D_STATUS_INVALID_ARGUMENT` naming it.
+//
+// # Real-time
+// No allocation, no panic; returns within ~40 µs of `max_us`.
+//
+// # Safety
+// `engine` is NULL or a live engine used by no other thread meanwhile.
+int32_t h6d_engine_idle(struct H6dEngine *engine, double max_us);
+
 // The leaf-sphere pairs of the last detected region (for display): writes their number to
 // `*count` and copies them into `contacts` (room for `capacity`). When `capacity` is too
 // small, returns `H6D_STATUS_BUFFER_TOO_SMALL`, with `*count` the number needed and the

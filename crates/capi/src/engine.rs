@@ -392,6 +392,41 @@ pub unsafe extern "C" fn h6d_engine_warm_caches(engine: *mut H6dEngine, max_us: 
     }
 }
 
+/// Uses a paced device loop's wait before the next frame, for at most `max_us` µs (0 to
+/// 1 000 000): the background detection work the frames would otherwise do in slices (the next
+/// free-space proof, the next neighbour list) runs here, then the collision trees are brought
+/// into cache, as [`h6d_engine_warm_caches`] does. Call it as the loop stops sleeping before a
+/// frame's deadline, with the time left until then (`haptic6d run --realtime` does the same;
+/// docs/DESIGN.md §The haptic loop). The answers stay exact; which frames detect, and so their
+/// times, may differ from a loop that does not call it. A `max_us` outside its range returns
+/// `H6D_STATUS_INVALID_ARGUMENT` naming it.
+///
+/// # Real-time
+/// No allocation, no panic; returns within ~40 µs of `max_us`.
+///
+/// # Safety
+/// `engine` is NULL or a live engine used by no other thread meanwhile.
+#[no_mangle]
+pub unsafe extern "C" fn h6d_engine_idle(engine: *mut H6dEngine, max_us: f64) -> i32 {
+    const CALL: &str = "h6d_engine_idle";
+    // SAFETY: the caller's contract.
+    unsafe {
+        with_engine(CALL, engine, |e| {
+            if !(0.0..=1e6).contains(&max_us) {
+                return Err(fail!(
+                    CALL,
+                    InvalidArgument,
+                    "max_us = {max_us}: the wait's limit must be within 0 to 1000000 µs"
+                ));
+            }
+            let until =
+                std::time::Instant::now() + std::time::Duration::from_secs_f64(max_us * 1e-6);
+            e.idle(until);
+            Ok(())
+        })
+    }
+}
+
 /// The leaf-sphere pairs of the last detected region (for display): writes their number to
 /// `*count` and copies them into `contacts` (room for `capacity`). When `capacity` is too
 /// small, returns `H6D_STATUS_BUFFER_TOO_SMALL`, with `*count` the number needed and the

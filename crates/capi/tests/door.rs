@@ -774,3 +774,52 @@ fn warming_the_caches_changes_no_frame_and_a_bad_limit_is_named() {
     assert!(plain.last().unwrap().0[2] > 1.0, "pushed up");
     assert_eq!(plain, run(true));
 }
+
+#[test]
+fn the_wait_before_a_frame_keeps_the_answers_exact_and_a_bad_limit_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |wait: bool| {
+        let engine = spheres(dir.path());
+        let (mut w, mut q_g, mut info) = ([0.0; 6], [0.0; 6], H6dFrameInfo::default());
+        let mut frames = Vec::new();
+        // SAFETY: valid pointers.
+        unsafe {
+            for i in 0..200 {
+                if wait {
+                    expect(h6d_engine_idle(engine, 100.0), H6dStatus::Ok, &[]);
+                }
+                press_frame(engine, i, &mut w, &mut q_g, &mut info);
+                assert!(
+                    info.penetration_mm <= 0.01,
+                    "frame {i}: {} mm",
+                    info.penetration_mm
+                );
+                frames.push(q_g);
+            }
+            if wait {
+                for bad in [f64::NAN, -1.0, 2e6] {
+                    expect(
+                        h6d_engine_idle(engine, bad),
+                        H6dStatus::InvalidArgument,
+                        &["h6d_engine_idle", "max_us"],
+                    );
+                }
+                expect(
+                    h6d_engine_idle(null_mut(), 10.0),
+                    H6dStatus::NullArgument,
+                    &["h6d_engine_idle", "engine"],
+                );
+            }
+            h6d_engine_destroy(engine);
+        }
+        frames
+    };
+    let (plain, waited) = (run(false), run(true));
+    // The same press, the same resting pose (the wait changes which frames detect, not the
+    // answer).
+    let (a, b) = (plain.last().unwrap(), waited.last().unwrap());
+    assert!(a[2] > 1.0, "pushed up");
+    for k in 0..6 {
+        assert!((a[k] - b[k]).abs() < 1e-3, "{a:?} against {b:?}");
+    }
+}

@@ -107,7 +107,7 @@ pub fn replay_audited(
     for s in &traj.samples {
         times.push(s.t);
         if realtime {
-            pacer.wait_warming(|until| god.warm_caches(until));
+            pacer.wait_warming(|until| god.idle(until));
         }
         out.push(god.step(&Pose::from_array(s.q)));
         if realtime {

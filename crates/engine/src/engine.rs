@@ -301,6 +301,17 @@ impl Engine {
         self.god.warm_caches(until);
     }
 
+    /// Uses a paced loop's wait before the next frame, until `until` ([`GodObject::idle`]):
+    /// the background detection work the frames would do in slices (the next free-space probe,
+    /// the next neighbour list) runs here, then the trees are brought into cache. The answers
+    /// stay exact; which frames detect may differ from a loop that does not call it.
+    ///
+    /// # Real-time
+    /// No allocation, no panic; returns within ~40 µs of `until`.
+    pub fn idle(&mut self, until: std::time::Instant) {
+        self.god.idle(until);
+    }
+
     /// One haptic frame at time `t` (s; the safety layer's soft start counts from the first
     /// frame's `t`) for the device configuration `q_h`: returns the frame, whose
     /// [`Frame::wrench`] goes to the device.

@@ -340,7 +340,7 @@ pub fn run_frames<D: Device + ?Sized>(
     let mut link = DeviceLink::new(device, params.device);
     while records.len() < records.capacity() {
         if params.realtime {
-            pacer.wait_warming(|until| engine.warm_caches(until));
+            pacer.wait_warming(|until| engine.idle(until));
         }
         let now = Instant::now();
         let t_wall = (now - start).as_secs_f64();

@@ -84,3 +84,53 @@ fn no_frame_in_the_splines_hole_splits_a_long_traversal() {
         .unwrap();
     assert!(most <= 1000, "{most} node pairs split in frame {at}");
 }
+
+/// A paced loop's wait before each frame (`GodObject::idle`, what `haptic6d run --realtime`
+/// calls) takes over the background work the frames would do in slices: in the spline's hole
+/// the frames then split far fewer node pairs themselves, and the answers stay exact (no
+/// penetration, the insertion reaches its depth).
+#[test]
+fn the_wait_before_each_frame_takes_the_background_work_off_the_frames() {
+    let mut scene = scene::scenes::builtin("spline", &common::test_cache()).unwrap();
+    scene.solver.helper_thread = false;
+    scene.solver.budget_us = engine::config::BUDGET_US.hi;
+    let tol = scene.solver.penetration_tol_mm;
+    let alone = common::replay(&scene);
+    let traj = scene.trajectory();
+    let mut god = scene.god_object().unwrap();
+    god.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+    let wait = std::time::Duration::from_micros(300);
+    let waited: Vec<Frame> = traj
+        .samples
+        .iter()
+        .map(|s| {
+            god.idle(std::time::Instant::now() + wait);
+            god.step(&Pose::from_array(s.q))
+        })
+        .collect();
+    let in_hole = |frames: &[Frame]| -> u64 {
+        frames
+            .iter()
+            .filter(|f| f.pairs == 0 && f.q_h[2] < 0.0)
+            .map(|f| u64::from(f.splits))
+            .sum()
+    };
+    let (by_frames, with_wait) = (in_hole(&alone), in_hole(&waited));
+    assert!(
+        2 * with_wait <= by_frames,
+        "in the hole the frames split {with_wait} node pairs with the wait, {by_frames} without"
+    );
+    for (i, f) in waited.iter().enumerate() {
+        assert!(
+            f.penetration_mm <= tol,
+            "frame {i}: {} mm",
+            f.penetration_mm
+        );
+        assert!(f.q_g.iter().all(|v| v.is_finite()), "frame {i}");
+    }
+    let deepest = waited
+        .iter()
+        .map(|f| f.q_g[2])
+        .fold(f64::INFINITY, f64::min);
+    assert!(deepest <= -19.99, "the shaft reached z = {deepest} mm");
+}

@@ -250,3 +250,29 @@ fn warming_the_caches_allocates_nothing_and_changes_no_frame() {
         assert_eq!(a, b, "frame {i}");
     }
 }
+
+/// A paced loop's wait (`Engine::idle`: the background probe and list work, then the caches)
+/// allocates nothing, nor do the frames after it, on one thread and with the helper: the
+/// spline run, each frame after a wait of 200 µs.
+#[test]
+fn the_wait_before_a_frame_allocates_nothing() {
+    use std::time::{Duration, Instant};
+    for helper in [false, true] {
+        let mut scene = scene::scenes::builtin("spline", &common::test_cache()).unwrap();
+        scene.solver.helper_thread = helper;
+        let traj = scene.trajectory();
+        let mut engine = scene.engine().unwrap();
+        engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+        let mut allocs = 0;
+        let mut contact = 0;
+        for s in &traj.samples {
+            let until = Instant::now() + Duration::from_micros(200);
+            allocs += count_allocations(|| engine.idle(until)).1;
+            let (pairs, n) = count_allocations(|| engine.step(s.t, &Pose::from_array(s.q)).pairs);
+            allocs += n;
+            contact += usize::from(pairs > 0);
+        }
+        assert_eq!(allocs, 0, "helper {helper}: {allocs} (de)allocations");
+        assert!(contact > 100, "{contact} frames in contact");
+    }
+}

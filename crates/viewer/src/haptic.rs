@@ -270,7 +270,7 @@ impl<S: Simulation> ManualFrames<S> {
     fn run(mut self, stop: &AtomicBool, spin: Duration) {
         let mut pacer = scene::rt::Pacer::new(self.period, spin);
         while !stop.load(Ordering::Acquire) {
-            pacer.wait_warming(|until| self.sim.warm_caches(until));
+            pacer.wait_warming(|until| self.sim.idle(until));
             self.step();
             if pacer.end_frame() {
                 self.state.overruns += 1;

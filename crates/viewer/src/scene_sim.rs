@@ -141,9 +141,9 @@ impl Simulation for SceneSim {
         }
     }
 
-    /// [`Engine::warm_caches`]: the collision trees.
-    fn warm_caches(&self, until: std::time::Instant) {
-        self.engine.warm_caches(until);
+    /// [`Engine::idle`]: the background detection work, then the collision trees into cache.
+    fn idle(&mut self, until: std::time::Instant) {
+        self.engine.idle(until);
     }
 
     fn reset(&mut self, pose: &Pose) {

@@ -239,13 +239,15 @@ pub trait Simulation: Send + 'static {
     /// reset. Called from the haptic thread between frames.
     fn reset(&mut self, pose: &Pose);
 
-    /// Brings what the next [`Simulation::step`] reads into cache, returning by `until`
-    /// (called once per frame as the loop's spin before the deadline begins). Must change no
-    /// state. The default does nothing.
+    /// Uses the loop's wait before the next [`Simulation::step`], returning by `until` (called
+    /// once per frame as the loop's spin before the deadline begins): background work the
+    /// steps would otherwise do in slices, and bringing what the next step reads into cache.
+    /// It may change which work the next steps do, not what they answer. The default does
+    /// nothing.
     ///
     /// # Real-time
     /// Must not allocate, block or panic.
-    fn warm_caches(&self, until: std::time::Instant) {
+    fn idle(&mut self, until: std::time::Instant) {
         let _ = until;
     }
 }

@@ -700,18 +700,7 @@ impl GodObject {
             self.frame_splits += self.next_neighbours.work().saturating_sub(before) as u64;
         }
         match self.next_neighbours.status() {
-            ListStatus::Ready => {
-                let work = self.next_neighbours.work();
-                if self.next_neighbours.take(&mut self.neighbours) {
-                    self.list_work = work;
-                    self.list_splits = self.neighbours.splits();
-                    let n = self.neighbours.len().max(1) as f64;
-                    let (_, built) = self.neighbours.question();
-                    // Pairs grow about as the margin cubed over a bumpy flat contact.
-                    self.list_margin =
-                        (built * (LIST_TARGET_PAIRS / n).cbrt()).clamp(LIST_MIN_MM, LIST_MAX_MM);
-                }
-            }
+            ListStatus::Ready => self.take_next_list(),
             ListStatus::Overflowed => {
                 let (_, built) = self.next_neighbours.question();
                 self.list_margin = (0.6 * built).max(LIST_MIN_MM);
@@ -734,6 +723,55 @@ impl GodObject {
             }
             ListStatus::Building => {}
         }
+    }
+
+    /// A finished next neighbour list replaces the one in use; its pair count sets the next
+    /// list's margin.
+    fn take_next_list(&mut self) {
+        let work = self.next_neighbours.work();
+        if self.next_neighbours.take(&mut self.neighbours) {
+            self.list_work = work;
+            self.list_splits = self.neighbours.splits();
+            let n = self.neighbours.len().max(1) as f64;
+            let (_, built) = self.neighbours.question();
+            // Pairs grow about as the margin cubed over a bumpy flat contact.
+            self.list_margin =
+                (built * (LIST_TARGET_PAIRS / n).cbrt()).clamp(LIST_MIN_MM, LIST_MAX_MM);
+        }
+    }
+
+    /// Uses a paced loop's wait before the next frame (until `until`): the running background
+    /// probe and the next neighbour list's build go on here, in slices of
+    /// [`IDLE_SLICE_SPLITS`] between clock reads, until [`IDLE_WARM_US`] before `until`; a list
+    /// finished here is taken at once; the rest of the wait brings the trees into cache
+    /// ([`GodObject::warm_caches`]). What the frames would have done in their own slices is done
+    /// in time nobody else wants, on this thread (the helper thread's work, without a second
+    /// core). The answers stay exact (a probe's proof and a list are the same whenever they
+    /// finish); which frames detect, and so their times and counts, may differ.
+    ///
+    /// # Real-time
+    /// No allocation, no panic; returns within one slice (~10–40 µs) of `until`.
+    pub fn idle(&mut self, until: Instant) {
+        let stop = until.checked_sub(std::time::Duration::from_micros(IDLE_WARM_US));
+        let busy = |now: Instant| stop.is_some_and(|s| now < s);
+        while busy(Instant::now()) && self.probe.status() == ProbeStatus::Running {
+            self.probe
+                .advance_now(&self.tool, &self.objects, IDLE_SLICE_SPLITS, stop);
+        }
+        while busy(Instant::now()) && self.next_neighbours.status() == ListStatus::Building {
+            self.next_neighbours.advance(
+                &self.tool,
+                &self.objects,
+                IDLE_SLICE_SPLITS,
+                IDLE_SLICE_SPLITS,
+                self.team.as_ref(),
+                stop,
+            );
+        }
+        if self.next_neighbours.status() == ListStatus::Ready {
+            self.take_next_list();
+        }
+        self.warm_caches(until);
     }
 
     /// How far (mm) a tool leaf centre moves at most when the tool turns from `r_a` to `r_b`:

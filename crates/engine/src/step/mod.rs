@@ -305,6 +305,13 @@ const LIST_MAX_SLICE_WORK: usize = 1280;
 /// (~300 µs of the helper's time): the list is then ready a frame or two after it starts.
 const LIST_HELPER_WORK_PER_FRAME: usize = 8192;
 
+/// Node pairs (probe) or units of list work a paced loop's wait runs between clock reads
+/// ([`GodObject::idle`]): ~10–40 µs, so the wait ends within that of its limit.
+const IDLE_SLICE_SPLITS: usize = 128;
+
+/// The end of a paced loop's wait kept for warming the caches, µs ([`GodObject::idle`]).
+const IDLE_WARM_US: u64 = 60;
+
 /// Smallest motion allowance of a detected region, mm.
 const MIN_ALLOW_MM: f64 = 0.1;
 
