@@ -655,7 +655,7 @@ impl GodObject {
         let spared = self.detections_per_frame * self.splits_per_region;
         let costs = self.list_splits as f64 / life.max(1.0);
         let pays = self.splits_per_region >= LIST_MIN_REGION_SPLITS
-            && (self.team.is_some() || costs <= LIST_PAYOFF * spared);
+            && (self.team.is_some() || self.idle_given || costs <= LIST_PAYOFF * spared);
         // A list holds leaf pairs without the faces' merging and pruning: with face caps its
         // build costs the whole-sphere traversal the faces spare, so none is kept (measured on
         // the spline with caps: p99 579 µs without lists, 727 µs with).
@@ -746,12 +746,16 @@ impl GodObject {
     /// finished here is taken at once; the rest of the wait brings the trees into cache
     /// ([`GodObject::warm_caches`]). What the frames would have done in their own slices is done
     /// in time nobody else wants, on this thread (the helper thread's work, without a second
-    /// core). The answers stay exact (a probe's proof and a list are the same whenever they
+    /// core); a wait of [`IDLE_FOR_LISTS_US`] or more also lets the next frame keep a list
+    /// wherever one lasts, as with the helper. The answers stay exact (a probe's proof and a list are the same whenever they
     /// finish); which frames detect, and so their times and counts, may differ.
     ///
     /// # Real-time
     /// No allocation, no panic; returns within one slice (~10–40 µs) of `until`.
     pub fn idle(&mut self, until: Instant) {
+        self.idle_given = until
+            .checked_duration_since(Instant::now())
+            .is_some_and(|d| d.as_micros() >= u128::from(IDLE_FOR_LISTS_US));
         let stop = until.checked_sub(std::time::Duration::from_micros(IDLE_WARM_US));
         let busy = |now: Instant| stop.is_some_and(|s| now < s);
         while busy(Instant::now()) && self.probe.status() == ProbeStatus::Running {
