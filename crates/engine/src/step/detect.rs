@@ -741,12 +741,12 @@ impl GodObject {
     }
 
     /// Uses a paced loop's wait before the next frame (until `until`): the running background
-    /// probe and the next neighbour list's build go on here, in slices of
-    /// [`IDLE_SLICE_SPLITS`] between clock reads, until [`IDLE_WARM_US`] before `until`; a list
+    /// probe and the next neighbour list's build go on here, in slices of 128 node pairs
+    /// between clock reads, until 60 µs before `until`; a list
     /// finished here is taken at once; the rest of the wait brings the trees into cache
     /// ([`GodObject::warm_caches`]). What the frames would have done in their own slices is done
     /// in time nobody else wants, on this thread (the helper thread's work, without a second
-    /// core); a wait of [`IDLE_FOR_LISTS_US`] or more also lets the next frame keep a list
+    /// core); a wait of 200 µs or more also lets the next frame keep a list
     /// wherever one lasts, as with the helper. The answers stay exact (a probe's proof and a list are the same whenever they
     /// finish); which frames detect, and so their times and counts, may differ.
     ///
