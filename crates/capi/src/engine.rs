@@ -359,6 +359,19 @@ pub unsafe extern "C" fn h6d_engine_step(
     }
 }
 
+/// The end of a paced loop's wait of `max_us` µs from now, for `call`; a limit outside 0 to
+/// 1 000 000 µs is `H6D_STATUS_INVALID_ARGUMENT` naming it.
+fn wait_until(call: &str, max_us: f64) -> Result<std::time::Instant, H6dStatus> {
+    if !(0.0..=1e6).contains(&max_us) {
+        return Err(fail!(
+            call,
+            InvalidArgument,
+            "max_us = {max_us}: the wait's limit must be within 0 to 1000000 µs"
+        ));
+    }
+    Ok(std::time::Instant::now() + std::time::Duration::from_secs_f64(max_us * 1e-6))
+}
+
 /// Brings the engine's collision trees into cache for at most `max_us` µs (0 to 1 000 000),
 /// top levels first. A paced device loop calls it as it stops sleeping before a frame's
 /// deadline (with the time left until then): the sleep lets the caches go cold, and a frame
@@ -377,16 +390,7 @@ pub unsafe extern "C" fn h6d_engine_warm_caches(engine: *mut H6dEngine, max_us: 
     // SAFETY: the caller's contract.
     unsafe {
         with_engine(CALL, engine, |e| {
-            if !(0.0..=1e6).contains(&max_us) {
-                return Err(fail!(
-                    CALL,
-                    InvalidArgument,
-                    "max_us = {max_us}: the warm-up's limit must be within 0 to 1000000 µs"
-                ));
-            }
-            let until =
-                std::time::Instant::now() + std::time::Duration::from_secs_f64(max_us * 1e-6);
-            e.warm_caches(until);
+            e.warm_caches(wait_until(CALL, max_us)?);
             Ok(())
         })
     }
@@ -412,16 +416,7 @@ pub unsafe extern "C" fn h6d_engine_idle(engine: *mut H6dEngine, max_us: f64) ->
     // SAFETY: the caller's contract.
     unsafe {
         with_engine(CALL, engine, |e| {
-            if !(0.0..=1e6).contains(&max_us) {
-                return Err(fail!(
-                    CALL,
-                    InvalidArgument,
-                    "max_us = {max_us}: the wait's limit must be within 0 to 1000000 µs"
-                ));
-            }
-            let until =
-                std::time::Instant::now() + std::time::Duration::from_secs_f64(max_us * 1e-6);
-            e.idle(until);
+            e.idle(wait_until(CALL, max_us)?);
             Ok(())
         })
     }

@@ -736,88 +736,68 @@ fn friction_is_set_per_object_and_bad_values_are_named() {
     }
 }
 
+/// A paced loop's call before each frame (`h6d_engine_warm_caches`, `h6d_engine_idle`): the
+/// engine and a limit, µs.
+type WaitCall = unsafe extern "C" fn(*mut H6dEngine, f64) -> i32;
+
+/// The press's frames (wrench, graphic pose, penetration mm), with `before`'s call (and its
+/// name) made with a 100 µs limit before each frame, or without; with it, a bad limit and a
+/// NULL engine must be refused with messages naming the call.
+fn press_with(dir: &Path, before: Option<(WaitCall, &str)>) -> Vec<([f64; 6], [f64; 6], f64)> {
+    let engine = spheres(dir);
+    let (mut w, mut q_g, mut info) = ([0.0; 6], [0.0; 6], H6dFrameInfo::default());
+    let mut frames = Vec::new();
+    // SAFETY: valid pointers.
+    unsafe {
+        for i in 0..200 {
+            if let Some((call, _)) = before {
+                expect(call(engine, 100.0), H6dStatus::Ok, &[]);
+            }
+            press_frame(engine, i, &mut w, &mut q_g, &mut info);
+            frames.push((w, q_g, info.penetration_mm));
+        }
+        if let Some((call, name)) = before {
+            for bad in [f64::NAN, -1.0, 2e6] {
+                expect(
+                    call(engine, bad),
+                    H6dStatus::InvalidArgument,
+                    &[name, "max_us"],
+                );
+            }
+            expect(
+                call(null_mut(), 10.0),
+                H6dStatus::NullArgument,
+                &[name, "engine"],
+            );
+        }
+        h6d_engine_destroy(engine);
+    }
+    frames
+}
+
 #[test]
 fn warming_the_caches_changes_no_frame_and_a_bad_limit_is_named() {
     let dir = tempfile::tempdir().unwrap();
-    let run = |warm: bool| {
-        let engine = spheres(dir.path());
-        let (mut w, mut q_g, mut info) = ([0.0; 6], [0.0; 6], H6dFrameInfo::default());
-        let mut frames = Vec::new();
-        // SAFETY: valid pointers.
-        unsafe {
-            for i in 0..200 {
-                if warm {
-                    expect(h6d_engine_warm_caches(engine, 50.0), H6dStatus::Ok, &[]);
-                }
-                press_frame(engine, i, &mut w, &mut q_g, &mut info);
-                frames.push((w, q_g));
-            }
-            if warm {
-                for bad in [f64::NAN, -1.0, 2e6] {
-                    expect(
-                        h6d_engine_warm_caches(engine, bad),
-                        H6dStatus::InvalidArgument,
-                        &["h6d_engine_warm_caches", "max_us"],
-                    );
-                }
-                expect(
-                    h6d_engine_warm_caches(null_mut(), 10.0),
-                    H6dStatus::NullArgument,
-                    &["h6d_engine_warm_caches", "engine"],
-                );
-            }
-            h6d_engine_destroy(engine);
-        }
-        frames
-    };
-    let plain = run(false);
-    assert!(plain.last().unwrap().0[2] > 1.0, "pushed up");
-    assert_eq!(plain, run(true));
+    let plain = press_with(dir.path(), None);
+    assert!(plain.last().unwrap().1[2] > 1.0, "pushed up");
+    let warmed = press_with(
+        dir.path(),
+        Some((h6d_engine_warm_caches, "h6d_engine_warm_caches")),
+    );
+    assert_eq!(plain, warmed);
 }
 
 #[test]
 fn the_wait_before_a_frame_keeps_the_answers_exact_and_a_bad_limit_is_named() {
     let dir = tempfile::tempdir().unwrap();
-    let run = |wait: bool| {
-        let engine = spheres(dir.path());
-        let (mut w, mut q_g, mut info) = ([0.0; 6], [0.0; 6], H6dFrameInfo::default());
-        let mut frames = Vec::new();
-        // SAFETY: valid pointers.
-        unsafe {
-            for i in 0..200 {
-                if wait {
-                    expect(h6d_engine_idle(engine, 100.0), H6dStatus::Ok, &[]);
-                }
-                press_frame(engine, i, &mut w, &mut q_g, &mut info);
-                assert!(
-                    info.penetration_mm <= 0.01,
-                    "frame {i}: {} mm",
-                    info.penetration_mm
-                );
-                frames.push(q_g);
-            }
-            if wait {
-                for bad in [f64::NAN, -1.0, 2e6] {
-                    expect(
-                        h6d_engine_idle(engine, bad),
-                        H6dStatus::InvalidArgument,
-                        &["h6d_engine_idle", "max_us"],
-                    );
-                }
-                expect(
-                    h6d_engine_idle(null_mut(), 10.0),
-                    H6dStatus::NullArgument,
-                    &["h6d_engine_idle", "engine"],
-                );
-            }
-            h6d_engine_destroy(engine);
-        }
-        frames
-    };
-    let (plain, waited) = (run(false), run(true));
+    let plain = press_with(dir.path(), None);
+    let waited = press_with(dir.path(), Some((h6d_engine_idle, "h6d_engine_idle")));
+    for (i, f) in waited.iter().enumerate() {
+        assert!(f.2 <= 0.01, "frame {i}: {} mm", f.2);
+    }
     // The same press, the same resting pose (the wait changes which frames detect, not the
     // answer).
-    let (a, b) = (plain.last().unwrap(), waited.last().unwrap());
+    let (a, b) = (plain.last().unwrap().1, waited.last().unwrap().1);
     assert!(a[2] > 1.0, "pushed up");
     for k in 0..6 {
         assert!((a[k] - b[k]).abs() < 1e-3, "{a:?} against {b:?}");
