@@ -532,11 +532,11 @@ impl GodObject {
                 (self.probe_splits as f64, PROBE_MIN_SLICE_SPLITS)
             };
             // Paced to finish a little before the horizon (a probe at a pose), or within half
-            // of it (along a path: a hand speeding up along it shortens the horizon), for a
-            // quarter more than the estimate: the horizon is measured at the last frame's motion (a hand speeding up
-            // shortens it) and the estimate is the last probe's cost (the spline's withdrawal
-            // ran a path probe of 20 300 node pairs on an estimate of 16 300 at the least slice
-            // until its last frames, then finished 3 500 of them in one).
+            // of it (along a path: the horizon is measured at the last frame's motion, and a
+            // hand speeding up along the path shortens it), for a quarter more than the
+            // estimate, the last probe's cost (the spline's withdrawal ran a path probe of
+            // 20 300 node pairs on an estimate of 16 300 at the least slice until its last
+            // frames, then finished 3 500 of them in one).
             let left =
                 (PROBE_ESTIMATE_SPARE * estimate - self.probe.splits() as f64).max(0.25 * estimate);
             let within = if self.probe.path() != [0.0; 3] {
@@ -742,13 +742,13 @@ impl GodObject {
 
     /// Uses a paced loop's wait before the next frame (until `until`): the running background
     /// probe and the next neighbour list's build go on here, in slices of 128 node pairs
-    /// between clock reads, until 60 µs before `until`; a list
-    /// finished here is taken at once; the rest of the wait brings the trees into cache
-    /// ([`GodObject::warm_caches`]). What the frames would have done in their own slices is done
-    /// in time nobody else wants, on this thread (the helper thread's work, without a second
-    /// core); a wait of 200 µs or more also lets the next frame keep a list
-    /// wherever one lasts, as with the helper. The answers stay exact (a probe's proof and a list are the same whenever they
-    /// finish); which frames detect, and so their times and counts, may differ.
+    /// between clock reads, until 60 µs before `until`; a list finished here is taken at once;
+    /// the rest of the wait brings the trees into cache ([`GodObject::warm_caches`]). What the
+    /// frames would have done in their own slices is done in time nobody else wants, on this
+    /// thread (the helper thread's work, without a second core); a wait of 200 µs or more also
+    /// lets the next frame keep a list wherever one lasts, as with the helper. The answers stay
+    /// exact (a probe's proof and a list are the same whenever they finish); which frames
+    /// detect, and so their times and counts, may differ.
     ///
     /// # Real-time
     /// No allocation, no panic; returns within one slice (~10–40 µs) of `until`.
