@@ -262,8 +262,9 @@ impl Pacer {
 
     /// [`Pacer::wait`], calling `warm` once as the spin begins with the time it must return
     /// by ([`WARM_STOP_EARLY_US`] before the deadline): the wait's idle time lets the caches
-    /// go cold, and a frame that starts from memory is slower (e.g.
-    /// [`engine::Engine::warm_caches`]).
+    /// go cold, and a frame that starts from memory is slower; the haptic loops pass
+    /// [`engine::Engine::idle`] (the background detection work, then the caches warmed),
+    /// [`engine::Engine::warm_caches`] warms them alone.
     ///
     /// # Real-time
     /// No allocation; sleeps, warms, then spins.
