@@ -3,7 +3,8 @@
 //!
 //! Two pacing modes:
 //! - **real-time** (`LoopParams::realtime`): frame `i` starts at `start + i / rate_hz`; the
-//!   thread sleeps until shortly before the deadline, then spins, yielding to other threads
+//!   thread naps after each frame (and sleeps until `spin_us` before the deadline, when that is
+//!   later), then hands the wait to the engine's background work and spins, yielding to other threads
 //!   ([`Pacer`], shared with the viewer; sleep alone has ~50–100 µs of jitter on a loaded
 //!   Linux box). A frame that ends after the next deadline is an *overrun*;
 //!   when the loop falls more than a whole period behind, the schedule is re-based on the
@@ -32,8 +33,9 @@ pub struct Pacing {
     /// Frames per second, Hz ([`engine::config::RATE_HZ`]; 1000 by default).
     pub rate_hz: f64,
     /// How long before a deadline to stop sleeping and start spinning, µs
-    /// ([`engine::config::SPIN_US`]; [`DEFAULT_SPIN_US`] by default): trades CPU for timing
-    /// precision.
+    /// ([`engine::config::SPIN_US`]; [`DEFAULT_SPIN_US`] by default: after a nap of
+    /// [`NAP_US`], the whole wait): trades CPU for timing precision and for the time the
+    /// engine's background work gets before each frame.
     pub spin_us: f64,
     /// Ask for a real-time scheduling priority (`SCHED_FIFO`, 1 to 99) for the haptic thread
     /// (best effort: needs the privilege; reported in [`LoopStats`]). `None` (the default)
@@ -222,18 +224,33 @@ pub fn set_realtime_priority(_priority: i32) -> bool {
     false
 }
 
-/// How long before a deadline a paced loop stops sleeping and spins, µs: sleep alone wakes
-/// ~50–100 µs late on a loaded Linux box. The default of both haptic loops (`haptic6d run
-/// --realtime` and `haptic6d serve`).
-pub const DEFAULT_SPIN_US: f64 = 400.0;
+/// How long before a deadline a paced loop stops sleeping and spins, µs, by default (both
+/// haptic loops: `haptic6d run --realtime` and `haptic6d serve`): the range's most, so that at
+/// any haptic rate the loop naps [`NAP_US`] after each frame and then spins through the rest
+/// of the wait, handing it to the engine's background work ([`Pacer::wait_warming`]). Measured
+/// on this 2-core VM (docs/BENCHMARKS.md §Session 18): a thread that sleeps until 400 µs before
+/// its deadline wakes on a cold core and starts its background work late (paced spline p99
+/// 277–351 µs against 165–180). It costs a core; 400 shares it (sleep alone wakes ~50–100 µs
+/// late on a loaded Linux box).
+pub const DEFAULT_SPIN_US: f64 = 10_000.0;
+
+/// The nap after each frame, µs, when the deadline is at least [`NAP_MIN_SPIN_US`] further
+/// off: a `SCHED_FIFO` thread that never sleeps is throttled by the kernel's real-time limit
+/// (Linux: 950 ms in every second; measured in session 13: 48 ms gaps between frames). With a
+/// nap of 100 µs in every 1 ms frame the loop runs at most 90 % of the time.
+pub const NAP_US: u64 = 100;
+
+/// Least time (µs) left before the deadline after a nap: a frame that leaves less takes no nap
+/// (a sleep may wake that late).
+pub const NAP_MIN_SPIN_US: u64 = 300;
 
 /// How long before a deadline a warm-up in [`Pacer::wait_warming`] must end, µs (a chunk's
 /// reads past its limit cannot delay the frame).
 pub const WARM_STOP_EARLY_US: u64 = 20;
 
 /// The pacing of a haptic loop, shared by [`run_frames`] and the viewer's loop: frame `i`
-/// starts at its deadline, `start + i` periods; the thread sleeps until `spin` before it, then
-/// spins. A frame that ends after the next deadline is an overrun; a loop more than a whole
+/// starts at its deadline, `start + i` periods; the thread sleeps until `spin` before it (and
+/// for [`NAP_US`] at least, where the wait leaves room), then spins. A frame that ends after the next deadline is an overrun; a loop more than a whole
 /// period behind re-bases its schedule on the current time (no burst of catch-up frames).
 #[derive(Clone, Copy, Debug)]
 pub struct Pacer {
@@ -269,6 +286,20 @@ impl Pacer {
     /// # Real-time
     /// No allocation; sleeps, warms, then spins.
     pub fn wait_warming(&self, mut warm: impl FnMut(Instant)) {
+        let Some(left) = self.deadline.checked_duration_since(Instant::now()) else {
+            return;
+        };
+        // Asleep until the spin, and for the nap at least where the wait leaves room for it.
+        let nap = Duration::from_micros(NAP_US);
+        let nap = if left >= nap + Duration::from_micros(NAP_MIN_SPIN_US) {
+            nap
+        } else {
+            Duration::ZERO
+        };
+        let asleep = left.saturating_sub(self.spin).max(nap);
+        if !asleep.is_zero() {
+            std::thread::sleep(asleep);
+        }
         let mut warmed = false;
         loop {
             let now = Instant::now();
@@ -276,9 +307,7 @@ impl Pacer {
                 return;
             }
             let left = self.deadline - now;
-            if left > self.spin {
-                std::thread::sleep(left - self.spin);
-            } else if !warmed {
+            if !warmed {
                 warmed = true;
                 let early = Duration::from_micros(WARM_STOP_EARLY_US);
                 if left > early {
@@ -479,5 +508,41 @@ mod tests {
             assert!(at + spin >= deadline, "warmed before the spin");
             assert_eq!(until + Duration::from_micros(WARM_STOP_EARLY_US), deadline);
         }
+    }
+
+    /// A spin longer than the period (the default) still naps after each frame, so the loop is
+    /// never throttled as a real-time thread that never sleeps; a frame that leaves too little
+    /// time takes no nap (and still warms, and returns at its deadline).
+    #[test]
+    fn a_wait_that_spins_the_period_naps_first_unless_the_deadline_is_near() {
+        let period = Duration::from_millis(1);
+        let spin = Duration::from_secs_f64(DEFAULT_SPIN_US * 1e-6);
+        assert!(spin > period);
+        let mut pacer = Pacer::new(period, spin);
+        pacer.end_frame();
+        let (began, deadline) = (Instant::now(), pacer.deadline);
+        let mut warmed = Vec::new();
+        pacer.wait_warming(|until| warmed.push((Instant::now(), until)));
+        assert!(Instant::now() >= deadline);
+        if let [(at, _)] = warmed[..] {
+            assert!(
+                at >= began + Duration::from_micros(NAP_US),
+                "warmed before the nap"
+            );
+        } else if deadline - began > Duration::from_micros(NAP_US + NAP_MIN_SPIN_US) {
+            // (A thread preempted through the whole wait finds no time left to warm in.)
+            assert!(warmed.is_empty(), "{} warm-ups", warmed.len());
+        }
+        // Little time left: no nap, the warm-up starts at once.
+        let mut near = Pacer::new(Duration::from_micros(200), spin);
+        near.end_frame();
+        let deadline = near.deadline;
+        let mut calls = 0;
+        near.wait_warming(|until| {
+            calls += 1;
+            assert_eq!(until + Duration::from_micros(WARM_STOP_EARLY_US), deadline);
+        });
+        assert!(Instant::now() >= deadline);
+        assert!(calls <= 1);
     }
 }
