@@ -3,9 +3,9 @@
 //!
 //! Two pacing modes:
 //! - **real-time** (`LoopParams::realtime`): frame `i` starts at `start + i / rate_hz`; the
-//!   thread naps after each frame (and sleeps until `spin_us` before the deadline, when that is
-//!   later), then hands the wait to the engine's background work and spins, yielding to other threads
-//!   ([`Pacer`], shared with the viewer; sleep alone has ~50–100 µs of jitter on a loaded
+//!   thread naps after each frame (and sleeps until `spin_us` before the deadline, when that
+//!   is later), then hands the wait to the engine's background work and spins, yielding to
+//!   other threads ([`Pacer`], shared with the viewer; sleep alone has ~50–100 µs of jitter on a loaded
 //!   Linux box). A frame that ends after the next deadline is an *overrun*;
 //!   when the loop falls more than a whole period behind, the schedule is re-based on the
 //!   current time (no burst of catch-up frames).
@@ -230,8 +230,8 @@ pub fn set_realtime_priority(_priority: i32) -> bool {
 /// of the wait, handing it to the engine's background work ([`Pacer::wait_warming`]). Measured
 /// on this 2-core VM (docs/BENCHMARKS.md §Session 18): a thread that sleeps until 400 µs before
 /// its deadline wakes on a cold core and starts its background work late (paced spline p99
-/// 277–351 µs against 165–180). It costs a core; 400 shares it (sleep alone wakes ~50–100 µs
-/// late on a loaded Linux box).
+/// 201–299 µs against 156–199, least to median of 8 runs). It costs a core; 400 shares it
+/// (sleep alone wakes ~50–100 µs late on a loaded Linux box).
 pub const DEFAULT_SPIN_US: f64 = 10_000.0;
 
 /// The nap after each frame, µs, when the deadline is at least [`NAP_MIN_SPIN_US`] further
@@ -250,8 +250,9 @@ pub const WARM_STOP_EARLY_US: u64 = 20;
 
 /// The pacing of a haptic loop, shared by [`run_frames`] and the viewer's loop: frame `i`
 /// starts at its deadline, `start + i` periods; the thread sleeps until `spin` before it (and
-/// for [`NAP_US`] at least, where the wait leaves room), then spins. A frame that ends after the next deadline is an overrun; a loop more than a whole
-/// period behind re-bases its schedule on the current time (no burst of catch-up frames).
+/// for [`NAP_US`] at least, where the wait leaves room), then spins. A frame that ends after
+/// the next deadline is an overrun; a loop more than a whole period behind re-bases its
+/// schedule on the current time (no burst of catch-up frames).
 #[derive(Clone, Copy, Debug)]
 pub struct Pacer {
     period: Duration,
@@ -524,14 +525,14 @@ mod tests {
         let mut warmed = Vec::new();
         pacer.wait_warming(|until| warmed.push((Instant::now(), until)));
         assert!(Instant::now() >= deadline);
-        if let [(at, _)] = warmed[..] {
+        // Once at most (a thread preempted through the whole wait finds no time left to warm
+        // in), never before the nap is over.
+        assert!(warmed.len() <= 1, "{} warm-ups", warmed.len());
+        for (at, _) in warmed {
             assert!(
                 at >= began + Duration::from_micros(NAP_US),
                 "warmed before the nap"
             );
-        } else if deadline - began > Duration::from_micros(NAP_US + NAP_MIN_SPIN_US) {
-            // (A thread preempted through the whole wait finds no time left to warm in.)
-            assert!(warmed.is_empty(), "{} warm-ups", warmed.len());
         }
         // Little time left: no nap, the warm-up starts at once.
         let mut near = Pacer::new(Duration::from_micros(200), spin);
