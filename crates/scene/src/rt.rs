@@ -512,8 +512,9 @@ mod tests {
     }
 
     /// A spin longer than the period (the default) still naps after each frame, so the loop is
-    /// never throttled as a real-time thread that never sleeps; a frame that leaves too little
-    /// time takes no nap (and still warms, and returns at its deadline).
+    /// never throttled as a real-time thread that never sleeps; a wait too short for the nap
+    /// (which it skips) still warms at most once, with the usual limit, and returns at its
+    /// deadline.
     #[test]
     fn a_wait_that_spins_the_period_naps_first_unless_the_deadline_is_near() {
         let period = Duration::from_millis(1);
@@ -534,7 +535,7 @@ mod tests {
                 "warmed before the nap"
             );
         }
-        // Little time left: no nap, the warm-up starts at once.
+        // Little time left (no nap): the same warm-up and the same deadline.
         let mut near = Pacer::new(Duration::from_micros(200), spin);
         near.end_frame();
         let deadline = near.deadline;
