@@ -152,6 +152,9 @@ fn neighbour_lists_do_not_allocate() {
     // Whole spheres: the dense flat-on-flat contact lists are for (with face caps the puck's
     // regions are cheap and no list is kept; `face_capped_frames_do_not_allocate`).
     scene.solver.face_caps = false;
+    // No deadline cuts a list's slice short: on one thread its schedule is then fixed (a
+    // frame preempted past a 1 ms budget by the other tests on two cores would cut it).
+    scene.solver.budget_us = engine::config::BUDGET_US.hi;
     let traj = scene.trajectory();
     for helper in [false, true] {
         let mut params = scene.engine_config();
