@@ -55,6 +55,16 @@ class FrameInfo:
     """Time building constraints and solving, µs."""
     total_us: float
     """Time of the whole step (without the safety layer), µs."""
+    rows: int
+    """Constraint rows in the frame's largest solve, after reduction (trust-region rows
+    included)."""
+    splits: int
+    """Detection work: node pairs split by the frame's traversals, probe slices and
+    neighbour-list build slices; machine-independent (one thread, no deadline reached)."""
+    scanned: int
+    """Neighbour-list entries the frame tested (each ~10x cheaper than a split)."""
+    margin_mm: float
+    """Detection margin of the frame's first pass, mm."""
     safety: int
     """What the safety layer did (bit set; 0 = nothing)."""
     friction: str

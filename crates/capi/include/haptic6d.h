@@ -277,6 +277,24 @@ typedef struct H6dCounters {
   uint64_t soft_start_frames;
 } H6dCounters;
 
+// The work of the last frame (`h6d_engine_frame_work`): kept apart from `H6dFrameInfo`, whose
+// layout callers already compile against.
+typedef struct H6dFrameWork {
+  // Node pairs split by the frame's traversals, free-space probe slices and neighbour-list
+  // build slices. Unlike the times it does not depend on the machine (one thread, no
+  // deadline reached): frame-step variants can be compared by it.
+  uint32_t splits;
+  // Neighbour-list entries the frame tested (each ~10× cheaper than a split), entries.
+  uint32_t scanned;
+  // Constraint rows in the frame's largest solve, after reduction (trust-region rows
+  // included), rows.
+  uint32_t rows;
+  // Detection margin of the frame's first pass, mm.
+  double margin_mm;
+  // Largest linearised-constraint violation the solver reported, mm.
+  double qp_violation_mm;
+} H6dFrameWork;
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -412,6 +430,14 @@ int32_t h6d_engine_set_friction_enabled(struct H6dEngine *engine, int32_t on);
 // `engine` is NULL or a live engine used by no other thread meanwhile; `out` points to a
 // writable `H6dCounters`.
 int32_t h6d_engine_counters(struct H6dEngine *engine, struct H6dCounters *out);
+
+// Writes the work of the last frame stepped (node pairs split, list entries scanned, rows
+// solved, margin) to `*out`; zeros before the first frame. Allocation-free.
+//
+// # Safety
+// `engine` is NULL or a live engine used by no other thread meanwhile; `out` points to a
+// writable `H6dFrameWork`.
+int32_t h6d_engine_frame_work(struct H6dEngine *engine, struct H6dFrameWork *out);
 
 // Writes the engine's settings to `*out`.
 //

@@ -11,7 +11,7 @@ use scene::TreeParams;
 use spheretree::SphereTree;
 
 use crate::status::{door, fail, non_null, Failure, H6dStatus};
-use crate::types::{H6dBody, H6dConfig, H6dContact, H6dCounters, H6dFrameInfo};
+use crate::types::{H6dBody, H6dConfig, H6dContact, H6dCounters, H6dFrameInfo, H6dFrameWork};
 
 /// An engine behind an opaque pointer. One thread at a time: the engine holds no lock (the
 /// step must not wait), so a handle shared between threads needs the caller's own hand-over.
@@ -522,6 +522,28 @@ pub unsafe extern "C" fn h6d_engine_counters(engine: *mut H6dEngine, out: *mut H
         with_engine(CALL, engine, |e| {
             non_null(CALL, "out", out)?;
             out.write(H6dCounters::from(e.counters()));
+            Ok(())
+        })
+    }
+}
+
+/// Writes the work of the last frame stepped (node pairs split, list entries scanned, rows
+/// solved, margin) to `*out`; zeros before the first frame. Allocation-free.
+///
+/// # Safety
+/// `engine` is NULL or a live engine used by no other thread meanwhile; `out` points to a
+/// writable `H6dFrameWork`.
+#[no_mangle]
+pub unsafe extern "C" fn h6d_engine_frame_work(
+    engine: *mut H6dEngine,
+    out: *mut H6dFrameWork,
+) -> i32 {
+    const CALL: &str = "h6d_engine_frame_work";
+    // SAFETY: the caller's contract.
+    unsafe {
+        with_engine(CALL, engine, |e| {
+            non_null(CALL, "out", out)?;
+            out.write(H6dFrameWork::from(e.frame()));
             Ok(())
         })
     }

@@ -36,8 +36,8 @@ mod types;
 
 pub use crate::engine::{
     h6d_config_default, h6d_engine_config, h6d_engine_contacts, h6d_engine_counters,
-    h6d_engine_destroy, h6d_engine_from_files, h6d_engine_idle, h6d_engine_reset,
-    h6d_engine_set_friction, h6d_engine_set_friction_enabled, h6d_engine_step,
+    h6d_engine_destroy, h6d_engine_frame_work, h6d_engine_from_files, h6d_engine_idle,
+    h6d_engine_reset, h6d_engine_set_friction, h6d_engine_set_friction_enabled, h6d_engine_step,
     h6d_engine_warm_caches, H6dEngine,
 };
 pub use crate::scene::{
@@ -47,6 +47,6 @@ pub use crate::scene::{
 pub use crate::status::{h6d_last_error_message, h6d_status_name, last_error, H6dStatus};
 pub use crate::types::{
     H6dBody, H6dConfig, H6dContact, H6dCounters, H6dForm, H6dFrameInfo, H6dFrameStatus,
-    H6dRotation, H6dSolver, H6D_SAFETY_FORCE_CLAMP, H6D_SAFETY_NAN_GUARD, H6D_SAFETY_RATE_LIMIT,
-    H6D_SAFETY_SOFT_START, H6D_SAFETY_TORQUE_CLAMP,
+    H6dFrameWork, H6dRotation, H6dSolver, H6D_SAFETY_FORCE_CLAMP, H6D_SAFETY_NAN_GUARD,
+    H6D_SAFETY_RATE_LIMIT, H6D_SAFETY_SOFT_START, H6D_SAFETY_TORQUE_CLAMP,
 };

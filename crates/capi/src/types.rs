@@ -285,6 +285,38 @@ impl From<&Frame> for H6dFrameInfo {
     }
 }
 
+/// The work of the last frame (`h6d_engine_frame_work`): kept apart from `H6dFrameInfo`, whose
+/// layout callers already compile against.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct H6dFrameWork {
+    /// Node pairs split by the frame's traversals, free-space probe slices and neighbour-list
+    /// build slices. Unlike the times it does not depend on the machine (one thread, no
+    /// deadline reached): frame-step variants can be compared by it.
+    pub splits: u32,
+    /// Neighbour-list entries the frame tested (each ~10× cheaper than a split), entries.
+    pub scanned: u32,
+    /// Constraint rows in the frame's largest solve, after reduction (trust-region rows
+    /// included), rows.
+    pub rows: u32,
+    /// Detection margin of the frame's first pass, mm.
+    pub margin_mm: f64,
+    /// Largest linearised-constraint violation the solver reported, mm.
+    pub qp_violation_mm: f64,
+}
+
+impl From<&Frame> for H6dFrameWork {
+    fn from(f: &Frame) -> Self {
+        Self {
+            splits: f.splits,
+            scanned: f.scanned,
+            rows: f.rows,
+            margin_mm: f.margin_mm,
+            qp_violation_mm: f.qp_violation,
+        }
+    }
+}
+
 fn frame_status(s: FrameStatus) -> H6dFrameStatus {
     match s {
         FrameStatus::Ok => H6dFrameStatus::Ok,

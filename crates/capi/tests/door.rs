@@ -172,6 +172,11 @@ fn null_pointers_are_named() {
             &["h6d_engine_counters", "`out` is NULL"],
         );
         expect(
+            h6d_engine_frame_work(engine, null_mut()),
+            H6dStatus::NullArgument,
+            &["h6d_engine_frame_work", "`out` is NULL"],
+        );
+        expect(
             h6d_engine_config(engine, null_mut()),
             H6dStatus::NullArgument,
             &["h6d_engine_config"],

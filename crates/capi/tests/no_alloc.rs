@@ -1,6 +1,7 @@
 //! The haptic-frame calls of the C door allocate nothing: the bunny trajectory replayed twice
 //! through `h6d_engine_step` (the second time counted), with `h6d_engine_contacts` (a buffer
-//! too small included), `h6d_engine_counters` and a NaN pose (its error message) on the way.
+//! too small included), `h6d_engine_counters`, `h6d_engine_frame_work` and a NaN pose (its
+//! error message) on the way.
 
 use std::ffi::CString;
 use std::ptr::null_mut;
@@ -52,6 +53,8 @@ fn stepping_through_the_door_does_not_allocate() {
         let mut count = 0usize;
         let mut counters = H6dCounters::default();
         let mut max_pairs = 0usize;
+        let mut work = H6dFrameWork::default();
+        let mut splits = 0u64;
         // SAFETY: valid pointers.
         unsafe {
             assert_eq!(
@@ -73,6 +76,9 @@ fn stepping_through_the_door_does_not_allocate() {
                 h6d_engine_contacts(engine, contacts.as_mut_ptr(), cap, &mut count);
                 max_pairs = max_pairs.max(count);
                 h6d_engine_counters(engine, &mut counters);
+                assert_eq!(h6d_engine_frame_work(engine, &mut work), 0);
+                assert!(work.margin_mm.is_finite() && work.qp_violation_mm.is_finite());
+                splits += u64::from(work.splits);
             }
             let nan = [f64::NAN; 6];
             assert_eq!(
@@ -87,6 +93,7 @@ fn stepping_through_the_door_does_not_allocate() {
                 H6dStatus::InvalidArgument as i32
             );
         }
+        assert!(splits > 0, "no detection work reported");
         (max_pairs, counters.frames)
     };
     replay(engine); // warm-up: buffers grow to the trajectory's largest contact

@@ -268,6 +268,17 @@ struct FrameInfo {
     opt_us: f64,
     /// Time of the whole step (without the safety layer), µs.
     total_us: f64,
+    /// Constraint rows in the frame's largest solve, after reduction (trust-region rows
+    /// included), rows.
+    rows: u32,
+    /// Detection work: node pairs split by the frame's traversals, probe slices and
+    /// neighbour-list build slices. Unlike the times it does not depend on the machine (one
+    /// thread, no deadline reached): compare frame-step variants by it.
+    splits: u32,
+    /// Neighbour-list entries the frame tested (each ~10× cheaper than a split), entries.
+    scanned: u32,
+    /// Detection margin of the frame's first pass, mm.
+    margin_mm: f64,
     /// What the safety layer did (bit set; 0 = nothing).
     safety: u8,
     /// What friction did: `none`, `stick` or `slip`.
@@ -278,12 +289,13 @@ struct FrameInfo {
 impl FrameInfo {
     fn __repr__(&self) -> String {
         format!(
-            "FrameInfo(status='{}', pairs={}, contacts={}, passes={}, iterations={}, penetration_mm={}, total_us={:.3})",
+            "FrameInfo(status='{}', pairs={}, contacts={}, passes={}, iterations={}, splits={}, penetration_mm={}, total_us={:.3})",
             self.status,
             self.pairs,
             self.contacts,
             self.passes,
             self.iterations,
+            self.splits,
             self.penetration_mm,
             self.total_us
         )
@@ -696,6 +708,10 @@ impl PyEngine {
             cd_us: f.cd_us,
             opt_us: f.opt_us,
             total_us: f.total_us,
+            rows: f.rows,
+            splits: f.splits,
+            scanned: f.scanned,
+            margin_mm: f.margin_mm,
             safety: f.safety,
             friction: f.friction.name(),
         };

@@ -59,6 +59,7 @@ def test_step_equals_run_frame_for_frame(bunny):
     assert placed == tuple(traj[0, 1:])
     assert bunny.frames == 0
     max_contacts = 0
+    work = 0
     for i, row in enumerate(traj):
         wrench, q_g, info = bunny.step(tuple(row[1:]))
         expect_w = tuple(cols[n][i] for n in ("fx", "fy", "fz", "tx", "ty", "tz"))
@@ -69,10 +70,14 @@ def test_step_equals_run_frame_for_frame(bunny):
         assert (info.pairs, info.iterations, info.passes) == (
             cols["pairs"][i], cols["iters"][i], cols["passes"][i]
         ), f"frame {i}"
+        assert (info.splits, info.scanned) == (
+            cols["splits"][i], cols["scanned"][i]
+        ), f"frame {i}"
+        work += info.splits
         assert info.penetration_mm == cols["penetration_mm"][i], f"frame {i}"
         assert info.t == i / 1000.0
         max_contacts = max(max_contacts, info.contacts)
-    assert max_contacts > 0
+    assert max_contacts > 0 and work > 0
     assert bunny.q_g == expect_q
 
 
