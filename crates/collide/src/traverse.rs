@@ -1468,13 +1468,21 @@ pub(crate) fn descend_budgeted<const SWEPT: bool, F: FnMut(&LeafPair) -> bool>(
                             } else {
                                 (w, r)
                             };
-                            let tool_box = posed_box::<SWEPT>(ws, tool, ti);
+                            // The node's posed box only where its ball does not clear.
+                            let mut tool_box: Option<PosedBox> = None;
                             // (A slab's thin margin where the node's cuts are one plane.)
                             // A slab's thinner margin for a face, where its disc holds the
                             // node's foot after the slide too (leaves beneath may have other
                             // planes' caps, which could stand for them past its rim).
-                            let clears = |c: &FaceCut, fm: f64, inset: f64| {
-                                c.clears(cw, cr, fm, inset) || c.clears_box(&tool_box, fm, inset)
+                            let mut clears = |c: &FaceCut, fm: f64, inset: f64| {
+                                c.clears(cw, cr, fm, inset)
+                                    || c.clears_box(
+                                        tool_box.get_or_insert_with(|| {
+                                            posed_box::<SWEPT>(ws, tool, ti)
+                                        }),
+                                        fm,
+                                        inset,
+                                    )
                             };
                             if cuts.iter().any(|c| {
                                 clears(c, m, 0.0)
