@@ -142,7 +142,7 @@ fn frames_with_the_helper_thread_do_not_allocate() {
 
 /// Neighbour lists (built a slice per frame, or by the helper thread, swapped into use) cost
 /// the frame's thread no allocation either: the flat puck sliding on the plate at 50 mm/s,
-/// where most regions come from the lists, with and without the helper. Both passes are
+/// where many regions come from the lists, with and without the helper. Both passes are
 /// exact: no frame penetrates.
 #[test]
 fn neighbour_lists_do_not_allocate() {
@@ -176,13 +176,14 @@ fn neighbour_lists_do_not_allocate() {
         assert_eq!(allocs, 0, "helper {helper}: {allocs} (de)allocations");
         let (filtered, traversed) = god.region_counts();
         let (filtered, traversed) = (filtered - before.0, traversed - before.1);
-        // On one thread the lists come on a fixed schedule (most regions are filtered);
-        // a helper's list, back to back (frames of ~40 µs, and a machine busy with other
-        // tests), takes more frames to be ready than at a device's 1 kHz: some regions.
+        // On one thread the lists come on a fixed schedule, built while they answer at least
+        // twice their work (905 of 2 630 regions filtered here); a helper's list, back to
+        // back (frames of ~40 µs, and a machine busy with other tests), takes more frames to
+        // be ready than at a device's 1 kHz: some regions.
         let enough = if helper {
             filtered >= 100
         } else {
-            filtered > traversed
+            3 * filtered > traversed
         };
         assert!(
             enough,

@@ -98,6 +98,7 @@ impl GodObject {
         if let Some((_, proven)) = listed {
             self.frame_scanned += self.neighbours.len() as u64;
             self.regions_filtered += 1;
+            self.list_served = self.list_served.saturating_add(1);
             if sweep.is_none() && slab.is_none() && self.dropped == 0 {
                 self.pairs_question = Some((*q, margin));
             }
@@ -654,8 +655,13 @@ impl GodObject {
         // on time nobody else wants).
         let spared = self.detections_per_frame * self.splits_per_region;
         let costs = self.list_splits as f64 / life.max(1.0);
+        if self.next_neighbours.status() == ListStatus::Empty {
+            self.list_yield = (self.list_yield * LIST_YIELD_RECOVERY).min(LIST_FIRST_YIELD);
+        }
         let pays = self.splits_per_region >= LIST_MIN_REGION_SPLITS
-            && (self.team.is_some() || self.idle_given || costs <= LIST_PAYOFF * spared);
+            && (self.team.is_some()
+                || self.idle_given
+                || (costs <= LIST_PAYOFF * spared && self.list_yield >= LIST_MIN_YIELD));
         // A list holds leaf pairs without the faces' merging and pruning: with face caps its
         // build costs the whole-sphere traversal the faces spare, so none is kept (measured on
         // the spline with caps: p99 579 µs without lists, 727 µs with).
@@ -729,7 +735,16 @@ impl GodObject {
     /// list's margin.
     fn take_next_list(&mut self) {
         let work = self.next_neighbours.work();
+        let in_use = self.neighbours.status() == ListStatus::Ready;
+        let (served, last_work) = (self.list_served, self.list_work);
         if self.next_neighbours.take(&mut self.neighbours) {
+            // What the list it replaces answered, against its work.
+            if in_use {
+                let answered = served as f64 * self.splits_per_region;
+                let sample = answered / last_work.max(1) as f64;
+                self.list_yield = 0.5 * self.list_yield + 0.5 * sample;
+            }
+            self.list_served = 0;
             self.list_work = work;
             self.list_splits = self.neighbours.splits();
             let n = self.neighbours.len().max(1) as f64;

@@ -278,6 +278,26 @@ const LIST_PAYOFF: f64 = 1.5;
 /// and its p99 is 17–18 µs.
 const LIST_MIN_REGION_SPLITS: f64 = 800.0;
 
+/// On the frame's own thread, a neighbour list is built only while the last ones answered at
+/// least this many times their build's work in regions (regions answered times a region's
+/// node pairs; running mean over the lists taken). [`LIST_PAYOFF`]'s prediction misses that a
+/// list in use shrinks the regions to fit inside it (more regions, each cheaper to answer):
+/// in the spline's alignment, lists built every ~20 frames answered 0.5–2 times their work
+/// by this count, and without them the run split 32 % fewer node pairs in all. With this
+/// floor the spline splits 13 % fewer (the alignment 17 %), the bunny's frames are unchanged
+/// (its lists answer 10–85 times their work), and the puck on a plate without face caps
+/// turning at 1 rad/s halves its median frame (docs/BENCHMARKS.md, session 20).
+const LIST_MIN_YIELD: f64 = 2.0;
+
+/// The yield assumed before any list has been used: a contact's first list is tried.
+const LIST_FIRST_YIELD: f64 = 10.0;
+
+/// Per frame with no list building, the yield recovers by this factor (2 from 0.8 in ~46
+/// frames), so a contact whose lists did not pay tries one again soon: after the spline's
+/// drop, where lists answer the shaft's turn in the keyways (at 1.005 the list came late
+/// there, and one frame split 2 310 node pairs instead of 775).
+const LIST_YIELD_RECOVERY: f64 = 1.02;
+
 /// Pairs a neighbour list aims at (filtering them costs ~1 ns each).
 const LIST_TARGET_PAIRS: f64 = 3000.0;
 
@@ -609,6 +629,10 @@ pub struct GodObject {
     /// it spares, as [`LIST_PAYOFF`] was measured).
     list_work: usize,
     list_splits: usize,
+    /// Regions the neighbour list in use has answered since it was taken, and what the last
+    /// lists spared against their build's work (running mean; [`LIST_MIN_YIELD`]).
+    list_served: u32,
+    list_yield: f64,
     /// Node pairs a region's traversal splits in the current contact (running mean), and
     /// regions detected per frame (running mean; this frame's count): what a list spares.
     splits_per_region: f64,
@@ -748,6 +772,8 @@ impl GodObject {
             list_margin: LIST_MARGIN_MM,
             list_work: LIST_FIRST_WORK,
             list_splits: LIST_FIRST_SPLITS,
+            list_served: 0,
+            list_yield: LIST_FIRST_YIELD,
             splits_per_region: 0.0,
             detections_per_frame: 0.0,
             frame_detections: 0,
@@ -875,6 +901,8 @@ impl GodObject {
         self.list_margin = LIST_MARGIN_MM;
         self.list_work = LIST_FIRST_WORK;
         self.list_splits = LIST_FIRST_SPLITS;
+        self.list_served = 0;
+        self.list_yield = LIST_FIRST_YIELD;
         self.splits_per_region = 0.0;
         self.detections_per_frame = 0.0;
         let mut q = *start;
