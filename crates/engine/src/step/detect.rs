@@ -532,8 +532,8 @@ impl GodObject {
             } else {
                 (self.probe_splits as f64, PROBE_MIN_SLICE_SPLITS)
             };
-            // Paced to finish a little before the horizon (a probe at a pose), or within half
-            // of it (along a path: the horizon is measured at the last frame's motion, and a
+            // Paced to finish a little before the horizon (a probe at a pose), or within three
+            // quarters of it (along a path: the horizon is measured at the last frame's motion, and a
             // hand speeding up along the path shortens it), for a quarter more than the
             // estimate, the last probe's cost (the spline's withdrawal ran a path probe of
             // 20 300 node pairs on an estimate of 16 300 at the least slice until its last
