@@ -545,7 +545,13 @@ impl GodObject {
             } else {
                 horizon - PROBE_FINISH_SPARE_FRAMES
             };
-            let slice = (left / within.max(1.0)).clamp(least as f64, PROBE_MAX_SLICE_SPLITS as f64);
+            let mut slice =
+                (left / within.max(1.0)).clamp(least as f64, PROBE_MAX_SLICE_SPLITS as f64);
+            // A new probe's first slice meets its part of the trees cold: a smaller one (the
+            // later slices make up for it).
+            if self.probe.splits() == 0 && horizon > 2.0 {
+                slice *= PROBE_FIRST_SLICE_SHARE;
+            }
             let tt = Instant::now();
             // A slice's node pairs cost 0.05–0.3 µs each (a path's more, a cold tree's more):
             // while the proofs still serve, it also stops at its share of the frame's budget.

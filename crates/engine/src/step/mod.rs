@@ -179,6 +179,13 @@ const PROBE_FINISH_SPARE_FRAMES: f64 = 2.0;
 /// 10 runs drops at p99 from 41.2 to 34.5 µs, at most from 89 to 69 µs.
 const PROBE_FINISH_WITHIN: f64 = 0.75;
 
+/// A new background probe's first slice is this share of its paced slice (when the proofs
+/// last more than 2 frames): it meets its part of the trees out of cache, and its node pairs
+/// cost 2–3 times the next slices' (per-frame minimum of 30 runs of the spline: 372 node pairs
+/// in 61 µs, then 350 in 42; 210 in 57, then 203 in 34). In the spline's hole the largest frame
+/// splits 566 node pairs instead of 775 and 10 frames split over 350 instead of 15.
+const PROBE_FIRST_SLICE_SHARE: f64 = 0.5;
+
 /// A running background probe is paced for this many times its estimated cost.
 const PROBE_ESTIMATE_SPARE: f64 = 1.25;
 
