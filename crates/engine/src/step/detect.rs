@@ -533,8 +533,8 @@ impl GodObject {
                 (self.probe_splits as f64, PROBE_MIN_SLICE_SPLITS)
             };
             // Paced to finish a little before the horizon (a probe at a pose), or within three
-            // quarters of it (along a path: the horizon is measured at the last frame's motion, and a
-            // hand speeding up along the path shortens it), for a quarter more than the
+            // quarters of it (along a path: the horizon is measured at the last frame's motion,
+            // and a hand speeding up along the path shortens it), for a quarter more than the
             // estimate, the last probe's cost (the spline's withdrawal ran a path probe of
             // 20 300 node pairs on an estimate of 16 300 at the least slice until its last
             // frames, then finished 3 500 of them in one).
@@ -1046,6 +1046,64 @@ mod tests {
             .unwrap();
         assert!((short - 0.1).abs() < 1e-9, "{short}");
         assert_eq!(g.region_counts(), (2, 1));
+    }
+
+    /// A neighbour list that answered less than [`LIST_MIN_YIELD`] times its build's work
+    /// brings the yield below it when the next list replaces it (no list is then built on the
+    /// frame's own thread); frames with no list building let the yield recover, up to the
+    /// first list's, and a list that answered well brings it back at once.
+    #[test]
+    fn lists_that_answered_little_stop_the_next_until_the_yield_recovers() {
+        let mut g = ring_near_object(0.2);
+        let ready_next = |g: &mut GodObject| {
+            g.next_neighbours
+                .start(&g.tool, &Pose::identity(), 0.5)
+                .unwrap();
+            while g.next_neighbours.status() == ListStatus::Building {
+                let (tool, objects) = (&g.tool, &g.objects);
+                g.next_neighbours
+                    .advance(tool, objects, 1 << 20, 1 << 20, None, None);
+            }
+            assert_eq!(g.next_neighbours.status(), ListStatus::Ready);
+        };
+        // The first list: nothing in use before it, so no sample.
+        assert_eq!(g.list_yield, LIST_FIRST_YIELD);
+        ready_next(&mut g);
+        g.take_next_list();
+        assert_eq!(g.neighbours.status(), ListStatus::Ready);
+        assert_eq!(g.list_yield, LIST_FIRST_YIELD);
+        // It answered 1 region of 1 000 node pairs for 8 000 units of work: 0.125.
+        g.list_served = 1;
+        g.splits_per_region = 1000.0;
+        g.list_work = 8000;
+        g.list_yield = 1.0;
+        ready_next(&mut g);
+        g.take_next_list();
+        assert!((g.list_yield - 0.5625).abs() < 1e-12, "{}", g.list_yield);
+        assert!(g.list_yield < LIST_MIN_YIELD);
+        assert_eq!(g.list_served, 0);
+        // Frames with no list building (free space here: no pair) recover it, 2 % a frame:
+        // past the floor after ln(2 / 0.5625) / ln(1.02) = 64.1 frames, capped at the first.
+        let q = Pose::identity();
+        let deadline = Instant::now() + std::time::Duration::from_secs(1);
+        assert!(g.pairs.is_empty());
+        for _ in 0..64 {
+            g.tend_neighbours(&q, 0.05, deadline);
+        }
+        assert!(g.list_yield < LIST_MIN_YIELD, "{}", g.list_yield);
+        g.tend_neighbours(&q, 0.05, deadline);
+        assert!(g.list_yield >= LIST_MIN_YIELD, "{}", g.list_yield);
+        for _ in 0..200 {
+            g.tend_neighbours(&q, 0.05, deadline);
+        }
+        assert_eq!(g.list_yield, LIST_FIRST_YIELD);
+        // A list that answered 40 regions of 1 000 for 8 000: 5, halfway from 1.
+        g.list_yield = 1.0;
+        g.list_served = 40;
+        g.list_work = 8000;
+        ready_next(&mut g);
+        g.take_next_list();
+        assert!((g.list_yield - 3.0).abs() < 1e-12, "{}", g.list_yield);
     }
 
     /// A tool at rest 0.2 mm from an object, with a proof of 0.05 mm about it: background
