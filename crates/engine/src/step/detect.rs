@@ -1072,14 +1072,20 @@ mod tests {
         g.take_next_list();
         assert_eq!(g.neighbours.status(), ListStatus::Ready);
         assert_eq!(g.list_yield, LIST_FIRST_YIELD);
-        // It answered 1 region of 1 000 node pairs for 8 000 units of work: 0.125.
-        g.list_served = 1;
-        g.splits_per_region = 1000.0;
-        g.list_work = 8000;
-        g.list_yield = 1.0;
-        ready_next(&mut g);
-        g.take_next_list();
-        assert!((g.list_yield - 0.5625).abs() < 1e-12, "{}", g.list_yield);
+        // The list in use answered `served` regions of 1 000 node pairs for 8 000 units of
+        // work; the next one replaces it, from a yield of 1.
+        let replace_after = |g: &mut GodObject, served: u32| {
+            g.list_served = served;
+            g.splits_per_region = 1000.0;
+            g.list_work = 8000;
+            g.list_yield = 1.0;
+            ready_next(g);
+            g.take_next_list();
+            g.list_yield
+        };
+        // 1 region: 0.125.
+        let y = replace_after(&mut g, 1);
+        assert!((y - 0.5625).abs() < 1e-12, "{y}");
         assert!(g.list_yield < LIST_MIN_YIELD);
         assert_eq!(g.list_served, 0);
         // Frames with no list building (free space here: no pair) recover it, 2 % a frame:
@@ -1097,13 +1103,9 @@ mod tests {
             g.tend_neighbours(&q, 0.05, deadline);
         }
         assert_eq!(g.list_yield, LIST_FIRST_YIELD);
-        // A list that answered 40 regions of 1 000 for 8 000: 5, halfway from 1.
-        g.list_yield = 1.0;
-        g.list_served = 40;
-        g.list_work = 8000;
-        ready_next(&mut g);
-        g.take_next_list();
-        assert!((g.list_yield - 3.0).abs() < 1e-12, "{}", g.list_yield);
+        // 40 regions: 5, halfway from 1.
+        let y = replace_after(&mut g, 40);
+        assert!((y - 3.0).abs() < 1e-12, "{y}");
     }
 
     /// A tool at rest 0.2 mm from an object, with a proof of 0.05 mm about it: background
