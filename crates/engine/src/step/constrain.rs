@@ -59,18 +59,27 @@ impl GodObject {
                     dir,
                     along,
                     across,
+                    turn,
                     rot,
+                    rot_across,
                 },
                 base,
                 _,
             )) => {
-                // Translation in the basis (dir, e1, e2); rotation per component.
+                // Translation in the basis (dir, e1, e2); rotation in (turn, f1, f2), or per
+                // component without a turn.
                 let (e1, e2) = complement(&dir);
                 n += self.push_turned(n, 0, [(dir, along), (e1, across), (e2, across)], &base);
-                for k in 3..6 {
-                    let mut e = [0.0; 6];
-                    e[k] = 1.0;
-                    n += self.push_slab(n, &e, base[k] - rot, base[k] + rot);
+                if turn == [0.0; 3] {
+                    for k in 3..6 {
+                        let mut e = [0.0; 6];
+                        e[k] = 1.0;
+                        n += self.push_slab(n, &e, base[k] - rot, base[k] + rot);
+                    }
+                } else {
+                    let (f1, f2) = complement(&turn);
+                    let axes = [(turn, rot), (f1, rot_across), (f2, rot_across)];
+                    n += self.push_turned(n, 3, axes, &base);
                 }
             }
             Some((
@@ -179,11 +188,18 @@ impl GodObject {
                 }
                 Trust::Path(a) => a,
                 Trust::Oriented {
-                    along, across, rot, ..
+                    along,
+                    across,
+                    turn,
+                    rot,
+                    rot_across,
+                    ..
                 } => match (i - from) / 2 {
                     0 => along,
                     1 | 2 => across,
-                    _ => rot,
+                    3 => rot,
+                    _ if turn == [0.0; 3] => rot,
+                    _ => rot_across,
                 },
                 Trust::Slab {
                     across,
@@ -227,33 +243,50 @@ impl GodObject {
         Trust::Box(a, b)
     }
 
-    /// [`GodObject::trust_box`] with its translation part turned to the predicted translation
-    /// `step` (mm): the translation budget `allowed · share_t` is split into 0.85 of it along
-    /// `step` and 0.37 across (`sqrt(0.85² + 2 · 0.37²) < 1`: no sphere moves farther than in
-    /// the box), so a tool sliding along `step` goes 0.85 of it instead of `1 / sqrt(3)`. An
-    /// axis-aligned box when `step` is too short to give a direction.
+    /// [`GodObject::trust_box`] turned to the expected motion: its translation part to the
+    /// translation `step` (mm), its rotation part (rotation-vector coordinates) to the turn
+    /// `turn` (a rotation vector, rad). Each part's budget (`sqrt(3)` times its half-width
+    /// per axis in the box) is split into 0.85 of it along the motion and 0.37 across
+    /// (`sqrt(0.85² + 2 · 0.37²) < 1`: no sphere moves farther than in the box), so a tool
+    /// sliding along `step` or turning about `turn` goes 0.85 of it instead of `1 / sqrt(3)`.
+    /// A part stays axis-aligned where its motion is too short to give a direction.
     pub(super) fn trust_oriented(
         &self,
         allowed: f64,
         need_t: f64,
         need_r: f64,
         step: &Vector3<f64>,
+        turn: &Vector3<f64>,
         reach: f64,
     ) -> Trust {
-        let Trust::Box(a, rot) = self.trust_box(allowed, need_t, need_r, reach) else {
+        let Trust::Box(a, b) = self.trust_box(allowed, need_t, need_r, reach) else {
             return self.trust_box(allowed, need_t, need_r, reach);
         };
-        let len = step.norm();
-        if !len.is_finite() || len <= 1e-9 * allowed.max(1e-9) {
-            return Trust::Box(a, rot);
-        }
-        // The box's translation half-width per axis is budget / sqrt(3).
-        let budget = a * 3f64.sqrt();
+        let (len, angle) = (step.norm(), turn.norm());
+        let slides = len.is_finite() && len > 1e-9 * allowed.max(1e-9);
+        let turns = self.params.rotation == RotationCoordinates::RotationVector
+            && angle.is_finite()
+            && angle > 1e-9 * b.max(1e-12);
+        // (An axis-aligned part is written in any orthonormal basis with equal widths.)
+        let (dir, along, across) = if slides {
+            let budget = a * 3f64.sqrt();
+            ((step / len).into(), 0.85 * budget, 0.37 * budget)
+        } else {
+            ([1.0, 0.0, 0.0], a, a)
+        };
+        let (turn, rot, rot_across) = if turns {
+            let budget = b * 3f64.sqrt();
+            ((turn / angle).into(), 0.85 * budget, 0.37 * budget)
+        } else {
+            ([0.0; 3], b, b)
+        };
         Trust::Oriented {
-            dir: (step / len).into(),
-            along: 0.85 * budget,
-            across: 0.37 * budget,
+            dir,
+            along,
+            across,
+            turn,
             rot,
+            rot_across,
         }
     }
 
@@ -288,6 +321,126 @@ impl GodObject {
             along,
             spin,
             tilt,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use spheretree::{Sphere, SphereTree};
+
+    /// A small tool far from one object sphere (only the trust rows matter here).
+    fn god_object() -> GodObject {
+        let mut tool = SphereTree::new_unused(2, 8).unwrap();
+        for k in 0..8 {
+            let a = std::f64::consts::FRAC_PI_4 * k as f64;
+            tool.spheres_mut()[1 + k] = Sphere::new([10.0 * a.cos(), 10.0 * a.sin(), 0.0], 1.0);
+        }
+        tool.spheres_mut()[0] = Sphere::new([0.0; 3], 12.0);
+        let mut object = SphereTree::new_unused(1, 8).unwrap();
+        object.spheres_mut()[0] = Sphere::new([500.0, 0.0, 0.0], 1.0);
+        GodObject::new(
+            &tool,
+            &[(object, Pose::identity())],
+            EngineConfig::default(),
+        )
+        .unwrap()
+    }
+
+    /// The trust rows written for `trust` about zero, as (row, half-width) per axis: each
+    /// axis is written as `u . dq >= -w` and `-u . dq >= -w`.
+    fn axes(g: &mut GodObject, trust: Trust) -> (Vec<([f64; 6], f64)>, usize) {
+        let q = Pose::identity();
+        let lin = g.linearization(&q, &q).unwrap();
+        let n = g.fill_rows(&lin, Some((trust, [0.0; 6], [0.0; 6])));
+        let axes = (0..n / 2)
+            .map(|k| {
+                let (lo, hi) = (g.rhs[2 * k], -g.rhs[2 * k + 1]);
+                assert!((lo + hi).abs() < 1e-12, "the box is centred on its base");
+                (g.rows[2 * k], 0.5 * (hi - lo))
+            })
+            .collect();
+        (axes, n)
+    }
+
+    fn norm(v: &[f64]) -> f64 {
+        v.iter().map(|x| x * x).sum::<f64>().sqrt()
+    }
+
+    /// Turned to any translation and any turn, or to neither, at any share of translation
+    /// against rotation, no corner of the box moves a point within `reach` of the tool's
+    /// origin by more than the region allows (`|dt| + |w| reach`, and the exact motion of
+    /// points on that sphere), and the box reaches `0.85` of its budget along the motion it
+    /// is turned to; at every corner the box binds.
+    #[test]
+    fn a_turned_box_moves_no_point_farther_than_its_ball_and_goes_farther_along_its_way() {
+        let mut g = god_object();
+        let (allowed, reach) = (0.11, 22.9);
+        let dirs = [
+            Vector3::zeros(),
+            Vector3::new(0.0, 0.0, -0.012),
+            Vector3::new(0.53, 0.47, 0.71),
+            Vector3::new(-1e-3, 2e-3, 5e-4),
+        ];
+        for step in &dirs {
+            for turn in &dirs {
+                for (need_t, need_r) in [(1.0, 0.0), (0.2, 1.8), (0.5, 0.5), (0.0, 0.0)] {
+                    let trust = g.trust_oriented(allowed, need_t, need_r, step, turn, reach);
+                    let (axes, n) = axes(&mut g, trust);
+                    assert_eq!(axes.len(), 6);
+                    for signs in 0..64u32 {
+                        let mut dq = [0.0; 6];
+                        for (k, (u, w)) in axes.iter().enumerate() {
+                            let s = if signs >> k & 1 == 1 { 1.0 } else { -1.0 };
+                            for (d, x) in dq.iter_mut().zip(u) {
+                                *d += s * w * x;
+                            }
+                        }
+                        let (dt, dw) = (norm(&dq[..3]), norm(&dq[3..]));
+                        assert!(
+                            dt + dw * reach <= allowed * (1.0 + 1e-9),
+                            "{trust:?}: {dt} + {dw} * {reach} > {allowed}"
+                        );
+                        let w = Vector3::new(dq[3], dq[4], dq[5]);
+                        let turned = rotation_exp(&w);
+                        for p in [Vector3::x(), Vector3::y(), Vector3::z(), w.normalize()] {
+                            if !p.iter().all(|v| v.is_finite()) {
+                                continue;
+                            }
+                            let p = p * reach;
+                            let moved = Vector3::new(dq[0], dq[1], dq[2]) + turned * p - p;
+                            assert!(moved.norm() <= allowed * (1.0 + 1e-9));
+                        }
+                        assert!(g.trust_binds(trust, 0, n, &dq));
+                    }
+                    let share_t = (need_t / (need_t + need_r)).clamp(0.2, 0.8);
+                    let share_t = if need_t + need_r > 0.0 { share_t } else { 0.5 };
+                    if step.norm() > 0.0 {
+                        // Along the step: 0.85 of the translation budget.
+                        let along = axes[..3]
+                            .iter()
+                            .map(|(u, w)| w * (u[0] * step.x + u[1] * step.y + u[2] * step.z))
+                            .map(f64::abs)
+                            .fold(0.0, f64::max)
+                            / step.norm();
+                        assert!(
+                            (along - 0.85 * allowed * share_t).abs() < 1e-12,
+                            "{trust:?}"
+                        );
+                    }
+                    if turn.norm() > 0.0 {
+                        let about = axes[3..]
+                            .iter()
+                            .map(|(u, w)| w * (u[3] * turn.x + u[4] * turn.y + u[5] * turn.z))
+                            .map(f64::abs)
+                            .fold(0.0, f64::max)
+                            / turn.norm();
+                        let budget = (allowed * (1.0 - share_t) / reach).min(0.5 * 3f64.sqrt());
+                        assert!((about - 0.85 * budget).abs() < 1e-12, "{trust:?}");
+                    }
+                }
+            }
         }
     }
 }

@@ -435,6 +435,11 @@ const LEVER_MAX_TESTS: usize = 8_000;
 /// regions are cheap to detect again (a first contact then costs no more than it did).
 const LEVER_MIN_PAIRS: usize = 100;
 
+/// A pass whose answer stayed within this share of its region's width (its motion bound from
+/// the region's centre) crept: its trust box or the contact stopped it well inside its ball,
+/// and the next region's trust box is turned to that pass's motion.
+const CREEP_SHARE: f64 = 0.5;
+
 /// A tool left behind that moved at least this far (mm) in its last frame is falling toward
 /// the hand: its path region is the straight way there.
 const FALL_MIN_STEP_MM: f64 = 0.1;
@@ -451,14 +456,18 @@ enum Trust {
     /// A thin slab around the predicted path (a segment in the QP variable): half-width (mm,
     /// in the variable scaled by `reach` for rotations) along and across it.
     Path(f64),
-    /// A box turned to the predicted motion: translation half-widths along the unit direction
-    /// `dir` and across it (mm), rotation half-width per component (rad). A ball region lasts
-    /// longer for a tool sliding along `dir` than in an axis-aligned box of the same ball.
+    /// A box turned to the expected motion: translation half-widths along the unit direction
+    /// `dir` and across it (mm); rotation half-widths about the unit axis `turn` (`rot`) and
+    /// about the two axes across it (`rot_across`; rad), or `rot` per component where `turn`
+    /// is zero. A ball region lasts longer for a tool sliding along `dir` or turning about
+    /// `turn` than in an axis-aligned box of the same ball.
     Oriented {
         dir: [f64; 3],
         along: f64,
         across: f64,
+        turn: [f64; 3],
         rot: f64,
+        rot_across: f64,
     },
     /// A slab region's box, turned to the face's unit `normal`: translation half-widths
     /// across the face (`normal`) and along it (each of two axes), rotation half-widths about
@@ -1073,6 +1082,10 @@ impl GodObject {
         let mut recentred_in_frame = false;
         // The last pass's answer was bound by a reused region's trust box.
         let mut reused_bound = false;
+        // The last pass's motion in this frame (translation mm, turn as a world rotation
+        // vector) and whether it crept (ended well inside its region: a trust box bound it).
+        let (mut pass_step, mut pass_turn) = (Vector3::zeros(), Vector3::zeros());
+        let mut crept = false;
         let (mut cd, mut opt, mut longest_pass) = (0.0, 0.0, 0.0f64);
         for pass in 0..max_passes {
             let t_pass = Instant::now();
@@ -1433,10 +1446,24 @@ impl GodObject {
                             }
                         };
                         let (s_need, s_pred) = (share(need_t, need_r), share(pred_t, pred_r));
-                        let t = s_need.max(s_pred);
-                        let r = (1.0 - s_need).max(1.0 - s_pred);
-                        let step = q_pred.translation() - q_lin.translation();
-                        self.trust_oriented(allowed, t, r, &step, lever_reach)
+                        let mut t = s_need.max(s_pred);
+                        let mut r = (1.0 - s_need).max(1.0 - s_pred);
+                        // A tool that crept through a tight fit in this frame's last pass (its
+                        // box bound well inside its ball: the contact, not the hand, sets its
+                        // way; the spline's drop into the keyways) goes on as it went; else as
+                        // predicted, turning on as in the last frame.
+                        let (step, turn) = if crept {
+                            let s_pass = share(pass_step.norm(), pass_turn.norm() * lever_reach);
+                            t = t.max(s_pass);
+                            r = r.max(1.0 - s_pass);
+                            (pass_step, pass_turn)
+                        } else {
+                            (
+                                q_pred.translation() - q_lin.translation(),
+                                Vector3::from(self.last_turn),
+                            )
+                        };
+                        self.trust_oriented(allowed, t, r, &step, &turn, lever_reach)
                     }
                     (None, None) => self.trust_box(allowed, need_t, need_r, self.reach),
                 });
@@ -1558,6 +1585,10 @@ impl GodObject {
                 detect_now = true;
             }
             // Penetrating or undershooting: re-linearise at q_new (same pairs).
+            pass_step = q_new.translation() - q_lin.translation();
+            pass_turn =
+                rotation_log(&(q_new.rotation_matrix() * q_lin.rotation_matrix().transpose()));
+            crept = moved < CREEP_SHARE * region.width;
             q_lin = q_new;
         }
         if !reached {
