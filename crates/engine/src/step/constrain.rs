@@ -328,25 +328,7 @@ impl GodObject {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use spheretree::{Sphere, SphereTree};
-
-    /// A small tool far from one object sphere (only the trust rows matter here).
-    fn god_object() -> GodObject {
-        let mut tool = SphereTree::new_unused(2, 8).unwrap();
-        for k in 0..8 {
-            let a = std::f64::consts::FRAC_PI_4 * k as f64;
-            tool.spheres_mut()[1 + k] = Sphere::new([10.0 * a.cos(), 10.0 * a.sin(), 0.0], 1.0);
-        }
-        tool.spheres_mut()[0] = Sphere::new([0.0; 3], 12.0);
-        let mut object = SphereTree::new_unused(1, 8).unwrap();
-        object.spheres_mut()[0] = Sphere::new([500.0, 0.0, 0.0], 1.0);
-        GodObject::new(
-            &tool,
-            &[(object, Pose::identity())],
-            EngineConfig::default(),
-        )
-        .unwrap()
-    }
+    use crate::step::detect::tests::shaft;
 
     /// The trust rows written for `trust` about zero, as (row, half-width) per axis: each
     /// axis is written as `u . dq >= -w` and `-u . dq >= -w`.
@@ -375,7 +357,7 @@ mod tests {
     /// is turned to; at every corner the box binds.
     #[test]
     fn a_turned_box_moves_no_point_farther_than_its_ball_and_goes_farther_along_its_way() {
-        let mut g = god_object();
+        let mut g = shaft();
         let (allowed, reach) = (0.11, 22.9);
         let dirs = [
             Vector3::zeros(),

@@ -888,13 +888,13 @@ fn segment_distance(p: &Vector3<f64>, path: &Vector3<f64>) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use spheretree::Sphere;
 
     /// A shaft-like tool (leaf centres on a cylinder of radius 12 mm, 0–50 mm along z) far
     /// from one object sphere.
-    fn shaft() -> GodObject {
+    pub(in crate::step) fn shaft() -> GodObject {
         let mut tool = SphereTree::new_unused(2, 8).unwrap();
         for k in 0..8 {
             let a = std::f64::consts::FRAC_PI_4 * k as f64;
