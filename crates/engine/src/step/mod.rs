@@ -1083,7 +1083,7 @@ impl GodObject {
         // The last pass's answer was bound by a reused region's trust box.
         let mut reused_bound = false;
         // The last pass's motion in this frame (translation mm, turn as a world rotation
-        // vector) and whether it crept (ended well inside its region: a trust box bound it).
+        // vector) and whether it crept (ended within CREEP_SHARE of its region's width).
         let (mut pass_step, mut pass_turn) = (Vector3::zeros(), Vector3::zeros());
         let mut crept = false;
         let (mut cd, mut opt, mut longest_pass) = (0.0, 0.0, 0.0f64);
@@ -1448,8 +1448,8 @@ impl GodObject {
                         let (s_need, s_pred) = (share(need_t, need_r), share(pred_t, pred_r));
                         let mut t = s_need.max(s_pred);
                         let mut r = (1.0 - s_need).max(1.0 - s_pred);
-                        // A tool that crept through a tight fit in this frame's last pass (its
-                        // box bound well inside its ball: the contact, not the hand, sets its
+                        // A tool that crept through a tight fit in this frame's last pass
+                        // (stopped well inside its ball: the contact, not the hand, sets its
                         // way; the spline's drop into the keyways) goes on as it went; else as
                         // predicted, turning on as in the last frame.
                         let (step, turn) = if crept {
