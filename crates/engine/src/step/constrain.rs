@@ -190,7 +190,6 @@ impl GodObject {
                 Trust::Oriented {
                     along,
                     across,
-                    turn,
                     rot,
                     rot_across,
                     ..
@@ -198,7 +197,6 @@ impl GodObject {
                     0 => along,
                     1 | 2 => across,
                     3 => rot,
-                    _ if turn == [0.0; 3] => rot,
                     _ => rot_across,
                 },
                 Trust::Slab {

@@ -459,7 +459,7 @@ enum Trust {
     /// A box turned to the expected motion: translation half-widths along the unit direction
     /// `dir` and across it (mm); rotation half-widths about the unit axis `turn` (`rot`) and
     /// about the two axes across it (`rot_across`; rad), or `rot` per component where `turn`
-    /// is zero. A ball region lasts longer for a tool sliding along `dir` or turning about
+    /// is zero (`rot_across` is then `rot`). A ball region lasts longer for a tool sliding along `dir` or turning about
     /// `turn` than in an axis-aligned box of the same ball.
     Oriented {
         dir: [f64; 3],
@@ -1082,10 +1082,9 @@ impl GodObject {
         let mut recentred_in_frame = false;
         // The last pass's answer was bound by a reused region's trust box.
         let mut reused_bound = false;
-        // The last pass's motion in this frame (translation mm, turn as a world rotation
-        // vector) and whether it crept (ended within CREEP_SHARE of its region's width).
-        let (mut pass_step, mut pass_turn) = (Vector3::zeros(), Vector3::zeros());
-        let mut crept = false;
+        // Where this frame's last pass started, when it crept (its answer, now q_lin, within
+        // CREEP_SHARE of its region's width).
+        let mut crept_from: Option<Pose> = None;
         let (mut cd, mut opt, mut longest_pass) = (0.0, 0.0, 0.0f64);
         for pass in 0..max_passes {
             let t_pass = Instant::now();
@@ -1452,7 +1451,11 @@ impl GodObject {
                         // (stopped well inside its ball: the contact, not the hand, sets its
                         // way; the spline's drop into the keyways) goes on as it went; else as
                         // predicted, turning on as in the last frame.
-                        let (step, turn) = if crept {
+                        let (step, turn) = if let Some(from) = crept_from {
+                            let pass_step = q_lin.translation() - from.translation();
+                            let pass_turn = rotation_log(
+                                &(q_lin.rotation_matrix() * from.rotation_matrix().transpose()),
+                            );
                             let s_pass = share(pass_step.norm(), pass_turn.norm() * lever_reach);
                             t = t.max(s_pass);
                             r = r.max(1.0 - s_pass);
@@ -1585,10 +1588,7 @@ impl GodObject {
                 detect_now = true;
             }
             // Penetrating or undershooting: re-linearise at q_new (same pairs).
-            pass_step = q_new.translation() - q_lin.translation();
-            pass_turn =
-                rotation_log(&(q_new.rotation_matrix() * q_lin.rotation_matrix().transpose()));
-            crept = moved < CREEP_SHARE * region.width;
+            crept_from = (moved < CREEP_SHARE * region.width).then_some(q_lin);
             q_lin = q_new;
         }
         if !reached {
