@@ -9,7 +9,7 @@ use engine::SolverKind;
 use plotters::prelude::*;
 
 use crate::bench_report::{BenchReport, SceneReplays};
-use crate::plot::{chart, register_font, render_png, Series};
+use crate::plot::{chart, register_font, render_png, time_chart, Series};
 
 /// Colour of a solver in every bench plot.
 fn solver_color(name: &str) -> RGBColor {
@@ -52,16 +52,15 @@ pub fn write_bench_plots(dir: &Path, replays: &[SceneReplays], report: &BenchRep
                 values: frames
                     .iter()
                     .enumerate()
-                    .map(|(i, f)| (i as f64, f.total_us.max(0.01).log10()))
+                    .map(|(i, f)| (i as f64, f.total_us))
                     .collect(),
             })
             .collect();
         render_png(&dir.join(format!("bench_time_{scene}.png")), 480, |root| {
-            chart(
+            time_chart(
                 root,
-                &format!("{scene}: frame time per solver (log10 µs)"),
+                &format!("{scene}: frame time per solver"),
                 "frame",
-                "log10(total µs)",
                 &series,
             )
         })?;

@@ -99,6 +99,87 @@ where
     Ok(())
 }
 
+/// One frame at 1 kHz, the engine's default time budget (`budget_us`), µs: the line drawn on
+/// every frame-time plot.
+pub(crate) const FRAME_BUDGET_US: f64 = 1000.0;
+
+/// The smallest time a frame-time plot shows, µs (a stage that took no time sits on it).
+const TIME_FLOOR_US: f64 = 0.1;
+
+/// Draws frame times (µs) into `area` on a logarithmic axis, with the 1 ms frame budget as a
+/// dashed red line: a frame's distance below the line is its headroom, whatever its size.
+pub(crate) fn time_chart<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    title: &str,
+    x_label: &str,
+    series: &[Series<'_>],
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let (x0, x1, _, _) = range(series);
+    let mut lo = f64::INFINITY;
+    let mut hi = FRAME_BUDGET_US;
+    for s in series {
+        for &(_, y) in &s.values {
+            if y.is_finite() {
+                lo = lo.min(y.max(TIME_FLOOR_US));
+                hi = hi.max(y);
+            }
+        }
+    }
+    if !lo.is_finite() {
+        lo = TIME_FLOOR_US;
+    }
+    let (y0, y1) = (lo / 1.5, hi * 1.5);
+    let mut ch = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 20))
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+        .map_err(|e| anyhow!("{e:?}"))?;
+    ch.configure_mesh()
+        .x_desc(x_label)
+        .y_desc("µs (log scale)")
+        .y_label_formatter(&|v| {
+            if *v >= 1.0 {
+                format!("{v:.0}")
+            } else {
+                format!("{v:.1}")
+            }
+        })
+        .label_style(("sans-serif", 14))
+        .draw()
+        .map_err(|e| anyhow!("{e:?}"))?;
+    for s in series {
+        let c = s.color;
+        let points = s.values.iter().map(|&(x, y)| (x, y.max(TIME_FLOOR_US)));
+        ch.draw_series(LineSeries::new(points, c.stroke_width(1)))
+            .map_err(|e| anyhow!("{e:?}"))?
+            .label(s.label)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+    }
+    let budget = RED.stroke_width(2);
+    ch.draw_series(DashedLineSeries::new(
+        [(x0, FRAME_BUDGET_US), (x1, FRAME_BUDGET_US)],
+        8,
+        6,
+        budget,
+    ))
+    .map_err(|e| anyhow!("{e:?}"))?
+    .label("frame budget, 1 ms")
+    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], budget));
+    ch.configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 14))
+        .draw()
+        .map_err(|e| anyhow!("{e:?}"))?;
+    Ok(())
+}
+
 /// Renders to a temporary file next to `path` and renames it into place.
 pub(crate) fn render_png(
     path: &Path,
@@ -147,12 +228,16 @@ pub fn write_plots(dir: &Path, frames: &[FrameRecord], title: &str) -> Result<Ve
 
     let p = dir.join("timing.png");
     render_png(&p, H, |root| {
-        chart(
+        time_chart(
             root,
             &format!("{title}: time per stage per frame"),
             "time (s)",
-            "µs",
             &[
+                Series {
+                    label: "total",
+                    color: BLACK,
+                    values: xy(&|r| r.frame.total_us),
+                },
                 Series {
                     label: "collision detection",
                     color: RGBColor(230, 120, 0),
@@ -162,11 +247,6 @@ pub fn write_plots(dir: &Path, frames: &[FrameRecord], title: &str) -> Result<Ve
                     label: "optimisation",
                     color: RGBColor(0, 150, 60),
                     values: xy(&|r| r.frame.opt_us),
-                },
-                Series {
-                    label: "total",
-                    color: BLACK,
-                    values: xy(&|r| r.frame.total_us),
                 },
             ],
         )
