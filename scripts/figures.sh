@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Regenerates every published figure of README.md and docs/ from an EMPTY tree cache, and keeps
-# the raw outputs with the commit they were measured at.
+# Regenerates every figure of docs/BENCHMARKS.md (and README.md's outputs) from an EMPTY tree
+# cache, in the page's order, and keeps the raw outputs with the commit they were measured at.
+# The plots the page shows are copied into docs/benchmarks/.
 #
 #   scripts/figures.sh                      # everything (about 1 to 2 hours on 2 cores)
 #   scripts/figures.sh --only trees,run     # some sections
@@ -19,7 +20,7 @@
 # Measure on a quiet machine: the timings are wall clock.
 set -uo pipefail
 
-SECTIONS="meta build trees run bench qp collide spheretree viewer"
+SECTIONS="meta build run frame bench studies peer_tune qp collide trees scaling spheretree doors stability viewer"
 
 describe() {
   cat <<'EOF'
@@ -29,14 +30,26 @@ build       cargo build --release (haptic6d, udp_client)         -
 trees       haptic6d tree build / tree eval (tight d4, d3,       README "Build and measure a sphere-tree" block;
             octree d4; toolkit files with --centre);             docs/benchmarks/trees.md leaf and all-levels tables,
             cargo test build_bunny build_bradshaw_fit             build times (median of --reps builds); BENCHMARKS.md
-                                                                  "Targets at a glance" tree rows
+                                                                  "Sphere-trees" section
 run         haptic6d run bunny (cold, then --reps runs),         README "Run a scene" block; docs/benchmarks/render.md
             --trajectory into active-set and pqp,               bunny, other-solver, --realtime, spline and start-up
-            --realtime; run spline (dual, active-set)           tables; BENCHMARKS.md bunny/spline/1 kHz target rows
+            --realtime; run spline (dual, active-set)           tables; BENCHMARKS.md 1 kHz period-error row
+frame       haptic6d run bunny|spline, back to back and paced;   BENCHMARKS.md "Current figures" and "Frame time on the
+            --budget-us 1000000 work counts; per_frame_min.py    built-in scenes"; docs/benchmarks/timing_*.png
 bench       haptic6d bench --quick --scenes bunny;               README "Reproduce the paper" rows; BENCHMARKS.md
-            haptic6d bench (full)                                replay, pairs and depth tables, wall time
-qp          cargo run -p qp --example qp_table -- --reps 9;      docs/benchmarks/qp.md tables; BENCHMARKS.md dual
-            cargo bench -p qp --bench solvers                    targets and the paper-claims paragraph
+            haptic6d bench (full)                                replay, pairs and depth tables, the peer table and
+                                                                  its plots (docs/benchmarks/peer/), friction's cost
+studies     haptic6d bench --studies contact|speed|friction,     BENCHMARKS.md contact, hand-speed and friction
+            back to back, --realtime, --helper-thread,          sections; docs/benchmarks/friction_curve.png
+            --face-caps off
+peer_tune   haptic6d bench --peer-tune (minutes)                 docs/benchmarks/peer/peer_tune.md
+scaling     build_scaling sphere|torus; cargo test build_open    BENCHMARKS.md and trees.md large and open meshes
+doors       cargo bench -p haptic6d-capi --bench door;           BENCHMARKS.md "Devices and the doors"
+            crates/python/bench/overhead.py (if the module is
+            importable)
+stability   haptic6d stability                                   BENCHMARKS.md closed-loop stability table
+qp          cargo run -p qp --example qp_table -- --reps 9;      docs/benchmarks/qp.md tables; BENCHMARKS.md QP rows,
+            reduce_table; cargo bench -p qp --bench solvers      the reduction table and the paper-claims paragraph
 collide     cargo bench -p collide --bench traversal             docs/benchmarks/collide.md; BENCHMARKS.md traversal row
             (+ COLLIDE_BENCH_TREE=hubbard --quick)
 spheretree  cargo bench -p spheretree --bench build              docs/benchmarks/trees.md criterion times
@@ -131,8 +144,38 @@ machine() {
   machine
 } > "$out/meta.txt"
 
-if wanted build || wanted trees || wanted run || wanted bench || wanted viewer; then
+if wanted build || wanted trees || wanted run || wanted frame || wanted bench || wanted studies || wanted peer_tune || wanted stability || wanted viewer; then
   fig build haptic6d cargo build --release -p haptic6d || { echo "figures: the build failed" >&2; exit 1; }
+fi
+
+docs_bench="$root/docs/benchmarks"
+# publish SRC DEST: copies a plot the page shows into docs/benchmarks/ (when the run made it).
+publish() {
+  if [ -f "$1" ]; then mkdir -p "$(dirname "$2")"; cp "$1" "$2"; else echo "figures: no $1 to publish" >&2; fi
+}
+
+if wanted frame; then
+  f="$out/frame"
+  mkdir -p "$f"
+  # BENCHMARKS.md "Frame time on the built-in scenes": 10 runs each back to back, 6 paced.
+  for i in $(seq 1 10); do
+    fig frame "bunny-$i" "$bin" run bunny --out "$f/bunny-$i"
+    fig frame "spline-$i" "$bin" run spline --out "$f/spline-$i"
+  done
+  for i in $(seq 1 6); do
+    fig frame "bunny-rt-$i" "$bin" run bunny --realtime --out "$f/bunny-rt-$i" --no-plots
+    fig frame "spline-rt-$i" "$bin" run spline --realtime --out "$f/spline-rt-$i" --no-plots
+  done
+  fig frame spline-helper "$bin" run spline --helper-thread --out "$f/spline-helper" --no-plots
+  # Work counts: no deadline, the same on any machine.
+  for s in spline bunny plate; do
+    fig frame "counts-$s" "$bin" run "$s" --budget-us 1000000 --out "$f/counts-$s" --no-plots
+  done
+  # The per-frame minimum over 20 deterministic runs.
+  fig frame per-frame-min-spline python3 scripts/per_frame_min.py --runs 20 --bin "$bin" spline
+  fig frame per-frame-min-bunny python3 scripts/per_frame_min.py --runs 20 --bin "$bin" bunny
+  publish "$f/bunny-1/timing.png" "$docs_bench/timing_bunny.png"
+  publish "$f/spline-1/timing.png" "$docs_bench/timing_spline.png"
 fi
 
 if wanted trees; then
@@ -183,10 +226,38 @@ if wanted bench; then
   # README's quick rows, then the full bench of BENCHMARKS.md.
   fig bench quick-bunny "$bin" bench --quick --scenes bunny --out "$out/bench/quick-bunny"
   fig bench full "$bin" bench --out "$out/bench/full"
+  publish "$out/bench/full/bench.md" "$docs_bench/peer/bench_peer_full.md"
+  for png in "$out"/bench/full/bench_peer_*.png; do
+    [ -f "$png" ] && publish "$png" "$docs_bench/peer/$(basename "$png")"
+  done
+fi
+
+if wanted studies; then
+  b="$out/studies"
+  # BENCHMARKS.md contact, hand-speed and friction sections.
+  for i in 1 2 3; do
+    fig studies "contact-$i" "$bin" bench --studies contact --out "$b/contact-$i"
+  done
+  for i in 1 2; do
+    fig studies "contact-rt-$i" "$bin" bench --studies contact --realtime --out "$b/contact-rt-$i"
+  done
+  fig studies contact-helper "$bin" bench --studies contact --helper-thread --out "$b/contact-helper"
+  fig studies contact-rt-helper "$bin" bench --studies contact --realtime --helper-thread --out "$b/contact-rt-helper"
+  fig studies speed "$bin" bench --studies speed --out "$b/speed"
+  fig studies speed-rt "$bin" bench --studies speed --realtime --out "$b/speed-rt"
+  fig studies speed-no-caps "$bin" bench --studies speed --face-caps off --out "$b/speed-no-caps"
+  fig studies friction "$bin" bench --studies friction --out "$b/friction"
+  publish "$b/friction/bench_friction_curve.png" "$docs_bench/friction_curve.png"
+fi
+
+if wanted peer_tune; then
+  fig peer_tune peer-tune "$bin" bench --peer-tune --out "$out/peer_tune"
+  publish "$out/peer_tune/peer_tune.md" "$docs_bench/peer/peer_tune.md"
 fi
 
 if wanted qp; then
   fig qp qp_table cargo run -p qp --release --example qp_table -- --reps 9
+  fig qp reduce_table cargo run -p qp --release --example reduce_table
   fig qp criterion-solvers cargo bench -p qp --bench solvers
 fi
 
@@ -194,6 +265,25 @@ if wanted collide; then
   fig collide criterion-traversal cargo bench -p collide --bench traversal
   fig collide criterion-traversal-hubbard \
     env COLLIDE_BENCH_TREE=hubbard cargo bench -p collide --bench traversal -- --quick
+fi
+
+if wanted scaling; then
+  fig scaling build-scaling-sphere cargo run --release -p spheretree --example build_scaling -- sphere 10000 100000 1000000 2000000
+  fig scaling build-scaling-torus cargo run --release -p spheretree --example build_scaling -- torus 10000 100000 1000000 2000000
+  fig scaling build-open cargo test -p spheretree --release --test build_open -- --nocapture
+fi
+
+if wanted doors; then
+  fig doors capi-door cargo bench -p haptic6d-capi --bench door
+  if python3 -c 'import haptic6d' 2>/dev/null; then
+    fig doors python-overhead python3 crates/python/bench/overhead.py --repeats 15
+  else
+    echo "figures: [doors] the Python module is not importable (README: maturin develop); skipped" >&2
+  fi
+fi
+
+if wanted stability; then
+  fig stability stability "$bin" stability
 fi
 
 if wanted spheretree; then
