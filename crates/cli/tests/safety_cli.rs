@@ -1,4 +1,4 @@
-//! Issue 14 through the command line: settings out of range (scene keys and flags alike) are
+//! Safety through the command line: settings out of range (scene keys and flags alike) are
 //! one-line errors naming the key; `tree build -o` never replaces a device, a directory, a fifo
 //! or its own input, and checks the output before the build; `run` replaces a previous run as
 //! a whole or not at all; the octree builder handles open meshes; `tree eval` refuses what it
@@ -59,7 +59,7 @@ fn out_of_range_settings_are_refused_from_the_scene_file_and_the_flags() {
         "--no-plots",
     ]));
     let before = snapshot(Path::new(&out));
-    // Items 1-5 of issue 14, through the scene file.
+    // The settings failures of `crates/scene/tests/safety.rs`, through the scene file.
     let keys = [
         (
             "[safety]\nmax_force_n = nan\n",

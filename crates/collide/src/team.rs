@@ -16,7 +16,7 @@
 //! finished by the caller's deadline leaves the traversal incomplete (the caller's deadline
 //! rule then applies, as for any stopped traversal).
 //!
-//! Measured (docs/BENCHMARKS.md, session 7): with the helper spinning, the spline's in-hole
+//! Measured (docs/design-notes.md §The helper thread): with the helper spinning, the spline's in-hole
 //! traversal and its dense alignment contact take 0.46–0.53 of the serial time; with a
 //! parked helper (woken per traversal, as a thread pool's sleeping workers are) only
 //! traversals over ~150 µs gain, the rest lose the ~30–60 µs wake-up.

@@ -563,7 +563,7 @@ fn lens_rows_match_finite_differences() {
 /// and some bulge far above the face): a leaf takes its ancestors' planes that cross its ball,
 /// so its lens lies inside the half-space the block stands for. (Were the leaves left with
 /// their spheres, a pose accepted against the block could be found penetrating at leaf level
-/// in the next region: the spline's stall of session 9.)
+/// in the next region: the spline stalled so at its hub's face.)
 #[test]
 fn leaf_stand_ins_lie_inside_merged_half_spaces() {
     let mut rng = ChaCha8Rng::seed_from_u64(51);

@@ -228,15 +228,15 @@ pub fn set_realtime_priority(_priority: i32) -> bool {
 /// haptic loops: `haptic6d run --realtime` and `haptic6d serve`): the range's most, so that at
 /// any haptic rate the loop naps [`NAP_US`] after each frame and then spins through the rest
 /// of the wait, handing it to the engine's background work ([`Pacer::wait_warming`]). Measured
-/// on this 2-core VM (docs/BENCHMARKS.md §Session 18): a thread that sleeps until 400 µs before
-/// its deadline wakes on a cold core and starts its background work late (paced spline p99
+/// on a 2-core machine (docs/design-notes.md §The paced loop): a thread that sleeps until
+/// 400 µs before its deadline wakes on a cold core and starts its background work late (paced spline p99
 /// 201–299 µs against 156–199, least to median of 8 runs). It costs a core; 400 shares it
 /// (sleep alone wakes ~50–100 µs late on a loaded Linux box).
 pub const DEFAULT_SPIN_US: f64 = 10_000.0;
 
 /// The nap after each frame, µs, when the deadline is at least [`NAP_MIN_SPIN_US`] further
 /// off: a `SCHED_FIFO` thread that never sleeps is throttled by the kernel's real-time limit
-/// (Linux: 950 ms in every second; measured in session 13: 48 ms gaps between frames). With a
+/// (Linux: 950 ms in every second; measured: 48 ms gaps between frames). With a
 /// nap of 100 µs in every 1 ms frame the loop runs at most 90 % of the time.
 pub const NAP_US: u64 = 100;
 

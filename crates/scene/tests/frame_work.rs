@@ -63,7 +63,7 @@ fn a_frame_that_detects_nothing_counts_no_work() {
 /// A performance check that does not depend on the machine: in the spline's hole (no pair
 /// within the frame's margin) no frame splits more than a thousand node pairs. The keys turning
 /// in their grooves after the drop, inside a neighbour list, used to finish a background probe
-/// in one frame (2 080 node pairs, ~200 µs on this VM); paced to the list's life and to the gap
+/// in one frame (2 080 node pairs, ~200 µs); paced to the list's life and to the gap
 /// its proofs found, the largest such frame splits 775.
 #[test]
 fn no_frame_in_the_splines_hole_splits_a_long_traversal() {

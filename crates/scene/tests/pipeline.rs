@@ -159,8 +159,9 @@ fn spline_insertion_succeeds_with_every_exact_solver() {
     }
 }
 
-/// With face caps on, the spline still inserts. Session 9's caps stalled at the hub's top face:
-/// a leaf's sphere bulged above the plane the last region had held the tool against, and no
+/// With face caps on, the spline still inserts. Caps decided at a region's pose alone stalled
+/// at the hub's top face: a leaf's sphere bulged above the plane the last region had held the
+/// tool against, and no
 /// later frame could lift out (thousands kept the last safe pose). Now no frame keeps it, the
 /// goal is reached, and no accepted pose overlaps the capped hub as a traversal at that very
 /// pose decides each pair (not the regions' decisions).

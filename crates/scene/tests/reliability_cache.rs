@@ -96,7 +96,7 @@ fn cache_entry_with_non_finite_sphere_is_rejected_not_trusted() {
     }
 }
 
-/// Issue 14, item 13: leaf radii ×0.01 (finite, plausible numbers) gave "penetration 0 mm" on
+/// An edited cache entry: leaf radii ×0.01 (finite, plausible numbers) gave "penetration 0 mm" on
 /// the wrong geometry. The content hash rejects the edit and the tree is rebuilt.
 #[test]
 fn cache_entry_with_edited_finite_radii_is_rebuilt_not_trusted() {

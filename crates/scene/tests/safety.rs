@@ -1,11 +1,11 @@
-//! The safety invariants for any settings (issue 14): over the whole config space — every
+//! The safety invariants for any settings: over the whole config space — every
 //! numeric key of a scene, each drawn from its valid range or from values that break it (NaN,
 //! ±inf, negative, 1e12, a wrapping `relinearize`) — either the settings are refused with a
 //! one-line error naming a bad key, by the scene file and by the API alike, or a short scripted
 //! press into an object, with jitter, sends a wrench that is finite, within the clamp, never
 //! pushes the hand into the object, and changes by at most the rate limit per frame.
 //!
-//! Then one regression test per settings failure of the issue (items 1–5), each through the
+//! Then one regression test per settings failure an adversarial pass found, each through the
 //! scene file and through the API. `FUZZ_CASES=N` sets the proptest cases (default 40: the
 //! suite runs in CI on 2 cores).
 
@@ -345,7 +345,7 @@ proptest! {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Regression tests, one per settings failure of issue 14.
+// Regression tests, one per settings failure an adversarial pass found.
 
 fn good() -> Settings {
     Settings {
@@ -369,7 +369,7 @@ fn refused(s: &Settings, needle: &str) {
 }
 
 #[test]
-fn item1_nan_max_force_is_refused_not_unclamped() {
+fn nan_max_force_is_refused_not_unclamped() {
     let mut s = good();
     s.safety.max_force_n = f64::NAN;
     refused(
@@ -386,7 +386,7 @@ fn item1_nan_max_force_is_refused_not_unclamped() {
 }
 
 #[test]
-fn item2_negative_max_force_is_refused_never_reversed() {
+fn negative_max_force_is_refused_never_reversed() {
     let mut s = good();
     s.safety.max_force_n = -10.0;
     refused(&s, "[safety] max_force_n = -10");
@@ -398,7 +398,7 @@ fn item2_negative_max_force_is_refused_never_reversed() {
 }
 
 #[test]
-fn item3_negative_skin_is_refused() {
+fn negative_skin_is_refused() {
     let mut s = good();
     s.solver.skin_mm = -1000.0;
     refused(
@@ -411,7 +411,7 @@ fn item3_negative_skin_is_refused() {
 }
 
 #[test]
-fn item4_wrapping_relinearize_is_refused_and_cannot_wrap() {
+fn wrapping_relinearize_is_refused_and_cannot_wrap() {
     let mut s = good();
     s.solver.relinearize = u32::MAX;
     refused(
@@ -434,7 +434,7 @@ fn item4_wrapping_relinearize_is_refused_and_cannot_wrap() {
 }
 
 #[test]
-fn item5_absurd_rates_are_refused_not_a_panic_or_an_abort() {
+fn absurd_rates_are_refused_not_a_panic_or_an_abort() {
     for (rate, shown) in [
         (1e-30, "1e-30"),
         (1e12, "1e12"),
@@ -481,7 +481,7 @@ fn item5_absurd_rates_are_refused_not_a_panic_or_an_abort() {
 }
 
 #[test]
-fn item17_negative_or_equal_timestamps_do_not_zero_the_force() {
+fn negative_or_equal_timestamps_do_not_zero_the_force() {
     // The soft start runs on the loop's clock, not the recording's: a column of equal (or
     // negative) times used to hold the force at zero for the whole run.
     for t in [0.0, -3.0] {

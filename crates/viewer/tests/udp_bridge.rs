@@ -337,7 +337,7 @@ fn a_probe_reports_the_graphic_pose_without_driving_the_tool() {
     assert_eq!(bridge.stats().accepted.load(Ordering::Relaxed), 0);
 }
 
-/// Issue 14 item 9: after the owner times out, a POSE is never applied without a new session —
+/// After the owner times out, a POSE is never applied without a new session —
 /// neither one 500 sequence numbers behind nor a fresh-looking one — and after a new HELLO only
 /// POSEs newer than it are applied.
 #[test]
@@ -392,7 +392,7 @@ fn after_a_timeout_no_pose_is_applied_until_a_new_session() {
     assert_eq!(haptic.input().last().pose.q[2], -3.0);
 }
 
-/// Issue 14 item 9: a re-engagement ramps the force up from zero through the soft start and the
+/// A re-engagement ramps the force up from zero through the soft start and the
 /// rate limit, however soon it follows a release. Real render pipeline (safety filter: 2 N per
 /// frame, 50 ms soft start), frames stepped by hand: the tool is held 30 mm into the floor,
 /// the client says BYE (released) and, one frame later, opens a new session at the same pose.

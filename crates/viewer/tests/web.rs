@@ -295,7 +295,7 @@ fn pose_msg(z: f64) -> Message {
     )
 }
 
-/// Issue 14 item 7: a foreign Host (DNS rebinding) is refused on every route, and a page of
+/// A foreign Host (DNS rebinding) is refused on every route, and a page of
 /// another origin cannot open the WebSocket; the served address and its own origin pass.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn foreign_host_and_origin_are_refused() {
@@ -350,7 +350,7 @@ async fn foreign_host_and_origin_are_refused() {
     let _ = stop.send(());
 }
 
-/// Issue 14 item 7: recording from the page is off unless allowed: the command is refused with
+/// Recording from the page is off unless allowed: the command is refused with
 /// a notice and no file is created.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn page_recording_is_opt_in() {
@@ -390,7 +390,7 @@ async fn wait_for<F: Fn(&viewer::FrameState) -> bool>(haptic: &HapticLoop, what:
     }
 }
 
-/// Issue 14 item 8: page 1 holds the tool pressed into the floor; pages 2 and 3 open as
+/// Page 1 holds the tool pressed into the floor; pages 2 and 3 open as
 /// watchers (they get the state; their poses, release and reset are ignored); page 2 closing
 /// leaves page 1's hold as it was; page 1 closing releases the tool and makes page 3 the owner,
 /// whose poses then drive the device.

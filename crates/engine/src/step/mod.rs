@@ -126,7 +126,7 @@ const PAIR_TARGET: f64 = 1500.0;
 /// contact, and a dense one's cost grows faster than its life: measured on the spline's
 /// alignment (shaft spun on the hub's face), 500 pairs against 1 500 took its frames over
 /// 250 µs from 64 to 6 (cost model fitted to measured frames; measured p99 401 → 249 µs,
-/// docs/BENCHMARKS.md §Session 12).
+/// docs/design-notes.md §Regions, trust boxes and passes).
 const BALL_PAIR_TARGET: f64 = 500.0;
 
 /// Least allowance (mm) the pair density may give a ball region: a dense contact's regions
@@ -299,7 +299,7 @@ const LIST_MIN_REGION_SPLITS: f64 = 800.0;
 /// by this count, and without them the run split 32 % fewer node pairs in all. With this
 /// floor the spline splits 13 % fewer (the alignment 17 %), the bunny's frames are unchanged
 /// (its lists answer 10–85 times their work), and the puck on a plate without face caps
-/// turning at 1 rad/s halves its median frame (docs/BENCHMARKS.md, session 20).
+/// turning at 1 rad/s halves its median frame (docs/design-notes.md §Neighbour lists).
 const LIST_MIN_YIELD: f64 = 2.0;
 
 /// The yield assumed before any list has been used: a contact's first list is tried.
