@@ -238,6 +238,7 @@ impl<S: Simulation> ManualFrames<S> {
             InputSource::None as u8
         };
         s.input_seq = cmd.seq;
+        s.engagement = cmd.engagement;
         s.contacts_requested = self.input.contacts_wanted();
         s.friction_on = self.input.friction_wanted();
         s.friction = 0;

@@ -42,6 +42,12 @@ pub struct DeviceCommand {
     pub source: InputSource,
     /// Increases by one with every accepted command.
     pub seq: u64,
+    /// Which engagement this command belongs to: a new number whenever a source starts to
+    /// drive after a release, after its last command expired, or in place of another source,
+    /// however soon after. The haptic thread restarts the safety filter (soft start, rate
+    /// limit from zero) whenever the number changes, so a release followed within the same
+    /// frame by a new session still ramps the force from zero.
+    pub engagement: u64,
     /// After this instant the command is stale: the haptic thread releases the device (holds
     /// it at the graphic pose, zero force). `None` = never stale.
     pub expires: Option<Instant>,
@@ -53,6 +59,7 @@ impl Default for DeviceCommand {
             pose: Pose::identity(),
             source: InputSource::None,
             seq: 0,
+            engagement: 0,
             expires: None,
         }
     }
@@ -86,6 +93,20 @@ pub struct InputHub {
 struct Writer {
     input: triple_buffer::Input<DeviceCommand>,
     last: DeviceCommand,
+}
+
+impl Writer {
+    /// No source drives from now on; the pose is kept (the next engagement is a new one).
+    fn let_go(&mut self) {
+        let cmd = DeviceCommand {
+            source: InputSource::None,
+            seq: self.last.seq + 1,
+            expires: None,
+            ..self.last
+        };
+        self.last = cmd;
+        self.input.write(cmd);
+    }
 }
 
 /// The haptic thread's end of an [`InputHub`].
@@ -140,10 +161,13 @@ impl InputHub {
         if source == InputSource::Page && physical && w.last.is_live(now) {
             return Err(Rejected::Busy(w.last.source));
         }
+        // The same source still driving continues its engagement; anything else starts one.
+        let continues = w.last.source == source && w.last.is_live(now);
         let cmd = DeviceCommand {
             pose,
             source,
             seq: w.last.seq + 1,
+            engagement: w.last.engagement + u64::from(!continues),
             expires,
         };
         w.last = cmd;
@@ -155,14 +179,7 @@ impl InputHub {
     pub fn release(&self, source: InputSource) {
         let mut w = self.writer.lock().unwrap_or_else(|p| p.into_inner());
         if w.last.source == source {
-            let cmd = DeviceCommand {
-                pose: w.last.pose,
-                source: InputSource::None,
-                seq: w.last.seq + 1,
-                expires: None,
-            };
-            w.last = cmd;
-            w.input.write(cmd);
+            w.let_go();
         }
     }
 
@@ -171,9 +188,30 @@ impl InputHub {
         self.writer.lock().unwrap_or_else(|p| p.into_inner()).last
     }
 
-    /// Asks the haptic thread to re-seat the god-object and the device at the start pose.
-    pub fn request_reset(&self) {
+    /// Asks the haptic thread to re-seat the god-object and the device at the start pose, on
+    /// behalf of `source`, which lets go first. Refused while another source drives the device
+    /// (a reset would move a hand that a device program holds): a live UDP device or device
+    /// bridge is reset only by its own program ending its session.
+    pub fn request_reset(&self, source: InputSource) -> Result<(), Rejected> {
+        let mut w = self.writer.lock().unwrap_or_else(|p| p.into_inner());
+        if w.last.source != source && w.last.is_live(Instant::now()) {
+            return Err(Rejected::Busy(w.last.source));
+        }
+        if w.last.source == source {
+            w.let_go();
+        }
+        // Counted under the writer lock, so no command can slip in between the check and
+        // the request.
         self.resets.fetch_add(1, Ordering::Release);
+        Ok(())
+    }
+
+    /// True while a physical device (the UDP bridge or the device bridge) drives the tool: the
+    /// pages then watch.
+    pub fn device_drives(&self) -> bool {
+        let w = self.writer.lock().unwrap_or_else(|p| p.into_inner());
+        matches!(w.last.source, InputSource::Udp | InputSource::Device)
+            && w.last.is_live(Instant::now())
     }
 
     /// One more viewer wants the contact list (`true`) or one fewer (`false`).

@@ -17,9 +17,10 @@ pub struct SceneSim {
     start: Pose,
     /// Pairs whose gap at the graphic pose is within this (mm) are listed as contacts.
     contact_margin: f64,
-    /// A live input has driven the engine since the last release: the safety layer's soft
-    /// start and rate limit run from the first engaged frame.
-    engaged: bool,
+    /// The engagement driving the engine since the last release ([`FrameState::engagement`]),
+    /// `None` while released: the safety layer's soft start and rate limit run from the first
+    /// frame of each engagement.
+    engaged: Option<u64>,
     /// Frames whose step kept the last safe pose (numerical failure), since start.
     pub kept_last_safe: u64,
     /// Whether the engine's friction is on (the page's switch, as last applied).
@@ -70,7 +71,7 @@ impl SceneSim {
             geometry,
             start,
             contact_margin: scene.solver.skin_mm.max(0.05),
-            engaged: false,
+            engaged: None,
             kept_last_safe: 0,
             friction_on: true,
         })
@@ -94,20 +95,21 @@ impl Simulation for SceneSim {
     }
 
     /// Every engagement (the first live frame after a release, a time-out, a new UDP session or
-    /// a reset) restarts the safety filter: its soft start runs again from that frame and its
-    /// rate limit starts from zero, so the force never jumps when a device (re-)engages.
+    /// a reset, even one whose release the loop never saw as a released frame) restarts the
+    /// safety filter: its soft start runs again from that frame and its rate limit starts from
+    /// zero, so the force never jumps when a device (re-)engages.
     ///
     /// # Real-time
     /// [`Engine::step`] (no allocation, bounded); when contacts are requested, the engine's
     /// pairs within the contact margin at the graphic pose go into the pre-sized contact list.
     fn step(&mut self, device: &Pose, out: &mut FrameState) {
         if out.released {
-            self.engaged = false;
-        } else if !self.engaged {
-            // The loop sent zero while released: the filter starts again from zero, its soft
-            // start from this frame.
+            self.engaged = None;
+        } else if self.engaged != Some(out.engagement) {
+            // A new engagement: the filter starts again from zero, its soft start from this
+            // frame.
             self.engine.restart_safety();
-            self.engaged = true;
+            self.engaged = Some(out.engagement);
         }
         if out.friction_on != self.friction_on {
             self.friction_on = out.friction_on;
@@ -151,7 +153,7 @@ impl Simulation for SceneSim {
             self.start = p;
         }
         // Whether or not a free pose was found, the force restarts from zero.
-        self.engaged = false;
+        self.engaged = None;
     }
 }
 

@@ -350,9 +350,12 @@ fn notice(kind: &str, text: &str) -> Message {
     )
 }
 
-fn role_msg(app: &App, id: u64) -> Message {
+/// The page's role as told to it: the owner of its seat drives the tool unless a physical
+/// device (the UDP bridge, the device bridge) drives it; then every page watches.
+fn role_msg(app: &App, id: u64, device_drives: bool) -> Message {
     let (role, ahead) = match app.seats.role(id) {
-        Role::Owner => ("owner", 0),
+        Role::Owner if !device_drives => ("owner", 0),
+        Role::Owner => ("watcher", 0),
         Role::Watcher { ahead } => ("watcher", ahead),
     };
     Message::Text(
@@ -360,6 +363,7 @@ fn role_msg(app: &App, id: u64) -> Message {
             "type": "role",
             "role": role,
             "ahead": ahead,
+            "device": device_drives,
             "page_recording": app.params.allow_page_recording,
         })
         .to_string()
@@ -402,17 +406,28 @@ async fn stream_loop(
 ) {
     let mut snapshot = FrameState::default();
     seat_changes.mark_unchanged();
-    if socket.send(role_msg(app, id)).await.is_err() {
+    let mut device_drives = app.haptic.input().device_drives();
+    if socket.send(role_msg(app, id, device_drives)).await.is_err() {
         return;
     }
     loop {
         tokio::select! {
             changed = seat_changes.changed() => {
-                if changed.is_err() || socket.send(role_msg(app, id)).await.is_err() {
+                if changed.is_err()
+                    || socket.send(role_msg(app, id, device_drives)).await.is_err()
+                {
                     return;
                 }
             }
             _ = tick.tick() => {
+                // A device taking over or letting go changes every page's role.
+                let now_drives = app.haptic.input().device_drives();
+                if now_drives != device_drives {
+                    device_drives = now_drives;
+                    if socket.send(role_msg(app, id, device_drives)).await.is_err() {
+                        return;
+                    }
+                }
                 app.haptic.state().with_latest(|s| snapshot.copy_from(s));
                 if !*contacts {
                     snapshot.contacts.clear();
@@ -444,7 +459,8 @@ async fn stream_loop(
 
 fn handle(app: &App, id: u64, m: PageMsg, contacts: &mut bool) -> Option<Message> {
     let h = &app.haptic;
-    if !app.seats.is_owner(id) {
+    let device_drives = h.input().device_drives();
+    if !app.seats.is_owner(id) || device_drives {
         return match m {
             // Display only: any page may ask for the contact list.
             PageMsg::Contacts { on } => {
@@ -456,6 +472,10 @@ fn handle(app: &App, id: u64, m: PageMsg, contacts: &mut bool) -> Option<Message
             }
             // A watcher's poses are dropped without a word (they may come at display rate).
             PageMsg::Pose { .. } => None,
+            _ if device_drives => Some(notice(
+                "error",
+                "ignored: a device drives the tool (the page watches while it does)",
+            )),
             _ => Some(notice(
                 "error",
                 "ignored: another page controls the device (this one watches until it closes)",
@@ -474,11 +494,11 @@ fn handle(app: &App, id: u64, m: PageMsg, contacts: &mut bool) -> Option<Message
             h.input().release(InputSource::Page);
             None
         }
-        PageMsg::Reset => {
-            h.input().release(InputSource::Page);
-            h.input().request_reset();
-            None
-        }
+        // Checked again under the hub's lock: a device may have taken over since.
+        PageMsg::Reset => match h.input().request_reset(InputSource::Page) {
+            Ok(()) => None,
+            Err(e) => Some(notice("error", &format!("reset not applied: {e:?}"))),
+        },
         PageMsg::Contacts { on } => {
             if on != *contacts {
                 h.input().want_contacts(on);

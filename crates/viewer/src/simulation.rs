@@ -64,6 +64,10 @@ pub struct FrameState {
     pub source: u8,
     /// Sequence number of the input command that drove this frame.
     pub input_seq: u64,
+    /// The engagement of that command ([`crate::hub::DeviceCommand::engagement`]): when it
+    /// changes between live frames, a new engagement began and the simulation restarts its
+    /// output filters from zero.
+    pub engagement: u64,
     /// True while the device trajectory is being recorded to CSV.
     pub recording: bool,
     /// Set by the loop before the step: a viewer wants the contact list this frame. A
@@ -97,6 +101,7 @@ impl Default for FrameState {
             released: true,
             source: 0,
             input_seq: 0,
+            engagement: 0,
             recording: false,
             contacts_requested: false,
             friction_on: true,
@@ -167,6 +172,7 @@ impl FrameState {
             released: self.released,
             source: self.source,
             input_seq: self.input_seq,
+            engagement: self.engagement,
             recording: self.recording,
             contacts_requested: self.contacts_requested,
             friction_on: self.friction_on,

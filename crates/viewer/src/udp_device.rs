@@ -28,6 +28,9 @@ struct DeviceTarget {
     wrench: [f64; 6],
     /// A session is driving the device.
     live: bool,
+    /// Sessions ended so far (BYE, a new HELLO, a timeout): each becomes a release frame of
+    /// the loop, even when the next session's first POSE arrives within the same frame.
+    releases: u64,
 }
 
 impl SessionTarget for DeviceTarget {
@@ -41,6 +44,7 @@ impl SessionTarget for DeviceTarget {
     fn release(&mut self) {
         self.live = false;
         self.wrench = [0.0; 6];
+        self.releases += 1;
     }
 
     fn answer(&self, applied: bool) -> Answer {
@@ -62,6 +66,8 @@ pub struct UdpDevice {
     endpoint: Option<UdpEndpoint<DeviceTarget>>,
     stats: Arc<BridgeStats>,
     last_seq: u64,
+    /// Session ends already told to the loop as [`Reading::Released`].
+    releases_told: u64,
     t0: Instant,
 }
 
@@ -75,6 +81,7 @@ impl UdpDevice {
             endpoint: None,
             stats: Arc::new(BridgeStats::default()),
             last_seq: 0,
+            releases_told: 0,
             t0: Instant::now(),
         }
     }
@@ -121,7 +128,9 @@ impl Device for UdpDevice {
     }
 
     /// Handles the datagrams waiting (at most a few per frame; each POSE is answered with the
-    /// last wrench written) and gives the newest pose once, [`Reading::Pending`] otherwise.
+    /// last wrench written) and gives the newest pose once, [`Reading::Pending`] otherwise. A
+    /// session that ended since the last read is [`Reading::Released`] first, so the loop
+    /// releases the wrench and the next session starts with the soft start.
     fn read(&mut self, _frame: usize, _t: f64) -> Reading {
         let Some(e) = &mut self.endpoint else {
             return Reading::Pending;
@@ -134,6 +143,10 @@ impl Device for UdpDevice {
             }
         }
         let target = &e.target;
+        if target.releases != self.releases_told {
+            self.releases_told = target.releases;
+            return Reading::Released;
+        }
         match target.pose {
             Some(pose) if target.seq != self.last_seq && target.live => {
                 self.last_seq = target.seq;

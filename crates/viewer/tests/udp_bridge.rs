@@ -443,3 +443,98 @@ fn re_engaging_ramps_the_force_from_zero() {
     assert!(client.open_session(Duration::from_secs(2)).unwrap());
     ramp(&mut client, &mut frames);
 }
+
+/// The frames after a new session opened while the old one was pressing, with no haptic frame
+/// in between (a HELLO from the owner, or BYE + HELLO, and the first POSE all within one
+/// frame): the force drops to exactly zero on the new session's first frame and ramps up from
+/// there at the rate limit, as after any release.
+fn assert_ramps_from_zero_after(
+    frames: &mut viewer::ManualFrames<SceneSim>,
+    handle: &HapticLoop,
+    seq: u64,
+) {
+    let end = Instant::now() + Duration::from_secs(2);
+    while handle.input().last().seq < seq {
+        assert!(Instant::now() < end, "command {seq} not applied");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let max_step = engine::safety::SafetyParams::default().max_force_step_n;
+    let norm = |f: [f64; 3]| (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
+    let mut last = 0.0;
+    for k in 0..200 {
+        let s = frames.step();
+        let f = norm(s.force);
+        if k == 0 {
+            assert_eq!(
+                f, 0.0,
+                "the new session's first frame must send zero, sent {f} N"
+            );
+        }
+        assert!(
+            f - last <= max_step + 1e-9,
+            "frame {k}: |F| jumped {last:.3} -> {f:.3} N"
+        );
+        last = f;
+    }
+    assert!(last > 10.0, "the hold never built up again: {last} N");
+}
+
+/// Presses the tool 30 mm into the floor through `client` until the hold has built up.
+fn press(
+    client: &mut BridgeClient,
+    frames: &mut viewer::ManualFrames<SceneSim>,
+    handle: &HapticLoop,
+    deep: [f64; 6],
+) {
+    let seq = client.send_pose(deep).unwrap();
+    let end = Instant::now() + Duration::from_secs(2);
+    while handle.input().last().source != viewer::InputSource::Udp {
+        assert!(Instant::now() < end, "POSE {seq} not applied");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let mut f = 0.0;
+    for _ in 0..200 {
+        f = frames.step().force[2];
+    }
+    assert!(f > 10.0, "the hold never built up: {f} N");
+}
+
+/// Waits until the bridge has handled everything `client` sent: its answer to the last
+/// datagram (a HELLO or a POSE) has arrived.
+fn answered(client: &mut BridgeClient, seq: u32) {
+    let end = Instant::now() + Duration::from_secs(2);
+    loop {
+        client.poll().unwrap();
+        if client.last().is_some_and(|(_, w)| w.header.ack == seq) {
+            return;
+        }
+        assert!(Instant::now() < end, "datagram {seq} not answered");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
+#[test]
+fn a_new_session_within_one_frame_still_releases_and_ramps_from_zero() {
+    let sim = SceneSim::new(&common::small_scene()).unwrap();
+    let (handle, mut frames) = HapticLoop::manual(sim, &Pacing::default()).unwrap();
+    let bridge = bridge_for(&handle, 5000);
+    let deep = [0.0, 0.0, -30.0, 0.0, 0.0, 0.0];
+    let mut client = session(&bridge, 5000);
+    press(&mut client, &mut frames, &handle, deep);
+    // HELLO from the owner (a new session replaces the old one) and the first POSE, both
+    // handled before the haptic thread runs another frame.
+    client.hello().unwrap();
+    let seq = client.send_pose(deep).unwrap();
+    answered(&mut client, seq);
+    let applied = handle.input().last().seq;
+    assert_ramps_from_zero_after(&mut frames, &handle, applied);
+
+    // The same with BYE + HELLO + POSE.
+    client.bye().unwrap();
+    client.hello().unwrap();
+    let seq = client.send_pose(deep).unwrap();
+    answered(&mut client, seq);
+    let applied = handle.input().last().seq;
+    assert_eq!(handle.input().last().source, viewer::InputSource::Udp);
+    assert_ramps_from_zero_after(&mut frames, &handle, applied);
+}

@@ -125,3 +125,58 @@ fn a_silent_client_loses_its_session_and_a_busy_address_is_one_line() {
         "{msg}"
     );
 }
+
+/// A new session opened by the owner while it drives (a HELLO and the first POSE between two
+/// reads of the loop) is a release frame first, then a resumed one: the run loop releases the
+/// wrench and restarts the soft start, however soon the new session's POSE came.
+#[test]
+fn a_new_session_between_two_reads_is_released_then_resumed() {
+    use scene::device::{link_flags, DeviceLink, DeviceSettings, LinkRead};
+    let mut device = UdpDevice::new(
+        "127.0.0.1:0".parse::<SocketAddr>().unwrap(),
+        Duration::from_secs(5),
+    );
+    device.open().unwrap();
+    let addr = device.local_addr().unwrap();
+    let mut client = BridgeClient::connect(addr, Duration::from_secs(5)).unwrap();
+    let mut link = DeviceLink::new(&mut device, DeviceSettings::default());
+    // The session opens (the HELLO is handled by a read) and a POSE drives the link.
+    client.hello().unwrap();
+    let end = Instant::now() + Duration::from_secs(2);
+    let mut frame = 0;
+    let mut read_until =
+        |link: &mut DeviceLink<'_, UdpDevice>, want: &dyn Fn(&LinkRead) -> bool| loop {
+            let r = link.read(frame, frame as f64 * 1e-3);
+            frame += 1;
+            if want(&r) {
+                return r;
+            }
+            assert!(Instant::now() < end, "no such reading: last {r:?}");
+            std::thread::sleep(Duration::from_millis(1));
+        };
+    while !client.has_session() {
+        let _ = read_until(&mut link, &|_| true);
+        client.poll().unwrap();
+    }
+    client.send_pose([0.0, 0.0, 5.0, 0.0, 0.0, 0.0]).unwrap();
+    let _ = read_until(&mut link, &|r| matches!(r, LinkRead::Step { .. }));
+    // HELLO + POSE land together: the next read releases, the one after resumes.
+    client.hello().unwrap();
+    client.send_pose([0.0, 0.0, 4.0, 0.0, 0.0, 0.0]).unwrap();
+    std::thread::sleep(Duration::from_millis(20));
+    assert_eq!(
+        link.read(frame, 1.0),
+        LinkRead::Release,
+        "the old session's end"
+    );
+    match link.read(frame + 1, 1.001) {
+        LinkRead::Step { sample, flags } => {
+            assert_eq!(sample.pose.q[2], 4.0);
+            assert!(
+                flags & link_flags::RESUMED != 0,
+                "the soft start is asked for"
+            );
+        }
+        r => panic!("the new session's pose was not read: {r:?}"),
+    }
+}

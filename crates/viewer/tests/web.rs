@@ -470,3 +470,124 @@ async fn one_page_owns_the_device_and_watchers_cannot_release_it() {
     .await;
     let _ = stop.send(());
 }
+
+/// While a physical device presses the tool into the floor, the page that holds the seat is
+/// told it watches (`device: true`), and its reset and release are refused: the device's force
+/// and the device pose stay as they were.
+async fn the_page_watches_while_the_device_holds(
+    haptic: &HapticLoop,
+    addr: SocketAddr,
+    source: u8,
+) {
+    wait_for(haptic, "the device pressing", |s| {
+        s.source == source && !s.released && s.force[2] > 5.0
+    })
+    .await;
+    let (mut page, _) = tokio_tungstenite::connect_async(format!("ws://{addr}/ws"))
+        .await
+        .unwrap();
+    let role = next_of(&mut page, "role").await;
+    assert_eq!(
+        (role["role"].as_str(), role["device"].as_bool()),
+        (Some("watcher"), Some(true)),
+        "{role}"
+    );
+    // Let the filter's ramp finish, then take the hold.
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let held = haptic.state().latest();
+    for cmd in [r#"{"type":"reset"}"#, r#"{"type":"release"}"#] {
+        page.send(Message::Text(cmd.into())).await.unwrap();
+    }
+    // Every frame for the next 100 ms: still the device's, still pressing as hard.
+    let end = std::time::Instant::now() + Duration::from_millis(100);
+    while std::time::Instant::now() < end {
+        let s = haptic.state().latest();
+        assert!(!s.released && s.source == source, "{s:?}");
+        assert!(
+            s.force[2] > 0.8 * held.force[2],
+            "the force dropped from {:.2} to {:.2} N",
+            held.force[2],
+            s.force[2]
+        );
+        assert_eq!(s.device, held.device, "the device pose moved");
+        tokio::time::sleep(Duration::from_millis(1)).await;
+    }
+    // And the page is told why, once for each command.
+    for _ in 0..2 {
+        let e = tokio::time::timeout(Duration::from_secs(2), next_of(&mut page, "error"))
+            .await
+            .expect("no refusal within 2 s");
+        assert!(
+            e["message"].as_str().unwrap().contains("a device drives"),
+            "{e}"
+        );
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_page_cannot_reset_or_release_a_udp_device() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let dir = tempfile::tempdir().unwrap();
+    let (haptic, addr, stop) = start(dir.path(), false).await;
+    let bridge = viewer::UdpBridge::spawn(
+        &viewer::BridgeParams {
+            addr: "127.0.0.1:0".parse().unwrap(),
+            timeout: Duration::from_millis(500),
+        },
+        haptic.input().clone(),
+        haptic.state().clone(),
+    )
+    .unwrap();
+    // A device program holding the tool 15 mm into the floor, a POSE every millisecond.
+    let done = Arc::new(AtomicBool::new(false));
+    let program = {
+        let (done, server) = (done.clone(), bridge.local_addr());
+        std::thread::spawn(move || {
+            let mut c = viewer::BridgeClient::connect(server, Duration::from_millis(500)).unwrap();
+            assert!(c.open_session(Duration::from_secs(2)).unwrap());
+            while !done.load(Ordering::Acquire) {
+                c.send_pose([0.0, 0.0, -15.0, 0.0, 0.0, 0.0]).unwrap();
+                let _ = c.poll();
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            c.bye().unwrap();
+        })
+    };
+    the_page_watches_while_the_device_holds(&haptic, addr, 2).await;
+    done.store(true, Ordering::Release);
+    program.join().unwrap();
+    let _ = stop.send(());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_page_cannot_reset_or_release_a_replayed_device() {
+    let dir = tempfile::tempdir().unwrap();
+    let (haptic, addr, stop) = start(dir.path(), false).await;
+    // A replay that presses 15 mm into the floor and holds for 20 s.
+    let samples = (0..20_000)
+        .map(|i| scene::trajectory::TrajSample {
+            t: i as f64 * 1e-3,
+            q: [
+                0.0,
+                0.0,
+                20.0 - 35.0 * (i as f64 / 300.0).min(1.0),
+                0.0,
+                0.0,
+                0.0,
+            ],
+        })
+        .collect();
+    let bridge = viewer::DeviceBridge::spawn(
+        Box::new(scene::device::ReplayDevice::new(
+            scene::trajectory::Trajectory { samples },
+        )),
+        scene::device::DeviceSettings::default(),
+        1000.0,
+        haptic.input().clone(),
+        haptic.state().clone(),
+    )
+    .unwrap();
+    the_page_watches_while_the_device_holds(&haptic, addr, 4).await;
+    bridge.stop();
+    let _ = stop.send(());
+}

@@ -174,7 +174,8 @@ const FRICTION = ['on (no contact)', 'on: stick', 'on: slip'];
 let lastUserInput = -1e9;
 
 // One page owns the device; the others watch until it closes (the server ignores their
-// commands). A page that becomes the owner starts from the device pose it was shown.
+// commands). While a physical device drives the tool, every page watches. A page that becomes
+// the owner starts from the device pose it was shown.
 function onRole(m) {
   const wasOwner = app.role === 'owner';
   app.role = m.role;
@@ -185,7 +186,9 @@ function onRole(m) {
     dirty = false;
   }
   const owner = m.role === 'owner';
-  $('conn').textContent = owner ? 'live' : `watching (${m.ahead} page${m.ahead === 1 ? '' : 's'} ahead)`;
+  $('conn').textContent = owner ? 'live'
+    : m.device ? 'watching (a device drives)'
+    : `watching (${m.ahead} page${m.ahead === 1 ? '' : 's'} ahead)`;
   $('conn').className = owner ? 'good' : 'dim';
   for (const id of ['btn-reset', 'btn-release', 'btn-record']) $(id).disabled = !owner;
   $('btn-record').hidden = !app.pageRecording;

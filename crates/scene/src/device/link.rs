@@ -172,6 +172,7 @@ impl<'d, D: Device + ?Sized> DeviceLink<'d, D> {
                     flags: self.flags,
                 }
             }
+            Reading::Released => self.let_go(),
             Reading::Pending => match self.last {
                 Some(s) if !self.released && t - self.last_t <= self.settings.timeout_s => {
                     self.flags |= link_flags::HELD;
@@ -185,13 +186,18 @@ impl<'d, D: Device + ?Sized> DeviceLink<'d, D> {
                     if !self.released && self.last.is_some() {
                         self.stats.timeouts += 1;
                     }
-                    self.released = true;
-                    self.flags |= link_flags::RELEASED;
-                    self.stats.released_frames += 1;
-                    LinkRead::Release
+                    self.let_go()
                 }
             },
         }
+    }
+
+    /// Releases the wrench this frame; the next reading resumes with the soft start.
+    fn let_go(&mut self) -> LinkRead {
+        self.released = true;
+        self.flags |= link_flags::RELEASED;
+        self.stats.released_frames += 1;
+        LinkRead::Release
     }
 
     /// Sends the scene-frame wrench `[F (N); T (N·mm)]` (after the safety layer): rotated to

@@ -145,6 +145,10 @@ pub enum Reading {
     /// No reading this frame (the device is late or silent); the loop holds the last pose and,
     /// after [`DeviceSettings::timeout_s`], releases the wrench.
     Pending,
+    /// The device says its user let go (a device program ended its session): the loop
+    /// releases the wrench at once, without waiting for the timeout, and the next reading
+    /// re-engages with the soft start.
+    Released,
     /// The device has no more input (end of a replay or script); the loop stops.
     Ended,
 }
