@@ -62,11 +62,15 @@ pub struct ServeArgs {
     /// Haptic rate, Hz (100 to 20000).
     #[arg(long, default_value_t = 1000.0)]
     pub rate: f64,
-    /// Run the haptic thread with real-time priority (`SCHED_FIFO` at this priority, 1-99;
-    /// best effort: needs the privilege, and a step that overruns then competes hard with the
-    /// page and the server on a small machine).
-    #[arg(long, value_name = "PRIORITY")]
-    pub rt_priority: Option<i32>,
+    /// The haptic thread's real-time priority (`SCHED_FIFO`, 1-99). Asked for by default,
+    /// as `haptic6d run` does, so that the frames keep their period while the page and the
+    /// server run beside them; best effort: without the privilege the thread runs at normal
+    /// priority and the start-up line says so.
+    #[arg(long, value_name = "PRIORITY", default_value_t = DEFAULT_RT_PRIORITY)]
+    pub rt_priority: i32,
+    /// Keep the haptic thread at normal priority.
+    #[arg(long, conflicts_with = "rt_priority")]
+    pub no_rt_priority: bool,
     /// State stream rate to the page, Hz (1 to 240).
     #[arg(long, default_value_t = 60.0)]
     pub display_hz: f64,
@@ -91,6 +95,11 @@ pub struct ServeArgs {
     pub friction: Option<engine::Friction>,
 }
 
+/// The haptic thread's `SCHED_FIFO` priority unless told otherwise: the one `haptic6d run`
+/// asks for, the middle of the range, above every normal thread and leaving room above it
+/// for a device driver's own real-time threads.
+const DEFAULT_RT_PRIORITY: i32 = 50;
+
 /// Longest `--duration` (s): 30 days.
 const MAX_DURATION_S: f64 = 30.0 * 86_400.0;
 
@@ -100,7 +109,7 @@ const MAX_DURATION_S: f64 = 30.0 * 86_400.0;
 fn pacing(args: &ServeArgs) -> Pacing {
     Pacing {
         rate_hz: args.rate,
-        rt_priority: args.rt_priority,
+        rt_priority: (!args.no_rt_priority).then_some(args.rt_priority),
         ..Pacing::default()
     }
 }
@@ -294,13 +303,18 @@ pub fn run(args: ServeArgs) -> Result<()> {
         if let Some(d) = &device_bridge {
             say(format!("device {} drives the loop (the page watches while it does)", d.name()));
         }
-        if let Some(p) = args.rt_priority {
+        if args.no_rt_priority {
+            say("haptic thread: normal priority (--no-rt-priority)".to_string());
+        } else {
+            let p = args.rt_priority;
             // The thread sets its priority as it starts; give it a moment before reporting.
             tokio::time::sleep(Duration::from_millis(50)).await;
             say(if haptic.realtime() {
                 format!("haptic thread: SCHED_FIFO priority {p}")
             } else {
-                format!("haptic thread: SCHED_FIFO priority {p} refused (no privilege?); normal priority")
+                format!(
+                    "haptic thread: SCHED_FIFO priority {p} not granted (needs root, CAP_SYS_NICE or an rtprio limit); normal priority"
+                )
             });
         }
         let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();

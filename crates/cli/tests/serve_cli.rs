@@ -176,6 +176,11 @@ fn a_recording_ended_by_sigterm_or_sigint_is_a_valid_trajectory() {
             String::from_utf8_lossy(&o.stderr)
         );
         assert!(stdout.contains("recorded "), "{signal}: {stdout}");
+        // Real-time priority is asked for by default, and the answer is said in one line.
+        assert!(
+            stdout.contains("haptic thread: SCHED_FIFO priority 50"),
+            "{signal}: {stdout}"
+        );
         let text = std::fs::read_to_string(&rec).unwrap();
         assert!(text.starts_with("t,x,y,z,gamma,beta,alpha\n") && text.ends_with('\n'));
         let rows = text.lines().count() - 1;
