@@ -2,7 +2,8 @@
 //! bring (open, holed, self-intersecting), for tests and the build-time studies.
 //!
 //! Entry points: [`uv_sphere`], [`torus`], [`grid_box`], [`open_box`], [`two_boxes`],
-//! [`remove_fraction`]. Every mesh is counter-clockwise seen from outside; sizes are in the
+//! [`remove_fraction`]; for the scene zoo's parts [`lathe`], [`rod`], [`extrude`],
+//! [`height_field_block`]. Every mesh is counter-clockwise seen from outside; sizes are in the
 //! mesh's own (arbitrary) units.
 
 use crate::TriMesh;
@@ -197,6 +198,184 @@ fn box_faces(centre: [f64; 3], half: [f64; 3], n: u32, faces: &[bool; 6]) -> Tri
     }
 }
 
+/// A closed solid of revolution about the z axis: `profile` lists `(radius, z)` points from the
+/// bottom pole to the top pole (first and last radius 0, the others > 0), swept through
+/// `segments` (≥ 3) steps: capsules, cylinders with flat ends, cones, probes.
+/// `2 · segments · (profile.len() − 2)` triangles.
+pub fn lathe(profile: &[(f64, f64)], segments: u32) -> TriMesh {
+    let segments = segments.max(3);
+    let inner = &profile[1..profile.len().saturating_sub(1).max(1)];
+    let rings = inner.len() as u32;
+    let mut vertices = vec![[0.0, 0.0, profile.first().map_or(0.0, |p| p.1)]];
+    for &(r, z) in inner {
+        for j in 0..segments {
+            let phi = 2.0 * PI * j as f64 / segments as f64;
+            vertices.push([r * phi.cos(), r * phi.sin(), z]);
+        }
+    }
+    vertices.push([0.0, 0.0, profile.last().map_or(0.0, |p| p.1)]);
+    let top = (vertices.len() - 1) as u32;
+    let ring = |i: u32, j: u32| 1 + i * segments + j % segments;
+    let mut triangles = Vec::new();
+    for j in 0..segments {
+        triangles.push([0, ring(0, j + 1), ring(0, j)]);
+        triangles.push([top, ring(rings - 1, j), ring(rings - 1, j + 1)]);
+    }
+    for i in 0..rings.saturating_sub(1) {
+        for j in 0..segments {
+            let (a, b) = (ring(i, j), ring(i, j + 1));
+            let (c, d) = (ring(i + 1, j), ring(i + 1, j + 1));
+            triangles.push([a, b, d]);
+            triangles.push([a, d, c]);
+        }
+    }
+    TriMesh {
+        vertices,
+        triangles,
+    }
+}
+
+/// A rod along `+z` from its hemispherical tip (lowest point at `z = 0`) to a flat end at
+/// `z = length`: `radius`, `segments` (≥ 3) around, the tip in `segments / 4` bands. The shape
+/// of a probe or a peg.
+pub fn rod(radius: f64, length: f64, segments: u32) -> TriMesh {
+    let bands = (segments / 4).max(2);
+    let mut profile = vec![(0.0, 0.0)];
+    for i in 1..=bands {
+        let a = 0.5 * PI * i as f64 / bands as f64;
+        profile.push((radius * a.sin(), radius * (1.0 - a.cos())));
+    }
+    // Rings along the shaft no further apart than 4 radii (long thin triangles split).
+    let shaft = (length - radius).max(0.0);
+    let steps = ((shaft / (4.0 * radius)).ceil() as u32).max(1);
+    for i in 1..=steps {
+        profile.push((radius, radius + shaft * i as f64 / steps as f64));
+    }
+    profile.push((0.0, radius + shaft));
+    lathe(&profile, segments)
+}
+
+/// A prism: the simple polygon `outline` (counter-clockwise in the xy plane, no repeated
+/// point) extruded from `z0` to `z1` (> `z0`), its two caps triangulated by ear clipping, so
+/// non-convex outlines (an L, a U, a keyed profile) work.
+pub fn extrude(outline: &[[f64; 2]], z0: f64, z1: f64) -> TriMesh {
+    let n = outline.len() as u32;
+    let mut vertices = Vec::with_capacity(2 * outline.len());
+    for z in [z0, z1] {
+        vertices.extend(outline.iter().map(|p| [p[0], p[1], z]));
+    }
+    let mut triangles = Vec::new();
+    for [a, b, c] in ear_clip(outline) {
+        triangles.push([a, c, b]);
+        triangles.push([n + a, n + b, n + c]);
+    }
+    for i in 0..n {
+        let j = (i + 1) % n;
+        triangles.push([i, j, n + j]);
+        triangles.push([i, n + j, n + i]);
+    }
+    TriMesh {
+        vertices,
+        triangles,
+    }
+}
+
+/// Triangles (counter-clockwise) covering the simple counter-clockwise polygon `p`. A polygon
+/// that is not simple stops the clipping early (fewer triangles: the caller's mesh is then
+/// open, which its validation reports).
+fn ear_clip(p: &[[f64; 2]]) -> Vec<[u32; 3]> {
+    let cross = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    };
+    let mut left: Vec<usize> = (0..p.len()).collect();
+    let mut out = Vec::new();
+    while left.len() > 3 {
+        let m = left.len();
+        let ear = (0..m).find(|&i| {
+            let (a, b, c) = (left[(i + m - 1) % m], left[i], left[(i + 1) % m]);
+            cross(p[a], p[b], p[c]) > 0.0
+                && !left.iter().any(|&k| {
+                    k != a
+                        && k != b
+                        && k != c
+                        && cross(p[a], p[b], p[k]) >= 0.0
+                        && cross(p[b], p[c], p[k]) >= 0.0
+                        && cross(p[c], p[a], p[k]) >= 0.0
+                })
+        });
+        let Some(i) = ear else { break };
+        let (a, b, c) = (left[(i + m - 1) % m], left[i], left[(i + 1) % m]);
+        out.push([a as u32, b as u32, c as u32]);
+        left.remove(i);
+    }
+    if let [a, b, c] = left[..] {
+        out.push([a as u32, b as u32, c as u32]);
+    }
+    out
+}
+
+/// A block over `[-hx, hx] × [-hy, hy]` whose top is the height field `z = top(x, y)` sampled
+/// on an `n × n` grid (`n ≥ 1`) and whose bottom is flat at `z = bottom` (below every height):
+/// a bumpy or wavy surface as a closed solid, `4 n² + 8 n` triangles.
+pub fn height_field_block(
+    hx: f64,
+    hy: f64,
+    bottom: f64,
+    n: u32,
+    top: impl Fn(f64, f64) -> f64,
+) -> TriMesh {
+    let n = n.max(1);
+    let side = n + 1;
+    let at = |i: u32, j: u32| {
+        (
+            -hx + 2.0 * hx * i as f64 / n as f64,
+            -hy + 2.0 * hy * j as f64 / n as f64,
+        )
+    };
+    let mut vertices = Vec::with_capacity(2 * (side * side) as usize);
+    for level in 0..2 {
+        for j in 0..side {
+            for i in 0..side {
+                let (x, y) = at(i, j);
+                vertices.push([x, y, if level == 0 { top(x, y) } else { bottom }]);
+            }
+        }
+    }
+    let up = |i: u32, j: u32| j * side + i;
+    let down = |i: u32, j: u32| side * side + j * side + i;
+    let mut triangles = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let (a, b, c, d) = (up(i, j), up(i + 1, j), up(i + 1, j + 1), up(i, j + 1));
+            triangles.push([a, b, c]);
+            triangles.push([a, c, d]);
+            let (a, b, c, d) = (
+                down(i, j),
+                down(i + 1, j),
+                down(i + 1, j + 1),
+                down(i, j + 1),
+            );
+            triangles.push([a, c, b]);
+            triangles.push([a, d, c]);
+        }
+    }
+    // The rim counter-clockwise seen from +z: the outside is to the right of each step.
+    let mut rim = Vec::with_capacity(4 * n as usize);
+    rim.extend((0..n).map(|i| (i, 0)));
+    rim.extend((0..n).map(|j| (n, j)));
+    rim.extend((0..n).map(|i| (n - i, n)));
+    rim.extend((0..n).map(|j| (0, n - j)));
+    for k in 0..rim.len() {
+        let (p, q) = (rim[k], rim[(k + 1) % rim.len()]);
+        triangles.push([down(p.0, p.1), down(q.0, q.1), up(q.0, q.1)]);
+        triangles.push([down(p.0, p.1), up(q.0, q.1), up(p.0, p.1)]);
+    }
+    TriMesh {
+        vertices,
+        triangles,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -253,5 +432,50 @@ mod tests {
         assert_eq!(holed, remove_fraction(&s, 0.05, 7));
         let two = two_boxes(2);
         assert_eq!(two.triangles.len(), 2 * 12 * 4);
+    }
+
+    #[test]
+    fn lathe_extrude_and_height_field_are_closed_and_outward() {
+        let volume = |m: &TriMesh| {
+            m.triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|k| m.vertices[k as usize]);
+                    (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                        + a[2] * (b[0] * c[1] - b[1] * c[0]))
+                        / 6.0
+                })
+                .sum::<f64>()
+        };
+        let cylinder = lathe(&[(0.0, 0.0), (1.0, 0.0), (1.0, 2.0), (0.0, 2.0)], 400);
+        cylinder.check_closed().unwrap();
+        let v = volume(&cylinder);
+        assert!((v - 2.0 * PI).abs() < 1e-3, "{v}");
+        let probe = rod(1.0, 10.0, 32);
+        probe.check_closed().unwrap();
+        assert!(volume(&probe) > 0.0);
+        let (lo, hi) = probe.aabb().unwrap();
+        assert!(lo[2].abs() < 1e-12 && (hi[2] - 10.0).abs() < 1e-12);
+        // An L of area 3 (a 2 x 2 square missing its 1 x 1 upper-right quarter), 2 high.
+        let l = extrude(
+            &[
+                [0.0, 0.0],
+                [2.0, 0.0],
+                [2.0, 1.0],
+                [1.0, 1.0],
+                [1.0, 2.0],
+                [0.0, 2.0],
+            ],
+            0.0,
+            2.0,
+        );
+        l.check_closed().unwrap();
+        let v = volume(&l);
+        assert!((v - 6.0).abs() < 1e-9, "{v}");
+        let bumps = height_field_block(2.0, 3.0, -1.0, 8, |x, _| 0.1 * x);
+        bumps.check_closed().unwrap();
+        assert_eq!(bumps.triangles.len(), 4 * 64 + 8 * 8);
+        let v = volume(&bumps);
+        assert!((v - 24.0).abs() < 1e-9, "{v}");
     }
 }
