@@ -1,14 +1,20 @@
 //! Closing the holes of an open mesh for inside/outside and distance queries: each connected
 //! set of boundary edges (edges with one triangle) is closed by a fan of triangles to its
-//! centroid. The fans are a membrane over each hole, so a sphere bulging out through a hole
+//! centroid, or, when it is one long simple loop, by the level-by-level triangulation of
+//! [`crate::triangulate`] (a fan of thousands of slivers meeting at the centroid would make
+//! every query near the hole test all of them). The fans are a membrane over each hole, so a sphere bulging out through a hole
 //! is seen as leaving the solid, as it would through the missing surface.
 
+use crate::triangulate::{triangulate_polygon, FAN_MAX_VERTICES};
+use crate::vec3::{cross, norm2, sub};
 use crate::TriMesh;
 use std::collections::HashMap;
 
 impl TriMesh {
-    /// The mesh with every hole closed by a fan to the centroid of its boundary, and the
-    /// number of holes closed (0 for a closed mesh: then the mesh is returned unchanged).
+    /// The mesh with every hole closed by a fan to the centroid of its boundary (a hole
+    /// bounded by one simple loop of more than [`FAN_MAX_VERTICES`] edges: by triangles
+    /// spanning the loop itself, no new vertex), and the number of holes closed (0 for a
+    /// closed mesh: then the mesh is returned unchanged).
     ///
     /// A hole is a connected set of boundary edges (edges used by exactly one triangle;
     /// edges shared by 3 or more triangles are not holes), connected through shared vertices.
@@ -81,19 +87,60 @@ impl TriMesh {
         }
         let mut roots: Vec<u32> = sums.keys().copied().collect();
         roots.sort_unstable();
+        let mut edges_of: HashMap<u32, Vec<(u32, u32)>> = HashMap::with_capacity(roots.len());
+        for &(a, b) in &boundary {
+            let root = find(&mut parent, a);
+            edges_of.entry(root).or_default().push((a, b));
+        }
         let mut out = self.clone();
-        let mut centre_of: HashMap<u32, u32> = HashMap::with_capacity(roots.len());
         for root in &roots {
+            let edges = &edges_of[root];
+            if edges.len() > FAN_MAX_VERTICES {
+                if let Some(ring) = simple_loop(edges) {
+                    // The membrane runs the loop backwards, like the missing neighbours.
+                    let reversed: Vec<u32> = ring.iter().rev().copied().collect();
+                    let flat = |t: [u32; 3]| {
+                        let [a, b, c] = t.map(|k| self.vertices[k as usize]);
+                        norm2(cross(sub(b, a), sub(c, a))) == 0.0
+                    };
+                    triangulate_polygon(&reversed, flat, &mut out.triangles);
+                    continue;
+                }
+            }
             let (s, n) = sums[root];
             out.vertices.push(s.map(|x| x / n as f64));
-            centre_of.insert(*root, (out.vertices.len() - 1) as u32);
-        }
-        for &(a, b) in &boundary {
-            let c = centre_of[&find(&mut parent, a)];
-            out.triangles.push([b, a, c]);
+            let c = (out.vertices.len() - 1) as u32;
+            for &(a, b) in edges {
+                out.triangles.push([b, a, c]);
+            }
         }
         (out, roots.len())
     }
+}
+
+/// The vertices of `edges` in loop order when the directed edges form one simple cycle
+/// (every vertex left once and entered once, all on one walk), else `None`.
+fn simple_loop(edges: &[(u32, u32)]) -> Option<Vec<u32>> {
+    let mut next: HashMap<u32, u32> = HashMap::with_capacity(edges.len());
+    for &(a, b) in edges {
+        if next.insert(a, b).is_some() {
+            return None;
+        }
+    }
+    let start = edges.iter().map(|e| e.0).min()?;
+    let mut ring = Vec::with_capacity(edges.len());
+    let mut v = start;
+    loop {
+        ring.push(v);
+        v = *next.get(&v)?;
+        if v == start {
+            break;
+        }
+        if ring.len() >= edges.len() {
+            return None;
+        }
+    }
+    (ring.len() == edges.len()).then_some(ring)
 }
 
 #[cfg(test)]

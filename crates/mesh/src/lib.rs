@@ -18,6 +18,7 @@ mod error;
 mod holes;
 pub mod input;
 pub mod load;
+pub mod triangulate;
 pub mod validate;
 pub mod vec3;
 

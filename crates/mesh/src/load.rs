@@ -6,7 +6,8 @@
 //!   cleaned). The format comes from the extension (`.obj`, `.stl`, `.ply`, any case), or from
 //!   the content when the extension is unknown.
 //!
-//! Coordinates stay in the file's units. Polygons are split by a fan; duplicate vertices are
+//! Coordinates stay in the file's units. Polygons are split into triangles (a fan, or level by level for
+//! large ones: [`crate::triangulate`]); duplicate vertices are
 //! welded; degenerate triangles are dropped and counted (see [`crate::validate`]). Whether the
 //! mesh is closed is a separate check, [`TriMesh::check_closed`], for the callers that need it.
 

@@ -4,7 +4,9 @@
 //! The cleaning steps [`crate::load_mesh`] applies, in order:
 //! 1. every vertex coordinate must be finite, every face index in range, every face at least
 //!    3 vertices long (errors);
-//! 2. polygons are split into triangles by a fan from their first vertex;
+//! 2. polygons are split into triangles: by a fan from their first vertex, or level by level
+//!    for polygons of more than 16 vertices ([`crate::triangulate`]: a fan of a huge polygon
+//!    makes every query near it test every sliver);
 //! 3. vertices at exactly the same position are welded (STL stores none shared; OBJ groups and
 //!    PLY seams often duplicate them);
 //! 4. degenerate triangles (a repeated vertex, or zero area: height below `1e-12` times the
@@ -14,6 +16,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
+use crate::triangulate::triangulate_polygon;
 use crate::vec3::{dot, sub};
 use crate::{MeshError, TriMesh};
 
@@ -94,6 +97,7 @@ pub(crate) fn clean_polygons(
     // Range-check, fan-triangulate, drop degenerate triangles.
     let mut triangles: Vec<[u32; 3]> = Vec::with_capacity(indices.len() / 3 + 1);
     let mut degenerate_dropped = 0usize;
+    let mut split: Vec<[u32; 3]> = Vec::new();
     let mut start = 0usize;
     for (face, &arity) in arities.iter().enumerate() {
         let arity = arity as usize;
@@ -118,8 +122,10 @@ pub(crate) fn clean_polygons(
             }
             welded.push(remap[ix as usize]);
         }
-        for k in 1..arity - 1 {
-            let t = [welded[0], welded[k], welded[k + 1]];
+        split.clear();
+        triangulate_polygon(&welded, |t| is_degenerate(&vertices, t), &mut split);
+        degenerate_dropped += (arity - 2) - split.len();
+        for &t in &split {
             if is_degenerate(&vertices, t) {
                 degenerate_dropped += 1;
             } else {
