@@ -298,8 +298,8 @@ impl GodObject {
         let reach = self.reach.max(1e-9);
         let t_across = 0.5 * across;
         let tilt = 0.5 * across / (2f64.sqrt() * reach);
-        let step = Vector3::from(self.last_step);
-        let turn = Vector3::from(self.last_turn);
+        let step = Vector3::from(self.run.last_step);
+        let turn = Vector3::from(self.run.last_turn);
         let (moved, spun) = (step.norm(), n.dot(&turn).abs() * reach);
         let share_t = if moved + spun > 0.0 {
             (moved / (moved + spun)).clamp(0.3, 0.7)

@@ -5,14 +5,14 @@ use super::*;
 
 impl GodObject {
     /// Collects pairs at `q` within `margin` into `self.pairs` (at most `max_pairs`; the rest
-    /// are counted in `self.dropped`); returns the smallest gap seen (mm, +inf if none).
+    /// are counted in `self.run.dropped`); returns the smallest gap seen (mm, +inf if none).
     pub(super) fn detect(&mut self, q: &Pose, margin: f64) -> Result<f64, collide::CollideError> {
         self.detect_along(q, None, margin, None, None)
     }
 
     /// [`GodObject::detect`], or with a sweep for a path region: the pairs that come within
     /// `margin` (mm) of touching along it from `q`. With a `deadline`, a traversal still
-    /// running then stops and `self.interrupted` says so (the list is not complete).
+    /// running then stops and `self.run.interrupted` says so (the list is not complete).
     pub(super) fn detect_along(
         &mut self,
         q: &Pose,
@@ -37,13 +37,13 @@ impl GodObject {
         deadline: Option<Instant>,
         slab: Option<FaceSlab>,
     ) -> Result<(f64, f64), collide::CollideError> {
-        self.cached = None;
+        self.run.cached = None;
         self.pairs.clear();
-        self.dropped = 0;
-        self.interrupted = false;
-        self.pairs_question = None;
+        self.run.dropped = 0;
+        self.run.interrupted = false;
+        self.run.pairs_question = None;
         let pairs = &mut self.pairs;
-        let dropped = &mut self.dropped;
+        let dropped = &mut self.run.dropped;
         let mut min_gap = f64::INFINITY;
         self.face_stamp = self.face_stamp.wrapping_add(1);
         if self.face_stamp == 0 {
@@ -79,7 +79,7 @@ impl GodObject {
                 *dropped += 1;
             }
         };
-        self.frame_detections += 1;
+        self.run.frame_detections += 1;
         // Inside the neighbour list: its pairs tested at `q` are the traversal's, and the list
         // proves free space as far as it reaches (every pair it does not hold is that far).
         let listed = if proof > margin && sweep.is_none() && slab.is_none() {
@@ -96,15 +96,15 @@ impl GodObject {
                 .map(|n| (n, margin))
         };
         if let Some((_, proven)) = listed {
-            self.frame_scanned += self.neighbours.len() as u64;
-            self.regions_filtered += 1;
-            self.list_served = self.list_served.saturating_add(1);
-            if sweep.is_none() && slab.is_none() && self.dropped == 0 {
-                self.pairs_question = Some((*q, margin));
+            self.run.frame_scanned += self.neighbours.len() as u64;
+            self.run.regions_filtered += 1;
+            self.run.list_served = self.run.list_served.saturating_add(1);
+            if sweep.is_none() && slab.is_none() && self.run.dropped == 0 {
+                self.run.pairs_question = Some((*q, margin));
             }
             return Ok((min_gap, proven));
         }
-        self.regions_traversed += 1;
+        self.run.regions_traversed += 1;
         // The shared traversal's order is the same with or without the helper, so the
         // frames are too.
         let (t, proven) = if proof > margin && sweep.is_none() && slab.is_none() {
@@ -134,16 +134,16 @@ impl GodObject {
             )?;
             (t, margin)
         };
-        self.frame_splits += self.ws.stats().node_pairs_split as u64;
-        self.dropped += t.unreported;
-        self.interrupted = !t.complete;
-        if sweep.is_none() && slab.is_none() && self.dropped == 0 && t.complete {
-            self.pairs_question = Some((*q, margin));
+        self.run.frame_splits += self.ws.stats().node_pairs_split as u64;
+        self.run.dropped += t.unreported;
+        self.run.interrupted = !t.complete;
+        if sweep.is_none() && slab.is_none() && self.run.dropped == 0 && t.complete {
+            self.run.pairs_question = Some((*q, margin));
         }
         if !self.pairs.is_empty() {
             // What a region's traversal costs in this contact (a neighbour list must beat it).
             let splits = self.ws.stats().node_pairs_split as f64;
-            self.splits_per_region = 0.9 * self.splits_per_region + 0.1 * splits;
+            self.run.splits_per_region = 0.9 * self.run.splits_per_region + 0.1 * splits;
         }
         Ok((min_gap, proven))
     }
@@ -163,7 +163,7 @@ impl GodObject {
             false
         });
         if listed.is_some() {
-            self.frame_scanned += self.neighbours.len() as u64;
+            self.run.frame_scanned += self.neighbours.len() as u64;
             return Ok(any);
         }
         let any = collide::any_pair_within_until(
@@ -174,7 +174,7 @@ impl GodObject {
             &mut self.ws,
             || deadline.is_none_or(|d| Instant::now() < d),
         );
-        self.frame_splits += self.ws.stats().node_pairs_split as u64;
+        self.run.frame_splits += self.ws.stats().node_pairs_split as u64;
         any.map(|a| a.unwrap_or(true))
     }
 
@@ -269,12 +269,12 @@ impl GodObject {
         cap: f64,
         dense_cap: f64,
     ) -> Option<(Vector3<f64>, f64, f64)> {
-        if self.slab_rest > 0 {
+        if self.run.slab_rest > 0 {
             return None;
         }
-        let n = self.contact_face?;
-        let step = Vector3::from(self.last_step);
-        let turn = Vector3::from(self.last_turn);
+        let n = self.run.contact_face?;
+        let step = Vector3::from(self.run.last_step);
+        let turn = Vector3::from(self.run.last_turn);
         let across = n.dot(&step).abs() + n.cross(&turn).norm() * self.reach;
         let slide = need.min(allow.max(SLAB_SLIDE_MM)).min(cap);
         let face = (1.5 * across + SLAB_ACROSS_MIN_MM)
@@ -285,13 +285,13 @@ impl GodObject {
 
     /// Width (mm) of a path region: twice the recent prediction error, within bounds.
     pub(super) fn path_width(&self) -> f64 {
-        (2.0 * self.prediction_error).clamp(PATH_WIDTH_MIN_MM, PATH_WIDTH_MAX_MM)
+        (2.0 * self.run.prediction_error).clamp(PATH_WIDTH_MIN_MM, PATH_WIDTH_MAX_MM)
     }
 
     /// Where the graphic tool is expected for the device pose `q_h`: at last frame's offset
     /// from the hand ([`GodObject::hand_offset`]).
     pub(super) fn predicted_pose(&self, q_h: &Pose) -> Pose {
-        let (off_t, off_w) = self.hand_offset;
+        let (off_t, off_w) = self.run.hand_offset;
         Pose::from_translation_rotation(
             &(q_h.translation() - off_t),
             &(rotation_exp(&-off_w) * q_h.rotation_matrix()),
@@ -311,8 +311,8 @@ impl GodObject {
     /// frame: its translation continued along the last step, its rotation turned on by the
     /// last turn (about the tool origin). A schedule's guess, not a bound.
     pub(super) fn pose_ahead(&self, q: &Pose, frames: f64) -> Pose {
-        let t = q.translation() + Vector3::from(self.last_step) * frames;
-        let turn = Vector3::from(self.last_turn) * frames;
+        let t = q.translation() + Vector3::from(self.run.last_step) * frames;
+        let turn = Vector3::from(self.run.last_turn) * frames;
         let r = rotation_exp(&turn) * q.rotation_matrix();
         if t.iter().all(|v| v.is_finite()) && r.iter().all(|v| v.is_finite()) {
             Pose::from_translation_rotation(&t, &r)
@@ -324,7 +324,8 @@ impl GodObject {
     /// Slack (mm) of the free-space proofs at `q`: how much farther than `q` the better one
     /// proves free space (negative when neither reaches `q`).
     pub(super) fn free_slack(&self, q: &Pose) -> f64 {
-        self.free
+        self.run
+            .free
             .iter()
             .map(|p| p.radius - self.proof_distance(p, q))
             .fold(f64::NEG_INFINITY, f64::max)
@@ -348,9 +349,9 @@ impl GodObject {
         if r <= 0.0 || segment_distance(&p, &proof.path) > r {
             return 0.0;
         }
-        let step = Vector3::from(self.last_step);
+        let step = Vector3::from(self.run.last_step);
         // The motion per frame that is not the translation (turning) uses up the radius too.
-        let other = (self.last_motion - step.norm()).max(0.0);
+        let other = (self.run.last_motion - step.norm()).max(0.0);
         let by_turn = if other > 1e-12 {
             r / other
         } else {
@@ -385,7 +386,7 @@ impl GodObject {
     /// ahead, until it leaves that one after the other hands it over (a frame before the
     /// other runs out); 0 for one it will not enter. A schedule, not a proof.
     pub(super) fn proof_reach(&self, q: &Pose, used: f64) -> [f64; 2] {
-        let direct = [0, 1].map(|i| self.frames_in(&self.free[i], q, used));
+        let direct = [0, 1].map(|i| self.frames_in(&self.run.free[i], q, used));
         let mut reach = direct;
         for (i, j) in [(0, 1), (1, 0)] {
             if direct[j] > 0.0 || !(direct[i] > 1.0 && direct[i].is_finite()) {
@@ -393,7 +394,7 @@ impl GodObject {
             }
             let handover = (direct[i] - 1.0).floor();
             let there = self.pose_ahead(q, handover);
-            let more = self.frames_in(&self.free[j], &there, used);
+            let more = self.frames_in(&self.run.free[j], &there, used);
             if more > 0.0 {
                 reach[j] = handover + more;
             }
@@ -419,7 +420,7 @@ impl GodObject {
         used: f64,
     ) {
         let [a, b] = self.proof_reach(q, used);
-        self.free[usize::from(a > b)] = FreeProof {
+        self.run.free[usize::from(a > b)] = FreeProof {
             center,
             path,
             radius,
@@ -431,8 +432,8 @@ impl GodObject {
     fn proof_slot_free(&self, q: &Pose, used: f64) -> bool {
         let [a, b] = self.proof_reach(q, used);
         let i = usize::from(a > b);
-        self.frames_in(&self.free[i], q, used) <= 0.0
-            || self.frames_in(&self.free[1 - i], q, used) > 0.0
+        self.frames_in(&self.run.free[i], q, used) <= 0.0
+            || self.frames_in(&self.run.free[1 - i], q, used) > 0.0
     }
 
     /// When the proofs have run out at `q` (a frame needing `used` mm) but the background
@@ -464,7 +465,7 @@ impl GodObject {
                 PROBE_FINISH_SLICE_SPLITS,
                 Some(deadline),
             );
-            self.frame_splits += self.probe.splits().saturating_sub(before) as u64;
+            self.run.frame_splits += self.probe.splits().saturating_sub(before) as u64;
             if self.probe.status() != ProbeStatus::Running {
                 break;
             }
@@ -486,9 +487,9 @@ impl GodObject {
     /// Remembers the finished probe's cost (node pairs split) for the next of its kind.
     fn note_probe_cost(&mut self) {
         if self.probe.path() != [0.0; 3] {
-            self.path_probe_splits = self.probe.splits();
+            self.run.path_probe_splits = self.probe.splits();
         } else {
-            self.probe_splits = self.probe.splits();
+            self.run.probe_splits = self.probe.splits();
         }
     }
 
@@ -496,10 +497,10 @@ impl GodObject {
     /// any, four times a probe at a pose (measured in the spline's hole: 1.0–1.5 times the node
     /// pairs of a probe at a pose for 3–6 mm going out, 1.8–4.5 going in).
     fn path_probe_estimate(&self) -> f64 {
-        if self.path_probe_splits > 0 {
-            self.path_probe_splits as f64
+        if self.run.path_probe_splits > 0 {
+            self.run.path_probe_splits as f64
         } else {
-            4.0 * self.probe_splits as f64
+            4.0 * self.run.probe_splits as f64
         }
     }
 
@@ -514,15 +515,15 @@ impl GodObject {
             // Probes come every few frames here: the helper stays ready for them.
             team.keep_awake();
         }
-        let speed = self.last_motion.max(1e-4);
+        let speed = self.run.last_motion.max(1e-4);
         // Inside a neighbour list, a proof that runs out is renewed by filtering the list (a
         // pass over its entries, no traversal): the probe has until the list runs out.
         let list_frames = (self.neighbours.slack(q, None, used) / speed).max(0.0);
         let horizon = self.proof_horizon(q, used).max(list_frames);
         // A tool sliding steadily (without turning) is probed along its way.
-        let step = Vector3::from(self.last_step);
+        let step = Vector3::from(self.run.last_step);
         let sliding =
-            step.norm() >= PATH_PROBE_MIN_STEP_MM && self.last_motion <= 1.25 * step.norm();
+            step.norm() >= PATH_PROBE_MIN_STEP_MM && self.run.last_motion <= 1.25 * step.norm();
         if self.probe.status() == ProbeStatus::Running {
             // The last probe's cost (of the same kind) estimates this one's; one that runs
             // past it (a deeper hole costs more) is given a quarter more at a time. It aims to
@@ -530,7 +531,7 @@ impl GodObject {
             let (estimate, least) = if self.probe.path() != [0.0; 3] {
                 (self.path_probe_estimate(), PATH_PROBE_MIN_SLICE_SPLITS)
             } else {
-                (self.probe_splits as f64, PROBE_MIN_SLICE_SPLITS)
+                (self.run.probe_splits as f64, PROBE_MIN_SLICE_SPLITS)
             };
             // Paced to finish a little before the horizon (a probe at a pose), or within three
             // quarters of it (along a path: the horizon is measured at the last frame's motion,
@@ -570,7 +571,7 @@ impl GodObject {
                 self.team.as_ref(),
                 Some(slice_deadline),
             );
-            self.frame_splits += self.probe.splits().saturating_sub(before) as u64;
+            self.run.frame_splits += self.probe.splits().saturating_sub(before) as u64;
         }
         match self.probe.status() {
             ProbeStatus::Free if !self.proof_slot_free(q, used) => {}
@@ -579,20 +580,20 @@ impl GodObject {
                 let path = Vector3::from(self.probe.path());
                 let (_, pose, radius) = self.probe.take();
                 self.add_free_proof(pose, path, radius, q, used);
-                self.probe_margin = (PROBE_MARGIN_GROWTH * radius).min(BACKGROUND_PROBE_MM);
+                self.run.probe_margin = (PROBE_MARGIN_GROWTH * radius).min(BACKGROUND_PROBE_MM);
             }
             ProbeStatus::Touching => {
                 // Something lies within the margin asked: the next probe asks for less.
                 let (_, radius) = self.probe.question();
                 self.probe.take();
-                self.probe_margin = (PROBE_MARGIN_SHRINK * radius).max(BACKGROUND_PROBE_MIN_MM);
+                self.run.probe_margin = (PROBE_MARGIN_SHRINK * radius).max(BACKGROUND_PROBE_MIN_MM);
             }
             ProbeStatus::Idle => {
                 // Where a whole proof costs less than a slice (open space), renewing it when
                 // it runs out is cheaper than probing ahead; not where a neighbour list
                 // renewed the proofs (the tight gap it was built in costs a long traversal
                 // once it runs out).
-                let worth_it = self.probe_splits > PROBE_SLICE_SPLITS || list_frames > 0.0;
+                let worth_it = self.run.probe_splits > PROBE_SLICE_SPLITS || list_frames > 0.0;
                 let (estimate, pace, ahead) = if sliding {
                     (
                         self.path_probe_estimate(),
@@ -600,10 +601,10 @@ impl GodObject {
                         PATH_PROBE_LEAD,
                     )
                 } else {
-                    (self.probe_splits as f64, PROBE_SLICE_SPLITS, 1.5)
+                    (self.run.probe_splits as f64, PROBE_SLICE_SPLITS, 1.5)
                 };
                 let lead = (ahead * estimate / pace as f64 + 2.0).max(PROBE_LEAD_FRAMES);
-                let margin = self.probe_margin;
+                let margin = self.run.probe_margin;
                 let lasts = margin - used >= PROBE_MIN_USABLE_FRAMES * speed;
                 // A tool at rest in free space has time to spare: a wider proof about it,
                 // built a slice a frame, serves the first frames of its next motion while the
@@ -649,25 +650,25 @@ impl GodObject {
     /// life, and each frame builds a slice of it (until the `deadline`), sized to finish in
     /// time. A finished list replaces the one in use; its pair count sets the next margin.
     pub(super) fn tend_neighbours(&mut self, q: &Pose, used: f64, deadline: Instant) {
-        let speed = self.last_motion;
-        let margin = self.list_margin;
+        let speed = self.run.last_motion;
+        let margin = self.run.list_margin;
         let life = (margin - used).max(0.0) / speed.max(1e-9);
-        self.detections_per_frame =
-            0.9 * self.detections_per_frame + 0.1 * self.frame_detections as f64;
-        self.frame_detections = 0;
+        self.run.detections_per_frame =
+            0.9 * self.run.detections_per_frame + 0.1 * self.run.frame_detections as f64;
+        self.run.frame_detections = 0;
         // A list pays where regions are costly to traverse (flat-on-flat contacts: a thousand
         // node pairs per region; not the bunny's hundred), and on this thread only where it
         // does not cost clearly more per frame than the regions it spares (a helper builds it
         // on time nobody else wants).
-        let spared = self.detections_per_frame * self.splits_per_region;
-        let costs = self.list_splits as f64 / life.max(1.0);
+        let spared = self.run.detections_per_frame * self.run.splits_per_region;
+        let costs = self.run.list_splits as f64 / life.max(1.0);
         if self.next_neighbours.status() == ListStatus::Empty {
-            self.list_yield = (self.list_yield * LIST_YIELD_RECOVERY).min(LIST_FIRST_YIELD);
+            self.run.list_yield = (self.run.list_yield * LIST_YIELD_RECOVERY).min(LIST_FIRST_YIELD);
         }
-        let pays = self.splits_per_region >= LIST_MIN_REGION_SPLITS
+        let pays = self.run.splits_per_region >= LIST_MIN_REGION_SPLITS
             && (self.team.is_some()
-                || self.idle_given
-                || (costs <= LIST_PAYOFF * spared && self.list_yield >= LIST_MIN_YIELD));
+                || self.run.idle_given
+                || (costs <= LIST_PAYOFF * spared && self.run.list_yield >= LIST_MIN_YIELD));
         // A list holds leaf pairs without the faces' merging and pruning: with face caps its
         // build costs the whole-sphere traversal the faces spare, so none is kept (measured on
         // the spline with caps: p99 579 µs without lists, 727 µs with).
@@ -695,7 +696,7 @@ impl GodObject {
             PROBE_SLICE_SPLITS
         };
         if self.next_neighbours.status() == ListStatus::Building && Instant::now() < deadline {
-            let estimate = self.list_work as f64;
+            let estimate = self.run.list_work as f64;
             let left = (estimate - self.next_neighbours.work() as f64).max(0.25 * estimate);
             let slice = (left / (horizon - 1.0).max(1.0))
                 .clamp(PROBE_MIN_SLICE_SPLITS as f64, LIST_MAX_SLICE_WORK as f64);
@@ -709,18 +710,18 @@ impl GodObject {
                 self.team.as_ref(),
                 Some(deadline),
             );
-            self.frame_splits += self.next_neighbours.work().saturating_sub(before) as u64;
+            self.run.frame_splits += self.next_neighbours.work().saturating_sub(before) as u64;
         }
         match self.next_neighbours.status() {
             ListStatus::Ready => self.take_next_list(),
             ListStatus::Overflowed => {
                 let (_, built) = self.next_neighbours.question();
-                self.list_margin = (0.6 * built).max(LIST_MIN_MM);
-                self.list_work = self.list_work.max(self.next_neighbours.work());
+                self.run.list_margin = (0.6 * built).max(LIST_MIN_MM);
+                self.run.list_work = self.run.list_work.max(self.next_neighbours.work());
                 self.next_neighbours.cancel();
             }
             ListStatus::Empty => {
-                let frames = self.list_work as f64 / pace as f64;
+                let frames = self.run.list_work as f64 / pace as f64;
                 // (With a helper, measured paced: starting each build as soon as the last
                 // list is taken placed it too far ahead, p99 262–319 against 84–133 µs.)
                 let lead = 1.5 * frames + 2.0;
@@ -728,7 +729,7 @@ impl GodObject {
                     let ahead_frames = horizon + 0.5 * life;
                     let mut center = *q;
                     for k in 0..3 {
-                        center.q[k] += ahead_frames * self.last_step[k];
+                        center.q[k] += ahead_frames * self.run.last_step[k];
                     }
                     let _ = self.next_neighbours.start(&self.tool, &center, margin);
                 }
@@ -742,21 +743,21 @@ impl GodObject {
     fn take_next_list(&mut self) {
         let work = self.next_neighbours.work();
         let in_use = self.neighbours.status() == ListStatus::Ready;
-        let (served, last_work) = (self.list_served, self.list_work);
+        let (served, last_work) = (self.run.list_served, self.run.list_work);
         if self.next_neighbours.take(&mut self.neighbours) {
             // What the list it replaces answered, against its work.
             if in_use {
-                let answered = served as f64 * self.splits_per_region;
+                let answered = served as f64 * self.run.splits_per_region;
                 let sample = answered / last_work.max(1) as f64;
-                self.list_yield = 0.5 * self.list_yield + 0.5 * sample;
+                self.run.list_yield = 0.5 * self.run.list_yield + 0.5 * sample;
             }
-            self.list_served = 0;
-            self.list_work = work;
-            self.list_splits = self.neighbours.splits();
+            self.run.list_served = 0;
+            self.run.list_work = work;
+            self.run.list_splits = self.neighbours.splits();
             let n = self.neighbours.len().max(1) as f64;
             let (_, built) = self.neighbours.question();
             // Pairs grow about as the margin cubed over a bumpy flat contact.
-            self.list_margin =
+            self.run.list_margin =
                 (built * (LIST_TARGET_PAIRS / n).cbrt()).clamp(LIST_MIN_MM, LIST_MAX_MM);
         }
     }
@@ -774,7 +775,7 @@ impl GodObject {
     /// # Real-time
     /// No allocation, no panic; returns within one slice (~10–40 µs) of `until`.
     pub fn idle(&mut self, until: Instant) {
-        self.idle_given = until
+        self.run.idle_given = until
             .checked_duration_since(Instant::now())
             .is_some_and(|d| d.as_micros() >= u128::from(IDLE_FOR_LISTS_US));
         let stop = until.checked_sub(std::time::Duration::from_micros(IDLE_WARM_US));
@@ -816,7 +817,7 @@ impl GodObject {
     /// farther than `M - b` at a pose the motion bound `b` away.
     pub(super) fn lever_at(&mut self, q: &Pose, margin: f64) -> Option<Lever> {
         let need = margin + LEVER_MARGIN_MM;
-        if let Some((at, found, lever)) = self.lever_cache {
+        if let Some((at, found, lever)) = self.run.lever_cache {
             if found - self.motion_bound(&at, q) >= need {
                 return lever;
             }
@@ -840,7 +841,7 @@ impl GodObject {
             // Worth it only where the near leaves turn on a shorter arm than the tool.
             (reach < 0.9 * self.reach).then_some(Lever { near, reach })
         });
-        self.lever_cache = Some((*q, found, lever));
+        self.run.lever_cache = Some((*q, found, lever));
         lever
     }
 
@@ -919,8 +920,8 @@ pub(super) mod tests {
     fn free_space_proofs_hand_the_tool_over_along_its_way() {
         let mut g = shaft();
         let step = 0.04;
-        g.last_step = [0.0, 0.0, step];
-        g.last_motion = step;
+        g.run.last_step = [0.0, 0.0, step];
+        g.run.last_motion = step;
         let at = |z: f64| Pose::from_array([0.0, 0.0, z, 0.0, 0.0, 0.0]);
         let proof = |z: f64, length: f64| FreeProof {
             center: at(z),
@@ -930,9 +931,9 @@ pub(super) mod tests {
         let used = 0.1;
         // The tool at z = 0 in a proof along 0..1 mm (it leaves it near z = 1.2: 30 frames),
         // the next along 1.1..5.1 mm (to z = 5.3: 132 frames in all).
-        g.free = [proof(0.0, 1.0), proof(1.1, 4.0)];
+        g.run.free = [proof(0.0, 1.0), proof(1.1, 4.0)];
         let q = at(0.0);
-        let direct = g.frames_in(&g.free[0], &q, used);
+        let direct = g.frames_in(&g.run.free[0], &q, used);
         assert!((direct - 30.0).abs() < 0.01, "{direct}");
         // (Before the handover was counted, the horizon was the first proof's 30 frames
         // only, and probes ahead were sized to finish in them.)
@@ -942,13 +943,13 @@ pub(super) mod tests {
         assert!(!g.proof_slot_free(&q, used));
         // Past the first, it takes the first's place.
         let q = at(1.5);
-        assert_eq!(g.frames_in(&g.free[0], &q, used), 0.0);
+        assert_eq!(g.frames_in(&g.run.free[0], &q, used), 0.0);
         assert!(g.proof_slot_free(&q, used));
         g.add_free_proof(at(5.2), Vector3::new(0.0, 0.0, 4.0), 0.3, &q, used);
-        assert_eq!(g.free[0].center.q[2], 5.2);
-        assert_eq!(g.free[1].center.q[2], 1.1);
+        assert_eq!(g.run.free[0].center.q[2], 5.2);
+        assert_eq!(g.run.free[1].center.q[2], 1.1);
         // A proof the tool will never enter serves it no frame.
-        g.free[0] = proof(-3.0, 1.0);
+        g.run.free[0] = proof(-3.0, 1.0);
         assert_eq!(g.proof_reach(&q, used)[0], 0.0);
     }
 
@@ -960,8 +961,8 @@ pub(super) mod tests {
     fn a_turning_tool_is_handed_over_to_the_proof_ahead_of_its_turn() {
         let mut g = shaft();
         let turn = 0.001; // rad per frame: 0.012 mm at the leaves' 12 mm arm
-        g.last_turn = [0.0, 0.0, turn];
-        g.last_motion = turn * 12.0;
+        g.run.last_turn = [0.0, 0.0, turn];
+        g.run.last_motion = turn * 12.0;
         let at = |a: f64| Pose::from_array([0.0, 0.0, 0.0, 0.0, 0.0, a]);
         let proof = |a: f64| FreeProof {
             center: at(a),
@@ -971,11 +972,11 @@ pub(super) mod tests {
         let used = 0.06;
         // The first proof serves (0.3 - 0.06) / 0.012 = 20 frames; the second is centred 25
         // frames on.
-        g.free = [proof(0.0), proof(25.0 * turn)];
+        g.run.free = [proof(0.0), proof(25.0 * turn)];
         let q = at(0.0);
-        let direct = g.frames_in(&g.free[0], &q, used);
+        let direct = g.frames_in(&g.run.free[0], &q, used);
         assert!((direct - 20.0).abs() < 0.01, "{direct}");
-        assert_eq!(g.frames_in(&g.free[1], &q, used), 0.0);
+        assert_eq!(g.frames_in(&g.run.free[1], &q, used), 0.0);
         let horizon = g.proof_horizon(&q, used);
         assert!(
             horizon > 30.0,
@@ -986,7 +987,7 @@ pub(super) mod tests {
         assert!((ahead.q[5] - 25.0 * turn).abs() < 1e-12);
         assert_eq!(ahead.translation(), q.translation());
         // A non-finite guess keeps the pose.
-        g.last_turn = [f64::NAN, 0.0, 0.0];
+        g.run.last_turn = [f64::NAN, 0.0, 0.0];
         assert_eq!(g.pose_ahead(&q, 3.0), q);
     }
 
@@ -1008,7 +1009,7 @@ pub(super) mod tests {
             EngineConfig::default(),
         )
         .unwrap();
-        g.probe_splits = 10 * PROBE_SLICE_SPLITS;
+        g.run.probe_splits = 10 * PROBE_SLICE_SPLITS;
         g
     }
 
@@ -1067,27 +1068,27 @@ pub(super) mod tests {
             assert_eq!(g.next_neighbours.status(), ListStatus::Ready);
         };
         // The first list: nothing in use before it, so no sample.
-        assert_eq!(g.list_yield, LIST_FIRST_YIELD);
+        assert_eq!(g.run.list_yield, LIST_FIRST_YIELD);
         ready_next(&mut g);
         g.take_next_list();
         assert_eq!(g.neighbours.status(), ListStatus::Ready);
-        assert_eq!(g.list_yield, LIST_FIRST_YIELD);
+        assert_eq!(g.run.list_yield, LIST_FIRST_YIELD);
         // The list in use answered `served` regions of 1 000 node pairs for 8 000 units of
         // work; the next one replaces it, from a yield of 1.
         let replace_after = |g: &mut GodObject, served: u32| {
-            g.list_served = served;
-            g.splits_per_region = 1000.0;
-            g.list_work = 8000;
-            g.list_yield = 1.0;
+            g.run.list_served = served;
+            g.run.splits_per_region = 1000.0;
+            g.run.list_work = 8000;
+            g.run.list_yield = 1.0;
             ready_next(g);
             g.take_next_list();
-            g.list_yield
+            g.run.list_yield
         };
         // 1 region: 0.125.
         let y = replace_after(&mut g, 1);
         assert!((y - 0.5625).abs() < 1e-12, "{y}");
-        assert!(g.list_yield < LIST_MIN_YIELD);
-        assert_eq!(g.list_served, 0);
+        assert!(g.run.list_yield < LIST_MIN_YIELD);
+        assert_eq!(g.run.list_served, 0);
         // Frames with no list building (free space here: no pair) recover it, 2 % a frame:
         // past the floor after ln(2 / 0.5625) / ln(1.02) = 64.1 frames, capped at the first.
         let q = Pose::identity();
@@ -1096,13 +1097,13 @@ pub(super) mod tests {
         for _ in 0..64 {
             g.tend_neighbours(&q, 0.05, deadline);
         }
-        assert!(g.list_yield < LIST_MIN_YIELD, "{}", g.list_yield);
+        assert!(g.run.list_yield < LIST_MIN_YIELD, "{}", g.run.list_yield);
         g.tend_neighbours(&q, 0.05, deadline);
-        assert!(g.list_yield >= LIST_MIN_YIELD, "{}", g.list_yield);
+        assert!(g.run.list_yield >= LIST_MIN_YIELD, "{}", g.run.list_yield);
         for _ in 0..200 {
             g.tend_neighbours(&q, 0.05, deadline);
         }
-        assert_eq!(g.list_yield, LIST_FIRST_YIELD);
+        assert_eq!(g.run.list_yield, LIST_FIRST_YIELD);
         // 40 regions: 5, halfway from 1.
         let y = replace_after(&mut g, 40);
         assert!((y - 3.0).abs() < 1e-12, "{y}");
@@ -1116,7 +1117,7 @@ pub(super) mod tests {
         let mut g = ring_near_object(0.2);
         let q = Pose::identity();
         let used = 0.02;
-        g.free[0] = FreeProof {
+        g.run.free[0] = FreeProof {
             center: q,
             path: Vector3::zeros(),
             radius: 0.05,
@@ -1135,15 +1136,15 @@ pub(super) mod tests {
     #[test]
     fn a_probe_that_touches_asks_for_less_until_one_proves_free_space() {
         let mut g = ring_near_object(0.2);
-        g.last_motion = 0.002;
+        g.run.last_motion = 0.002;
         let q = Pose::identity();
         let used = 0.02;
         let deadline = Instant::now() + std::time::Duration::from_secs(10);
-        let mut margins = vec![g.probe_margin];
+        let mut margins = vec![g.run.probe_margin];
         for _ in 0..40 {
             g.tend_probe(&q, used, deadline);
-            if margins.last() != Some(&g.probe_margin) {
-                margins.push(g.probe_margin);
+            if margins.last() != Some(&g.run.probe_margin) {
+                margins.push(g.run.probe_margin);
             }
             if g.free_slack(&q) > used {
                 break;
@@ -1153,7 +1154,7 @@ pub(super) mod tests {
             g.free_slack(&q) > used,
             "no proof; margins asked {margins:?}"
         );
-        let proven = g.free.iter().map(|p| p.radius).fold(0.0, f64::max);
+        let proven = g.run.free.iter().map(|p| p.radius).fold(0.0, f64::max);
         assert!(
             proven < 0.2 && proven > used,
             "{proven} (margins {margins:?})"
@@ -1250,7 +1251,7 @@ pub(super) mod tests {
         let mut g = probe_over_a_plate();
         let (c, m) = (Pose::identity(), 0.3);
         g.detect_proving(&c, None, m, 0.0, None, None).unwrap();
-        assert_eq!(g.pairs_question, Some((c, m)));
+        assert_eq!(g.run.pairs_question, Some((c, m)));
         let held: std::collections::HashSet<(u32, u32, u32)> = g
             .pairs
             .iter()

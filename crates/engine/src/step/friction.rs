@@ -168,15 +168,15 @@ impl GodObject {
     /// The contact the last frame ended in, as friction sees it: its unit normal (world) and
     /// torsional radius (mm); `None` without a frictional contact.
     pub fn friction_contact(&self) -> Option<([f64; 3], f64)> {
-        self.patch.map(|p| (p.normal.into(), p.rho))
+        self.run.patch.map(|p| (p.normal.into(), p.rho))
     }
 
     /// Turns friction on or off without forgetting the coefficients (off: the frictionless
     /// step, frame for frame).
     pub fn set_friction_enabled(&mut self, on: bool) {
         self.friction_on = on;
-        self.sliding = false;
-        self.patch = None;
+        self.run.sliding = false;
+        self.run.patch = None;
     }
 
     /// True when friction is on, the rotation coordinates are rotation vectors (friction's
@@ -197,7 +197,7 @@ impl GodObject {
     /// they give the normal (their resultant's direction), the coefficients (their weighted
     /// mean) and the centre of pressure; the pairs touching at `q` give the patch's spread.
     pub(super) fn remember_patch(&mut self, q: &Pose) {
-        self.patch = None;
+        self.run.patch = None;
         // A pair's contact point at q: on the tool sphere, toward what the pair stands for
         // (the object sphere or its face); and its gap.
         let (rot, t) = (q.rotation_matrix(), q.translation());
@@ -243,7 +243,7 @@ impl GodObject {
                 count += 1;
             }
         }
-        self.patch = Some(Patch {
+        self.run.patch = Some(Patch {
             normal: n,
             centroid: centre,
             rho: if count > 0 {
@@ -262,31 +262,31 @@ impl GodObject {
     /// hand pulls away), nowhere (the tool sticks: [`FrictionState::Stick`]), or a goal held
     /// back from the hand by the friction ([`FrictionState::Slip`]).
     pub(super) fn friction_goal(&mut self, hand: &Pose) -> (Pose, FrictionState) {
-        let Some(patch) = self.patch else {
-            self.sliding = false;
+        let Some(patch) = self.run.patch else {
+            self.run.sliding = false;
             return (*hand, FrictionState::None);
         };
         let (kt, kr) = (self.params.kt, self.params.kr);
-        let r_g = self.q_g.rotation_matrix();
+        let r_g = self.run.q_g.rotation_matrix();
         let r_h = hand.rotation_matrix();
-        let f = (hand.translation() - self.q_g.translation()) * kt;
+        let f = (hand.translation() - self.run.q_g.translation()) * kt;
         let torque = rotation_log(&(r_h * r_g.transpose())) * kr;
         let n = patch.normal;
         let normal_force = -f.dot(&n);
-        let mu = if self.sliding {
+        let mu = if self.run.sliding {
             patch.friction.kinetic_mu
         } else {
             patch.friction.static_mu
         };
         if !positive(normal_force) || !positive(mu) {
-            self.sliding = false;
+            self.run.sliding = false;
             return (*hand, FrictionState::None);
         }
         let f_t = f + n * normal_force;
         // The twist friction must hold: the spring's moment about the patch's centroid, along
         // the normal.
         let twist = if patch.rho > POINT_CONTACT_MM {
-            (torque + (self.q_g.translation() - patch.centroid).cross(&f)).dot(&n)
+            (torque + (self.run.q_g.translation() - patch.centroid).cross(&f)).dot(&n)
         } else {
             0.0
         };
@@ -295,10 +295,10 @@ impl GodObject {
         // Inside the cone the goal takes the whole pull away (the contact does not slide; the
         // tool may still settle along the normal and tilt); outside, what friction holds.
         let (k, state) = if phi <= limit {
-            self.sliding = false;
+            self.run.sliding = false;
             (1.0, FrictionState::Stick)
         } else {
-            self.sliding = true;
+            self.run.sliding = true;
             (limit / phi, FrictionState::Slip)
         };
         // Held back by k of the pull: the force by k F_t, the turn about n by k of the spring's
@@ -314,7 +314,7 @@ impl GodObject {
             &(rotation_exp(&(n * (-k * turn / kr))) * r_h),
         );
         if !goal.is_finite() {
-            self.sliding = false;
+            self.run.sliding = false;
             return (*hand, FrictionState::None);
         }
         (goal, state)

@@ -583,12 +583,6 @@ pub struct GodObject {
     /// half-space pair, so the same face met through several object leaves is kept once.
     face_seen: Vec<(u32, u32)>,
     face_stamp: u32,
-    dropped: usize,
-    /// The last traversal stopped at the frame's deadline (its list is not complete).
-    interrupted: bool,
-    /// Rows, trust region and solve time per row, µs: a running mean (to keep a solve from
-    /// starting when it would end past the budget).
-    solve_us_per_row: f64,
     rows: Vec<[f64; 6]>,
     rhs: Vec<f64>,
     solver: Solver,
@@ -598,13 +592,51 @@ pub struct GodObject {
     /// Bench audit of the reduction: a second solver that solves every reduced QP in full
     /// ([`GodObject::audit_reduction`]); none in normal use.
     audit: Option<Box<(Solver, ReductionAudit)>>,
-    warm: [PairId; 6],
-    warm_len: usize,
-    warm_idx: [usize; 6],
     reach: f64,
     /// Box of the tool's leaf centres (tool frame, mm): a turn about an axis moves them by at
     /// most the angle times their largest distance from it ([`CentreBox::turn_bound`]).
     centres: CentreBox,
+    /// The next free-space proof, computed a slice per frame ahead of need.
+    probe: FreeSpaceProbe,
+    /// The neighbour list in use: every leaf pair within a wide margin of a pose near the tool,
+    /// filtered instead of traversed while a region's query stays inside it.
+    neighbours: NeighbourList,
+    /// The next neighbour list, built a slice per frame ahead of need (by the helper thread,
+    /// if there is one, on the same schedule).
+    next_neighbours: BackgroundList,
+    /// Friction of each object's material, and of the tool's (`None`: the objects' alone).
+    object_friction: Vec<Friction>,
+    tool_friction: Option<Friction>,
+    /// Friction is applied (it can be turned off without forgetting the coefficients).
+    friction_on: bool,
+    /// Everything learnt while running (see [`RunState`]): replaced whole by [`GodObject::reset`].
+    run: RunState,
+}
+
+/// Everything the god-object learns while it runs: the graphic pose and its last motion, the
+/// warm start, the prediction, the pair density, the cached region and near part of the tool,
+/// the free-space proofs and the probes' and lists' pacing, friction's stick/slip and patch,
+/// the frame's work counts. [`GodObject::new`] and [`GodObject::reset`] both start from
+/// [`RunState::fresh`], so a reset run repeats a fresh engine's frames: nothing carries over.
+///
+/// Plain values only: the buffers a run fills (pair list, probe, neighbour lists) are owned by
+/// [`GodObject`], sized once, and emptied in place by a reset.
+#[derive(Clone, Debug)]
+struct RunState {
+    /// Leaf pairs of the last detection that did not fit in `pairs` (its list is then not
+    /// complete).
+    dropped: usize,
+    /// The last traversal stopped at the frame's deadline (its list is not complete).
+    interrupted: bool,
+    /// Rows, trust region and solve time per row, µs: a running mean (to keep a solve from
+    /// starting when it would end past the budget).
+    solve_us_per_row: f64,
+    /// The pairs active at the last answer (warm start of the next solve), and their
+    /// indices in the current pair list.
+    warm: [PairId; 6],
+    warm_len: usize,
+    warm_idx: [usize; 6],
+    /// The graphic configuration: the last frame's answer.
     q_g: Pose,
     /// Motion bound of the graphic tool over the last frame, mm.
     last_motion: f64,
@@ -629,21 +661,14 @@ pub struct GodObject {
     /// traversals while the tool stays near it; two, so that one placed ahead of the tool by a
     /// background probe can be ready before the other runs out.
     free: [FreeProof; 2],
-    /// The next free-space proof, computed a slice per frame ahead of need.
-    probe: FreeSpaceProbe,
     /// Node pairs the last finished probe at a pose, and along a path, split (their costs, to
     /// size the next one's slices).
     probe_splits: usize,
     path_probe_splits: usize,
-    /// Margin (mm) of the next background probe: [`BACKGROUND_PROBE_MM`], halved after a
-    /// probe that touched, grown back after one that proved free space.
+    /// Margin (mm) of the next background probe: [`BACKGROUND_PROBE_MM`], shrunk after a
+    /// probe that touched ([`PROBE_MARGIN_SHRINK`]), grown back after one that proved free
+    /// space ([`PROBE_MARGIN_GROWTH`]).
     probe_margin: f64,
-    /// The neighbour list in use: every leaf pair within a wide margin of a pose near the tool,
-    /// filtered instead of traversed while a region's query stays inside it.
-    neighbours: NeighbourList,
-    /// The next neighbour list, built a slice per frame ahead of need (by the helper thread,
-    /// if there is one, on the same schedule).
-    next_neighbours: BackgroundList,
     /// Margin (mm) of the next neighbour list: adapted to the pairs the last one held.
     list_margin: f64,
     /// Work of the last finished list (node pairs split plus pairs listed: its cost, to size
@@ -669,7 +694,7 @@ pub struct GodObject {
     /// no longer costs the frames).
     idle_given: bool,
     /// Regions answered from a neighbour list or the last ball's own pairs, and by a
-    /// traversal, since `new`.
+    /// traversal, since the last reset.
     regions_filtered: u64,
     regions_traversed: u64,
     /// The ball detection that listed `pairs` (its pose and margin, mm), while they are
@@ -685,12 +710,8 @@ pub struct GodObject {
     /// How far (mm, largest sphere motion) the answer lay from the predicted pose, recently
     /// (the last frame's, or slowly forgotten larger ones).
     prediction_error: f64,
+    /// A start pose was given (by [`GodObject::reset`] or the first frame's hand).
     started: bool,
-    /// Friction of each object's material, and of the tool's (`None`: the objects' alone).
-    object_friction: Vec<Friction>,
-    tool_friction: Option<Friction>,
-    /// Friction is applied (it can be turned off without forgetting the coefficients).
-    friction_on: bool,
     /// The tool slid in the last frame with contact (kinetic friction holds it), else it
     /// stuck (static friction).
     sliding: bool,
@@ -699,6 +720,56 @@ pub struct GodObject {
     /// Overlap (mm) and touching pairs at `q_g`, as the last frame measured them.
     pen_g: f64,
     contacts_g: u32,
+}
+
+impl RunState {
+    /// The state before any frame.
+    fn fresh() -> Self {
+        Self {
+            dropped: 0,
+            interrupted: false,
+            solve_us_per_row: 0.0,
+            warm: [(0, 0, 0); 6],
+            warm_len: 0,
+            warm_idx: [0; 6],
+            q_g: Pose::identity(),
+            last_motion: 0.0,
+            last_step: [0.0; 3],
+            last_turn: [0.0; 3],
+            contact_face: None,
+            slab_rest: 0,
+            lever_cache: None,
+            behind: false,
+            slab_next_rest: SLAB_REST_FRAMES,
+            density: density::PairDensity::default(),
+            free: [FreeProof::none(); 2],
+            probe_splits: 0,
+            path_probe_splits: 0,
+            probe_margin: BACKGROUND_PROBE_MM,
+            list_margin: LIST_MARGIN_MM,
+            list_work: LIST_FIRST_WORK,
+            list_splits: LIST_FIRST_SPLITS,
+            list_served: 0,
+            list_yield: LIST_FIRST_YIELD,
+            splits_per_region: 0.0,
+            detections_per_frame: 0.0,
+            frame_detections: 0,
+            frame_splits: 0,
+            frame_scanned: 0,
+            idle_given: false,
+            regions_filtered: 0,
+            regions_traversed: 0,
+            pairs_question: None,
+            hand_offset: (Vector3::zeros(), Vector3::zeros()),
+            cached: None,
+            prediction_error: 0.0,
+            started: false,
+            sliding: false,
+            patch: None,
+            pen_g: 0.0,
+            contacts_g: 0,
+        }
+    }
 }
 
 impl GodObject {
@@ -761,61 +832,20 @@ impl GodObject {
             pairs: Vec::with_capacity(cap),
             face_seen: vec![(0, 0); tool_slots],
             face_stamp: 0,
-            dropped: 0,
-            interrupted: false,
-            solve_us_per_row: 0.0,
             rows: vec![[0.0; 6]; cap + 12],
             rhs: vec![0.0; cap + 12],
             solver,
             rows_solver,
             audit: None,
-            warm: [(0, 0, 0); 6],
-            warm_len: 0,
-            warm_idx: [0; 6],
             reach,
             centres,
-            q_g: Pose::identity(),
-            last_motion: 0.0,
-            last_step: [0.0; 3],
-            last_turn: [0.0; 3],
-            contact_face: None,
-            slab_rest: 0,
-            lever_cache: None,
-            behind: false,
-            slab_next_rest: SLAB_REST_FRAMES,
-            density: density::PairDensity::default(),
-            free: [FreeProof::none(); 2],
             probe,
-            probe_splits: 0,
-            path_probe_splits: 0,
-            probe_margin: BACKGROUND_PROBE_MM,
             neighbours,
             next_neighbours,
-            list_margin: LIST_MARGIN_MM,
-            list_work: LIST_FIRST_WORK,
-            list_splits: LIST_FIRST_SPLITS,
-            list_served: 0,
-            list_yield: LIST_FIRST_YIELD,
-            splits_per_region: 0.0,
-            detections_per_frame: 0.0,
-            frame_detections: 0,
-            frame_splits: 0,
-            frame_scanned: 0,
-            idle_given: false,
-            regions_filtered: 0,
-            regions_traversed: 0,
-            pairs_question: None,
-            hand_offset: (Vector3::zeros(), Vector3::zeros()),
-            cached: None,
-            prediction_error: 0.0,
-            started: false,
             object_friction: vec![Friction::NONE; n_objects],
             tool_friction: None,
             friction_on: true,
-            sliding: false,
-            patch: None,
-            pen_g: 0.0,
-            contacts_g: 0,
+            run: RunState::fresh(),
         })
     }
 
@@ -832,7 +862,7 @@ impl GodObject {
 
     /// The current graphic configuration.
     pub fn q_g(&self) -> Pose {
-        self.q_g
+        self.run.q_g
     }
 
     /// Largest distance of a tool leaf centre from the tool origin, mm.
@@ -841,10 +871,10 @@ impl GodObject {
     }
 
     /// Regions (detections) answered without a traversal (from a neighbour list, or from the
-    /// last ball's own pairs), and by a traversal, since the god-object was made: how much
-    /// the lists spare.
+    /// last ball's own pairs), and by a traversal, since the last reset (or since the
+    /// god-object was made): how much the lists spare.
     pub fn region_counts(&self) -> (u64, u64) {
-        (self.regions_filtered, self.regions_traversed)
+        (self.run.regions_filtered, self.run.regions_traversed)
     }
 
     /// The leaf pairs of the last detected region (empty in free space).
@@ -895,45 +925,22 @@ impl GodObject {
 
     /// Resets the graphic tool for a new run at the device pose `start`: `q_g = start` if it is
     /// free, else the nearest free pose found by repeated projection (each pass: detect at the
-    /// current `q`, solve the QP toward `start`, re-measure). Allocation-free after `new`.
+    /// current `q`, solve the QP toward `start`, re-measure). Nothing learnt in an earlier run
+    /// carries over (warm start, prediction, pair density, cached regions, free-space proofs,
+    /// probes, neighbour lists, friction's stick or slip, counts): the frames after a reset are
+    /// those of a new god-object reset at the same pose. Allocation-free after `new`.
     pub fn reset(&mut self, start: &Pose) -> Result<Pose, EngineError> {
         if !start.is_finite() {
             return Err(EngineError::NoFreeStart { searched_mm: 0.0 });
         }
-        self.warm_len = 0;
-        self.last_motion = 0.0;
-        self.last_step = [0.0; 3];
-        self.last_turn = [0.0; 3];
-        self.contact_face = None;
-        self.slab_rest = 0;
-        self.slab_next_rest = SLAB_REST_FRAMES;
-        self.hand_offset = (Vector3::zeros(), Vector3::zeros());
-        // A new run: nothing learnt from the last one (prediction, pair density) carries over.
-        self.prediction_error = 0.0;
-        self.density = density::PairDensity::default();
-        self.sliding = false;
-        self.patch = None;
-        self.cached = None;
-        self.free = [FreeProof::none(); 2];
-        self.probe.cancel();
-        self.path_probe_splits = 0;
-        self.probe_margin = BACKGROUND_PROBE_MM;
-        self.neighbours.clear();
-        self.next_neighbours.cancel();
-        self.list_margin = LIST_MARGIN_MM;
-        self.list_work = LIST_FIRST_WORK;
-        self.list_splits = LIST_FIRST_SPLITS;
-        self.list_served = 0;
-        self.list_yield = LIST_FIRST_YIELD;
-        self.splits_per_region = 0.0;
-        self.detections_per_frame = 0.0;
+        self.forget_run();
         let mut q = *start;
         let tol = self.params.penetration_tol_mm.max(1e-6);
         let mut searched = 0.0f64;
         for _ in 0..100 {
             if self.penetration_at(&q) <= tol {
-                self.q_g = q;
-                self.started = true;
+                self.run.q_g = q;
+                self.run.started = true;
                 return Ok(q);
             }
             // Push out: linearize at q with the gap target, minimising distance to `start`.
@@ -964,6 +971,18 @@ impl GodObject {
         })
     }
 
+    /// Forgets the run so far: the state learnt while running starts fresh, as in
+    /// [`GodObject::new`] ([`RunState::fresh`]), and the buffers a run fills are emptied in
+    /// place (their capacity kept: a reset does not allocate). Settings (friction, the
+    /// reduction audit) and the trees stay.
+    fn forget_run(&mut self) {
+        self.run = RunState::fresh();
+        self.pairs.clear();
+        self.probe.cancel();
+        self.neighbours.clear();
+        self.next_neighbours.cancel();
+    }
+
     /// One haptic frame for the device configuration `q_h` (see the module docs).
     ///
     /// # Real-time
@@ -972,15 +991,15 @@ impl GodObject {
     /// traversals and one QP solve (the solver's iteration cap).
     pub fn step(&mut self, q_h: &Pose) -> FrameOutput {
         let t_start = Instant::now();
-        self.frame_splits = 0;
-        self.frame_scanned = 0;
+        self.run.frame_splits = 0;
+        self.run.frame_scanned = 0;
         let mut out = FrameOutput {
             q_h: q_h.to_array(),
             ..FrameOutput::default()
         };
-        if !self.started {
-            self.q_g = *q_h;
-            self.started = true;
+        if !self.run.started {
+            self.run.q_g = *q_h;
+            self.run.started = true;
         }
         // A non-finite or absurd reading (beyond 1e6 mm or rad: `q - q_h` then keeps too few
         // digits for the constraints) is a device fault: keep the last safe pose.
@@ -1008,11 +1027,11 @@ impl GodObject {
                 (1.0 - DETECT_RESERVE) * self.params.budget_us.max(0.0) * 1e-6,
             );
         // The last pose proven free on the way (q_g_prev is: it was accepted last frame).
-        let mut q_safe = self.q_g;
+        let mut q_safe = self.run.q_g;
         let mut pen_safe = 0.0;
         // The last answer verified inside its region, and its overlap (for an inexact solver).
         let mut last_answer: Option<(Pose, f64)> = None;
-        let mut q_lin = self.q_g;
+        let mut q_lin = self.run.q_g;
         // The detected region (its pairs are in `self.pairs`); `boxed` keeps the iterates
         // inside it.
         let mut region = Region {
@@ -1036,7 +1055,7 @@ impl GodObject {
         let mut reused = false;
         // Whether `out.pairs` holds the frame's first pair list yet.
         let mut listed = false;
-        if let Some((cached, trust)) = self.cached.filter(|_| reusable) {
+        if let Some((cached, trust)) = self.run.cached.filter(|_| reusable) {
             if let Some(lin) = self.linearization(&q_lin, q_h) {
                 let depth = self.distance_from_region(&lin, &cached, &q_lin, &lin.delta());
                 let across_ok = cached
@@ -1064,7 +1083,7 @@ impl GodObject {
         let mut allow = if max_passes == 1 {
             cap
         } else {
-            (1.5 * self.last_motion + MIN_ALLOW_MM).min(cap)
+            (1.5 * self.run.last_motion + MIN_ALLOW_MM).min(cap)
         };
         let mut overflowed = false;
         let mut reached = false;
@@ -1105,7 +1124,7 @@ impl GodObject {
                 let need = need_t + need_r;
                 // Dense contacts (flat on flat) hold many pairs per mm of margin: keep the
                 // expected count near PAIR_TARGET by taking smaller regions (more passes).
-                let dense_cap = self.density.margin_for(BALL_PAIR_TARGET) - skin;
+                let dense_cap = self.run.density.margin_for(BALL_PAIR_TARGET) - skin;
                 let mut allowed = need
                     .min(allow)
                     .min(cap)
@@ -1138,15 +1157,15 @@ impl GodObject {
                 // way pairs come in at the contact's leading edge, about linearly with the
                 // length; its width alone within the ball's cap, since every pair within it
                 // at the start is in the path's list.)
-                let path_cap = (self.density.path_margin_for(PAIR_TARGET) - skin)
+                let path_cap = (self.run.density.path_margin_for(PAIR_TARGET) - skin)
                     .max(MIN_ALLOW_MM)
                     .min(cap);
                 // A tool left behind while falling (the last frame ran out before its optimum
                 // with the tool moving on): its path is the straight way to the hand.
                 let falling = {
-                    let step = Vector3::from(self.last_step);
+                    let step = Vector3::from(self.run.last_step);
                     let way = q_h.translation() - q_lin.translation();
-                    self.behind
+                    self.run.behind
                         && step.norm() >= FALL_MIN_STEP_MM
                         && step.dot(&way) >= FALL_MIN_COS * step.norm() * way.norm()
                 };
@@ -1175,7 +1194,7 @@ impl GodObject {
                 // list: every pair within `m` of touching at `c` is held, so a ball of
                 // `m - skin - b(c, q_lin)` about q_lin needs no detection (its trust box about
                 // q_lin lets the tool go on).
-                let own_room = match self.pairs_question {
+                let own_room = match self.run.pairs_question {
                     Some((c, m))
                         if sweep.is_none()
                             && list_room < MIN_ALLOW_MM
@@ -1205,9 +1224,9 @@ impl GodObject {
                 // `b(centre, q_lin) + m <= radius` (no traversal at all).
                 let free_slack = self.free_slack(&q_lin);
                 let mut detected = if extent + skin <= free_slack {
-                    self.cached = None;
+                    self.run.cached = None;
                     self.pairs.clear();
-                    self.dropped = 0;
+                    self.run.dropped = 0;
                     if pass == 0 {
                         self.tend_probe(&q_lin, allowed + skin, deadline);
                     }
@@ -1217,7 +1236,7 @@ impl GodObject {
                     self.detect_along(&q_lin, Some(&path), width + skin, Some(deadline), None)
                 } else if recentred {
                     // The pairs held already: no detection.
-                    self.regions_filtered += 1;
+                    self.run.regions_filtered += 1;
                     Ok(f64::INFINITY)
                 } else if let Some(free) = if self.neighbours.covers(&q_lin, None, extent + skin) {
                     // A neighbour list answers it for a filter: no probe is finished for it.
@@ -1229,10 +1248,10 @@ impl GodObject {
                     // space (no pair); out of time, the frame ends here and the next one
                     // carries on with it (a traversal too long for one frame's budget is then
                     // spread over several instead of never finishing).
-                    self.cached = None;
+                    self.run.cached = None;
                     self.pairs.clear();
-                    self.dropped = 0;
-                    self.interrupted = !free;
+                    self.run.dropped = 0;
+                    self.run.interrupted = !free;
                     Ok(f64::INFINITY)
                 } else {
                     // A full traversal gives a fresh answer; an unfinished background probe is
@@ -1243,7 +1262,7 @@ impl GodObject {
                     let in_free_space = self.pairs.is_empty();
                     let probe = if in_free_space {
                         let wide = (allowed + skin)
-                            .max(FREE_PROBE_MM.min(self.density.probe_margin_for(PAIR_TARGET)));
+                            .max(FREE_PROBE_MM.min(self.run.density.probe_margin_for(PAIR_TARGET)));
                         // Within a neighbour list, no wider than it reaches (a filter, not a
                         // traversal: its proof goes as far anyway).
                         // (Short of its edge by a rounding, so that the list covers it.)
@@ -1268,7 +1287,7 @@ impl GodObject {
                     // surfaces allow (a pair met beyond narrows the rest of the descent, so
                     // the dense contact costs no long list). (Listing within the full probe
                     // elsewhere gives a tool nearing a face its pairs ahead of the touch.)
-                    let traversed_before = self.regions_traversed;
+                    let traversed_before = self.run.regions_traversed;
                     let (d, proven) = if in_free_space && face_slab.is_none() {
                         match self.detect_proving(
                             &q_lin,
@@ -1289,22 +1308,22 @@ impl GodObject {
                     };
                     // Only a complete traversal proves free space (one the deadline stopped
                     // may have missed pairs).
-                    if d.is_ok() && self.pairs.is_empty() && !self.interrupted {
+                    if d.is_ok() && self.pairs.is_empty() && !self.run.interrupted {
                         // (A pair may lie at the proven gap itself.)
                         let radius = proven - PROOF_ROUNDING_MM;
                         self.add_free_proof(q_lin, Vector3::zeros(), radius, &q_lin, probe);
                         // What a proof costs here: a background probe pays off only where it
                         // is more than a slice. (A list's proof costs no traversal.)
-                        if self.regions_traversed > traversed_before {
-                            self.probe_splits = self.ws.stats().node_pairs_split;
+                        if self.run.regions_traversed > traversed_before {
+                            self.run.probe_splits = self.ws.stats().node_pairs_split;
                         }
                         // The background probes ask for what the surfaces allow here: a
                         // proof short of the widest asked met a pair (asking for more would
                         // come back touching); one as wide as asked found room.
-                        self.probe_margin = if proven < FREE_PROBE_MM - PROOF_ROUNDING_MM {
+                        self.run.probe_margin = if proven < FREE_PROBE_MM - PROOF_ROUNDING_MM {
                             proven.max(BACKGROUND_PROBE_MIN_MM)
                         } else {
-                            self.probe_margin.max(proven.min(BACKGROUND_PROBE_MM))
+                            self.run.probe_margin.max(proven.min(BACKGROUND_PROBE_MM))
                         };
                     } else if d.is_ok() && self.pairs.is_empty() {
                         // Stopped before an answer: the same question goes to the background
@@ -1314,15 +1333,16 @@ impl GodObject {
                     d
                 };
                 if slab_used {
-                    if self.interrupted
-                        || self.dropped > 0
+                    if self.run.interrupted
+                        || self.run.dropped > 0
                         || self.pairs.len() > SLAB_MAX_PAIRS
                         || self.ws.stats().node_pairs_split > SLAB_MAX_SPLITS
                     {
-                        self.slab_rest = self.slab_next_rest;
-                        self.slab_next_rest = (2 * self.slab_next_rest).min(SLAB_REST_MAX_FRAMES);
+                        self.run.slab_rest = self.run.slab_next_rest;
+                        self.run.slab_next_rest =
+                            (2 * self.run.slab_next_rest).min(SLAB_REST_MAX_FRAMES);
                     } else {
-                        self.slab_next_rest = SLAB_REST_FRAMES;
+                        self.run.slab_next_rest = SLAB_REST_FRAMES;
                     }
                 }
                 // An empty slab region lists nothing within its thin margin either: a ball of
@@ -1353,14 +1373,14 @@ impl GodObject {
                     return self.keep_last_safe(out, &hand, t_start);
                 }
                 solved_current = false;
-                if self.interrupted {
+                if self.run.interrupted {
                     // The frame's time is up before the region was listed: nothing from it is
                     // proven; the frame ends at its last proven pose (lagging).
                     break;
                 }
                 // The frame's pair count is its first list (a path region that overflowed
                 // is none: the next one is).
-                if !listed && (self.dropped == 0 || sweep.is_none()) {
+                if !listed && (self.run.dropped == 0 || sweep.is_none()) {
                     listed = true;
                     out.pairs = self.pairs.len() as u32;
                     out.margin_mm = if sweep.is_some() { width } else { allowed } + skin;
@@ -1374,11 +1394,14 @@ impl GodObject {
                     (None, None) => allowed,
                 } + skin;
                 if !recentred {
-                    self.density
-                        .record(margin, self.pairs.len() + self.dropped, sweep.is_some());
+                    self.run.density.record(
+                        margin,
+                        self.pairs.len() + self.run.dropped,
+                        sweep.is_some(),
+                    );
                 }
 
-                if self.dropped > 0 {
+                if self.run.dropped > 0 {
                     // More pairs than the storage holds: the list is not complete, so no answer
                     // from it is proven. Try a smaller region (fewer pairs) next pass.
                     overflowed = true;
@@ -1463,7 +1486,7 @@ impl GodObject {
                         } else {
                             (
                                 q_pred.translation() - q_lin.translation(),
-                                Vector3::from(self.last_turn),
+                                Vector3::from(self.run.last_turn),
                             )
                         };
                         self.trust_oriented(allowed, t, r, &step, &turn, lever_reach)
@@ -1475,7 +1498,7 @@ impl GodObject {
                     // none: the hand will have moved).
                     let keep =
                         boxed.unwrap_or_else(|| self.trust_box(allowed, 1.0, 1.0, lever_reach));
-                    self.cached = Some((region, keep));
+                    self.run.cached = Some((region, keep));
                 }
                 detect_now = false;
                 self.map_warm_start();
@@ -1488,7 +1511,7 @@ impl GodObject {
                 q_safe = *q_h;
                 pen_safe = 0.0;
                 out.contacts = 0;
-                self.warm_len = 0;
+                self.run.warm_len = 0;
                 reached = true;
                 break;
             }
@@ -1496,7 +1519,7 @@ impl GodObject {
             // started: the frame ends at its last proven pose. Never the first solve of a frame
             // that has time left (half its budget), so that a slow spell cannot stop the tool.
             let elapsed_us = (t1 - t_start).as_secs_f64() * 1e6;
-            let solve_estimate = 2.0 * self.solve_us_per_row * (n_pairs + 12) as f64;
+            let solve_estimate = 2.0 * self.run.solve_us_per_row * (n_pairs + 12) as f64;
             if elapsed_us + solve_estimate > self.params.budget_us
                 && (solved_in_frame || elapsed_us > 0.5 * self.params.budget_us)
             {
@@ -1517,8 +1540,8 @@ impl GodObject {
             // The usual rate: a running mean (one slow solve, e.g. the thread preempted, does
             // not stop later ones).
             let rate = solve_s * 1e6 / n.max(1) as f64;
-            self.solve_us_per_row = if self.solve_us_per_row > 0.0 {
-                0.9 * self.solve_us_per_row + 0.1 * rate
+            self.run.solve_us_per_row = if self.run.solve_us_per_row > 0.0 {
+                0.9 * self.run.solve_us_per_row + 0.1 * rate
             } else {
                 rate
             };
@@ -1614,57 +1637,57 @@ impl GodObject {
                 let w = spring_wrench(&g, self.params.rotation, q, &hand);
                 (0..6).map(|k| w[k] * w[k] / g[k]).sum::<f64>()
             };
-            if energy(&q_safe) > energy(&self.q_g) {
-                q_safe = self.q_g;
-                pen_safe = self.pen_g;
-                out.contacts = self.contacts_g;
+            if energy(&q_safe) > energy(&self.run.q_g) {
+                q_safe = self.run.q_g;
+                pen_safe = self.run.pen_g;
+                out.contacts = self.run.contacts_g;
             }
         }
         if friction && solved_current {
             self.remember_patch(&q_safe);
         } else if friction && out.contacts == 0 && reached {
-            self.patch = None;
+            self.run.patch = None;
         }
-        self.pen_g = pen_safe;
-        self.behind = !reached;
-        self.contacts_g = out.contacts;
-        self.last_motion = self.motion_bound(&self.q_g, &q_safe);
+        self.run.pen_g = pen_safe;
+        self.run.behind = !reached;
+        self.run.contacts_g = out.contacts;
+        self.run.last_motion = self.motion_bound(&self.run.q_g, &q_safe);
         for k in 0..3 {
-            self.last_step[k] = q_safe.q[k] - self.q_g.q[k];
+            self.run.last_step[k] = q_safe.q[k] - self.run.q_g.q[k];
         }
-        self.slab_rest = self.slab_rest.saturating_sub(1);
-        self.last_turn =
-            rotation_log(&(q_safe.rotation_matrix() * self.q_g.rotation_matrix().transpose()))
+        self.run.slab_rest = self.run.slab_rest.saturating_sub(1);
+        self.run.last_turn =
+            rotation_log(&(q_safe.rotation_matrix() * self.run.q_g.rotation_matrix().transpose()))
                 .into();
         let error = self.motion_bound(&self.predicted_pose(q_h), &q_safe);
-        self.prediction_error = error.max(0.9 * self.prediction_error);
-        self.q_g = q_safe;
-        self.hand_offset = (
+        self.run.prediction_error = error.max(0.9 * self.run.prediction_error);
+        self.run.q_g = q_safe;
+        self.run.hand_offset = (
             q_h.translation() - q_safe.translation(),
             rotation_log(&(q_h.rotation_matrix() * q_safe.rotation_matrix().transpose())),
         );
         // In contact, the next frames' regions come from a neighbour list kept ahead.
         let used = out.margin_mm.max(MIN_ALLOW_MM + skin);
         self.tend_neighbours(&q_safe, used, deadline);
-        self.idle_given = false;
+        self.run.idle_given = false;
         out.penetration_mm = pen_safe;
         out.q_g = q_safe.to_array();
         out.wrench = spring_wrench(&self.params.g(), self.params.rotation, &q_safe, &hand);
         out.raw_wrench = out.wrench;
         out.cd_us = cd * 1e6;
         out.opt_us = opt * 1e6;
-        out.splits = self.frame_splits.min(u64::from(u32::MAX)) as u32;
-        out.scanned = self.frame_scanned.min(u64::from(u32::MAX)) as u32;
+        out.splits = self.run.frame_splits.min(u64::from(u32::MAX)) as u32;
+        out.scanned = self.run.frame_scanned.min(u64::from(u32::MAX)) as u32;
         out.total_us = t_start.elapsed().as_secs_f64() * 1e6;
         out
     }
 
     fn keep_last_safe(&mut self, mut out: FrameOutput, q_h: &Pose, t0: Instant) -> FrameOutput {
         out.status = FrameStatus::KeptLastSafe;
-        out.q_g = self.q_g.to_array();
-        self.warm_len = 0;
+        out.q_g = self.run.q_g.to_array();
+        self.run.warm_len = 0;
         let w = if q_h.is_finite() {
-            spring_wrench(&self.params.g(), self.params.rotation, &self.q_g, q_h)
+            spring_wrench(&self.params.g(), self.params.rotation, &self.run.q_g, q_h)
         } else {
             [0.0; 6]
         };

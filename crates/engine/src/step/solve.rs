@@ -34,7 +34,7 @@ impl GodObject {
         dq0: &[f64; 6],
     ) -> Option<([f64; 6], u32, Status, f64)> {
         let p = Problem::new(self.params.g(), &self.rows[..n], &self.rhs[..n]).ok()?;
-        let warm = &self.warm_idx[..self.warm_len];
+        let warm = &self.run.warm_idx[..self.run.warm_len];
         let s = if self.params.reduce_rows {
             let mut keep = [0usize; 12];
             let trust = n.saturating_sub(n_pairs).min(12);
@@ -84,18 +84,18 @@ impl GodObject {
     /// Maps the remembered active pairs onto the rows of the current pair list.
     pub(super) fn map_warm_start(&mut self) {
         let mut m = 0;
-        for w in 0..self.warm_len {
-            let id = self.warm[w];
+        for w in 0..self.run.warm_len {
+            let id = self.run.warm[w];
             if let Some(i) = self
                 .pairs
                 .iter()
                 .position(|p| (p.object, p.tool_slot, p.object_slot) == id)
             {
-                self.warm_idx[m] = i;
+                self.run.warm_idx[m] = i;
                 m += 1;
             }
         }
-        self.warm_len = m;
+        self.run.warm_len = m;
     }
 
     /// Remembers the identities of the active pairs of the last solve.
@@ -110,7 +110,7 @@ impl GodObject {
             }
             let p = &self.pairs[i];
             if m < 6 {
-                self.warm[m] = (p.object, p.tool_slot, p.object_slot);
+                self.run.warm[m] = (p.object, p.tool_slot, p.object_slot);
                 m += 1;
             }
             match (p.stands_for_face(), p.face) {
@@ -118,7 +118,7 @@ impl GodObject {
                 _ => one_face = false,
             }
         }
-        self.warm_len = m;
-        self.contact_face = face.filter(|_| one_face).map(Vector3::from);
+        self.run.warm_len = m;
+        self.run.contact_face = face.filter(|_| one_face).map(Vector3::from);
     }
 }
