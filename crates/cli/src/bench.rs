@@ -158,7 +158,7 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     let window = if args.quick { QUICK_FRAMES } else { usize::MAX };
     let budget = args.budget.unwrap_or(if args.quick { 8.0 } else { 120.0 });
     if budget.is_nan() || budget <= 0.0 {
-        bail!("--budget {budget}: must be a positive number of seconds");
+        crate::usage_bail!("--budget {budget}: must be a positive number of seconds");
     }
     if let Some(d) = args
         .depths
@@ -166,7 +166,7 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
         .flatten()
         .find(|&&d| !(1..=7).contains(&d))
     {
-        bail!("--depths: depth {d} is out of range (1 to 7)");
+        crate::usage_bail!("--depths: depth {d} is out of range (1 to 7)");
     }
     let mut report = BenchReport {
         mode: if args.quick { "quick" } else { "full" }.into(),

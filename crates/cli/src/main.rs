@@ -12,6 +12,7 @@ mod bench_peer;
 mod bench_plot;
 mod bench_report;
 mod bench_speed;
+mod bench_zoo;
 mod plot;
 mod progress;
 mod run;
@@ -64,10 +65,67 @@ fn main() -> ExitCode {
     match dispatch(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            // `{:#}` prints the whole context chain on one line: "context: cause: ...".
-            eprintln!("error: {}", one_line(&format!("{e:#}")));
-            ExitCode::FAILURE
+            eprintln!("error: {}", error_line(&e));
+            if is_usage(&e) {
+                ExitCode::from(2)
+            } else {
+                ExitCode::FAILURE
+            }
         }
+    }
+}
+
+/// A command-line value the command cannot use (a flag out of range, a duration the memory
+/// cannot hold): reported like clap's own usage errors, exit status 2.
+#[derive(Debug)]
+pub(crate) struct UsageError(pub String);
+
+impl std::fmt::Display for UsageError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for UsageError {}
+
+/// Returns early with a [`UsageError`] (exit 2) made by `format!`.
+#[macro_export]
+macro_rules! usage_bail {
+    ($($arg:tt)*) => {
+        return Err($crate::UsageError(format!($($arg)*)).into())
+    };
+}
+
+/// True for an error in how the command was called: a [`UsageError`], or a range check of
+/// a flag (`--rate`, ...; a scene file's key out of range is an input error, exit 1).
+fn is_usage(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.is::<UsageError>()
+            || c.downcast_ref::<engine::config::SettingError>()
+                .is_some_and(|s| s.key.starts_with("--"))
+    })
+}
+
+/// Longest error line printed, characters (a cause may quote a huge input line).
+const MAX_ERROR_CHARS: usize = 1000;
+
+/// The error and its causes on one line, `context: cause: ...`. A cause whose text an outer
+/// message already quotes (`... (os error 98)`) is not repeated; the line is capped.
+fn error_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = one_line(&cause.to_string());
+        if text.is_empty() || line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    match line.char_indices().nth(MAX_ERROR_CHARS) {
+        Some((at, _)) => format!("{} …", &line[..at]),
+        None => line,
     }
 }
 

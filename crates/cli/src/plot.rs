@@ -180,12 +180,14 @@ where
     Ok(())
 }
 
-/// Renders to a temporary file next to `path` and renames it into place.
+/// Renders to a temporary file next to `path` and renames it into place; a `path` that
+/// exists and is not a regular file is refused ([`mesh::check_output_file`]).
 pub(crate) fn render_png(
     path: &Path,
     height: u32,
     draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> Result<()>,
 ) -> Result<()> {
+    mesh::check_output_file(path).with_context(|| format!("writing {}", path.display()))?;
     // The image encoder picks the format from the extension: keep `.png` last.
     let name = path
         .file_name()

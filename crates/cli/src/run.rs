@@ -164,7 +164,7 @@ pub(crate) fn friction_arg(text: &str) -> Result<Friction, String> {
 
 /// A built-in scene by name, or a scene file (TOML) by path; shared by `run` and `serve`.
 pub(crate) fn load_scene(name: &str, cache: &TreeCache) -> Result<Scene> {
-    if scene::scenes::BUILTIN_NAMES.contains(&name) {
+    if scene::scenes::is_builtin(name) {
         return Ok(scene::scenes::builtin(name, cache)?);
     }
     let path = Path::new(name);
@@ -235,11 +235,24 @@ impl Staging {
                 for e in
                     std::fs::read_dir(out).with_context(|| format!("reading {}", out.display()))?
                 {
-                    let n = e
-                        .with_context(|| format!("reading {}", out.display()))?
-                        .file_name();
+                    let e = e.with_context(|| format!("reading {}", out.display()))?;
+                    let n = e.file_name();
                     if !RUN_FILES.iter().any(|r| n == std::ffi::OsStr::new(r)) {
                         foreign.push(n);
+                        continue;
+                    }
+                    // A run's name that is not a regular file (a folder, a link) is the
+                    // user's, not a previous run's: replacing it would lose it.
+                    let kind = e
+                        .file_type()
+                        .with_context(|| format!("reading {}", out.display()))?;
+                    if !kind.is_file() {
+                        bail!(
+                            "--out {}: {} is {}, not a file of a previous run; move it away (nothing was written)",
+                            out.display(),
+                            out.join(&n).display(),
+                            if kind.is_dir() { "a folder" } else if kind.is_symlink() { "a symbolic link" } else { "not a regular file" }
+                        );
                     }
                 }
                 let visible: Vec<String> = foreign
@@ -255,12 +268,17 @@ impl Staging {
                     );
                 }
             }
+            Ok(m) if m.file_type().is_symlink() => bail!(
+                "--out {} is a symbolic link; a run replaces its folder as a whole, so give the folder itself",
+                out.display()
+            ),
             Ok(_) => bail!("--out {} exists and is not a directory", out.display()),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
             Err(e) => return Err(e).with_context(|| format!("--out {}", out.display())),
         }
         std::fs::create_dir_all(&parent)
             .with_context(|| format!("creating {}", parent.display()))?;
+        remove_stale_staging(&parent, &name);
         let stamp = format!(
             "{}-{}",
             std::process::id(),
@@ -276,6 +294,10 @@ impl Staging {
                 tmp.display()
             )
         })?;
+        *INTERRUPTED_STAGING
+            .lock()
+            .unwrap_or_else(|p| p.into_inner()) = Some(tmp.clone());
+        remove_staging_on_interrupt();
         Ok(Self {
             out: out.to_path_buf(),
             backup: parent.join(format!(".{name}.old-{stamp}")),
@@ -283,6 +305,16 @@ impl Staging {
             foreign,
             committed: false,
         })
+    }
+
+    /// Forgets the staging folder for the interrupt handler: it is committed or removed.
+    fn disown(&self) {
+        let mut slot = INTERRUPTED_STAGING
+            .lock()
+            .unwrap_or_else(|p| p.into_inner());
+        if slot.as_deref() == Some(self.tmp.as_path()) {
+            *slot = None;
+        }
     }
 
     /// The staging folder to write the run into.
@@ -294,6 +326,14 @@ impl Staging {
     /// (`--force`) move into the new one, the old folder is parked, the new one renamed in,
     /// the old one removed. Any failure undoes what was done: the previous run stays intact.
     fn commit(mut self) -> Result<()> {
+        // An interrupt waits until the run is in place (or the commit is undone).
+        let _hold = INTERRUPTED_STAGING
+            .lock()
+            .unwrap_or_else(|p| p.into_inner());
+        self.commit_held()
+    }
+
+    fn commit_held(&mut self) -> Result<()> {
         if std::fs::symlink_metadata(&self.out).is_err() {
             std::fs::rename(&self.tmp, &self.out)
                 .with_context(|| format!("moving the run into {}", self.out.display()))?;
@@ -341,10 +381,150 @@ impl Staging {
 
 impl Drop for Staging {
     fn drop(&mut self) {
+        self.disown();
         if !self.committed {
             let _ = std::fs::remove_dir_all(&self.tmp);
         }
     }
+}
+
+/// The staging folder of the run in progress, removed if the run is interrupted (SIGINT,
+/// SIGTERM). Locked by [`Staging::commit`] so an interrupt never cuts the swap in half.
+static INTERRUPTED_STAGING: Mutex<Option<PathBuf>> = Mutex::new(None);
+
+/// On SIGINT or SIGTERM (once installed, for the rest of the process): removes the staging
+/// folder of the run in progress, says so, and exits with 130. A watcher thread waits for
+/// the signal, so the cleanup runs outside the signal handler.
+fn remove_staging_on_interrupt() {
+    static INSTALLED: std::sync::Once = std::sync::Once::new();
+    INSTALLED.call_once(|| {
+        let watcher = std::thread::Builder::new()
+            .name("haptic6d-interrupt".into())
+            .spawn(|| {
+                let Ok(runtime) = tokio::runtime::Builder::new_current_thread()
+                    .enable_io()
+                    .build()
+                else {
+                    return;
+                };
+                runtime.block_on(async {
+                    let Ok(mut term) =
+                        tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+                    else {
+                        return;
+                    };
+                    tokio::select! {
+                        r = tokio::signal::ctrl_c() => if r.is_err() { return },
+                        _ = term.recv() => {}
+                    }
+                    let staging = INTERRUPTED_STAGING
+                        .lock()
+                        .unwrap_or_else(|p| p.into_inner())
+                        .take();
+                    if let Some(tmp) = staging {
+                        let _ = std::fs::remove_dir_all(&tmp);
+                    }
+                    eprintln!("error: interrupted: the run was not written (--out is as it was)");
+                    std::process::exit(130);
+                });
+            });
+        if let Err(e) = watcher {
+            eprintln!("warning: an interrupted run will leave its staging folder behind: {e}");
+        }
+    });
+}
+
+/// Removes staging folders `.NAME.new-PID-NS` beside `--out` that an earlier run left when it
+/// was killed or crashed: only when that process is gone and the folder holds nothing but
+/// what a run writes (its files and their temporary files), so nothing of the user's is
+/// touched.
+fn remove_stale_staging(parent: &Path, name: &str) {
+    let Ok(entries) = std::fs::read_dir(parent) else {
+        return;
+    };
+    let prefix = format!(".{name}.new-");
+    for e in entries.flatten() {
+        let file_name = e.file_name();
+        let Some(rest) = file_name.to_str().and_then(|n| n.strip_prefix(&prefix)) else {
+            continue;
+        };
+        let Some((pid, stamp)) = rest.split_once('-') else {
+            continue;
+        };
+        if pid.parse::<u32>().is_err() || stamp.parse::<u128>().is_err() {
+            continue;
+        }
+        // Without /proc there is no telling whether the writer still runs: keep the folder.
+        if !Path::new("/proc/self").exists() || Path::new("/proc").join(pid).exists() {
+            continue;
+        }
+        if e.file_type().is_ok_and(|t| t.is_dir()) && holds_only_run_files(&e.path()) {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+}
+
+/// True when `dir` holds only regular files named as a run's outputs or their temporary
+/// files (`.frames.csv.tmp-…`, `.pairs.png.tmp….png`).
+fn holds_only_run_files(dir: &Path) -> bool {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return false;
+    };
+    entries.into_iter().all(|e| {
+        let Ok(e) = e else { return false };
+        let n = e.file_name();
+        let Some(n) = n.to_str() else { return false };
+        let ours = RUN_FILES.iter().any(|r| {
+            n == *r
+                || n.strip_prefix('.')
+                    .and_then(|t| t.strip_prefix(r))
+                    .is_some_and(|t| t.starts_with(".tmp"))
+        });
+        ours && e.file_type().is_ok_and(|t| t.is_file())
+    })
+}
+
+/// Memory a run needs per frame, bytes: its record (kept for the whole run, the outputs are
+/// written at the end) and the text of its `frames.csv` and `trajectory.csv` rows.
+const BYTES_PER_FRAME: usize = std::mem::size_of::<scene::rt::FrameRecord>() + 640;
+
+/// Refuses, before anything is allocated, a run whose recording cannot fit in `available`
+/// bytes of memory (when known): a day at 1 kHz needs tens of GB. A usage error naming the
+/// longest `--duration` that fits.
+fn check_recording_fits(
+    frames: usize,
+    rate_hz: f64,
+    duration: Option<f64>,
+    available: Option<u64>,
+) -> Result<()> {
+    let Some(available) = available else {
+        return Ok(());
+    };
+    let need = frames as u64 * BYTES_PER_FRAME as u64;
+    if need <= available {
+        return Ok(());
+    }
+    let gb = |b: u64| b as f64 / 1e9;
+    let longest_s = (available / BYTES_PER_FRAME as u64) as f64 / rate_hz;
+    let what = match duration {
+        Some(d) => format!("--duration {d} s at {rate_hz} Hz"),
+        None => "the trajectory".to_string(),
+    };
+    crate::usage_bail!(
+        "{what} records {frames} frames, about {:.1} GB with the output files, more than the {:.1} GB of memory available; give a --duration of at most {:.0} s",
+        gb(need),
+        gb(available),
+        longest_s.floor()
+    );
+}
+
+/// The memory the system can give without swapping (`MemAvailable`, Linux), bytes; `None`
+/// where it is not known.
+fn available_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }
 
 /// Runs `haptic6d run`.
@@ -356,7 +536,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     }
     if let Some(d) = args.duration {
         if !(d.is_finite() && d > 0.0 && d <= 86_400.0) {
-            bail!("--duration = {d}: must be a number of seconds in (0, 86400]");
+            crate::usage_bail!("--duration = {d}: must be a number of seconds in (0, 86400]");
         }
     }
     if let Some(n) = args.relinearize {
@@ -458,6 +638,11 @@ pub fn run(args: RunArgs) -> Result<()> {
     scene.validate()?;
     let traj = scene.trajectory();
     let kind = device_kind.unwrap_or(scene.device.kind);
+    let max_frames = match args.duration {
+        Some(s) => (s * scene.rate_hz).ceil().max(1.0) as usize,
+        None => traj.len().max(1),
+    };
+    check_recording_fits(max_frames, scene.rate_hz, args.duration, available_memory())?;
     let mut device = match kind {
         DeviceKind::Haply => haply_device(&args.haply_url)?,
         DeviceKind::Udp => Box::new(viewer::UdpDevice::new(
@@ -494,10 +679,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         // A live device is paced by the clock, whatever --realtime says.
         realtime: args.realtime || matches!(kind, DeviceKind::Haply | DeviceKind::Udp),
         device: scene.device.settings,
-        max_frames: match args.duration {
-            Some(s) => (s * scene.rate_hz).ceil().max(1.0) as usize,
-            None => traj.len().max(1),
-        },
+        max_frames,
     };
     let report = run_loop(&mut engine, &mut device, &params)?;
 

@@ -40,7 +40,7 @@ fn direction(name: &str) -> Result<[f64; 3]> {
     match name {
         "plate" => Ok([0.0, 0.0, -1.0]),
         "bunny" => Ok([0.0, -1.0, 0.0]),
-        other => anyhow::bail!("--scenes: unknown scene `{other}`; expected plate or bunny"),
+        other => crate::usage_bail!("--scenes: unknown scene `{other}`; expected plate or bunny"),
     }
 }
 
@@ -49,11 +49,12 @@ pub fn run(args: StabilityArgs) -> Result<()> {
     for &r in &args.rates {
         engine::config::RATE_HZ.check_as("--rates", r)?;
     }
-    anyhow::ensure!(
-        args.bisections <= 20,
-        "--bisections = {}: must be an integer in 0..=20",
-        args.bisections
-    );
+    if args.bisections > 20 {
+        crate::usage_bail!(
+            "--bisections = {}: must be an integer in 0..=20",
+            args.bisections
+        );
+    }
     let dirs = args
         .scenes
         .iter()

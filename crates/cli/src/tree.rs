@@ -282,31 +282,19 @@ fn build(args: &BuildArgs) -> Result<()> {
     Ok(())
 }
 
-/// Refuses an output that is not a regular file (a device node, a directory, a fifo), that is
-/// the input itself (same path or the same file through another name), or whose directory
-/// cannot be written; checked before the build so a long build never ends in such an error.
+/// Refuses an output that exists and is not a regular file (a symbolic link, a device node,
+/// a directory, a fifo: [`mesh::check_output_file`], the rule of every file the tools
+/// write), that is the input itself (same path or the same file through another name), or
+/// whose directory cannot be written; checked before the build so a long build never ends
+/// in such an error.
 fn check_output(output: &Path, input: &Path) -> Result<()> {
     let shown = output.display();
-    match std::fs::metadata(output) {
-        Ok(m) => {
-            if !m.is_file() {
-                bail!("-o {shown}: exists and is not a regular file; give a .sph file path");
-            }
-            if same_file(output, input) {
-                bail!(
-                    "-o {shown} is the input mesh {}: give another output file",
-                    input.display()
-                );
-            }
-        }
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-        Err(e) => bail!("-o {shown}: {e}"),
-    }
-    // A dangling symlink, or a path through a missing directory.
-    if std::fs::symlink_metadata(output).is_ok_and(|m| m.file_type().is_symlink())
-        && std::fs::metadata(output).is_err()
-    {
-        bail!("-o {shown}: is a symbolic link to nothing; give a .sph file path");
+    mesh::check_output_file(output).with_context(|| format!("-o {shown}"))?;
+    if std::fs::metadata(output).is_ok() && same_file(output, input) {
+        bail!(
+            "-o {shown} is the input mesh {}: give another output file",
+            input.display()
+        );
     }
     let dir = match output.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
@@ -366,7 +354,7 @@ fn containment_excess(tree: &SphereTree) -> f64 {
 fn eval(args: &EvalArgs) -> Result<()> {
     // Bounded: the samples are stored (24 bytes each) and measured against every sphere.
     if !(1..=MAX_SAMPLES).contains(&args.samples) {
-        bail!(
+        crate::usage_bail!(
             "--samples {}: must be an integer in 1..={MAX_SAMPLES}",
             args.samples
         );

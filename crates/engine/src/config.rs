@@ -127,7 +127,9 @@ impl IntRange {
             Err(SettingError {
                 key: key.to_string(),
                 value: v.to_string(),
-                expected: format!("an integer in {}..={} {}", self.lo, self.hi, self.unit),
+                expected: format!("an integer in {}..={} {}", self.lo, self.hi, self.unit)
+                    .trim_end()
+                    .to_string(),
             })
         }
     }

@@ -46,12 +46,41 @@ pub fn read_input(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// The rule for every file the tools write: the path must be new, or an existing regular
+/// file (which is replaced). Anything else that exists there — a symbolic link (even to a
+/// regular file: renaming over it would replace the link, and writing through it would
+/// write somewhere the user did not name), a folder, a device, a fifo or a socket — is
+/// refused with `io::ErrorKind::InvalidInput` and a one-line reason, and nothing is written.
+pub fn check_output_file(path: &Path) -> std::io::Result<()> {
+    let meta = match std::fs::symlink_metadata(path) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(e),
+    };
+    let ft = meta.file_type();
+    let what = if ft.is_file() {
+        return Ok(());
+    } else if ft.is_symlink() {
+        "a symbolic link"
+    } else if ft.is_dir() {
+        "a folder"
+    } else {
+        "a device, fifo or socket"
+    };
+    Err(std::io::Error::new(
+        std::io::ErrorKind::InvalidInput,
+        format!("exists and is {what}, not a regular file; outputs replace only regular files: give a new path or a regular file"),
+    ))
+}
+
 /// Writes `bytes` to `path` atomically: a fresh temporary file beside `path` (never an existing
 /// one) is written, synced and renamed over `path`, so a reader never sees a half-written file
-/// and a failure leaves an existing file as it was (the temporary file is removed).
+/// and a failure leaves an existing file as it was (the temporary file is removed). A `path`
+/// that exists and is not a regular file is refused ([`check_output_file`]).
 ///
 /// The parent folder must exist.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    check_output_file(path)?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => std::path::PathBuf::from("."),
@@ -99,6 +128,38 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[cfg(unix)]
+    #[test]
+    fn links_folders_and_devices_are_never_written_over() {
+        let dir = std::env::temp_dir().join(format!("mesh-output-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let target = dir.join("target.txt");
+        std::fs::write(&target, "mine").unwrap();
+        let link = dir.join("link.sph");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        let e = write_atomic(&link, b"new").unwrap_err();
+        assert!(e.to_string().contains("symbolic link"), "{e}");
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        assert_eq!(std::fs::read_to_string(&target).unwrap(), "mine");
+        let e = write_atomic(&dir, b"new").unwrap_err();
+        assert!(e.to_string().contains("a folder"), "{e}");
+        let e = check_output_file(Path::new("/dev/null")).unwrap_err();
+        assert!(e.to_string().contains("device"), "{e}");
+        // A regular file is replaced; a new path is created.
+        write_atomic(&target, b"new").unwrap();
+        assert_eq!(std::fs::read_to_string(&target).unwrap(), "new");
+        write_atomic(&dir.join("fresh.txt"), b"x").unwrap();
+        assert_eq!(
+            std::fs::read_dir(&dir).unwrap().count(),
+            3,
+            "a temporary file was left"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn device_directory_and_oversized_files_are_refused() {

@@ -23,7 +23,7 @@ pub mod validate;
 pub mod vec3;
 
 pub use error::MeshError;
-pub use input::{read_input, write_atomic, MAX_MESH_BYTES};
+pub use input::{check_output_file, read_input, write_atomic, MAX_MESH_BYTES};
 pub use load::{load_mesh, load_mesh_bytes, LoadReport, LoadedMesh, MeshFormat};
 
 pub mod generate;

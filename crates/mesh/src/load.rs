@@ -427,6 +427,38 @@ fn read_stl(bytes: &[u8], path: &Path) -> Result<(MeshFormat, RawPolygons), Mesh
 // ---------------------------------------------------------------------------------------------
 // PLY
 
+/// The PLY parser's error as a short clause: `line 4: cannot parse `bogus line``. Its own
+/// text carries the parser's debug dump (`Custom { kind: .. }`, `ParseError { .. }`), which
+/// says nothing to a user. `with_line`: the parser's line number is the file's (header);
+/// in the payload it counts from the element's first line, so it is left out there.
+fn ply_message(e: &dyn fmt::Display, with_line: bool) -> String {
+    let text = e.to_string();
+    let quoted = text
+        .split("String: '")
+        .nth(1)
+        .and_then(|r| r.split('\'').next())
+        .map(|q| {
+            let q = q.trim();
+            match q.char_indices().nth(60) {
+                Some((at, _)) => format!("{}…", &q[..at]),
+                None => q.to_string(),
+            }
+        });
+    let line = text
+        .strip_prefix("Line ")
+        .and_then(|r| r.split(':').next())
+        .and_then(|n| n.parse::<usize>().ok());
+    match (quoted, line) {
+        (Some(q), Some(n)) if with_line => format!("line {n}: cannot parse `{q}`"),
+        (Some(q), _) => format!("cannot parse `{q}`"),
+        // Anything else: its first line, without a debug dump.
+        _ => {
+            let first = text.lines().next().unwrap_or("").trim();
+            first.split(" Error: ").next().unwrap_or(first).to_string()
+        }
+    }
+}
+
 fn read_ply(bytes: &[u8], path: &Path) -> Result<(MeshFormat, RawPolygons), MeshError> {
     use ply_rs::parser::Parser;
     use ply_rs::ply::{DefaultElement, Encoding, Property};
@@ -436,7 +468,7 @@ fn read_ply(bytes: &[u8], path: &Path) -> Result<(MeshFormat, RawPolygons), Mesh
     let mut reader = std::io::BufReader::new(Cursor::new(bytes));
     let header = parser
         .read_header(&mut reader)
-        .map_err(|e| parse_error(path, "PLY", format!("header: {e}")))?;
+        .map_err(|e| parse_error(path, "PLY", format!("header {}", ply_message(&e, true))))?;
     let format = match header.encoding {
         Encoding::Ascii => MeshFormat::PlyAscii,
         Encoding::BinaryLittleEndian => MeshFormat::PlyBinaryLittleEndian,
@@ -453,7 +485,11 @@ fn read_ply(bytes: &[u8], path: &Path) -> Result<(MeshFormat, RawPolygons), Mesh
                 parse_error(
                     path,
                     &fname,
-                    format!("element `{name}` (header says {}): {e}", def.count),
+                    format!(
+                        "element `{name}` (header says {}): {}",
+                        def.count,
+                        ply_message(&e, false)
+                    ),
                 )
             })?;
         match name.as_str() {

@@ -39,7 +39,10 @@ fn queries_near_a_huge_polygon_test_few_triangles() {
         let r = 49.0 * ((i as f64 * 0.37) % 1.0);
         let p = [r * a.cos(), r * a.sin(), 0.5 + (i % 7) as f64];
         let (found, complete) = query.closest_budgeted(p, f64::INFINITY, budget);
-        assert!(complete, "the query at {p:?} needed more than {budget} triangle tests");
+        assert!(
+            complete,
+            "the query at {p:?} needed more than {budget} triangle tests"
+        );
         let d = found.unwrap().distance;
         assert!((d - p[2]).abs() < 1e-9, "distance {d} at {p:?}");
         // The smallest budget that completes, by bisection: the work this query needs.

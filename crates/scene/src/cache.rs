@@ -3,7 +3,7 @@
 //! entry format's version ([`FORMAT_VERSION`]), so a second run of a scene starts without
 //! rebuilding and a tree from an older builder is never reused.
 //!
-//! Location: `$HAPTIC6D_CACHE` if set, else `$XDG_CACHE_HOME/haptic6d`, else
+//! Location: `$HAPTIC6D_CACHE` if set (an empty variable counts as unset), else `$XDG_CACHE_HOME/haptic6d`, else
 //! `~/.cache/haptic6d`. Files are `tree-<key>.bin`, written atomically, in a small binary
 //! format (all integers and numbers little-endian):
 //!
@@ -137,14 +137,12 @@ pub enum CacheOutcome {
 impl TreeCache {
     /// The default cache location (see the module docs); disabled when no home is known.
     pub fn from_env() -> Self {
-        let dir = std::env::var_os("HAPTIC6D_CACHE")
+        // An empty variable counts as unset (the XDG rule), not as the current folder.
+        let var = |name: &str| std::env::var_os(name).filter(|v| !v.is_empty());
+        let dir = var("HAPTIC6D_CACHE")
             .map(PathBuf::from)
-            .or_else(|| {
-                std::env::var_os("XDG_CACHE_HOME").map(|d| PathBuf::from(d).join("haptic6d"))
-            })
-            .or_else(|| {
-                std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache").join("haptic6d"))
-            });
+            .or_else(|| var("XDG_CACHE_HOME").map(|d| PathBuf::from(d).join("haptic6d")))
+            .or_else(|| var("HOME").map(|h| PathBuf::from(h).join(".cache").join("haptic6d")));
         Self {
             dir,
             progress: None,

@@ -68,12 +68,13 @@ impl Pacing {
         engine::config::RATE_HZ.check(self.rate_hz)?;
         engine::config::SPIN_US.check(self.spin_us)?;
         match self.rt_priority {
-            Some(p) if p < 1 => Err(engine::config::SettingError {
-                key: RT_PRIORITY.key.into(),
-                value: p.to_string(),
-                expected: format!("an integer in [{}, {}]", RT_PRIORITY.lo, RT_PRIORITY.hi),
-            }),
-            Some(p) => RT_PRIORITY.check(p as u64),
+            // A negative priority gets the same message as any other out of range.
+            Some(p) => RT_PRIORITY
+                .check(u64::try_from(p).unwrap_or(0))
+                .map_err(|mut e| {
+                    e.value = p.to_string();
+                    e
+                }),
             None => Ok(()),
         }
     }
@@ -422,7 +423,18 @@ pub fn run_loop<D: Device>(
         .frames()
         .unwrap_or(params.max_frames)
         .min(params.max_frames);
-    let mut records = Vec::with_capacity(cap);
+    // A recording too large for the memory is an error, not an abort.
+    let mut records = Vec::new();
+    records
+        .try_reserve_exact(cap)
+        .map_err(|_| engine::config::SettingError {
+            key: "max_frames".into(),
+            value: cap.to_string(),
+            expected: format!(
+                "at most the frames whose records fit in memory ({} bytes each)",
+                std::mem::size_of::<FrameRecord>()
+            ),
+        })?;
     device.open()?;
     let t0 = Instant::now();
     let mut link = LinkStats::default();

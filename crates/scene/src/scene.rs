@@ -376,12 +376,25 @@ struct TomlError(toml::de::Error);
 
 impl std::fmt::Display for TomlError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // toml quotes the offending line: a 400 KB line would make a 400 KB message. Long
+        // words are cut, and the whole is kept to one readable line.
+        const WORD: usize = 60;
+        const TOTAL: usize = 400;
         let text = self.0.to_string();
-        let mut words = text.split_whitespace();
-        if let Some(w) = words.next() {
-            f.write_str(w)?;
+        let mut written = 0;
+        for (i, w) in text.split_whitespace().enumerate() {
+            if written >= TOTAL {
+                return f.write_str(" …");
+            }
+            let cut = w.char_indices().nth(WORD).map(|(at, _)| &w[..at]);
+            let sep = if i == 0 { "" } else { " " };
+            match cut {
+                Some(head) => write!(f, "{sep}{head}…")?,
+                None => write!(f, "{sep}{w}")?,
+            }
+            written += w.len().min(WORD) + 1;
         }
-        words.try_for_each(|w| write!(f, " {w}"))
+        Ok(())
     }
 }
 

@@ -114,6 +114,8 @@ pub fn parse_sph(text: &str, source_name: &str) -> Result<SphereTree, SphError> 
         line,
         message,
     };
+    // A byte-order mark (as some editors save UTF-8) is not part of the header.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = text
         .lines()
         .enumerate()

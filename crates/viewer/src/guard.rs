@@ -40,11 +40,14 @@ pub enum Refusal {
 /// Normalises `http(s)://host[:port]` (no path, query or user info) to lower case without a
 /// trailing slash; the error says what is wrong.
 pub fn parse_origin(s: &str) -> Result<String, String> {
-    let lower = s.trim().trim_end_matches('/').to_ascii_lowercase();
-    let rest = lower
-        .strip_prefix("http://")
-        .or_else(|| lower.strip_prefix("https://"))
+    let lower = s.trim().to_ascii_lowercase();
+    // The scheme first: `http://` alone is an origin without a host, not a bad scheme.
+    let scheme = ["http://", "https://"]
+        .into_iter()
+        .find(|p| lower.starts_with(p))
         .ok_or_else(|| format!("`{s}` must start with http:// or https://"))?;
+    let rest = lower[scheme.len()..].trim_end_matches('/');
+    let lower = format!("{scheme}{rest}");
     if rest.is_empty() {
         return Err(format!("`{s}` has no host"));
     }
