@@ -1,4 +1,4 @@
-//! `haptic6d bench [--quick] [--out DIR] [--studies replay,scaling,speed,contact,friction,peer]
+//! `haptic6d bench [--quick] [--out DIR] [--studies replay,scaling,speed,contact,friction,peer,zoo]
 //! [--peer]`: the paper's experiments, every solver on identical input, plus scaling,
 //! hand-speed, contact and friction studies, and the comparison with the rapier3d
 //! virtual-coupling peer.
@@ -19,6 +19,9 @@
 //! 6. **Peer.** haptic6d against virtual coupling on rapier3d on the same device input: frame
 //!    time, mesh-level penetration, tunnelling, drag, jitter, insertion
 //!    ([`crate::bench_peer`]; `--peer` runs it alone).
+//! 7. **Zoo.** Every scene of the scene zoo with the shipped settings: frame times, degraded
+//!    frames, drag, penetration (the engine's and mesh-level), pairs ([`crate::bench_zoo`];
+//!    only when asked for, `--studies zoo`; also written to `DIR/zoo.md`).
 //!
 //! Output: a table on stdout, `DIR/bench.json`, `DIR/bench.md`, and the plots
 //! `DIR/bench_pairs_<scene>.png`, `DIR/bench_time_<scene>.png`, `DIR/bench_cost.png`,
@@ -84,7 +87,8 @@ pub struct BenchArgs {
     /// Skip the scaling studies (pairs and depth).
     #[arg(long)]
     pub no_scaling: bool,
-    /// Studies to run (comma-separated): replay, scaling, speed, contact, friction, peer.
+    /// Studies to run (comma-separated): replay, scaling, speed, contact, friction, peer, zoo
+    /// (the scene zoo runs only when named; a reduced zoo with --quick).
     #[arg(
         long,
         value_delimiter = ',',
@@ -127,9 +131,12 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
         }
     }
     for study in &args.studies {
-        if !["replay", "scaling", "speed", "contact", "friction", "peer"].contains(&study.as_str())
+        if ![
+            "replay", "scaling", "speed", "contact", "friction", "peer", "zoo",
+        ]
+        .contains(&study.as_str())
         {
-            bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact, friction, peer)");
+            crate::usage_bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact, friction, peer, zoo)");
         }
     }
     let wants = |name: &str| args.studies.iter().any(|s| s == name);
@@ -265,6 +272,17 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     if wants("peer") {
         eprintln!("bench: peer study (virtual coupling on rapier3d)");
         (report.peer, peer_traces) = crate::bench_peer::peer_study(&cache, args.quick)?;
+    }
+    if wants("zoo") {
+        eprintln!("bench: zoo study (every zoo scene, shipped settings)");
+        report.zoo = crate::bench_zoo::zoo_study(&cache, args.quick)?;
+        let md = format!(
+            "# haptic6d bench: scene zoo ({}), {}\n\n{}",
+            report.mode,
+            report.machine,
+            crate::bench_zoo::zoo_markdown(&report.zoo)
+        );
+        scene::io::write_atomic(&args.out.join("zoo.md"), md.as_bytes())?;
     }
     report.wall_s = t0.elapsed().as_secs_f64();
 
@@ -527,41 +545,43 @@ pub fn markdown(r: &BenchReport) -> String {
     if !r.trees.is_empty() {
         let _ = writeln!(s);
     }
-    let _ = writeln!(
-        s,
-        "| scene | solver | frames | cd µs mean / p99 | opt µs mean / p50 / p99 | total µs mean / p99 / max | iters mean / max | pairs mean / max | max pen. mm | ΔF vs dual N mean / max | inexact | kept last safe | lagging |"
-    );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
-    for row in &r.replay {
+    if !r.replay.is_empty() {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.1} / {:.0} | {:.0} / {:.0} | {:.4} | {:.3} / {:.3} | {} | {} | {} |",
-            row.scene,
-            row.solver,
-            if row.frames < row.planned_frames {
-                format!("{} of {} (time budget)", row.frames, row.planned_frames)
-            } else {
-                row.frames.to_string()
-            },
-            row.cd_us.mean,
-            row.cd_us.p99,
-            row.opt_us.mean,
-            row.opt_us.p50,
-            row.opt_us.p99,
-            row.total_us.mean,
-            row.total_us.p99,
-            row.total_us.max,
-            row.iterations.mean,
-            row.iterations.max,
-            row.pairs.mean,
-            row.pairs.max,
-            row.max_penetration_mm,
-            row.force_diff_n.mean,
-            row.force_diff_n.max,
-            row.inexact_frames,
-            row.kept_last_safe_frames,
-            row.lagging_frames,
+            "| scene | solver | frames | cd µs mean / p99 | opt µs mean / p50 / p99 | total µs mean / p99 / max | iters mean / max | pairs mean / max | max pen. mm | ΔF vs dual N mean / max | inexact | kept last safe | lagging |"
         );
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+        for row in &r.replay {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.1} / {:.0} | {:.0} / {:.0} | {:.4} | {:.3} / {:.3} | {} | {} | {} |",
+                row.scene,
+                row.solver,
+                if row.frames < row.planned_frames {
+                    format!("{} of {} (time budget)", row.frames, row.planned_frames)
+                } else {
+                    row.frames.to_string()
+                },
+                row.cd_us.mean,
+                row.cd_us.p99,
+                row.opt_us.mean,
+                row.opt_us.p50,
+                row.opt_us.p99,
+                row.total_us.mean,
+                row.total_us.p99,
+                row.total_us.max,
+                row.iterations.mean,
+                row.iterations.max,
+                row.pairs.mean,
+                row.pairs.max,
+                row.max_penetration_mm,
+                row.force_diff_n.mean,
+                row.force_diff_n.max,
+                row.inexact_frames,
+                row.kept_last_safe_frames,
+                row.lagging_frames,
+            );
+        }
     }
     if !r.scaling_pairs.is_empty() {
         let _ = writeln!(
@@ -632,6 +652,10 @@ pub fn markdown(r: &BenchReport) -> String {
             "\n## haptic6d against virtual coupling on rapier3d (same device input)\n"
         );
         s.push_str(&crate::bench_peer::peer_markdown(&r.peer));
+    }
+    if !r.zoo.is_empty() {
+        let _ = writeln!(s, "\n## Scene zoo (dual, shipped settings)\n");
+        s.push_str(&crate::bench_zoo::zoo_markdown(&r.zoo));
     }
     let _ = writeln!(s, "\nbench wall time: {:.1} s", r.wall_s);
     s

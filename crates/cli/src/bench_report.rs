@@ -115,6 +115,8 @@ pub struct BenchReport {
     pub friction: Option<crate::bench_friction::FrictionStudy>,
     /// haptic6d against the rapier3d virtual-coupling peer, per case and engine.
     pub peer: Vec<crate::bench_peer::PeerRow>,
+    /// The scene zoo, one row per scene.
+    pub zoo: Vec<crate::bench_zoo::ZooRow>,
     /// Wall time of the bench, s.
     pub wall_s: f64,
 }

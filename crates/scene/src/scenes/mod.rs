@@ -4,10 +4,12 @@
 //! - [`bunny`]: bunny tool against a bunny object, depth 4, ~100 mm.
 //! - [`spline_mesh::SplineParams`]: the splined shaft and hub meshes of the `spline` scene.
 //! - [`plate`]: a puck or ball pressed onto a flat plate and slid or turned at hand speeds.
+//! - [`zoo`]: the scene zoo (`zoo/slot`, `zoo/gears`, ...), scripted strokes on many shapes.
 
 pub mod bunny;
 pub mod plate;
 pub mod spline_mesh;
+pub mod zoo;
 
 use std::path::Path;
 
@@ -21,9 +23,17 @@ use crate::SceneError;
 /// Names of the built-in scenes.
 pub const BUILTIN_NAMES: &[&str] = &["bunny", "spline", "plate"];
 
-/// A built-in scene by name (`bunny`, `spline`), trees from `cache` or built.
+/// Whether `name` names a built-in scene: one of [`BUILTIN_NAMES`] or of the zoo
+/// ([`zoo::ZOO`]).
+pub fn is_builtin(name: &str) -> bool {
+    BUILTIN_NAMES.contains(&name) || zoo::is_zoo(name)
+}
+
+/// A built-in scene by name (`bunny`, `spline`, `plate` or a zoo scene such as `zoo/slot`),
+/// trees from `cache` or built.
 pub fn builtin(name: &str, cache: &TreeCache) -> Result<Scene, SceneError> {
     let scene = match name {
+        _ if zoo::is_zoo(name) => zoo::zoo_scene(name, cache)?.scene,
         "bunny" => bunny::scene(cache)?,
         "spline" => spline_scene::scene(cache, &spline_mesh::SplineParams::default(), 5)?,
         "plate" => plate::builtin(cache)?,
@@ -31,7 +41,11 @@ pub fn builtin(name: &str, cache: &TreeCache) -> Result<Scene, SceneError> {
             return Err(SceneError::Unknown {
                 what: "scene",
                 name: name.to_string(),
-                expected: format!("{} or a scene file (.toml)", BUILTIN_NAMES.join(", ")),
+                expected: format!(
+                    "{}, a zoo scene ({}) or a scene file (.toml)",
+                    BUILTIN_NAMES.join(", "),
+                    zoo::names().collect::<Vec<_>>().join(", ")
+                ),
             })
         }
     };
