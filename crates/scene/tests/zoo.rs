@@ -71,7 +71,10 @@ fn check(name: &str) {
         tol_mm,
     }) = z.scene.goal
     {
-        let deepest = frames.iter().map(|f| f.q_g[2]).fold(f64::INFINITY, f64::min);
+        let deepest = frames
+            .iter()
+            .map(|f| f.q_g[2])
+            .fold(f64::INFINITY, f64::min);
         assert!(
             deepest <= target_z_mm + tol_mm,
             "{name}: the tool went down to z = {deepest:.2} mm, short of the insertion target \
