@@ -7,10 +7,12 @@
 //! while it slides pressed (N; frames where the hand moves faster than [`DRAG_MIN_SPEED`]);
 //! the engine's deepest leaf overlap at the graphic pose; the mesh-level penetration of the
 //! tool mesh into the object meshes at the graphic pose ([`peer::MeshPenetration`], on every
-//! [`MESH_STRIDE`]-th frame in contact) and, on the same frames, how deep the hand's pose
-//! is in the objects by the same measure (what the god-object kept the tool out of); the largest first-region pair count and touching
-//! pairs; the largest tool lag behind the hand while twisting (rad), the sign of a jam when the
-//! hand's twist is free to turn; and the tree sizes.
+//! [`MESH_STRIDE`]-th frame in contact) and, on the same frames, how deep the hand's pose is in
+//! the objects by the same measure (what the god-object kept the tool out of); the largest
+//! first-region pair count and touching pairs; the largest force; the largest rotation of the
+//! tool behind the hand while twisting (rad: how much of the twist the objects block); how far
+//! the tool is from the hand at the end, back in free space (more than 0: it stayed caught, a
+//! jam); and the tree sizes.
 //!
 //! `--quick` replays a reduced zoo ([`QUICK_SCENES`]).
 
@@ -81,6 +83,9 @@ pub struct ZooRow {
     pub force_max_n: f64,
     /// Largest rotation of the graphic tool behind the hand during the twist, rad.
     pub twist_lag_max_rad: f64,
+    /// Distance of the graphic tool from the hand at the last frame, after the withdrawal into
+    /// free space, mm: more than 0 means the tool stayed caught (jammed).
+    pub end_lag_mm: f64,
     /// Wall time of the replay (without the mesh measure), s.
     pub wall_s: f64,
 }
@@ -171,6 +176,9 @@ fn zoo_row(z: &ZooScene, times: &[f64], frames: &[FrameOutput], wall_s: f64) -> 
             .map(|f| norm3(&f.wrench[..3]))
             .fold(0.0, f64::max),
         twist_lag_max_rad: twist_lag,
+        end_lag_mm: frames.last().map_or(0.0, |f| {
+            norm3(&(0..3).map(|i| f.q_g[i] - f.q_h[i]).collect::<Vec<_>>())
+        }),
         wall_s,
     }
 }
@@ -204,13 +212,16 @@ pub fn zoo_markdown(rows: &[ZooRow]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "| scene | leaves tool / objects (objects) | frames | total µs p50 / p99 / max | frames > 1 ms | lagging / degraded | drag N | max pen. mm (engine) | mesh pen. mm (hand's depth) | pairs max | touching max | force max N | twist lag max rad |"
+        "| scene | leaves tool / objects (objects) | frames | total µs p50 / p99 / max | frames > 1 ms | lagging / degraded | drag N | max pen. mm (engine) | mesh pen. mm (hand's depth) | pairs max | touching max | force max N | twist lag max rad | end lag mm |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(
+        s,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
     for r in rows {
         let _ = writeln!(
             s,
-            "| {} | {} / {} ({}) | {} | {:.1} / {:.1} / {:.1} | {} | {} / {} | {:.3} | {:.4} | {} | {} | {} | {:.2} | {:.3} |",
+            "| {} | {} / {} ({}) | {} | {:.1} / {:.1} / {:.1} | {} | {} / {} | {:.3} | {:.4} | {} | {} | {} | {:.2} | {:.3} | {:.3} |",
             r.scene,
             r.tool_leaves,
             r.object_leaves,
@@ -232,6 +243,7 @@ pub fn zoo_markdown(rows: &[ZooRow]) -> String {
             r.contacts_max,
             r.force_max_n,
             r.twist_lag_max_rad,
+            r.end_lag_mm,
         );
     }
     s
