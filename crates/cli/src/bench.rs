@@ -21,7 +21,7 @@
 //!    ([`crate::bench_peer`]; `--peer` runs it alone).
 //! 7. **Zoo.** Every scene of the scene zoo with the shipped settings: frame times, degraded
 //!    frames, drag, penetration (the engine's and mesh-level), pairs ([`crate::bench_zoo`];
-//!    only when asked for, `--studies zoo`; also written to `DIR/zoo.md`).
+//!    four scenes with `--quick`; also written to `DIR/zoo.md`).
 //!
 //! Output: a table on stdout, `DIR/bench.json`, `DIR/bench.md`, and the plots
 //! `DIR/bench_pairs_<scene>.png`, `DIR/bench_time_<scene>.png`, `DIR/bench_cost.png`,
@@ -53,7 +53,7 @@ use scene::{Motion, Scene, TreeParams};
 #[derive(Args, Debug)]
 pub struct BenchArgs {
     /// A smoke-test run (< 1 minute): the first 1500 frames of each trajectory, fewer
-    /// repetitions, pair targets up to 1000 and depths 3–4 only.
+    /// repetitions, pair targets up to 1000, depths 3–4 only and four zoo scenes.
     #[arg(long)]
     pub quick: bool,
     /// Output directory for bench.json, bench.md and the plots (created if missing; only the
@@ -88,11 +88,11 @@ pub struct BenchArgs {
     #[arg(long)]
     pub no_scaling: bool,
     /// Studies to run (comma-separated): replay, scaling, speed, contact, friction, peer, zoo
-    /// (the scene zoo runs only when named; a reduced zoo with --quick).
+    /// (with --quick, a reduced zoo of four scenes).
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "replay,scaling,speed,contact,friction,peer"
+        default_value = "replay,scaling,speed,contact,friction,peer,zoo"
     )]
     pub studies: Vec<String>,
     /// Only the comparison with the rapier3d virtual-coupling peer (same as `--studies peer`).

@@ -3,8 +3,10 @@
 //! thread, frames back to back), one row per scene.
 //!
 //! Per row: frames; whole-step time p50 / p99 / max and the frames over 1 ms; degraded frames
-//! (lagging, pair overflow, kept last safe); drag, the mean force opposing the hand's motion
-//! while it slides pressed (N; frames where the hand moves faster than [`DRAG_MIN_SPEED`]);
+//! (lagging, pair overflow, kept last safe); drag, the mean force opposing the graphic tool's
+//! motion while the hand slides it pressed (N; frames where the tool moves faster than
+//! [`DRAG_MIN_SPEED`]; a frictionless contact's force is normal to the tool's motion, so what
+//! shows is the trees' bumps and the step's lag);
 //! the engine's deepest leaf overlap at the graphic pose; the mesh-level penetration of the
 //! tool mesh into the object meshes at the graphic pose ([`peer::MeshPenetration`], on every
 //! [`MESH_STRIDE`]-th frame in contact) and, on the same frames, how deep the hand's pose is in
@@ -32,8 +34,8 @@ pub const QUICK_SCENES: &[&str] = &[
     "zoo/torus-link",
 ];
 
-/// Hand speed below which a sliding frame does not count towards drag, mm/s (its direction
-/// is noise at the ends of the strokes).
+/// Tool speed below which a sliding frame does not count towards drag, mm/s (its direction
+/// is noise at the ends of the strokes and where the tool is held).
 pub const DRAG_MIN_SPEED: f64 = 5.0;
 
 /// Mesh-level penetration is measured on every this many frames in contact (each measure
@@ -65,7 +67,7 @@ pub struct ZooRow {
     pub lagging: usize,
     /// Frames that ended lagging, with a pair overflow, or kept the last safe pose.
     pub degraded: usize,
-    /// Mean force opposing the hand's motion while sliding pressed, N.
+    /// Mean force opposing the graphic tool's motion while the hand slides it pressed, N.
     pub drag_n: f64,
     /// Deepest leaf–leaf overlap at the graphic pose (the engine's measure), mm.
     pub max_penetration_mm: f64,
@@ -129,7 +131,7 @@ fn zoo_row(z: &ZooScene, times: &[f64], frames: &[FrameOutput], wall_s: f64) -> 
         let (t, f, prev) = (times[k], &frames[k], &frames[k - 1]);
         let dt = t - times[k - 1];
         if in_window(t, z.phases.slide_s) && dt > 0.0 {
-            let v: Vec<f64> = (0..3).map(|i| (f.q_h[i] - prev.q_h[i]) / dt).collect();
+            let v: Vec<f64> = (0..3).map(|i| (f.q_g[i] - prev.q_g[i]) / dt).collect();
             let speed = norm3(&v);
             if speed > DRAG_MIN_SPEED {
                 drag.push(-(0..3).map(|i| f.wrench[i] * v[i]).sum::<f64>() / speed);
