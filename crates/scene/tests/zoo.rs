@@ -1,6 +1,8 @@
 //! Every zoo scene replayed with no deadline (`budget_us` at its maximum, so the frames are the
 //! same on a loaded machine): finite answers, no penetration beyond the engine's tolerance, the
-//! tool on the hand in free space, and contact where the script presses.
+//! tool on the hand in free space, contact where the script presses (on every object the scene
+//! presses at once: the corner's three faces, three balls of the field), and the keyed shaft
+//! inserted.
 
 mod common;
 
@@ -11,6 +13,10 @@ use scene::scenes::zoo::{self, ZooScene};
 /// How far the graphic tool may be from the hand in free space, mm and rad.
 const FREE_LAG_MM: f64 = 1e-6;
 const FREE_LAG_RAD: f64 = 1e-6;
+
+/// A leaf pair this close at the graphic pose counts as touching, mm: the engine's own
+/// contact count's gap.
+const TOUCH_MM: f64 = engine::step::TOUCH_MM;
 
 fn in_window(t: f64, w: (f64, f64)) -> bool {
     t >= w.0 && t <= w.1
@@ -29,6 +35,16 @@ fn check(name: &str) {
     let tol = z.scene.solver.penetration_tol_mm;
     let (times, frames) = replay(&z);
     assert!(!frames.is_empty(), "{name}: no frame");
+    // The trees as the step sees them: whole spheres unless the scene turns face caps on.
+    let mut as_stepped = z.scene.clone();
+    if !as_stepped.solver.face_caps {
+        for (t, _) in &mut as_stepped.objects {
+            t.set_caps(Vec::new()).unwrap();
+        }
+    }
+    let (tool, objects) = common::packed(&as_stepped);
+    let mut ws = collide::CollideWorkspace::for_trees(&tool, &objects);
+    let mut fewest_touched = usize::MAX;
     let mut touched_when_pressed = 0;
     let mut pressed_frames = 0;
     for (t, f) in times.iter().zip(&frames) {
@@ -64,6 +80,13 @@ fn check(name: &str) {
             if f.contacts > 0 && force >= 0.25 * z.scene.coupling.kt * z.phases.press_mm {
                 touched_when_pressed += 1;
             }
+            let mut touched = vec![false; objects.len()];
+            let q_g = collide::Pose::from_array(f.q_g);
+            collide::overlap_tree_trees(&tool, &q_g, &objects, TOUCH_MM, &mut ws, |p| {
+                touched[p.object as usize] |= p.gap <= TOUCH_MM;
+            })
+            .unwrap();
+            fewest_touched = fewest_touched.min(touched.iter().filter(|&&t| t).count());
         }
     }
     if let Some(scene::Goal::InsertZ {
@@ -82,6 +105,11 @@ fn check(name: &str) {
         );
     }
     assert!(pressed_frames > 0, "{name}: no frame in the pressed rest");
+    assert!(
+        fewest_touched >= z.phases.touching_objects,
+        "{name}: the pressed tool touched only {fewest_touched} objects at once, expected {}",
+        z.phases.touching_objects
+    );
     assert_eq!(
         touched_when_pressed, pressed_frames,
         "{name}: the tool touched in only {touched_when_pressed} of the {pressed_frames} \

@@ -107,6 +107,9 @@ pub struct ZooPhases {
     pub twist_s: (f64, f64),
     /// How far past the first contact the hand presses, mm.
     pub press_mm: f64,
+    /// Objects the tool touches at once in the pressed rest (at least): three in the corner,
+    /// several balls of the field, one elsewhere.
+    pub touching_objects: usize,
 }
 
 /// A zoo scene and the times of its script's phases.
@@ -336,6 +339,7 @@ fn stroke(mut scene: Scene, s: &Stroke) -> Result<ZooScene, SceneError> {
             slide_s: (slide0, twist0),
             twist_s: (twist0, twist1),
             press_mm: s.press_mm,
+            touching_objects: 1,
         },
     })
 }
@@ -380,7 +384,9 @@ fn cube_corner(cache: &TreeCache) -> Result<ZooScene, SceneError> {
     let s = Stroke::new([30.0, 30.0, 30.0, 0.0, 0.0, 0.0], [-1.0, -1.0, -1.0], 1.0)
         .slide([0.0, 0.0, 6.0])
         .twist([0.0, 0.0, 0.3]);
-    stroke(scene, &s)
+    let mut z = stroke(scene, &s)?;
+    z.phases.touching_objects = 3;
+    Ok(z)
 }
 
 /// Thickness of the thin plate, mm.
@@ -518,6 +524,7 @@ fn keyed_shaft(cache: &TreeCache) -> Result<ZooScene, SceneError> {
             slide_s: (slide0, twist0),
             twist_s: (twist0, twist1),
             press_mm: press,
+            touching_objects: 1,
         },
     })
 }
@@ -583,7 +590,10 @@ fn sphere_field(cache: &TreeCache) -> Result<ZooScene, SceneError> {
     let s = Stroke::new([3.0, 2.0, 25.0, 0.0, 0.0, 0.0], [0.0, 0.0, -1.0], 1.0)
         .slide([12.0, 6.0, 0.0])
         .twist([0.1, 0.1, 0.5]);
-    stroke(scene, &s)
+    let mut z = stroke(scene, &s)?;
+    // The puck covers nine balls; the trees' bumps decide which hold it.
+    z.phases.touching_objects = 3;
+    Ok(z)
 }
 
 fn big_tool(cache: &TreeCache) -> Result<ZooScene, SceneError> {
