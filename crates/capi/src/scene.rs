@@ -78,7 +78,7 @@ pub unsafe extern "C" fn h6d_scene_load(name: *const c_char, out: *mut *mut H6dS
             let name = unsafe { text_arg(CALL, "name", name)? };
             let cache = TreeCache::from_env();
             let builtin = scene::scenes::BUILTIN_NAMES;
-            let loaded = if builtin.contains(&name) {
+            let loaded = if scene::scenes::is_builtin(name) {
                 scene::scenes::builtin(name, &cache)
             } else {
                 let path = Path::new(name);

@@ -30,7 +30,7 @@ pub struct Made {
 /// A built-in scene by name, or a scene file by path, as `haptic6d run` takes it (same
 /// messages); trees from `cache`.
 pub fn load_scene(name: &str, cache: &TreeCache) -> Result<Scene, Failure> {
-    if scene::scenes::BUILTIN_NAMES.contains(&name) {
+    if scene::scenes::is_builtin(name) {
         return Ok(scene::scenes::builtin(name, cache)?);
     }
     let path = Path::new(name);
