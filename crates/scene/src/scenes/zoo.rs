@@ -38,6 +38,10 @@ pub const ZOO: &[(&str, &str)] = &[
         "a 20 mm cube pushed into the corner of a floor and two walls: three faces at once",
     ),
     (
+        "zoo/cube-edge",
+        "a 20 mm cube on one edge on a 120 mm plate: a line contact, rocked about the edge",
+    ),
+    (
         "zoo/thin-plate",
         "a 10 mm ball stabbed at 1 m/s at a 1 mm plate, the hand ending 8 mm below it: tunnelling",
     ),
@@ -126,6 +130,7 @@ pub fn zoo_scene(name: &str, cache: &TreeCache) -> Result<ZooScene, SceneError> 
     let z = match name {
         "zoo/sphere-on-sphere" => sphere_on_sphere(cache),
         "zoo/cube-corner" => cube_corner(cache),
+        "zoo/cube-edge" => cube_edge(cache),
         "zoo/thin-plate" => thin_plate(cache),
         "zoo/slot" => slot(cache),
         "zoo/keyed-shaft" => keyed_shaft(cache),
@@ -387,6 +392,26 @@ fn cube_corner(cache: &TreeCache) -> Result<ZooScene, SceneError> {
     let mut z = stroke(scene, &s)?;
     z.phases.touching_objects = 3;
     Ok(z)
+}
+
+fn cube_edge(cache: &TreeCache) -> Result<ZooScene, SceneError> {
+    let plate = super::plate::plate_mesh();
+    let tool = box_mesh([-10.0; 3], [10.0; 3]);
+    let parts = [Part {
+        mesh: &plate,
+        depth: 4,
+        pose: Pose::identity(),
+    }];
+    let scene = assemble_built("zoo/cube-edge", &tool, 4, &parts, cache)?;
+    // Turned 45 degrees about x: the edge along x is lowest, 10 sqrt 2 mm below the centre.
+    let s = Stroke::new(
+        [0.0, 0.0, 30.0, std::f64::consts::FRAC_PI_4, 0.0, 0.0],
+        [0.0, 0.0, -1.0],
+        1.0,
+    )
+    .slide([20.0, 10.0, 0.0])
+    .twist([0.3, 0.1, 0.4]);
+    stroke(scene, &s)
 }
 
 /// Thickness of the thin plate, mm.
