@@ -220,10 +220,28 @@ impl Counters {
 /// safety layer, one call per frame. See the crate docs for a whole integration.
 pub struct Engine {
     god: GodObject,
-    safety: Safety,
     config: EngineConfig,
+    /// What the run so far left: made fresh by both [`Engine::new`] and [`Engine::reset`].
+    run: EngineRun,
+}
+
+/// The engine's state of one run around the god-object's: the safety layer's soft start and
+/// rate-limit memory, the last frame, the counters.
+struct EngineRun {
+    safety: Safety,
     frame: Frame,
     counters: Counters,
+}
+
+impl EngineRun {
+    /// The state before any frame.
+    fn fresh(config: &EngineConfig) -> Self {
+        Self {
+            safety: Safety::new(config.safety),
+            frame: Frame::default(),
+            counters: Counters::default(),
+        }
+    }
 }
 
 impl Engine {
@@ -238,35 +256,34 @@ impl Engine {
         let god = GodObject::new(tool, objects, config)?; // validates the config
         Ok(Self {
             god,
-            safety: Safety::new(config.safety),
             config,
-            frame: Frame::default(),
-            counters: Counters::default(),
+            run: EngineRun::fresh(&config),
         })
     }
 
     /// Starts a new run with the device at `start`: the graphic tool is placed at `start`, or
-    /// at the nearest free pose when `start` is in collision (returned); the safety layer's
-    /// soft start and rate limit start again, the counters from zero. Allocation-free.
+    /// at a free pose near it when `start` is in collision (returned;
+    /// [`GodObject::reset`] says how near); the safety layer's soft start and rate limit start
+    /// again, the counters from zero. Nothing of an earlier run carries over, whether or not a
+    /// free pose is found: the frames that follow are those of a new engine reset at `start`.
+    /// Allocation-free.
     pub fn reset(&mut self, start: &Pose) -> Result<Pose, EngineError> {
-        let q = self.god.reset(start)?;
-        self.restart_safety();
-        self.counters = Counters::default();
-        self.frame = Frame::default();
-        Ok(q)
+        let q = self.god.reset(start);
+        self.run = EngineRun::fresh(&self.config);
+        q
     }
 
     /// Restarts the safety layer alone (e.g. when a device re-engages): the soft start ramps
     /// again from the next frame and the rate limit starts from a zero wrench.
     pub fn restart_safety(&mut self) {
-        self.safety = Safety::new(self.config.safety);
+        self.run.safety = Safety::new(self.config.safety);
     }
 
     /// Starts the safety layer's soft start again, keeping its rate limit's memory of the last
     /// wrench sent (a device that answers again after a timeout): the wrench ramps back from
     /// where it is, never by a step larger than the rate limit. Allocation-free.
     pub fn restart_soft_start(&mut self) {
-        self.safety.restart_soft_start();
+        self.run.safety.restart_soft_start();
     }
 
     /// One frame at time `t` (s) without a device reading (the device timed out): the graphic
@@ -277,19 +294,19 @@ impl Engine {
     /// # Real-time
     /// No allocation, no panic, constant time.
     pub fn release(&mut self, t: f64) -> &Frame {
-        let (wrench, flags) = self.safety.filter(t, [0.0; 6]);
-        self.frame = Frame {
+        let (wrench, flags) = self.run.safety.filter(t, [0.0; 6]);
+        self.run.frame = Frame {
             t,
-            q_h: self.frame.q_h,
+            q_h: self.run.frame.q_h,
             q_g: self.god.q_g().to_array(),
             wrench,
             raw_wrench: [0.0; 6],
             safety: flags,
             ..Frame::default()
         };
-        self.counters.record(FrameStatus::Ok);
-        self.counters.safety = self.safety.events();
-        &self.frame
+        self.run.counters.record(FrameStatus::Ok);
+        self.run.counters.safety = self.run.safety.events();
+        &self.run.frame
     }
 
     /// Brings the collision trees into cache until `until` ([`GodObject::warm_caches`]): for a
@@ -321,16 +338,16 @@ impl Engine {
     /// `budget_us`), and a finite wrench within the safety limits whatever `q_h` holds.
     pub fn step(&mut self, t: f64, q_h: &Pose) -> &Frame {
         let out = self.god.step(q_h);
-        let (wrench, flags) = self.safety.filter(t, out.wrench);
-        self.frame = Frame::new(t, &out, wrench, flags);
-        self.counters.record(out.status);
-        self.counters.safety = self.safety.events();
-        &self.frame
+        let (wrench, flags) = self.run.safety.filter(t, out.wrench);
+        self.run.frame = Frame::new(t, &out, wrench, flags);
+        self.run.counters.record(out.status);
+        self.run.counters.safety = self.run.safety.events();
+        &self.run.frame
     }
 
     /// The last frame (default before the first [`Engine::step`]).
     pub fn frame(&self) -> &Frame {
-        &self.frame
+        &self.run.frame
     }
 
     /// The leaf pairs of the last detected region (for display): every pair within the last
@@ -342,7 +359,7 @@ impl Engine {
 
     /// Frames counted by outcome since the last reset.
     pub fn counters(&self) -> &Counters {
-        &self.counters
+        &self.run.counters
     }
 
     /// The settings.

@@ -10,6 +10,8 @@
 
 mod common;
 
+use std::time::{Duration, Instant};
+
 use collide::Pose;
 use engine::{Counters, Engine, Frame};
 use scene::Scene;
@@ -30,57 +32,114 @@ fn untimed(frame: &Frame) -> Frame {
     }
 }
 
-/// Resets `engine` to the motion's start and steps the first `frames` samples at 1 kHz: the
-/// frames, untimed, the counters and the god-object's region counts.
+/// What a run gave: the reset's answer, the frames (untimed), the counters and the
+/// god-object's region counts.
+#[derive(Debug, PartialEq)]
+struct Run {
+    reset: Result<[f64; 6], String>,
+    frames: Vec<Frame>,
+    counters: Counters,
+    regions: (u64, u64),
+}
+
+/// Resets `engine` to `start` (default: the hand's pose at sample `from`) and steps the
+/// samples `from..to` at 1 kHz.
 fn run(
     engine: &mut Engine,
     samples: &[scene::trajectory::TrajSample],
-    frames: usize,
-) -> (Vec<Frame>, Counters, (u64, u64)) {
-    engine.reset(&Pose::from_array(samples[0].q)).unwrap();
-    let frames = samples[..frames]
+    start: Option<[f64; 6]>,
+    from: usize,
+    to: usize,
+) -> Run {
+    let start = start.unwrap_or(samples[from].q);
+    let reset = engine
+        .reset(&Pose::from_array(start))
+        .map(|q| q.to_array())
+        .map_err(|e| e.to_string());
+    let frames = samples[from..to]
         .iter()
         .enumerate()
         .map(|(i, s)| untimed(engine.step(i as f64 * 1e-3, &Pose::from_array(s.q))))
         .collect();
-    let regions = engine.god_object_mut().region_counts();
-    (frames, *engine.counters(), regions)
+    Run {
+        reset,
+        frames,
+        counters: *engine.counters(),
+        regions: engine.god_object_mut().region_counts(),
+    }
+}
+
+/// Panics where `again` (after a reset) differs from `fresh`.
+fn same(name: &str, what: &str, fresh: &Run, again: &Run) {
+    assert_eq!(fresh.reset, again.reset, "{name}, {what}: the reset");
+    if let Some((i, (a, b))) = fresh
+        .frames
+        .iter()
+        .zip(&again.frames)
+        .enumerate()
+        .find(|(_, (a, b))| a != b)
+    {
+        panic!(
+            "{name}, {what}: frame {i} differs from a fresh engine's\n\
+             fresh: {a:?}\nreset: {b:?}"
+        );
+    }
+    assert_eq!(
+        fresh.frames.len(),
+        again.frames.len(),
+        "{name}, {what}: frames"
+    );
+    assert_eq!(fresh.counters, again.counters, "{name}, {what}: counters");
+    assert_eq!(
+        fresh.regions, again.regions,
+        "{name}, {what}: region counts"
+    );
 }
 
 fn check(name: &str) {
     let scene = scene(name);
     let samples = scene.trajectory().samples;
     let n = samples.len();
-    let fresh = run(&mut scene.engine().unwrap(), &samples, n);
-    assert!(
-        fresh.0.iter().any(|f| f.contacts > 0),
-        "{name}: the motion never touches"
-    );
+    let fresh = run(&mut scene.engine().unwrap(), &samples, None, 0, n);
+    assert!(fresh.reset.is_ok(), "{name}: {:?}", fresh.reset);
+    let touching: Vec<usize> = (0..n).filter(|&i| fresh.frames[i].contacts > 0).collect();
+    assert!(touching.len() > 100, "{name}: the motion hardly touches");
     let mut engine = scene.engine().unwrap();
-    // Stopped in the middle of the motion (in contact, probes and lists running), then reset.
+    // Stopped in the middle of the motion (probes and lists running), then reset to its start.
     for cut in [n / 3, n / 2, 2 * n / 3] {
-        run(&mut engine, &samples, cut);
-        let again = run(&mut engine, &samples, n);
-        if let Some((i, (a, b))) = fresh
-            .0
-            .iter()
-            .zip(&again.0)
-            .enumerate()
-            .find(|(_, (a, b))| a != b)
-        {
-            panic!(
-                "{name}, reset after {cut} frames: frame {i} differs from a fresh engine's\n\
-                 fresh: {a:?}\nreset: {b:?}"
+        run(&mut engine, &samples, None, 0, cut);
+        let again = run(&mut engine, &samples, None, 0, n);
+        same(
+            name,
+            &format!("reset to the start after {cut} frames"),
+            &fresh,
+            &again,
+        );
+    }
+    // Reset where the last run stopped, in contact: at the tool's last, touching, pose, and
+    // at the hand's pose there (inside the object: the reset finds a free pose near it, or
+    // fails; a short run follows either way). A fresh engine reset there is the reference:
+    // the near part of the tool, the pairs, the warm start, the friction patch, the safety
+    // layer's ramp and the counters of the last run are all at hand, and must not be used.
+    for k in [touching[touching.len() / 4], touching[touching.len() / 2]] {
+        for (at, to) in [(Some(fresh.frames[k - 1].q_g), n), (None, (k + 200).min(n))] {
+            let fresh_k = run(&mut scene.engine().unwrap(), &samples, at, k, to);
+            run(&mut engine, &samples, None, 0, k);
+            // A paced loop's wait before the next frame, in which the reset comes.
+            engine.idle(Instant::now() + Duration::from_micros(500));
+            let again = run(&mut engine, &samples, at, k, to);
+            let whence = if at.is_some() {
+                "the tool's"
+            } else {
+                "the hand's"
+            };
+            same(
+                name,
+                &format!("reset in contact at frame {k}, at {whence} pose"),
+                &fresh_k,
+                &again,
             );
         }
-        assert_eq!(
-            fresh.1, again.1,
-            "{name}, reset after {cut} frames: counters"
-        );
-        assert_eq!(
-            fresh.2, again.2,
-            "{name}, reset after {cut} frames: regions"
-        );
     }
 }
 

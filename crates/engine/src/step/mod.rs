@@ -448,6 +448,10 @@ const FALL_MIN_STEP_MM: f64 = 0.1;
 /// is at least this (a tool sliding across a face the hand presses into is not falling).
 const FALL_MIN_COS: f64 = 0.9;
 
+/// Projection passes a reset makes toward a free pose before it gives up: each moves the tool
+/// out of the overlaps it lists, so a start a few leaf sizes deep takes a few.
+const RESET_SEARCH_PASSES: usize = 100;
+
 /// The trust region that keeps a pass's iterates inside its detected region.
 #[derive(Clone, Copy, Debug)]
 enum Trust {
@@ -924,20 +928,27 @@ impl GodObject {
     }
 
     /// Resets the graphic tool for a new run at the device pose `start`: `q_g = start` if it is
-    /// free, else the nearest free pose found by repeated projection (each pass: detect at the
-    /// current `q`, solve the QP toward `start`, re-measure). Nothing learnt in an earlier run
+    /// free, else a free pose near it found by repeated projection (each pass: detect at the
+    /// current `q`, solve the QP toward `start`, re-measure), within the distance the coupling
+    /// stretches at the device's force limit (`max_force_n / kt`, as the largest motion of a
+    /// tool sphere from `start`): a start deeper than that, or one whose projection leaves
+    /// that distance, is [`EngineError::NoFreeStart`]. Nothing learnt in an earlier run
     /// carries over (warm start, prediction, pair density, cached regions, free-space proofs,
     /// probes, neighbour lists, friction's stick or slip, counts): the frames after a reset are
     /// those of a new god-object reset at the same pose. Allocation-free after `new`.
     pub fn reset(&mut self, start: &Pose) -> Result<Pose, EngineError> {
+        self.forget_run();
         if !start.is_finite() {
             return Err(EngineError::NoFreeStart { searched_mm: 0.0 });
         }
-        self.forget_run();
         let mut q = *start;
         let tol = self.params.penetration_tol_mm.max(1e-6);
         let mut searched = 0.0f64;
-        for _ in 0..100 {
+        // A free pose whose spheres are farther from the start than the coupling stretches at
+        // the device's force limit is not near it (the device would start clamped, pulled
+        // toward a tool it cannot see): the search stays within that.
+        let radius = self.params.safety.max_force_n / self.params.kt;
+        for _ in 0..RESET_SEARCH_PASSES {
             if self.penetration_at(&q) <= tol {
                 self.run.q_g = q;
                 self.run.started = true;
@@ -960,8 +971,12 @@ impl GodObject {
                 break;
             };
             let next = lin.configuration(&dq);
-            searched = searched.max((next.translation() - start.translation()).norm());
             if !next.is_finite() {
+                break;
+            }
+            let moved = self.motion_bound(start, &next);
+            searched = searched.max(moved.min(radius));
+            if moved > radius {
                 break;
             }
             q = next;
