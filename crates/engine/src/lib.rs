@@ -27,7 +27,15 @@
 //!     let frame = engine.step(t, &hand);
 //!     let _send_to_device = frame.wrench; // [Fx, Fy, Fz] N, [Tx, Ty, Tz] N·mm
 //! }
-//! assert!(engine.frame().q_g[2] >= 25.0 - 0.01); // resting on the object (5 + 20 mm)
+//! // The hand ended 9.5 mm below the object's centre; the tool rests on top of the object,
+//! // its centre 5 + 20 mm from the object's (within the penetration tolerance, 0.002 mm) ...
+//! let frame = engine.frame();
+//! let (z_g, z_h) = (frame.q_g[2], 40.0 - 0.5 * 99.0);
+//! assert!((z_g - 25.0).abs() <= 0.002, "{z_g}");
+//! assert!(frame.q_g.iter().enumerate().all(|(k, v)| k == 2 || v.abs() < 1e-9));
+//! // ... and the device gets the coupling spring, kt (z_g - z_h) = 1 N/mm x 34.5 mm, up.
+//! assert!((frame.wrench[2] - (z_g - z_h)).abs() < 1e-9);
+//! assert!(frame.wrench.iter().enumerate().all(|(k, v)| k == 2 || v.abs() < 1e-9));
 //! # Ok(())
 //! # }
 //! ```
