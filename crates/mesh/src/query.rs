@@ -19,11 +19,23 @@
 
 pub(crate) use crate::vec3::{add, cross, dot, norm, norm2, scale as scale_v, sub};
 use crate::TriMesh;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Largest number of triangles in a hierarchy leaf.
 const LEAF_SIZE: usize = 4;
 /// Traversal stack depth; the median-split hierarchy of 2^32 triangles is 32 deep.
 const STACK: usize = 64;
+
+/// Work of every [`MeshQuery`] of this process: hierarchy nodes visited plus triangles tested
+/// (or solid angles taken) by its closest-point and winding-number queries.
+static QUERY_WORK: AtomicU64 = AtomicU64::new(0);
+
+/// Hierarchy nodes visited plus triangles tested by every [`MeshQuery`] query of this process
+/// so far (all threads): a count of the queries' cost that does not depend on the machine, so
+/// that tests can check how a builder's cost grows with the mesh without timing it.
+pub fn query_work() -> u64 {
+    QUERY_WORK.load(Ordering::Relaxed)
+}
 
 /// Which feature of the triangle the closest point lies on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -288,6 +300,7 @@ impl MeshQuery {
         let mut total = 0.0;
         let mut stack = [0u32; STACK];
         let mut sp = 1usize;
+        let mut work = 0u64;
         while sp > 0 {
             sp -= 1;
             let i = stack[sp] as usize;
@@ -295,10 +308,12 @@ impl MeshQuery {
             let dp = &self.dipoles[i];
             let r = sub(dp.centre, p);
             let d2 = norm2(r);
+            work += 1;
             if d2 > (BETA * dp.radius).powi(2) {
                 total += dot(r, dp.area_normal) / (d2 * d2.sqrt());
             } else if node.count > 0 {
                 let s = node.first as usize;
+                work += u64::from(node.count);
                 for t in &self.tris[s..s + node.count as usize] {
                     total += solid_angle(p, &t.v);
                 }
@@ -308,6 +323,7 @@ impl MeshQuery {
                 sp += 2;
             }
         }
+        QUERY_WORK.fetch_add(work, Ordering::Relaxed);
         total / (4.0 * std::f64::consts::PI)
     }
 
@@ -433,9 +449,11 @@ impl MeshQuery {
             stack[0] = 0;
             sp = 1;
         }
+        let mut visited = 0u64;
         while sp > 0 {
             sp -= 1;
             let node = &self.nodes[stack[sp] as usize];
+            visited += 1;
             if box_dist2(node, p) > best_d2 {
                 continue;
             }
@@ -474,6 +492,7 @@ impl MeshQuery {
                 }
             }
         }
+        QUERY_WORK.fetch_add(visited + tests as u64, Ordering::Relaxed);
         let Some((ti, q, f)) = best else {
             return (None, complete);
         };
