@@ -1714,3 +1714,52 @@ impl GodObject {
         out
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use spheretree::Sphere;
+
+    /// A ring of eight small tool spheres about a large one, 0.2 mm from a small object.
+    fn ring() -> GodObject {
+        let mut tool = SphereTree::new_unused(2, 8).unwrap();
+        for k in 0..8 {
+            let a = std::f64::consts::FRAC_PI_4 * k as f64;
+            tool.spheres_mut()[1 + k] = Sphere::new([12.0 * a.cos(), 12.0 * a.sin(), 0.0], 1.0);
+        }
+        tool.spheres_mut()[0] = Sphere::new([0.0, 0.0, 0.0], 14.0);
+        let mut object = SphereTree::new_unused(1, 8).unwrap();
+        object.spheres_mut()[0] = Sphere::new([14.2, 0.0, 0.0], 1.0);
+        GodObject::new(
+            &tool,
+            &[(object, Pose::identity())],
+            EngineConfig::default(),
+        )
+        .unwrap()
+    }
+
+    /// After a run pressed into a contact, a reset leaves the run state as a new god-object's
+    /// reset at the same pose leaves it, and every buffer as large as it was (a reset does
+    /// not allocate).
+    #[test]
+    fn a_reset_leaves_the_state_of_a_new_god_object() {
+        let start = Pose::identity();
+        let mut used = ring();
+        used.reset(&start).unwrap();
+        for i in 0..50 {
+            let hand = Pose::from_array([0.02 * i as f64, 0.0, 0.0, 0.0, 0.0, 0.002 * i as f64]);
+            used.step(&hand);
+        }
+        assert!(used.run.contacts_g > 0, "the run ends in contact");
+        let capacities = (used.pairs.capacity(), used.rows.len(), used.rhs.len());
+        used.reset(&start).unwrap();
+        let mut fresh = ring();
+        fresh.reset(&start).unwrap();
+        assert_eq!(format!("{:?}", used.run), format!("{:?}", fresh.run));
+        assert_eq!(used.pairs, fresh.pairs);
+        assert_eq!(
+            (used.pairs.capacity(), used.rows.len(), used.rhs.len()),
+            capacities
+        );
+    }
+}
