@@ -1,7 +1,8 @@
-//! A reset forgets the run: an engine that ran part of a scene's motion and was reset to its
-//! start gives, frame for frame, what a freshly made engine gives (poses, wrenches after the
-//! safety layer, statuses, pair and row counts, detection work, friction state), and the same
-//! counters. Anything learnt while running that a reset kept (a warm start, a prediction, a
+//! A reset forgets the run: an engine that ran part of a scene's motion and was reset (to the
+//! motion's start, or in contact where it stopped) gives, frame for frame, what a freshly made
+//! engine reset there gives (the reset's answer, poses, wrenches after the safety layer,
+//! statuses, pair and row counts, detection work, friction state), and the same counters and
+//! region counts. Anything learnt while running that a reset kept (a warm start, a prediction, a
 //! cached region, a free-space proof, a probe's pacing, a neighbour list, friction's stick or
 //! slip) would show in these frames.
 //!
