@@ -144,16 +144,16 @@ fn a_new_session_between_two_reads_is_released_then_resumed() {
     client.hello().unwrap();
     let end = Instant::now() + Duration::from_secs(2);
     let mut frame = 0;
-    let mut read_until =
-        |link: &mut DeviceLink<'_, UdpDevice>, want: &dyn Fn(&LinkRead) -> bool| loop {
-            let r = link.read(frame, frame as f64 * 1e-3);
-            frame += 1;
-            if want(&r) {
-                return r;
-            }
-            assert!(Instant::now() < end, "no such reading: last {r:?}");
-            std::thread::sleep(Duration::from_millis(1));
-        };
+    let mut read_until = |link: &mut DeviceLink<'_, UdpDevice>,
+                          want: &dyn Fn(&LinkRead) -> bool| loop {
+        let r = link.read(frame, frame as f64 * 1e-3);
+        frame += 1;
+        if want(&r) {
+            return r;
+        }
+        assert!(Instant::now() < end, "no such reading: last {r:?}");
+        std::thread::sleep(Duration::from_millis(1));
+    };
     while !client.has_session() {
         let _ = read_until(&mut link, &|_| true);
         client.poll().unwrap();
