@@ -39,9 +39,9 @@ frame       haptic6d run bunny|spline, back to back and paced;   BENCHMARKS.md "
 bench       haptic6d bench --quick --scenes bunny;               README "Reproduce the paper" rows; BENCHMARKS.md
             haptic6d bench (full)                                replay, pairs and depth tables, the peer table and
                                                                   its plots (docs/benchmarks/peer/), friction's cost
-studies     haptic6d bench --studies contact|speed|friction,     BENCHMARKS.md contact, hand-speed and friction
-            back to back, --realtime, --helper-thread,          sections; docs/benchmarks/friction_curve.png
-            --face-caps off
+studies     haptic6d bench --studies contact|speed|friction|zoo, BENCHMARKS.md contact, hand-speed, friction and
+            back to back, --realtime, --helper-thread,          scene zoo sections;
+            --face-caps off                                      docs/benchmarks/friction_curve.png
 peer_tune   haptic6d bench --peer-tune (minutes)                 docs/benchmarks/peer/peer_tune.md
 scaling     build_scaling sphere|torus; cargo test build_open    BENCHMARKS.md and trees.md large and open meshes
 doors       cargo bench -p haptic6d-capi --bench door;           BENCHMARKS.md "Devices and the doors"
@@ -247,6 +247,7 @@ if wanted studies; then
   fig studies speed-rt "$bin" bench --studies speed --realtime --out "$b/speed-rt"
   fig studies speed-no-caps "$bin" bench --studies speed --face-caps off --out "$b/speed-no-caps"
   fig studies friction "$bin" bench --studies friction --out "$b/friction"
+  fig studies zoo "$bin" bench --studies zoo --no-plots --out "$b/zoo"
   publish "$b/friction/bench_friction_curve.png" "$docs_bench/friction_curve.png"
 fi
 
