@@ -261,13 +261,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
         .context("cannot start the async runtime")?;
     let json = args.json;
     // With --json, stdout carries only the final summary; the startup lines go to stderr.
-    let say = move |line: String| {
-        if json {
-            eprintln!("{line}");
-        } else {
-            println!("{line}");
-        }
-    };
+    let say = move |line: String| report(json, &line);
     runtime.block_on(async {
         let listener = server::bind(SocketAddr::new(args.bind, args.port)).await?;
         let local = listener
@@ -340,22 +334,28 @@ pub fn run(args: ServeArgs) -> Result<()> {
     if let Some(d) = device_bridge {
         let link = d.stop();
         if !args.json {
-            println!(
-                "device: {} readings, {} held, {} released ({} timeouts)",
-                link.readings, link.held_frames, link.released_frames, link.timeouts
+            report(
+                false,
+                &format!(
+                    "device: {} readings, {} held, {} released ({} timeouts)",
+                    link.readings, link.held_frames, link.released_frames, link.timeouts
+                ),
             );
         }
     }
     let recording = if haptic.recording_path().is_some() {
         let s = haptic.stop_recording()?;
         if !args.json {
-            println!(
-                "recorded {} frames to {} ({} dropped); replay: haptic6d run {} --trajectory {}",
-                s.rows,
-                s.path.display(),
-                s.dropped,
-                args.scene,
-                s.path.display()
+            report(
+                false,
+                &format!(
+                    "recorded {} frames to {} ({} dropped); replay: haptic6d run {} --trajectory {}",
+                    s.rows,
+                    s.path.display(),
+                    s.dropped,
+                    args.scene,
+                    s.path.display()
+                ),
             );
         }
         Some(s)
@@ -377,14 +377,29 @@ pub fn run(args: ServeArgs) -> Result<()> {
                 "dropped": r.dropped,
             })),
         });
-        println!("{summary}");
+        report(false, &summary.to_string());
     } else {
-        println!(
-            "stopped after {} frames ({} overruns, worst step in the last second {:.0} µs)",
-            last.frame + 1,
-            last.overruns,
-            last.frame_us_max
+        report(
+            false,
+            &format!(
+                "stopped after {} frames ({} overruns, worst step in the last second {:.0} µs)",
+                last.frame + 1,
+                last.overruns,
+                last.frame_us_max
+            ),
         );
     }
     Ok(())
+}
+
+/// Prints one line of the server's report on stdout, or stderr when `to_stderr`. A reader that
+/// went away (`haptic6d serve … | head -1`) must not stop a server that drives a device, so
+/// write errors are ignored rather than raised as `println!` would (a panic on a broken pipe).
+fn report(to_stderr: bool, line: &str) {
+    use std::io::Write;
+    let _ = if to_stderr {
+        writeln!(std::io::stderr(), "{line}")
+    } else {
+        writeln!(std::io::stdout(), "{line}")
+    };
 }
