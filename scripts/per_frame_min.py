@@ -14,9 +14,10 @@ whose stalls land on different frames in every run.
 
 With --base the two binaries run in a random order within each pair of runs, and their frames
 must agree on everything but the times (else the comparison is of different work, and the
-script says so). Run the null test (the same binary twice) in the same minutes: on the 2-core
-VM of docs/BENCHMARKS.md the two halves differ by up to ~12 % at p99, so a smaller difference
-is not shown by this measure. Needs only Python 3.
+script says so). Run the null test (the same binary twice) in the same minutes: its two halves
+differ by 0.3 % at p99 on the quiet 2-core machine of docs/BENCHMARKS.md and by up to ~12 % on
+a busier one, and a smaller difference than the null test's is not shown by this measure.
+Needs only Python 3.
 """
 
 import argparse
