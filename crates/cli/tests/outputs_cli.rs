@@ -5,25 +5,11 @@
 //! memory is refused before it starts; usage errors exit 2; every error is one short line.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 mod common;
-use common::{haptic6d, one_line_failure, Dir, CUBE_OBJ, SMALL_SPH};
-
-fn haptic6d_env(args: &[&str], env: &[(&str, &str)], cwd: &Path) -> Output {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_haptic6d"));
-    c.args(args).current_dir(cwd);
-    for (k, v) in env {
-        c.env(k, v);
-    }
-    c.output().expect("the haptic6d binary runs")
-}
-
-#[track_caller]
-fn success(o: &Output) {
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-}
+use common::{haptic6d, haptic6d_env, one_line_failure, success, Dir, CUBE_OBJ, SMALL_SPH};
 
 /// A folder with two small trees, a press trajectory and a scene using them.
 fn run_fixture(tag: &str) -> (Dir, String, String) {
@@ -275,7 +261,7 @@ fn an_empty_cache_variable_counts_as_unset() {
             ("XDG_CACHE_HOME", ""),
             ("HOME", &home),
         ],
-        &work,
+        Some(&work),
     );
     success(&o);
     let mut names: Vec<String> = std::fs::read_dir(&work)

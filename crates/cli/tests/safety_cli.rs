@@ -5,24 +5,12 @@
 //! cannot measure; a device node is never read as a mesh.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 
 mod common;
-use common::{haptic6d, one_line_failure, snapshot, Dir, CUBE_OBJ, SMALL_SPH};
-
-fn haptic6d_env(args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_haptic6d"));
-    c.args(args);
-    for (k, v) in env {
-        c.env(k, v);
-    }
-    c.output().expect("the haptic6d binary runs")
-}
-
-#[track_caller]
-fn success(o: &Output) {
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-}
+use common::{
+    haptic6d, haptic6d_env, one_line_failure, snapshot, success, Dir, CUBE_OBJ, SMALL_SPH,
+};
 
 fn scene_toml(extra: &str) -> String {
     format!(
@@ -202,6 +190,7 @@ fn a_run_failing_midway_leaves_the_previous_run_intact() {
         let o = haptic6d_env(
             &["run", &scene, "--trajectory", &short, "--out", &out],
             &[("HAPTIC6D_TEST_FAIL_RUN_OUTPUT", stage)],
+            None,
         );
         let line = one_line_failure(&o);
         assert!(line.contains("simulated failure"), "{line}");

@@ -88,6 +88,25 @@ pub fn haptic6d(args: &[&str]) -> Output {
         .expect("the haptic6d binary runs")
 }
 
+/// Runs `haptic6d args` with the environment variables `env` set, in the folder `cwd` if given.
+pub fn haptic6d_env(args: &[&str], env: &[(&str, &str)], cwd: Option<&Path>) -> Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_haptic6d"));
+    c.args(args);
+    if let Some(cwd) = cwd {
+        c.current_dir(cwd);
+    }
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    c.output().expect("the haptic6d binary runs")
+}
+
+/// Asserts that the command succeeded, showing its stderr if not.
+#[track_caller]
+pub fn success(o: &Output) {
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
 /// Asserts a failure with exactly one non-empty line on stderr (warnings aside) and no panic;
 /// returns the line.
 #[track_caller]
