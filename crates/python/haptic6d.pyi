@@ -167,7 +167,8 @@ class Engine:
         object may be ``(tree, pose)``. Reset at ``start`` (default the origin)."""
     def reset(self, q: Pose) -> PoseTuple:
         """Starts a new run with the device at ``q``; returns where the tool was placed (``q``,
-        or the nearest free pose when ``q`` is in collision)."""
+        or when ``q`` is in collision a free pose near it, within ``max_force_n / kt``; else an
+        error)."""
     def set_friction(
         self, object: int, static_mu: float, kinetic_mu: Optional[float] = None
     ) -> None:

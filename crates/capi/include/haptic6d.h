@@ -309,8 +309,8 @@ int32_t h6d_config_default(struct H6dConfig *out);
 
 // Makes an engine from sphere-tree or mesh files: the tool, `n_objects` objects (each with
 // its fixed pose), the settings `config` (NULL: `h6d_config_default()`), reset at `start`
-// (`[x, y, z, gamma, beta, alpha]`, mm and rad; the nearest free pose when `start` is in
-// collision). Allocates and may build trees (seconds for a large mesh; cached in
+// (`[x, y, z, gamma, beta, alpha]`, mm and rad; when `start` is in collision, a free pose near
+// it, within the coupling's stretch at the force limit, `max_force_n / kt`). Allocates and may build trees (seconds for a large mesh; cached in
 // `$HAPTIC6D_CACHE`, else `~/.cache/haptic6d`): call it before the haptic loop.
 //
 // On success `*out` is the new engine (free it with `h6d_engine_destroy`); on failure
@@ -328,14 +328,16 @@ int32_t h6d_engine_from_files(const struct H6dBody *tool,
                               struct H6dEngine **out);
 
 // Starts a new run with the device at `start` (`[x, y, z, gamma, beta, alpha]`, mm and rad):
-// the graphic tool goes to `start`, or to the nearest free pose when `start` is in collision,
-// written to `q_g` when not NULL; the soft start and the counters start again.
+// the graphic tool goes to `start`, or when `start` is in collision to a free pose within
+// `max_force_n / kt` of it (else an error), written to `q_g` when not NULL; the soft start and the counters start again.
 // Allocation-free.
 //
 // # Safety
 // `engine` is NULL or a live engine used by no other thread meanwhile; `start` points to 6
 // doubles; `q_g` is NULL or points to 6 writable doubles.
-int32_t h6d_engine_reset(struct H6dEngine *engine, const double *start, double *q_g);
+int32_t h6d_engine_reset(struct H6dEngine *engine,
+                         const double *start,
+                         double *q_g);
 
 // One haptic frame at time `t` (s; the soft start counts from the first frame's `t`) for the
 // device pose `q_h` (`[x, y, z, gamma, beta, alpha]`, mm and rad): writes the wrench to send
@@ -486,7 +488,7 @@ int32_t h6d_scene_start(const struct H6dScene *scene, double *start);
 int32_t h6d_scene_rate_hz(const struct H6dScene *scene, double *rate_hz);
 
 // Makes the scene's engine with the settings `config` (NULL: the scene's own), reset at the
-// scene's start pose (or the nearest free pose). Allocates: call it before the haptic loop.
+// scene's start pose (or a free pose near it). Allocates: call it before the haptic loop.
 // The engine owns copies of the trees: the scene may be destroyed afterwards.
 //
 // On success `*out` is the engine (free it with `h6d_engine_destroy`); on failure `*out` is

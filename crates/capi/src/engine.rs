@@ -135,8 +135,8 @@ pub unsafe extern "C" fn h6d_config_default(out: *mut H6dConfig) -> i32 {
 
 /// Makes an engine from sphere-tree or mesh files: the tool, `n_objects` objects (each with
 /// its fixed pose), the settings `config` (NULL: `h6d_config_default()`), reset at `start`
-/// (`[x, y, z, gamma, beta, alpha]`, mm and rad; the nearest free pose when `start` is in
-/// collision). Allocates and may build trees (seconds for a large mesh; cached in
+/// (`[x, y, z, gamma, beta, alpha]`, mm and rad; when `start` is in collision, a free pose near
+/// it, within the coupling's stretch at the force limit, `max_force_n / kt`). Allocates and may build trees (seconds for a large mesh; cached in
 /// `$HAPTIC6D_CACHE`, else `~/.cache/haptic6d`): call it before the haptic loop.
 ///
 /// On success `*out` is the new engine (free it with `h6d_engine_destroy`); on failure
@@ -265,8 +265,8 @@ unsafe fn load_body(
 }
 
 /// Starts a new run with the device at `start` (`[x, y, z, gamma, beta, alpha]`, mm and rad):
-/// the graphic tool goes to `start`, or to the nearest free pose when `start` is in collision,
-/// written to `q_g` when not NULL; the soft start and the counters start again.
+/// the graphic tool goes to `start`, or when `start` is in collision to a free pose within
+/// `max_force_n / kt` of it (else an error), written to `q_g` when not NULL; the soft start and the counters start again.
 /// Allocation-free.
 ///
 /// # Safety

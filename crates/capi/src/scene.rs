@@ -155,7 +155,7 @@ pub unsafe extern "C" fn h6d_scene_rate_hz(scene: *const H6dScene, rate_hz: *mut
 }
 
 /// Makes the scene's engine with the settings `config` (NULL: the scene's own), reset at the
-/// scene's start pose (or the nearest free pose). Allocates: call it before the haptic loop.
+/// scene's start pose (or a free pose near it). Allocates: call it before the haptic loop.
 /// The engine owns copies of the trees: the scene may be destroyed afterwards.
 ///
 /// On success `*out` is the engine (free it with `h6d_engine_destroy`); on failure `*out` is

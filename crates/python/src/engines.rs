@@ -15,7 +15,7 @@ use crate::{Failure, FailureKind};
 
 /// An engine and what the door keeps beside it.
 pub struct Made {
-    /// The engine, reset at the start pose (or the nearest free pose).
+    /// The engine, reset at the start pose (or a free pose near it).
     pub engine: Engine,
     /// Its settings and frame rate.
     pub settings: Settings,

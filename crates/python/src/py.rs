@@ -630,8 +630,8 @@ impl PyEngine {
     }
 
     /// Starts a new run with the device at `q` (x, y, z mm; gamma, beta, alpha rad): the
-    /// graphic tool is placed at `q`, or at the nearest free pose when `q` is in collision
-    /// (returned); the safety layer's soft start and the counters start again.
+    /// graphic tool is placed at `q`, or when `q` is in collision at a free pose near it, within
+    /// the coupling's stretch at the force limit (`max_force_n / kt`; else an error) (returned); the safety layer's soft start and the counters start again.
     fn reset<'py>(
         &mut self,
         py: Python<'py>,

@@ -552,7 +552,8 @@ impl Scene {
         }
     }
 
-    /// The scene's engine, reset at the scene's start pose (or the nearest free pose).
+    /// The scene's engine, reset at the scene's start pose (or a free pose near it:
+    /// [`engine::Engine::reset`]).
     /// Allocates; call before the haptic loop.
     pub fn engine(&self) -> Result<Engine, SceneError> {
         let mut engine =

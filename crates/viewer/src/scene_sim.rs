@@ -29,7 +29,7 @@ pub struct SceneSim {
 
 impl SceneSim {
     /// Packs the scene's trees, reserves every buffer and seats the god-object at the scene's
-    /// start pose (or the nearest free pose). Allocates; call before the loop starts.
+    /// start pose (or a free pose near it). Allocates; call before the loop starts.
     pub fn new(scene: &Scene) -> Result<Self, ViewerError> {
         let engine = scene.engine()?;
         let start = engine.q_g();
