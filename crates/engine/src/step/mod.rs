@@ -42,7 +42,7 @@
 //! penetrating one) and says so in its [`Frame::status`](crate::Frame::status). A frame that fails (non-finite input,
 //! solver breakdown, a capped or infeasible QP) keeps the last safe `q_g`.
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use collide::{
     rotation_exp, rotation_log, BackgroundList, CentreBox, CollideWorkspace, FaceSlab,
@@ -58,9 +58,13 @@ use crate::{EngineConfig, EngineError};
 mod constrain;
 mod density;
 mod detect;
+mod frame;
 mod friction;
 mod measure;
+mod plan;
 mod solve;
+
+use frame::Flow;
 
 pub use friction::{Friction, FrictionState};
 pub use solve::ReductionAudit;
@@ -551,6 +555,18 @@ impl Lever {
 }
 
 impl Region {
+    /// A ball region of motion allowance `width` (mm) about `center`.
+    fn ball(center: Pose, width: f64) -> Self {
+        Region {
+            center,
+            sweep: None,
+            length: 0.0,
+            width,
+            slab: None,
+            lever: None,
+        }
+    }
+
     /// The pose at the end of the sweep (the centre without one).
     fn end(&self) -> Pose {
         match &self.sweep {
@@ -998,7 +1014,9 @@ impl GodObject {
         self.next_neighbours.cancel();
     }
 
-    /// One haptic frame for the device configuration `q_h` (see the module docs).
+    /// One haptic frame for the device configuration `q_h` (see the module docs): start,
+    /// reuse last frame's region, then passes of detect (plan, list, adopt a region) and solve
+    /// (rows, QP, verify), conclude and advance.
     ///
     /// # Real-time
     /// No allocation (all buffers reserved in [`GodObject::new`]), no panic. Bounded: at most
@@ -1021,679 +1039,41 @@ impl GodObject {
         if !q_h.is_finite() || q_h.q.iter().any(|v| v.abs() > 1e6) {
             return self.keep_last_safe(out, q_h, t_start);
         }
-        // Friction: the tool sticks (stays), or the step goes toward a goal held back from the
+        // Friction: the tool sticks (stays), or the passes go toward a goal held back from the
         // hand by the friction; the wrench is always the spring to the hand.
-        let hand = *q_h;
         let friction = self.friction_active();
         let (goal, friction_state) = if friction {
-            self.friction_goal(&hand)
+            self.friction_goal(q_h)
         } else {
-            (hand, FrictionState::None)
+            (*q_h, FrictionState::None)
         };
         out.friction = friction_state;
-        let q_h = &goal;
-        let skin = self.params.skin_mm.max(0.0);
-        let cap = self.params.max_margin_mm.max(1e-3);
-        let tol = self.params.penetration_tol_mm;
-        // No traversal runs past this: the rest of the budget is kept for the pass's rows,
-        // solve and check.
-        let deadline = t_start
-            + std::time::Duration::from_secs_f64(
-                (1.0 - DETECT_RESERVE) * self.params.budget_us.max(0.0) * 1e-6,
-            );
-        // The last pose proven free on the way (q_g_prev is: it was accepted last frame).
-        let mut q_safe = self.run.q_g;
-        let mut pen_safe = 0.0;
-        // The last answer verified inside its region, and its overlap (for an inexact solver).
-        let mut last_answer: Option<(Pose, f64)> = None;
-        let mut q_lin = self.run.q_g;
-        // The detected region (its pairs are in `self.pairs`); `boxed` keeps the iterates
-        // inside it.
-        let mut region = Region {
-            center: q_lin,
-            sweep: None,
-            length: 0.0,
-            width: 0.0,
-            slab: None,
-            lever: None,
-        };
-        let mut boxed: Option<Trust> = None;
-        let mut detect_now = true;
-        // Path regions (along the predicted motion) are tried until one overflows.
-        let mut path_regions = self.params.relinearize > 0
-            && self.params.rotation == RotationCoordinates::RotationVector;
-        // Last frame's region, while the tool is well inside it: no traversal in this pass. Its
-        // trust region keeps the answer inside; one that binds starts a new region (a wrong
-        // guess costs a small solve, not a traversal). A large list costs more to solve again
-        // than a small region to detect.
-        let reusable = path_regions && self.pairs.len() <= REUSE_MAX_PAIRS;
-        let mut reused = false;
-        // Whether `out.pairs` holds the frame's first pair list yet.
-        let mut listed = false;
-        if let Some((cached, trust)) = self.run.cached.filter(|_| reusable) {
-            if let Some(lin) = self.linearization(&q_lin, q_h) {
-                let depth = self.distance_from_region(&lin, &cached, &q_lin, &lin.delta());
-                let across_ok = cached
-                    .slab
-                    .is_none_or(|(n, w)| self.across_bound(&n, &cached.center, &q_lin) <= 0.5 * w);
-                if depth <= 0.5 * cached.width && across_ok {
-                    region = cached;
-                    boxed = Some(trust);
-                    detect_now = false;
-                    reused = true;
-                    listed = true;
-                    out.pairs = self.pairs.len() as u32;
-                    out.margin_mm = cached.width + skin;
-                    self.map_warm_start();
-                }
-            }
-        }
-        // Motion allowance of the next detected region, mm: 1.5 times the last frame's motion (a
-        // hand in steady motion stays inside it), never below MIN_ALLOW_MM. A region whose
-        // box binds grows it; an answer that left its region widens it; an overflowing pair
-        // list shrinks it.
-        let max_passes = self.params.relinearize.saturating_add(1);
-        // A single pass (the paper's step) has no second chance: its region covers the whole
-        // way to the hand, up to the cap.
-        let mut allow = if max_passes == 1 {
-            cap
-        } else {
-            (1.5 * self.run.last_motion + MIN_ALLOW_MM).min(cap)
-        };
-        let mut overflowed = false;
-        let mut reached = false;
-        // The last solve was on the current pair list (its multipliers are the contact's).
-        let mut solved_current = false;
-        let mut solved_in_frame = false;
-        // Least length (mm) of the next path region: a path whose trust region stopped the
-        // answer is followed by one twice as long, or by a ball region where the pair density
-        // allows no such path (a turning tool's path is measured at the whole tool's reach,
-        // a ball's turn at its near part's: five short paths in a row cost 600 µs where two
-        // balls cost 150).
-        let mut min_path_len = 0.0;
-        // Once a frame: a re-centred ball that binds too is followed by a detection (the tool
-        // wants more room than the last ball's pairs give: a fall, not a slow turn).
-        let mut recentred_in_frame = false;
-        // The last pass's answer was bound by a reused region's trust box.
-        let mut reused_bound = false;
-        // Where this frame's last pass started, when it crept (its answer, now q_lin, within
-        // CREEP_SHARE of its region's width).
-        let mut crept_from: Option<Pose> = None;
-        let (mut cd, mut opt, mut longest_pass) = (0.0, 0.0, 0.0f64);
-        for pass in 0..max_passes {
-            let t_pass = Instant::now();
-            // A pass may cost more than the longest so far (a new region's traversal): keep a
-            // quarter of a pass of headroom (the deadline below stops one that overruns).
-            if pass > 0
-                && (t_pass - t_start).as_secs_f64() * 1e6 + PASS_HEADROOM * longest_pass
-                    > self.params.budget_us
-            {
+        let mut f = self.start_frame(*q_h, goal, t_start);
+        (f.friction, f.friction_state) = (friction, friction_state);
+        self.reuse_region(&mut f, &mut out);
+        for pass in 0..f.max_passes {
+            f.clock.pass_start = Instant::now();
+            if pass > 0 && !f.clock.room_for_pass(self.params.budget_us) {
                 break;
             }
             out.passes = pass + 1;
-            if detect_now {
-                let t0 = Instant::now();
-                let need_t = (q_h.translation() - q_lin.translation()).norm();
-                let need_r =
-                    rotation_angle(&q_h.rotation_matrix(), &q_lin.rotation_matrix()) * self.reach;
-                let need = need_t + need_r;
-                // Dense contacts (flat on flat) hold many pairs per mm of margin: keep the
-                // expected count near PAIR_TARGET by taking smaller regions (more passes).
-                let dense_cap = self.run.density.margin_for(BALL_PAIR_TARGET) - skin;
-                let mut allowed = need
-                    .min(allow)
-                    .min(cap)
-                    .min(dense_cap.max(DENSE_MIN_ALLOW_MM));
-                // Inside a neighbour list a region costs a filter, not a traversal: one that
-                // stays inside it (and a trust region) beats a wider one traversed.
-                let list_room = self.neighbours.slack(&q_lin, None, skin);
-                if list_room >= MIN_ALLOW_MM {
-                    allowed = allowed.min(list_room);
-                }
-                let mut trust = need > allowed;
-                // A tool held by one flat face: a slab region (its face's half-space pairs
-                // within a thin margin across the face, every other pair within the slide
-                // along it), with its own trust box.
-                let slab = if path_regions && self.faces {
-                    self.slab_widths(need, allow, cap, dense_cap)
-                } else {
-                    None
-                };
-                if let Some((_, _, slide)) = slab {
-                    allowed = slide;
-                    trust = true;
-                }
-                let mut slab_used = false;
-                // A hand in motion that the ball cannot follow: a region along the motion
-                // predicted for the tool instead (a sliding contact holds far fewer pairs along
-                // its path than within the path's length all around).
-                // (Within twice the pair-density cap of a ball, length and width together: a
-                // wide path through a dense contact costs more than a second pass. Along the
-                // way pairs come in at the contact's leading edge, about linearly with the
-                // length; its width alone within the ball's cap, since every pair within it
-                // at the start is in the path's list.)
-                let path_cap = (self.run.density.path_margin_for(PAIR_TARGET) - skin)
-                    .max(MIN_ALLOW_MM)
-                    .min(cap);
-                // A tool left behind while falling (the last frame ran out before its optimum
-                // with the tool moving on): its path is the straight way to the hand.
-                let falling = {
-                    let step = Vector3::from(self.run.last_step);
-                    let way = q_h.translation() - q_lin.translation();
-                    self.run.behind
-                        && step.norm() >= FALL_MIN_STEP_MM
-                        && step.dot(&way) >= FALL_MIN_COS * step.norm() * way.norm()
-                };
-                let path_w = if falling {
-                    PATH_WIDTH_MIN_MM
-                } else {
-                    self.path_width()
-                };
-                let mut sweep = if trust && path_regions && slab.is_none() {
-                    // A falling tool's path goes the whole way to the hand (within the cap):
-                    // its pairs come in at the keys' leading edges, not by the density of
-                    // paths per mm of width (the spline's 1.64 mm fall: 351 pairs; capped
-                    // at 0.6 mm by that density, the fall took a frame more).
-                    let length_cap = if falling { cap } else { path_cap };
-                    self.predicted_sweep(&q_lin, q_h, length_cap, falling)
-                        .filter(|&(_, len)| {
-                            path_w <= dense_cap.max(MIN_ALLOW_MM)
-                                && len + path_w <= PATH_DENSITY_FACTOR * length_cap
-                                && (falling || len >= min_path_len)
-                        })
-                } else {
-                    None
-                };
-                // Else (a ball, outside a list, after a reused ball's trust box stopped the last
-                // answer: the alignment's slow turn) the last ball's own pairs serve as a small
-                // list: every pair within `m` of touching at `c` is held, so a ball of
-                // `m - skin - b(c, q_lin)` about q_lin needs no detection (its trust box about
-                // q_lin lets the tool go on).
-                let own_room = match self.run.pairs_question {
-                    Some((c, m))
-                        if sweep.is_none()
-                            && list_room < MIN_ALLOW_MM
-                            && !self.pairs.is_empty() =>
-                    {
-                        m - skin - self.motion_bound(&c, &q_lin)
-                    }
-                    _ => f64::NEG_INFINITY,
-                };
-                let recentred = path_regions
-                    && slab.is_none()
-                    && !recentred_in_frame
-                    && reused_bound
-                    && own_room >= (RECENTRE_SHARE * allowed).max(DENSE_MIN_ALLOW_MM)
-                    && own_room
-                        >= RECENTRE_MOTION_SPARE
-                            * self.motion_bound(&q_lin, &self.predicted_pose(q_h));
-                if recentred {
-                    allowed = allowed.min(own_room);
-                    trust = need > allowed;
-                    recentred_in_frame = true;
-                }
-                let width = if sweep.is_some() { path_w } else { allowed };
-                let extent = sweep.map_or(0.0, |(_, len)| len) + width;
-                // Free space proven by an earlier empty detection: no pair within a proof's
-                // radius at its centre, so none within `m` of q_lin while
-                // `b(centre, q_lin) + m <= radius` (no traversal at all).
-                let free_slack = self.free_slack(&q_lin);
-                let mut detected = if extent + skin <= free_slack {
-                    self.run.cached = None;
-                    self.pairs.clear();
-                    self.run.dropped = 0;
-                    if pass == 0 {
-                        self.tend_probe(&q_lin, allowed + skin, deadline);
-                    }
-                    Ok(f64::INFINITY)
-                } else if let Some((path, _)) = sweep {
-                    self.probe.cancel();
-                    self.detect_along(&q_lin, Some(&path), width + skin, Some(deadline), None)
-                } else if recentred {
-                    // The pairs held already: no detection.
-                    self.run.regions_filtered += 1;
-                    Ok(f64::INFINITY)
-                } else if let Some(free) = if self.neighbours.covers(&q_lin, None, extent + skin) {
-                    // A neighbour list answers it for a filter: no probe is finished for it.
-                    None
-                } else {
-                    self.finish_probe(&q_lin, extent + skin, deadline)
-                } {
-                    // The background probe covers this pose: finished now, it proves free
-                    // space (no pair); out of time, the frame ends here and the next one
-                    // carries on with it (a traversal too long for one frame's budget is then
-                    // spread over several instead of never finishing).
-                    self.run.cached = None;
-                    self.pairs.clear();
-                    self.run.dropped = 0;
-                    self.run.interrupted = !free;
-                    Ok(f64::INFINITY)
-                } else {
-                    // A full traversal gives a fresh answer; an unfinished background probe is
-                    // dropped.
-                    self.probe.cancel();
-                    // In free space, probe a little wider so the proof lasts several frames
-                    // (no wider than a dense contact just left allows).
-                    let in_free_space = self.pairs.is_empty();
-                    let probe = if in_free_space {
-                        let wide = (allowed + skin)
-                            .max(FREE_PROBE_MM.min(self.run.density.probe_margin_for(PAIR_TARGET)));
-                        // Within a neighbour list, no wider than it reaches (a filter, not a
-                        // traversal: its proof goes as far anyway).
-                        // (Short of its edge by a rounding, so that the list covers it.)
-                        let room = self.neighbours.slack(&q_lin, None, 0.0) - PROOF_ROUNDING_MM;
-                        if room >= allowed + skin {
-                            wide.min(room)
-                        } else {
-                            wide
-                        }
-                    } else {
-                        allowed + skin
-                    };
-                    let face_slab = slab.map(|(n, across, slide)| FaceSlab {
-                        normal: n.into(),
-                        margin: across + skin,
-                        tangent: slide + skin,
-                    });
-                    slab_used = face_slab.is_some();
-                    // Where a dense contact just left narrows the probe, the traversal lists
-                    // the pairs within it and proves free space as far as the nearest pair
-                    // beyond (up to FREE_PROBE_MM): one traversal gives the widest proof the
-                    // surfaces allow (a pair met beyond narrows the rest of the descent, so
-                    // the dense contact costs no long list). (Listing within the full probe
-                    // elsewhere gives a tool nearing a face its pairs ahead of the touch.)
-                    let traversed_before = self.run.regions_traversed;
-                    let (d, proven) = if in_free_space && face_slab.is_none() {
-                        match self.detect_proving(
-                            &q_lin,
-                            None,
-                            probe,
-                            FREE_PROBE_MM,
-                            Some(deadline),
-                            None,
-                        ) {
-                            Ok((gap, proven)) => (Ok(gap), proven),
-                            Err(e) => (Err(e), probe),
-                        }
-                    } else {
-                        (
-                            self.detect_along(&q_lin, None, probe, Some(deadline), face_slab),
-                            probe,
-                        )
-                    };
-                    // Only a complete traversal proves free space (one the deadline stopped
-                    // may have missed pairs).
-                    if d.is_ok() && self.pairs.is_empty() && !self.run.interrupted {
-                        // (A pair may lie at the proven gap itself.)
-                        let radius = proven - PROOF_ROUNDING_MM;
-                        self.add_free_proof(q_lin, Vector3::zeros(), radius, &q_lin, probe);
-                        // What a proof costs here: a background probe pays off only where it
-                        // is more than a slice. (A list's proof costs no traversal.)
-                        if self.run.regions_traversed > traversed_before {
-                            self.run.probe_splits = self.ws.stats().node_pairs_split;
-                        }
-                        // The background probes ask for what the surfaces allow here: a
-                        // proof short of the widest asked met a pair (asking for more would
-                        // come back touching); one as wide as asked found room.
-                        self.run.probe_margin = if proven < FREE_PROBE_MM - PROOF_ROUNDING_MM {
-                            proven.max(BACKGROUND_PROBE_MIN_MM)
-                        } else {
-                            self.run.probe_margin.max(proven.min(BACKGROUND_PROBE_MM))
-                        };
-                    } else if d.is_ok() && self.pairs.is_empty() {
-                        // Stopped before an answer: the same question goes to the background
-                        // probe, which the next frames finish (the tool waits here meanwhile).
-                        let _ = self.probe.start(&self.tool, &q_lin, probe);
-                    }
-                    d
-                };
-                if slab_used {
-                    if self.run.interrupted
-                        || self.run.dropped > 0
-                        || self.pairs.len() > SLAB_MAX_PAIRS
-                        || self.ws.stats().node_pairs_split > SLAB_MAX_SPLITS
-                    {
-                        self.run.slab_rest = self.run.slab_next_rest;
-                        self.run.slab_next_rest =
-                            (2 * self.run.slab_next_rest).min(SLAB_REST_MAX_FRAMES);
-                    } else {
-                        self.run.slab_next_rest = SLAB_REST_FRAMES;
-                    }
-                }
-                // An empty slab region lists nothing within its thin margin either: a ball of
-                // that width.
-                let mut slab_face = slab.filter(|_| slab_used).map(|(n, across, _)| (n, across));
-                if let Some((_, across)) = slab_face.filter(|_| self.pairs.is_empty()) {
-                    allowed = across;
-                    slab_face = None;
-                }
-                if trust && self.pairs.is_empty() && detected.is_ok() {
-                    // Nothing within the allowance: if nothing is within the whole way to q_h
-                    // either, the path is free and no trust box is needed (no lag in free
-                    // space). The check stops at the first pair; it stores none.
-                    let near = if need + skin <= free_slack {
-                        Ok(false)
-                    } else {
-                        self.any_within(&q_lin, need + skin, Some(deadline))
-                    };
-                    trust = matches!(near, Ok(true));
-                    if !trust {
-                        allowed = need;
-                        sweep = None;
-                    }
-                    detected = near.map(|_| f64::INFINITY);
-                }
-                cd += t0.elapsed().as_secs_f64();
-                if detected.is_err() {
-                    return self.keep_last_safe(out, &hand, t_start);
-                }
-                solved_current = false;
-                if self.run.interrupted {
-                    // The frame's time is up before the region was listed: nothing from it is
-                    // proven; the frame ends at its last proven pose (lagging).
-                    break;
-                }
-                // The frame's pair count is its first list (a path region that overflowed
-                // is none: the next one is).
-                if !listed && (self.run.dropped == 0 || sweep.is_none()) {
-                    listed = true;
-                    out.pairs = self.pairs.len() as u32;
-                    out.margin_mm = if sweep.is_some() { width } else { allowed } + skin;
-                }
-                // Pairs against margin, remembered for the next choice. (A path region's
-                // count over its width overstates the density all around: the safe side,
-                // smaller ball regions after it.)
-                let margin = match (slab_face, sweep) {
-                    (Some((_, across)), _) => across,
-                    (None, Some(_)) => width,
-                    (None, None) => allowed,
-                } + skin;
-                if !recentred {
-                    self.run.density.record(
-                        margin,
-                        self.pairs.len() + self.run.dropped,
-                        sweep.is_some(),
-                    );
-                }
-
-                if self.run.dropped > 0 {
-                    // More pairs than the storage holds: the list is not complete, so no answer
-                    // from it is proven. Try a smaller region (fewer pairs) next pass.
-                    overflowed = true;
-                    if sweep.is_some() {
-                        // Too many pairs even along the path: ball regions from here on.
-                        path_regions = false;
-                        continue;
-                    }
-                    allow = 0.25 * allowed;
-                    longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
-                    if allow < MIN_OVERFLOW_ALLOW_MM {
-                        break;
-                    }
-                    continue;
-                }
-                region = match sweep {
-                    Some((path, length)) => Region {
-                        center: q_lin,
-                        sweep: Some(path),
-                        length,
-                        width,
-                        slab: None,
-                        lever: None,
-                    },
-                    None => Region {
-                        center: q_lin,
-                        sweep: None,
-                        length: 0.0,
-                        width: allowed,
-                        slab: slab_face,
-                        // A ball in contact: how far its near leaves may turn.
-                        lever: if path_regions
-                            && slab_face.is_none()
-                            && self.pairs.len() >= LEVER_MIN_PAIRS
-                        {
-                            self.lever_at(&q_lin, allowed + skin)
-                        } else {
-                            None
-                        },
-                    },
-                };
-                // The trust box's rotation is bounded by the near leaves' arm.
-                let lever_reach = region
-                    .lever
-                    .map_or(self.reach, |l| l.trust_reach(self.reach, allowed, skin));
-                // A path slab of half-width a keeps every sphere within sqrt(12) a of the path.
-                boxed = trust.then(|| match (slab_face, sweep) {
-                    (Some((n, across)), _) => self.trust_slab(&n, across, allowed),
-                    (None, Some(_)) => Trust::Path(width / 12f64.sqrt()),
-                    (None, None) if path_regions => {
-                        // Each part gets the larger of its shares of the need and of the
-                        // predicted motion (the hand's press into a surface is need the tool
-                        // will not follow; a turn it follows may be a small part of the need).
-                        let q_pred = self.predicted_pose(q_h);
-                        let pred_t = (q_pred.translation() - q_lin.translation()).norm();
-                        let pred_r =
-                            rotation_angle(&q_pred.rotation_matrix(), &q_lin.rotation_matrix())
-                                * self.reach;
-                        let share = |t: f64, r: f64| {
-                            if t + r > 0.0 {
-                                (t / (t + r)).clamp(0.2, 0.8)
-                            } else {
-                                0.5
-                            }
-                        };
-                        let (s_need, s_pred) = (share(need_t, need_r), share(pred_t, pred_r));
-                        let mut t = s_need.max(s_pred);
-                        let mut r = (1.0 - s_need).max(1.0 - s_pred);
-                        // A tool that crept through a tight fit in this frame's last pass
-                        // (stopped well inside its ball: the contact, not the hand, sets its
-                        // way; the spline's drop into the keyways) goes on as it went; else as
-                        // predicted, turning on as in the last frame.
-                        let (step, turn) = if let Some(from) = crept_from {
-                            let pass_step = q_lin.translation() - from.translation();
-                            let pass_turn = rotation_log(
-                                &(q_lin.rotation_matrix() * from.rotation_matrix().transpose()),
-                            );
-                            let s_pass = share(pass_step.norm(), pass_turn.norm() * lever_reach);
-                            t = t.max(s_pass);
-                            r = r.max(1.0 - s_pass);
-                            (pass_step, pass_turn)
-                        } else {
-                            (
-                                q_pred.translation() - q_lin.translation(),
-                                Vector3::from(self.run.last_turn),
-                            )
-                        };
-                        self.trust_oriented(allowed, t, r, &step, &turn, lever_reach)
-                    }
-                    (None, None) => self.trust_box(allowed, need_t, need_r, self.reach),
-                });
-                if !self.pairs.is_empty() {
-                    // Reused in later frames with a trust region (even where this pass needs
-                    // none: the hand will have moved).
-                    let keep =
-                        boxed.unwrap_or_else(|| self.trust_box(allowed, 1.0, 1.0, lever_reach));
-                    self.run.cached = Some((region, keep));
-                }
-                detect_now = false;
-                self.map_warm_start();
-            }
-            let t1 = Instant::now();
-            let n_pairs = self.pairs.len();
-            if n_pairs == 0 && boxed.is_none() {
-                // Free all the way to the hand (the region reaches it and holds no pair): the
-                // tool is the hand, exactly (no rounding through the QP's coordinates).
-                q_safe = *q_h;
-                pen_safe = 0.0;
-                out.contacts = 0;
-                self.run.warm_len = 0;
-                reached = true;
-                break;
-            }
-            // A solve that would end past the budget (at twice the usual time per row) is not
-            // started: the frame ends at its last proven pose. Never the first solve of a frame
-            // that has time left (half its budget), so that a slow spell cannot stop the tool.
-            let elapsed_us = (t1 - t_start).as_secs_f64() * 1e6;
-            let solve_estimate = 2.0 * self.run.solve_us_per_row * (n_pairs + 12) as f64;
-            if elapsed_us + solve_estimate > self.params.budget_us
-                && (solved_in_frame || elapsed_us > 0.5 * self.params.budget_us)
-            {
-                break;
-            }
-            let Some(lin) = self.linearization(&q_lin, q_h) else {
-                return self.keep_last_safe(out, &hand, t_start);
-            };
-            // The trust region is about the region's centre (and path), in this pass's
-            // coordinates.
-            let trust =
-                boxed.map(|t| (t, lin.variable(&region.center), lin.variable(&region.end())));
-            let n = self.fill_rows(&lin, trust);
-            let solved = self.solve(n, n_pairs, &lin.delta());
-            out.rows = out.rows.max(self.rows_solver.stats().working_rows as u32);
-            let solve_s = t1.elapsed().as_secs_f64();
-            opt += solve_s;
-            // The usual rate: a running mean (one slow solve, e.g. the thread preempted, does
-            // not stop later ones).
-            let rate = solve_s * 1e6 / n.max(1) as f64;
-            self.run.solve_us_per_row = if self.run.solve_us_per_row > 0.0 {
-                0.9 * self.run.solve_us_per_row + 0.1 * rate
+            let detected = if f.course.detect_now {
+                self.detect_stage(&mut f, &mut out, pass)
             } else {
-                rate
+                Flow::Go
             };
-            solved_in_frame = true;
-            let Some((dq, iters, status, viol)) = solved else {
-                return self.keep_last_safe(out, &hand, t_start);
+            let flow = match detected {
+                Flow::Go => self.solve_pass(&mut f, &mut out),
+                other => other,
             };
-            self.remember_active(n_pairs);
-            solved_current = true;
-            out.iterations += iters;
-            out.qp_violation = viol;
-            if matches!(status, Status::Infeasible | Status::MaxIterations) {
-                // Infeasible only when q_lin itself penetrates; a capped solve is no answer
-                // (it may penetrate): neither reaches the device, keep the last safe pose.
-                return self.keep_last_safe(out, &hand, t_start);
-            }
-            if status != Status::Solved && out.status == FrameStatus::Ok {
-                out.status = FrameStatus::Inexact;
-            }
-            let q_new = lin.configuration(&dq);
-            if !q_new.is_finite() {
-                return self.keep_last_safe(out, &hand, t_start);
-            }
-            let t2 = Instant::now();
-            let moved = self.distance_from_region(&lin, &region, &q_new, &dq);
-            let moved_across = region.slab.map_or(0.0, |(n, across)| {
-                self.across_bound(&n, &region.center, &q_new) - across
-            });
-            if moved > region.width + skin || moved_across > skin {
-                // Pairs that can touch on the way to q_new may be missing: not proven. Detect
-                // again from q_lin with a margin covering the motion (a box if over the cap).
-                allow = (self.motion_bound(&q_lin, &q_new) * 1.25).min(cap);
-                detect_now = true;
-                cd += t2.elapsed().as_secs_f64();
-                longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
-                continue;
-            }
-            // Every pair that can touch between the region's centre and q_new is listed: their
-            // exact gaps at q_new give the deepest overlap, and how far the linearization
-            // undershot (an active row whose true gap is open: another pass moves further).
-            let (pen, slack, touching) = self.gaps_at(&q_new, &dq, n_pairs);
-            cd += t2.elapsed().as_secs_f64();
-            last_answer = Some((q_new, pen));
-            if pen <= tol {
-                q_safe = q_new;
-                pen_safe = pen;
-                out.contacts = touching;
-            }
-            let box_binds = boxed.is_some_and(|t| self.trust_binds(t, n_pairs, n, &dq));
-            longest_pass = longest_pass.max(t_pass.elapsed().as_secs_f64() * 1e6);
-            if pen <= tol && slack <= CONVERGED_MM {
-                if !box_binds {
-                    reached = true;
-                    break;
-                }
-                // Safe and as far as this region allows: a larger region from here (a region
-                // reused from an earlier frame was sized for that frame's motion: this frame's
-                // allowance instead).
-                if !reused {
-                    allow = (2.0 * region.extent()).max(MIN_ALLOW_MM).min(cap);
-                }
-                reused_bound = reused;
-                if region.sweep.is_some() {
-                    min_path_len = 2.0 * region.length;
-                }
-                reused = false;
-                detect_now = true;
-            }
-            // Penetrating or undershooting: re-linearise at q_new (same pairs).
-            crept_from = (moved < CREEP_SHARE * region.width).then_some(q_lin);
-            q_lin = q_new;
-        }
-        if !reached {
-            match (self.params.solver.is_exact(), last_answer) {
-                // The paper's PQP stops inexact by design: as in the paper, its last answer is
-                // used, with whatever overlap it has (reported, and marked Inexact).
-                (false, Some((q, pen))) if !overflowed => {
-                    q_safe = q;
-                    pen_safe = pen;
-                    out.status = FrameStatus::Inexact;
-                }
-                // An exact step that ran out of passes: the last pose proven free.
-                _ if overflowed => out.status = FrameStatus::PairOverflow,
-                _ => out.status = FrameStatus::Lagging,
+            match flow {
+                Flow::Go | Flow::Next => {}
+                Flow::Stop => break,
+                Flow::Fail => return self.keep_last_safe(out, q_h, t_start),
             }
         }
-        if friction_state != FrictionState::None {
-            // Friction never gives the hand more than the spring it stretched: an answer that
-            // would raise the spring's energy to the hand (the goal's normal a little off the
-            // surface's) keeps the last pose, which is free.
-            let g = self.params.g();
-            let energy = |q: &Pose| {
-                let w = spring_wrench(&g, self.params.rotation, q, &hand);
-                (0..6).map(|k| w[k] * w[k] / g[k]).sum::<f64>()
-            };
-            if energy(&q_safe) > energy(&self.run.q_g) {
-                q_safe = self.run.q_g;
-                pen_safe = self.run.pen_g;
-                out.contacts = self.run.contacts_g;
-            }
-        }
-        if friction && solved_current {
-            self.remember_patch(&q_safe);
-        } else if friction && out.contacts == 0 && reached {
-            self.run.patch = None;
-        }
-        self.run.pen_g = pen_safe;
-        self.run.behind = !reached;
-        self.run.contacts_g = out.contacts;
-        self.run.last_motion = self.motion_bound(&self.run.q_g, &q_safe);
-        for k in 0..3 {
-            self.run.last_step[k] = q_safe.q[k] - self.run.q_g.q[k];
-        }
-        self.run.slab_rest = self.run.slab_rest.saturating_sub(1);
-        self.run.last_turn =
-            rotation_log(&(q_safe.rotation_matrix() * self.run.q_g.rotation_matrix().transpose()))
-                .into();
-        let error = self.motion_bound(&self.predicted_pose(q_h), &q_safe);
-        self.run.prediction_error = error.max(0.9 * self.run.prediction_error);
-        self.run.q_g = q_safe;
-        self.run.hand_offset = (
-            q_h.translation() - q_safe.translation(),
-            rotation_log(&(q_h.rotation_matrix() * q_safe.rotation_matrix().transpose())),
-        );
-        // In contact, the next frames' regions come from a neighbour list kept ahead.
-        let used = out.margin_mm.max(MIN_ALLOW_MM + skin);
-        self.tend_neighbours(&q_safe, used, deadline);
-        self.run.idle_given = false;
-        out.penetration_mm = pen_safe;
-        out.q_g = q_safe.to_array();
-        out.wrench = spring_wrench(&self.params.g(), self.params.rotation, &q_safe, &hand);
-        out.raw_wrench = out.wrench;
-        out.cd_us = cd * 1e6;
-        out.opt_us = opt * 1e6;
-        out.splits = self.run.frame_splits.min(u64::from(u32::MAX)) as u32;
-        out.scanned = self.run.frame_scanned.min(u64::from(u32::MAX)) as u32;
-        out.total_us = t_start.elapsed().as_secs_f64() * 1e6;
+        self.conclude(&mut f, &mut out);
+        self.advance(&f, &mut out);
         out
     }
 

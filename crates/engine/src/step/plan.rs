@@ -1,0 +1,518 @@
+//! The region stages of a pass: **plan** a region (its size, and whether a ball, a slab or a
+//! path), **list** its leaf pairs (from a free-space proof, a probe, a neighbour list, the
+//! last ball's own pairs, or a traversal), **adopt** it (count it, choose its trust region,
+//! keep it for later frames).
+
+use super::frame::{Flow, FrameWork};
+use super::*;
+
+/// A region as planned before its pairs are listed.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct RegionPlan {
+    /// How far the goal is from `q_lin`: translation and rotation parts (mm, largest sphere
+    /// motion) and their sum.
+    need_t: f64,
+    need_r: f64,
+    need: f64,
+    /// The ball allowance that keeps the pair count near [`BALL_PAIR_TARGET`], mm.
+    dense_cap: f64,
+    /// How far the tool may move inside the neighbour list in use, mm.
+    list_room: f64,
+    /// The ball's motion allowance (a slab's slide along its face), mm.
+    allowed: f64,
+    /// The region does not reach the goal: a trust region keeps the iterates in it.
+    trust: bool,
+    /// A slab region: face normal, width across and slide along the face (mm).
+    slab: Option<(Vector3<f64>, f64, f64)>,
+    /// The slab was listed by a traversal (its pairs are the slab's).
+    slab_used: bool,
+    /// A path region: the sweep and its largest sphere motion (mm).
+    sweep: Option<(Sweep, f64)>,
+    /// The last ball's own pairs serve (no detection).
+    recentred: bool,
+    /// Width about the path (a path region) or the allowance (a ball), mm.
+    width: f64,
+    /// Largest sphere motion anywhere in the region, mm.
+    extent: f64,
+    /// How far (mm) the free-space proofs reach about `q_lin`.
+    free_slack: f64,
+}
+
+impl GodObject {
+    /// Detect: plan a region at the pass's `q_lin`, list its pairs, adopt it.
+    pub(super) fn detect_stage(
+        &mut self,
+        f: &mut FrameWork,
+        out: &mut FrameOutput,
+        pass: u32,
+    ) -> Flow {
+        let t0 = Instant::now();
+        let mut plan = self.plan_region(f);
+        let mut listed = self.list_pairs(f, &mut plan, pass);
+        let slab_face = self.settle_slab(&mut plan);
+        if plan.trust && self.pairs.is_empty() && listed.is_ok() {
+            listed = self.confirm_trust(f, &mut plan);
+        }
+        f.clock.detect_s += t0.elapsed().as_secs_f64();
+        if listed.is_err() {
+            return Flow::Fail;
+        }
+        f.progress.solved_current = false;
+        if self.run.interrupted {
+            // The frame's time is up before the region was listed: nothing from it is
+            // proven; the frame ends at its last proven pose (lagging).
+            return Flow::Stop;
+        }
+        self.adopt_region(f, out, &plan, slab_face)
+    }
+
+    /// Plan: the region's size from the way to the goal, the cap, the pair density and the
+    /// neighbour list's room; a slab for a tool held by one flat face, a path for a hand in
+    /// motion, or the last ball's own pairs.
+    fn plan_region(&self, f: &mut FrameWork) -> RegionPlan {
+        let (q_lin, goal, skin, cap) = (f.course.q_lin, f.goal, f.skin, f.cap);
+        let need_t = (goal.translation() - q_lin.translation()).norm();
+        let need_r = rotation_angle(&goal.rotation_matrix(), &q_lin.rotation_matrix()) * self.reach;
+        let need = need_t + need_r;
+        // Dense contacts (flat on flat) hold many pairs per mm of margin: keep the expected
+        // count near the target by taking smaller regions (more passes).
+        let dense_cap = self.run.density.margin_for(BALL_PAIR_TARGET) - skin;
+        let mut allowed = need
+            .min(f.course.allow)
+            .min(cap)
+            .min(dense_cap.max(DENSE_MIN_ALLOW_MM));
+        // Inside a neighbour list a region costs a filter, not a traversal: one that stays
+        // inside it (and a trust region) beats a wider one traversed.
+        let list_room = self.neighbours.slack(&q_lin, None, skin);
+        if list_room >= MIN_ALLOW_MM {
+            allowed = allowed.min(list_room);
+        }
+        let mut trust = need > allowed;
+        // A tool held by one flat face: a slab region (its face's half-space pairs within a
+        // thin margin across the face, every other pair within the slide along it).
+        let slab = if f.course.path_regions && self.faces {
+            self.slab_widths(need, f.course.allow, cap, dense_cap)
+        } else {
+            None
+        };
+        if let Some((_, _, slide)) = slab {
+            allowed = slide;
+            trust = true;
+        }
+        let mut plan = RegionPlan {
+            need_t,
+            need_r,
+            need,
+            dense_cap,
+            list_room,
+            allowed,
+            trust,
+            slab,
+            slab_used: false,
+            sweep: None,
+            recentred: false,
+            width: 0.0,
+            extent: 0.0,
+            free_slack: 0.0,
+        };
+        let path_width = self.plan_path(f, &mut plan);
+        self.plan_recentre(f, &mut plan);
+        plan.width = if plan.sweep.is_some() {
+            path_width
+        } else {
+            plan.allowed
+        };
+        plan.extent = plan.sweep.map_or(0.0, |(_, len)| len) + plan.width;
+        plan.free_slack = self.free_slack(&q_lin);
+        plan
+    }
+
+    /// A path region for a hand in motion that the ball cannot follow: the pairs along the
+    /// motion predicted for the tool (a sliding contact holds far fewer along its path than
+    /// within the path's length all around). Within [`PATH_DENSITY_FACTOR`] times the
+    /// pair-density cap of a path, length and width together (a wide path through a dense
+    /// contact costs more than a second pass). Returns the path's width (mm).
+    fn plan_path(&self, f: &FrameWork, plan: &mut RegionPlan) -> f64 {
+        let (q_lin, goal) = (f.course.q_lin, f.goal);
+        let path_cap = (self.run.density.path_margin_for(PAIR_TARGET) - f.skin)
+            .max(MIN_ALLOW_MM)
+            .min(f.cap);
+        // A tool left behind while falling (the last frame ran out before its optimum with
+        // the tool moving on toward the goal): its path is the straight way there.
+        let falling = {
+            let step = Vector3::from(self.run.last_step);
+            let way = goal.translation() - q_lin.translation();
+            self.run.behind
+                && step.norm() >= FALL_MIN_STEP_MM
+                && step.dot(&way) >= FALL_MIN_COS * step.norm() * way.norm()
+        };
+        let path_width = if falling {
+            PATH_WIDTH_MIN_MM
+        } else {
+            self.path_width()
+        };
+        if plan.trust && f.course.path_regions && plan.slab.is_none() {
+            // A falling tool's path goes the whole way to the goal (within the cap): its pairs
+            // come in at the leading edges, not by the density of paths per mm of width.
+            let length_cap = if falling { f.cap } else { path_cap };
+            plan.sweep = self
+                .predicted_sweep(&q_lin, &goal, length_cap, falling)
+                .filter(|&(_, len)| {
+                    path_width <= plan.dense_cap.max(MIN_ALLOW_MM)
+                        && len + path_width <= PATH_DENSITY_FACTOR * length_cap
+                        && (falling || len >= f.course.min_path_len)
+                });
+        }
+        path_width
+    }
+
+    /// Re-centre: outside a list, after a reused ball's trust region stopped the last answer,
+    /// the last ball's own pairs serve as a small list: every pair within `m` of touching at
+    /// `c` is held, so a ball of `m - skin - b(c, q_lin)` about `q_lin` needs no detection.
+    fn plan_recentre(&self, f: &mut FrameWork, plan: &mut RegionPlan) {
+        let q_lin = f.course.q_lin;
+        let own_room = match self.run.pairs_question {
+            Some((c, m))
+                if plan.sweep.is_none()
+                    && plan.list_room < MIN_ALLOW_MM
+                    && !self.pairs.is_empty() =>
+            {
+                m - f.skin - self.motion_bound(&c, &q_lin)
+            }
+            _ => f64::NEG_INFINITY,
+        };
+        plan.recentred = f.course.path_regions
+            && plan.slab.is_none()
+            && !f.course.recentred_in_frame
+            && f.course.reused_bound
+            && own_room >= (RECENTRE_SHARE * plan.allowed).max(DENSE_MIN_ALLOW_MM)
+            && own_room
+                >= RECENTRE_MOTION_SPARE * self.motion_bound(&q_lin, &self.predicted_pose(&f.goal));
+        if plan.recentred {
+            plan.allowed = plan.allowed.min(own_room);
+            plan.trust = plan.need > plan.allowed;
+            f.course.recentred_in_frame = true;
+        }
+    }
+
+    /// List: the planned region's pairs into `self.pairs`, by the cheapest means that proves
+    /// them complete. Returns the least gap (mm; +inf where nothing was traversed).
+    fn list_pairs(
+        &mut self,
+        f: &FrameWork,
+        plan: &mut RegionPlan,
+        pass: u32,
+    ) -> Result<f64, collide::CollideError> {
+        let (q_lin, skin, deadline) = (f.course.q_lin, f.skin, f.clock.deadline);
+        let used = plan.extent + skin;
+        if used <= plan.free_slack {
+            // Free space proven by an earlier empty detection: no pair within a proof's radius
+            // at its centre, so none within `m` of q_lin while `b(centre, q_lin) + m <= radius`.
+            self.run.cached = None;
+            self.pairs.clear();
+            self.run.dropped = 0;
+            if pass == 0 {
+                self.tend_probe(&q_lin, plan.allowed + skin, deadline);
+            }
+            Ok(f64::INFINITY)
+        } else if let Some((path, _)) = plan.sweep {
+            self.probe.cancel();
+            self.detect_along(&q_lin, Some(&path), plan.width + skin, Some(deadline), None)
+        } else if plan.recentred {
+            // The pairs are held already: no detection.
+            self.run.regions_filtered += 1;
+            Ok(f64::INFINITY)
+        } else if let Some(free) = if self.neighbours.covers(&q_lin, None, used) {
+            // A neighbour list answers it for a filter: no probe is finished for it.
+            None
+        } else {
+            self.finish_probe(&q_lin, used, deadline)
+        } {
+            // The background probe covers this pose: finished now, it proves free space (no
+            // pair); out of time, the frame ends here and the next one carries on with it (a
+            // traversal too long for one frame's budget is spread over several instead of
+            // never finishing).
+            self.run.cached = None;
+            self.pairs.clear();
+            self.run.dropped = 0;
+            self.run.interrupted = !free;
+            Ok(f64::INFINITY)
+        } else {
+            // A full traversal gives a fresh answer; an unfinished background probe is dropped.
+            self.probe.cancel();
+            self.traverse_region(f, plan)
+        }
+    }
+
+    /// A traversal for the region: in free space a little wider, so that an empty answer
+    /// proves free space for several frames ([`FREE_PROBE_MM`]), and proving as far as the
+    /// nearest pair beyond (one traversal gives the widest proof the surfaces allow).
+    fn traverse_region(
+        &mut self,
+        f: &FrameWork,
+        plan: &mut RegionPlan,
+    ) -> Result<f64, collide::CollideError> {
+        let (q_lin, skin, deadline) = (f.course.q_lin, f.skin, f.clock.deadline);
+        let allowed = plan.allowed;
+        let in_free_space = self.pairs.is_empty();
+        let probe = if in_free_space {
+            // No wider than a dense contact just left allows.
+            let wide = (allowed + skin)
+                .max(FREE_PROBE_MM.min(self.run.density.probe_margin_for(PAIR_TARGET)));
+            // Within a neighbour list, no wider than it reaches (a filter, not a traversal:
+            // its proof goes as far anyway), short of its edge by a rounding so that the list
+            // covers it.
+            let room = self.neighbours.slack(&q_lin, None, 0.0) - PROOF_ROUNDING_MM;
+            if room >= allowed + skin {
+                wide.min(room)
+            } else {
+                wide
+            }
+        } else {
+            allowed + skin
+        };
+        let face_slab = plan.slab.map(|(n, across, slide)| FaceSlab {
+            normal: n.into(),
+            margin: across + skin,
+            tangent: slide + skin,
+        });
+        plan.slab_used = face_slab.is_some();
+        let traversed_before = self.run.regions_traversed;
+        let (d, proven) = if in_free_space && face_slab.is_none() {
+            match self.detect_proving(&q_lin, None, probe, FREE_PROBE_MM, Some(deadline), None) {
+                Ok((gap, proven)) => (Ok(gap), proven),
+                Err(e) => (Err(e), probe),
+            }
+        } else {
+            let d = self.detect_along(&q_lin, None, probe, Some(deadline), face_slab);
+            (d, probe)
+        };
+        // Only a complete traversal proves free space (one the deadline stopped may have
+        // missed pairs).
+        if d.is_ok() && self.pairs.is_empty() && !self.run.interrupted {
+            // (A pair may lie at the proven gap itself.)
+            let radius = proven - PROOF_ROUNDING_MM;
+            self.add_free_proof(q_lin, Vector3::zeros(), radius, &q_lin, probe);
+            // What a proof costs here: a background probe pays off only where it is more than
+            // a slice. (A list's proof costs no traversal.)
+            if self.run.regions_traversed > traversed_before {
+                self.run.probe_splits = self.ws.stats().node_pairs_split;
+            }
+            // The background probes ask for what the surfaces allow here: a proof short of the
+            // widest asked met a pair (asking for more would come back touching); one as wide
+            // as asked found room.
+            self.run.probe_margin = if proven < FREE_PROBE_MM - PROOF_ROUNDING_MM {
+                proven.max(BACKGROUND_PROBE_MIN_MM)
+            } else {
+                self.run.probe_margin.max(proven.min(BACKGROUND_PROBE_MM))
+            };
+        } else if d.is_ok() && self.pairs.is_empty() {
+            // Stopped before an answer: the same question goes to the background probe, which
+            // the next frames finish (the tool waits here meanwhile).
+            let _ = self.probe.start(&self.tool, &q_lin, probe);
+        }
+        d
+    }
+
+    /// A slab region that failed (stopped at the deadline, overflowed, or larger than a slab
+    /// is by design) rests slabs for a while, doubled after each failure in a row. An empty
+    /// slab lists nothing within its thin margin either: a ball of that width. Returns the
+    /// slab's face (normal, width across, mm) when the region is one.
+    fn settle_slab(&mut self, plan: &mut RegionPlan) -> Option<(Vector3<f64>, f64)> {
+        if plan.slab_used {
+            let run = &mut self.run;
+            if run.interrupted
+                || run.dropped > 0
+                || self.pairs.len() > SLAB_MAX_PAIRS
+                || self.ws.stats().node_pairs_split > SLAB_MAX_SPLITS
+            {
+                run.slab_rest = run.slab_next_rest;
+                run.slab_next_rest = (2 * run.slab_next_rest).min(SLAB_REST_MAX_FRAMES);
+            } else {
+                run.slab_next_rest = SLAB_REST_FRAMES;
+            }
+        }
+        let face = plan
+            .slab
+            .filter(|_| plan.slab_used)
+            .map(|(n, across, _)| (n, across));
+        if let Some((_, across)) = face.filter(|_| self.pairs.is_empty()) {
+            plan.allowed = across;
+            return None;
+        }
+        face
+    }
+
+    /// Nothing within the allowance: if nothing is within the whole way to the goal either,
+    /// the way is free and no trust region is needed (no lag in free space). The check stops
+    /// at the first pair; it stores none.
+    fn confirm_trust(
+        &mut self,
+        f: &FrameWork,
+        plan: &mut RegionPlan,
+    ) -> Result<f64, collide::CollideError> {
+        let reach = plan.need + f.skin;
+        let near = if reach <= plan.free_slack {
+            Ok(false)
+        } else {
+            self.any_within(&f.course.q_lin, reach, Some(f.clock.deadline))
+        };
+        plan.trust = matches!(near, Ok(true));
+        if !plan.trust {
+            plan.allowed = plan.need;
+            plan.sweep = None;
+        }
+        near.map(|_| f64::INFINITY)
+    }
+
+    /// Adopt: count the listed region (the frame's first list, the pair density), shrink
+    /// after an overflow, or make it the pass's region with its trust region and keep it for
+    /// later frames.
+    fn adopt_region(
+        &mut self,
+        f: &mut FrameWork,
+        out: &mut FrameOutput,
+        plan: &RegionPlan,
+        slab_face: Option<(Vector3<f64>, f64)>,
+    ) -> Flow {
+        let (q_lin, skin) = (f.course.q_lin, f.skin);
+        // The frame's pair count is its first list (a path region that overflowed is none:
+        // the next one is).
+        if !f.progress.listed && (self.run.dropped == 0 || plan.sweep.is_none()) {
+            f.progress.listed = true;
+            out.pairs = self.pairs.len() as u32;
+            out.margin_mm = if plan.sweep.is_some() {
+                plan.width
+            } else {
+                plan.allowed
+            } + skin;
+        }
+        // Pairs against margin, remembered for the next choice. (A path region's count over
+        // its width overstates the density all around: the safe side, smaller balls after it.)
+        let margin = match (slab_face, plan.sweep) {
+            (Some((_, across)), _) => across,
+            (None, Some(_)) => plan.width,
+            (None, None) => plan.allowed,
+        } + skin;
+        if !plan.recentred {
+            let count = self.pairs.len() + self.run.dropped;
+            self.run.density.record(margin, count, plan.sweep.is_some());
+        }
+        if self.run.dropped > 0 {
+            // More pairs than the storage holds: the list is not complete, so no answer from
+            // it is proven. A smaller region (fewer pairs) next pass; after a path, balls.
+            f.progress.overflowed = true;
+            if plan.sweep.is_some() {
+                f.course.path_regions = false;
+                return Flow::Next;
+            }
+            f.course.allow = 0.25 * plan.allowed;
+            f.clock.end_pass();
+            if f.course.allow < MIN_OVERFLOW_ALLOW_MM {
+                return Flow::Stop;
+            }
+            return Flow::Next;
+        }
+        let region = match plan.sweep {
+            Some((path, length)) => Region {
+                center: q_lin,
+                sweep: Some(path),
+                length,
+                width: plan.width,
+                slab: None,
+                lever: None,
+            },
+            None => Region {
+                center: q_lin,
+                sweep: None,
+                length: 0.0,
+                width: plan.allowed,
+                slab: slab_face,
+                // A ball in contact: how far its near leaves may turn.
+                lever: if f.course.path_regions
+                    && slab_face.is_none()
+                    && self.pairs.len() >= LEVER_MIN_PAIRS
+                {
+                    self.lever_at(&q_lin, plan.allowed + skin)
+                } else {
+                    None
+                },
+            },
+        };
+        // The trust region's rotation is bounded by the near leaves' arm.
+        let lever_reach = region.lever.map_or(self.reach, |l| {
+            l.trust_reach(self.reach, plan.allowed, skin)
+        });
+        let trust = plan
+            .trust
+            .then(|| self.trust_for(f, plan, slab_face, lever_reach));
+        if !self.pairs.is_empty() {
+            // Reused in later frames with a trust region (even where this pass needs none:
+            // the hand will have moved).
+            let keep = trust.unwrap_or_else(|| self.trust_box(plan.allowed, 1.0, 1.0, lever_reach));
+            self.run.cached = Some((region, keep));
+        }
+        f.course.region = region;
+        f.course.trust = trust;
+        f.course.detect_now = false;
+        self.map_warm_start();
+        Flow::Go
+    }
+
+    /// The trust region of an adopted region that does not reach the goal: the slab's box, a
+    /// thin slab about the path (half-width `a` keeps every sphere within `sqrt(12) a` of the
+    /// path), a box turned to the expected motion, or the paper's axis-aligned box.
+    fn trust_for(
+        &self,
+        f: &FrameWork,
+        plan: &RegionPlan,
+        slab_face: Option<(Vector3<f64>, f64)>,
+        lever_reach: f64,
+    ) -> Trust {
+        match (slab_face, plan.sweep) {
+            (Some((n, across)), _) => self.trust_slab(&n, across, plan.allowed),
+            (None, Some(_)) => Trust::Path(plan.width / 12f64.sqrt()),
+            (None, None) if f.course.path_regions => self.trust_turned(f, plan, lever_reach),
+            (None, None) => self.trust_box(plan.allowed, plan.need_t, plan.need_r, self.reach),
+        }
+    }
+
+    /// A ball's trust box turned to the expected motion: each part (translation, rotation)
+    /// gets the larger of its shares of the need and of the predicted motion (the hand's press
+    /// into a surface is need the tool will not follow; a turn it follows may be a small part
+    /// of the need). A tool that crept in this frame's last pass (stopped well inside its
+    /// ball: the contact, not the hand, sets its way) goes on as it went; else as predicted,
+    /// turning on as in the last frame.
+    fn trust_turned(&self, f: &FrameWork, plan: &RegionPlan, lever_reach: f64) -> Trust {
+        let q_lin = f.course.q_lin;
+        let q_pred = self.predicted_pose(&f.goal);
+        let pred_t = (q_pred.translation() - q_lin.translation()).norm();
+        let pred_r =
+            rotation_angle(&q_pred.rotation_matrix(), &q_lin.rotation_matrix()) * self.reach;
+        let share = |t: f64, r: f64| {
+            if t + r > 0.0 {
+                (t / (t + r)).clamp(0.2, 0.8)
+            } else {
+                0.5
+            }
+        };
+        let (s_need, s_pred) = (share(plan.need_t, plan.need_r), share(pred_t, pred_r));
+        let mut t = s_need.max(s_pred);
+        let mut r = (1.0 - s_need).max(1.0 - s_pred);
+        let (step, turn) = if let Some(from) = f.course.crept_from {
+            let pass_step = q_lin.translation() - from.translation();
+            let pass_turn =
+                rotation_log(&(q_lin.rotation_matrix() * from.rotation_matrix().transpose()));
+            let s_pass = share(pass_step.norm(), pass_turn.norm() * lever_reach);
+            t = t.max(s_pass);
+            r = r.max(1.0 - s_pass);
+            (pass_step, pass_turn)
+        } else {
+            (
+                q_pred.translation() - q_lin.translation(),
+                Vector3::from(self.run.last_turn),
+            )
+        };
+        self.trust_oriented(plan.allowed, t, r, &step, &turn, lever_reach)
+    }
+}
