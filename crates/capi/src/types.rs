@@ -207,6 +207,7 @@ impl H6dConfig {
             reduce_rows: EngineConfig::default().reduce_rows,
             helper_thread: EngineConfig::default().helper_thread,
             face_caps: EngineConfig::default().face_caps,
+            heuristics: EngineConfig::default().heuristics,
             safety: SafetyParams {
                 max_force_n: self.max_force_n,
                 max_torque_nmm: self.max_torque_nmm,

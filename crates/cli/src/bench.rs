@@ -1,4 +1,4 @@
-//! `haptic6d bench [--quick] [--out DIR] [--studies replay,scaling,speed,contact,friction,peer,zoo]
+//! `haptic6d bench [--quick] [--out DIR] [--studies replay,scaling,speed,contact,friction,peer,zoo,ablation]
 //! [--peer]`: the paper's experiments, every solver on identical input, plus scaling,
 //! hand-speed, contact and friction studies, and the comparison with the rapier3d
 //! virtual-coupling peer.
@@ -22,6 +22,10 @@
 //! 7. **Zoo.** Every scene of the scene zoo with the shipped settings: frame times, degraded
 //!    frames, drag, penetration (the engine's and mesh-level), pairs ([`crate::bench_zoo`];
 //!    four scenes with `--quick`; also written to `DIR/zoo.md`).
+//! 8. **Ablation.** The frame step's heuristics off one at a time, and all off, over the
+//!    built-ins and the zoo: frames over 1 ms, degraded frames, p99, detection work,
+//!    penetration, drag ([`crate::bench_ablation`]; the reduced zoo with `--quick`; also
+//!    written to `DIR/ablation.md`).
 //!
 //! Output: a table on stdout, `DIR/bench.json`, `DIR/bench.md`, and the plots
 //! `DIR/bench_pairs_<scene>.png`, `DIR/bench_time_<scene>.png`, `DIR/bench_cost.png`,
@@ -87,12 +91,12 @@ pub struct BenchArgs {
     /// Skip the scaling studies (pairs and depth).
     #[arg(long)]
     pub no_scaling: bool,
-    /// Studies to run (comma-separated): replay, scaling, speed, contact, friction, peer, zoo
-    /// (with --quick, a reduced zoo of four scenes).
+    /// Studies to run (comma-separated): replay, scaling, speed, contact, friction, peer, zoo,
+    /// ablation (with --quick, a reduced zoo of four scenes).
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "replay,scaling,speed,contact,friction,peer,zoo"
+        default_value = "replay,scaling,speed,contact,friction,peer,zoo,ablation"
     )]
     pub studies: Vec<String>,
     /// Only the comparison with the rapier3d virtual-coupling peer (same as `--studies peer`).
@@ -132,11 +136,11 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     }
     for study in &args.studies {
         if ![
-            "replay", "scaling", "speed", "contact", "friction", "peer", "zoo",
+            "replay", "scaling", "speed", "contact", "friction", "peer", "zoo", "ablation",
         ]
         .contains(&study.as_str())
         {
-            crate::usage_bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact, friction, peer, zoo)");
+            crate::usage_bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact, friction, peer, zoo, ablation)");
         }
     }
     let wants = |name: &str| args.studies.iter().any(|s| s == name);
@@ -283,6 +287,17 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
             crate::bench_zoo::zoo_markdown(&report.zoo)
         );
         scene::io::write_atomic(&args.out.join("zoo.md"), md.as_bytes())?;
+    }
+    if wants("ablation") {
+        eprintln!("bench: ablation study (each heuristic of the step off in turn)");
+        report.ablation = crate::bench_ablation::ablation_study(&cache, args.quick)?;
+        let md = format!(
+            "# haptic6d bench: heuristics ablation ({}), {}\n\n{}",
+            report.mode,
+            report.machine,
+            crate::bench_ablation::ablation_markdown(&report.ablation)
+        );
+        scene::io::write_atomic(&args.out.join("ablation.md"), md.as_bytes())?;
     }
     report.wall_s = t0.elapsed().as_secs_f64();
 
@@ -656,6 +671,10 @@ pub fn markdown(r: &BenchReport) -> String {
     if !r.zoo.is_empty() {
         let _ = writeln!(s, "\n## Scene zoo (dual, shipped settings)\n");
         s.push_str(&crate::bench_zoo::zoo_markdown(&r.zoo));
+    }
+    if !r.ablation.is_empty() {
+        let _ = writeln!(s, "\n## Heuristics ablation (dual, shipped settings)\n");
+        s.push_str(&crate::bench_ablation::ablation_markdown(&r.ablation));
     }
     let _ = writeln!(s, "\nbench wall time: {:.1} s", r.wall_s);
     s

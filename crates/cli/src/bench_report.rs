@@ -117,6 +117,8 @@ pub struct BenchReport {
     pub peer: Vec<crate::bench_peer::PeerRow>,
     /// The scene zoo, one row per scene.
     pub zoo: Vec<crate::bench_zoo::ZooRow>,
+    /// The frame step's heuristics off one at a time, over the built-ins and the zoo.
+    pub ablation: Vec<crate::bench_ablation::AblationRow>,
     /// Wall time of the bench, s.
     pub wall_s: f64,
 }

@@ -6,6 +6,7 @@
 //! non-zero exit status; progress bars (see `progress.rs`) only show on a terminal.
 
 mod bench;
+mod bench_ablation;
 mod bench_contact;
 mod bench_friction;
 mod bench_peer;

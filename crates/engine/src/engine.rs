@@ -5,7 +5,7 @@ use qp::SolverKind;
 use spheretree::SphereTree;
 
 use crate::safety::{Safety, SafetyEvents, SafetyParams};
-use crate::step::{FrameOutput, FrameStatus, Friction, FrictionState, GodObject};
+use crate::step::{FrameOutput, FrameStatus, Friction, FrictionState, GodObject, Heuristics};
 use crate::EngineError;
 
 /// Every setting of the engine, checked once by [`Engine::new`] against the ranges in
@@ -61,6 +61,9 @@ pub struct EngineConfig {
     pub face_caps: bool,
     /// Device limits applied to every wrench sent.
     pub safety: SafetyParams,
+    /// The frame step's heuristics, each switchable ([`Heuristics`]; all on by default). For
+    /// measuring and testing the step: not a scene-file setting.
+    pub heuristics: Heuristics,
 }
 
 impl Default for EngineConfig {
@@ -81,6 +84,7 @@ impl Default for EngineConfig {
             helper_thread: false,
             face_caps: false,
             safety: SafetyParams::default(),
+            heuristics: Heuristics::ALL,
         }
     }
 }

@@ -61,7 +61,7 @@ pub mod step;
 pub use collide::{ConstraintForm, LeafPair, Pose, RotationCoordinates};
 pub use engine::{Counters, Engine, EngineConfig, Frame};
 pub use qp::SolverKind;
-pub use step::{FrameStatus, Friction, FrictionState};
+pub use step::{FrameStatus, Friction, FrictionState, Heuristics};
 
 /// Errors of the engine. Each message says what to fix; the cause is kept as the source.
 #[derive(Debug, thiserror::Error)]

@@ -172,6 +172,10 @@ pub struct SolverSpec {
     /// (docs/DESIGN.md §Face caps): `false` (default: whole spheres, the paper's trees) or
     /// `true` (the built-in plate scenes).
     pub face_caps: bool,
+    /// The frame step's heuristic switches ([`engine::Heuristics`], all on): for the bench's
+    /// ablation study and the tests, not a key of the scene file.
+    #[serde(skip)]
+    pub heuristics: engine::Heuristics,
 }
 
 impl Default for SolverSpec {
@@ -187,6 +191,7 @@ impl Default for SolverSpec {
             reduce_rows: true,
             helper_thread: false,
             face_caps: false,
+            heuristics: engine::Heuristics::ALL,
         }
     }
 }
@@ -547,6 +552,7 @@ impl Scene {
             reduce_rows: self.solver.reduce_rows,
             helper_thread: self.solver.helper_thread,
             face_caps: self.solver.face_caps,
+            heuristics: self.solver.heuristics,
             safety: self.safety,
             ..EngineConfig::default()
         }

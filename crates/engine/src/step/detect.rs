@@ -324,6 +324,9 @@ impl GodObject {
     /// Slack (mm) of the free-space proofs at `q`: how much farther than `q` the better one
     /// proves free space (negative when neither reaches `q`).
     pub(super) fn free_slack(&self, q: &Pose) -> f64 {
+        if !self.params.heuristics.free_space_proofs {
+            return f64::NEG_INFINITY;
+        }
         self.run
             .free
             .iter()
@@ -443,7 +446,7 @@ impl GodObject {
     /// deadline (the frame ends; the next one carries on); `None`: no covering probe, or it
     /// found a pair (a traversal is needed).
     pub(super) fn finish_probe(&mut self, q: &Pose, used: f64, deadline: Instant) -> Option<bool> {
-        if self.probe.status() != ProbeStatus::Running {
+        if !self.params.heuristics.probes() || self.probe.status() != ProbeStatus::Running {
             return None;
         }
         let (center, radius) = self.probe.question();
@@ -511,6 +514,9 @@ impl GodObject {
     /// [`PROBE_AHEAD`] of a proof's usable radius; each frame runs one slice of it, sized to
     /// finish in time. A finished free probe replaces the proof that runs out first.
     pub(super) fn tend_probe(&mut self, q: &Pose, used: f64, deadline: Instant) {
+        if !self.params.heuristics.probes() {
+            return;
+        }
         if let Some(team) = &self.team {
             // Probes come every few frames here: the helper stays ready for them.
             team.keep_awake();
@@ -650,6 +656,9 @@ impl GodObject {
     /// life, and each frame builds a slice of it (until the `deadline`), sized to finish in
     /// time. A finished list replaces the one in use; its pair count sets the next margin.
     pub(super) fn tend_neighbours(&mut self, q: &Pose, used: f64, deadline: Instant) {
+        if !self.params.heuristics.neighbour_lists {
+            return;
+        }
         let speed = self.run.last_motion;
         let margin = self.run.list_margin;
         let life = (margin - used).max(0.0) / speed.max(1e-9);

@@ -200,7 +200,9 @@ impl GodObject {
     /// wrong guess costs a small solve, not a traversal). A large list costs more to solve
     /// again than a small region to detect ([`REUSE_MAX_PAIRS`]).
     pub(super) fn reuse_region(&mut self, f: &mut FrameWork, out: &mut FrameOutput) {
-        let reusable = f.course.path_regions && self.pairs.len() <= REUSE_MAX_PAIRS;
+        let reusable = self.params.heuristics.region_reuse
+            && f.course.path_regions
+            && self.pairs.len() <= REUSE_MAX_PAIRS;
         let Some((cached, trust)) = self.run.cached.filter(|_| reusable) else {
             return;
         };

@@ -60,13 +60,16 @@ mod density;
 mod detect;
 mod frame;
 mod friction;
+mod heuristics;
 mod measure;
 mod plan;
+mod reference;
 mod solve;
 
 use frame::Flow;
 
 pub use friction::{Friction, FrictionState};
+pub use heuristics::Heuristics;
 pub use solve::ReductionAudit;
 
 use measure::rotation_angle;

@@ -76,7 +76,12 @@ impl GodObject {
         let need = need_t + need_r;
         // Dense contacts (flat on flat) hold many pairs per mm of margin: keep the expected
         // count near the target by taking smaller regions (more passes).
-        let dense_cap = self.run.density.margin_for(BALL_PAIR_TARGET) - skin;
+        let h = self.params.heuristics;
+        let dense_cap = if h.density_sizing {
+            self.run.density.margin_for(BALL_PAIR_TARGET) - skin
+        } else {
+            f64::INFINITY
+        };
         let mut allowed = need
             .min(f.course.allow)
             .min(cap)
@@ -90,7 +95,7 @@ impl GodObject {
         let mut trust = need > allowed;
         // A tool held by one flat face: a slab region (its face's half-space pairs within a
         // thin margin across the face, every other pair within the slide along it).
-        let slab = if f.course.path_regions && self.faces {
+        let slab = if h.slab_regions && f.course.path_regions && self.faces {
             self.slab_widths(need, f.course.allow, cap, dense_cap)
         } else {
             None
@@ -134,9 +139,14 @@ impl GodObject {
     /// contact costs more than a second pass). Returns the path's width (mm).
     fn plan_path(&self, f: &FrameWork, plan: &mut RegionPlan) -> f64 {
         let (q_lin, goal) = (f.course.q_lin, f.goal);
-        let path_cap = (self.run.density.path_margin_for(PAIR_TARGET) - f.skin)
-            .max(MIN_ALLOW_MM)
-            .min(f.cap);
+        let h = self.params.heuristics;
+        let path_cap = if h.density_sizing {
+            (self.run.density.path_margin_for(PAIR_TARGET) - f.skin)
+                .max(MIN_ALLOW_MM)
+                .min(f.cap)
+        } else {
+            f.cap
+        };
         // A tool left behind while falling (the last frame ran out before its optimum with
         // the tool moving on toward the goal): its path is the straight way there.
         let falling = {
@@ -151,7 +161,7 @@ impl GodObject {
         } else {
             self.path_width()
         };
-        if plan.trust && f.course.path_regions && plan.slab.is_none() {
+        if h.path_regions && plan.trust && f.course.path_regions && plan.slab.is_none() {
             // A falling tool's path goes the whole way to the goal (within the cap): its pairs
             // come in at the leading edges, not by the density of paths per mm of width.
             let length_cap = if falling { f.cap } else { path_cap };
@@ -170,6 +180,9 @@ impl GodObject {
     /// the last ball's own pairs serve as a small list: every pair within `m` of touching at
     /// `c` is held, so a ball of `m - skin - b(c, q_lin)` about `q_lin` needs no detection.
     fn plan_recentre(&self, f: &mut FrameWork, plan: &mut RegionPlan) {
+        if !self.params.heuristics.recentre {
+            return;
+        }
         let q_lin = f.course.q_lin;
         let own_room = match self.run.pairs_question {
             Some((c, m))
@@ -253,12 +266,16 @@ impl GodObject {
         plan: &mut RegionPlan,
     ) -> Result<f64, collide::CollideError> {
         let (q_lin, skin, deadline) = (f.course.q_lin, f.skin, f.clock.deadline);
-        let allowed = plan.allowed;
+        let (allowed, h) = (plan.allowed, self.params.heuristics);
         let in_free_space = self.pairs.is_empty();
         let probe = if in_free_space {
             // No wider than a dense contact just left allows.
-            let wide = (allowed + skin)
-                .max(FREE_PROBE_MM.min(self.run.density.probe_margin_for(PAIR_TARGET)));
+            let dense = if h.density_sizing {
+                self.run.density.probe_margin_for(PAIR_TARGET)
+            } else {
+                f64::INFINITY
+            };
+            let wide = (allowed + skin).max(FREE_PROBE_MM.min(dense));
             // Within a neighbour list, no wider than it reaches (a filter, not a traversal:
             // its proof goes as far anyway), short of its edge by a rounding so that the list
             // covers it.
@@ -278,7 +295,7 @@ impl GodObject {
         });
         plan.slab_used = face_slab.is_some();
         let traversed_before = self.run.regions_traversed;
-        let (d, proven) = if in_free_space && face_slab.is_none() {
+        let (d, proven) = if h.proving_traversals && in_free_space && face_slab.is_none() {
             match self.detect_proving(&q_lin, None, probe, FREE_PROBE_MM, Some(deadline), None) {
                 Ok((gap, proven)) => (Ok(gap), proven),
                 Err(e) => (Err(e), probe),
@@ -306,7 +323,7 @@ impl GodObject {
             } else {
                 self.run.probe_margin.max(proven.min(BACKGROUND_PROBE_MM))
             };
-        } else if d.is_ok() && self.pairs.is_empty() {
+        } else if h.probes() && d.is_ok() && self.pairs.is_empty() {
             // Stopped before an answer: the same question goes to the background probe, which
             // the next frames finish (the tool waits here meanwhile).
             let _ = self.probe.start(&self.tool, &q_lin, probe);
@@ -429,7 +446,8 @@ impl GodObject {
                 width: plan.allowed,
                 slab: slab_face,
                 // A ball in contact: how far its near leaves may turn.
-                lever: if f.course.path_regions
+                lever: if self.params.heuristics.lever
+                    && f.course.path_regions
                     && slab_face.is_none()
                     && self.pairs.len() >= LEVER_MIN_PAIRS
                 {
@@ -472,7 +490,9 @@ impl GodObject {
         match (slab_face, plan.sweep) {
             (Some((n, across)), _) => self.trust_slab(&n, across, plan.allowed),
             (None, Some(_)) => Trust::Path(plan.width / 12f64.sqrt()),
-            (None, None) if f.course.path_regions => self.trust_turned(f, plan, lever_reach),
+            (None, None) if f.course.path_regions && self.params.heuristics.turned_trust => {
+                self.trust_turned(f, plan, lever_reach)
+            }
             (None, None) => self.trust_box(plan.allowed, plan.need_t, plan.need_r, self.reach),
         }
     }

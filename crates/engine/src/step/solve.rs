@@ -83,6 +83,10 @@ impl GodObject {
 
     /// Maps the remembered active pairs onto the rows of the current pair list.
     pub(super) fn map_warm_start(&mut self) {
+        if !self.params.heuristics.warm_start {
+            self.run.warm_len = 0;
+            return;
+        }
         let mut m = 0;
         for w in 0..self.run.warm_len {
             let id = self.run.warm[w];

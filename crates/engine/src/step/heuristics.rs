@@ -1,0 +1,156 @@
+//! Switches of the frame step's heuristics ([`Heuristics`]).
+
+/// The frame step's heuristics, each with a switch. Every one makes frames cheaper on some
+/// contacts; none may change what a frame answers beyond the convergence tolerance: with any of
+/// them off the step stays exact and safe (tested on the scene zoo), and the bench's ablation
+/// study (`haptic6d bench --studies ablation`) measures what each one pays across the zoo.
+///
+/// All on by default. Not a scene-file setting: a tool for measuring and testing the step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Heuristics {
+    /// Reuse the last frame's region while the tool stays well inside it (no traversal).
+    pub region_reuse: bool,
+    /// Path regions: the pairs along the motion predicted for the tool (its offset from the
+    /// hand kept), with a thin slab about the path as the trust region, instead of a ball as
+    /// wide as the motion.
+    pub path_regions: bool,
+    /// Slab regions for a tool held by one flat face (face caps): the face's pairs within a
+    /// thin margin across it, the rest within the slide along it.
+    pub slab_regions: bool,
+    /// Size regions by the pair density seen near the tool, so that a dense contact takes
+    /// smaller regions (more passes) rather than one of tens of thousands of rows.
+    pub density_sizing: bool,
+    /// Free-space proofs: an empty detection proves free space about its pose, and later
+    /// frames near it skip their traversals. Off, the background probes are off too (a probe
+    /// is a proof made ahead).
+    pub free_space_proofs: bool,
+    /// A traversal in free space proves free space as far as the nearest pair beyond its
+    /// margin (one traversal, the widest proof the surfaces allow).
+    pub proving_traversals: bool,
+    /// Background probes: the next free-space proof computed a slice per frame ahead of need.
+    pub background_probes: bool,
+    /// Neighbour lists: every leaf pair within a wide margin of a pose near the tool, built a
+    /// slice per frame ahead of need, filtered instead of traversed.
+    pub neighbour_lists: bool,
+    /// The near part of the tool: a ball region in contact bounds a turn by the lever arm of
+    /// the leaves near the objects, not the whole tool's reach.
+    pub lever: bool,
+    /// Re-centre a ball on the last ball's own pairs (a small list) after a reused region's
+    /// trust region stopped the answer.
+    pub recentre: bool,
+    /// A ball's trust box turned to the expected motion (and to a creeping pass's way), rather
+    /// than the paper's axis-aligned box.
+    pub turned_trust: bool,
+    /// Warm-start each solve from the pairs active at the last answer.
+    pub warm_start: bool,
+}
+
+impl Default for Heuristics {
+    fn default() -> Self {
+        Self::ALL
+    }
+}
+
+impl Heuristics {
+    /// Every heuristic on: the shipped step.
+    pub const ALL: Self = Self {
+        region_reuse: true,
+        path_regions: true,
+        slab_regions: true,
+        density_sizing: true,
+        free_space_proofs: true,
+        proving_traversals: true,
+        background_probes: true,
+        neighbour_lists: true,
+        lever: true,
+        recentre: true,
+        turned_trust: true,
+        warm_start: true,
+    };
+
+    /// Every heuristic off.
+    pub const NONE: Self = Self {
+        region_reuse: false,
+        path_regions: false,
+        slab_regions: false,
+        density_sizing: false,
+        free_space_proofs: false,
+        proving_traversals: false,
+        background_probes: false,
+        neighbour_lists: false,
+        lever: false,
+        recentre: false,
+        turned_trust: false,
+        warm_start: false,
+    };
+
+    /// The names of the switches (as the bench's ablation study prints them), in order.
+    pub const NAMES: [&'static str; 12] = [
+        "region-reuse",
+        "path-regions",
+        "slab-regions",
+        "density-sizing",
+        "free-space-proofs",
+        "proving-traversals",
+        "background-probes",
+        "neighbour-lists",
+        "lever",
+        "recentre",
+        "turned-trust",
+        "warm-start",
+    ];
+
+    /// The switch called `name` ([`Heuristics::NAMES`]), for reading and setting.
+    pub fn switch_mut(&mut self, name: &str) -> Option<&mut bool> {
+        Some(match name {
+            "region-reuse" => &mut self.region_reuse,
+            "path-regions" => &mut self.path_regions,
+            "slab-regions" => &mut self.slab_regions,
+            "density-sizing" => &mut self.density_sizing,
+            "free-space-proofs" => &mut self.free_space_proofs,
+            "proving-traversals" => &mut self.proving_traversals,
+            "background-probes" => &mut self.background_probes,
+            "neighbour-lists" => &mut self.neighbour_lists,
+            "lever" => &mut self.lever,
+            "recentre" => &mut self.recentre,
+            "turned-trust" => &mut self.turned_trust,
+            "warm-start" => &mut self.warm_start,
+            _ => return None,
+        })
+    }
+
+    /// Every heuristic on but `name` ([`Heuristics::NAMES`]); `None` for an unknown name.
+    pub fn without(name: &str) -> Option<Self> {
+        let mut h = Self::ALL;
+        *h.switch_mut(name)? = false;
+        Some(h)
+    }
+
+    /// Background probes run: they and the free-space proofs they make are both on.
+    pub(crate) fn probes(&self) -> bool {
+        self.free_space_proofs && self.background_probes
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_name_turns_exactly_its_own_switch_off() {
+        for name in Heuristics::NAMES {
+            let h = Heuristics::without(name).unwrap();
+            let off = Heuristics::NAMES
+                .iter()
+                .filter(|n| !*h.clone().switch_mut(n).unwrap())
+                .collect::<Vec<_>>();
+            assert_eq!(off, [&name], "{name}");
+        }
+        assert!(Heuristics::without("no-such").is_none());
+        let mut none = Heuristics::ALL;
+        for name in Heuristics::NAMES {
+            *none.switch_mut(name).unwrap() = false;
+        }
+        assert_eq!(none, Heuristics::NONE);
+    }
+}
