@@ -25,7 +25,7 @@ impl GodObject {
         Linearization::with_coordinates(self.params.form, self.params.rotation, q_lin, q_h).ok()
     }
 
-    /// Fills rows for `self.pairs` from `lin`, plus the trust region when given, about the
+    /// Fills rows for `self.detector.pairs` from `lin`, plus the trust region when given, about the
     /// variable's values `base` at the region's centre and `end` at the end of its path.
     /// Returns the row count.
     pub(super) fn fill_rows(
@@ -35,9 +35,10 @@ impl GodObject {
     ) -> usize {
         let mut n = 0;
         for (pair, (row, d)) in self
+            .detector
             .pairs
             .iter()
-            .zip(self.rows.iter_mut().zip(self.rhs.iter_mut()))
+            .zip(self.qp.rows.iter_mut().zip(self.qp.rhs.iter_mut()))
         {
             let (j, rhs) = lin.row(pair);
             *row = j;
@@ -102,7 +103,7 @@ impl GodObject {
                 // In the variable scaled by reach for rotations (a sphere's motion is at most
                 // sqrt(2) times the scaled norm): one direction along the path, five across it
                 // (Gram-Schmidt on the unit vectors but the one most along the path).
-                let reach = self.reach.max(1e-9);
+                let reach = self.bodies.reach.max(1e-9);
                 let scale = |k: usize| if k < 3 { 1.0 } else { reach };
                 let mut d = [0.0; 6];
                 for k in 0..6 {
@@ -167,10 +168,10 @@ impl GodObject {
 
     /// Writes the two rows `lo <= row . dq <= hi` at `n`; returns 2.
     pub(super) fn push_slab(&mut self, n: usize, row: &[f64; 6], lo: f64, hi: f64) -> usize {
-        self.rows[n] = *row;
-        self.rhs[n] = lo;
-        self.rows[n + 1] = row.map(|v| -v);
-        self.rhs[n + 1] = -hi;
+        self.qp.rows[n] = *row;
+        self.qp.rhs[n] = lo;
+        self.qp.rows[n + 1] = row.map(|v| -v);
+        self.qp.rhs[n + 1] = -hi;
         2
     }
 
@@ -212,8 +213,8 @@ impl GodObject {
                     _ => tilt,
                 },
             };
-            let value: f64 = (0..6).map(|k| self.rows[i][k] * dq[k]).sum();
-            value - self.rhs[i] <= 1e-3 * width
+            let value: f64 = (0..6).map(|k| self.qp.rows[i][k] * dq[k]).sum();
+            value - self.qp.rhs[i] <= 1e-3 * width
         })
     }
 
@@ -295,11 +296,11 @@ impl GodObject {
     /// translation along the face and spin about `n`, in proportion to last frame's, each
     /// keeping 0.3 of it at least).
     pub(super) fn trust_slab(&self, n: &Vector3<f64>, across: f64, slide: f64) -> Trust {
-        let reach = self.reach.max(1e-9);
+        let reach = self.bodies.reach.max(1e-9);
         let t_across = 0.5 * across;
         let tilt = 0.5 * across / (2f64.sqrt() * reach);
-        let step = Vector3::from(self.run.last_step);
-        let turn = Vector3::from(self.run.last_turn);
+        let step = Vector3::from(self.run.motion.last_step);
+        let turn = Vector3::from(self.run.motion.last_turn);
         let (moved, spun) = (step.norm(), n.dot(&turn).abs() * reach);
         let share_t = if moved + spun > 0.0 {
             (moved / (moved + spun)).clamp(0.3, 0.7)
@@ -336,9 +337,9 @@ mod tests {
         let n = g.fill_rows(&lin, Some((trust, [0.0; 6], [0.0; 6])));
         let axes = (0..n / 2)
             .map(|k| {
-                let (lo, hi) = (g.rhs[2 * k], -g.rhs[2 * k + 1]);
+                let (lo, hi) = (g.qp.rhs[2 * k], -g.qp.rhs[2 * k + 1]);
                 assert!((lo + hi).abs() < 1e-12, "the box is centred on its base");
-                (g.rows[2 * k], 0.5 * (hi - lo))
+                (g.qp.rows[2 * k], 0.5 * (hi - lo))
             })
             .collect();
         (axes, n)

@@ -4,15 +4,15 @@
 use super::*;
 
 impl GodObject {
-    /// Collects pairs at `q` within `margin` into `self.pairs` (at most `max_pairs`; the rest
-    /// are counted in `self.run.dropped`); returns the smallest gap seen (mm, +inf if none).
+    /// Collects pairs at `q` within `margin` into `self.detector.pairs` (at most `max_pairs`; the rest
+    /// are counted in `self.run.regions.dropped`); returns the smallest gap seen (mm, +inf if none).
     pub(super) fn detect(&mut self, q: &Pose, margin: f64) -> Result<f64, collide::CollideError> {
         self.detect_along(q, None, margin, None, None)
     }
 
     /// [`GodObject::detect`], or with a sweep for a path region: the pairs that come within
     /// `margin` (mm) of touching along it from `q`. With a `deadline`, a traversal still
-    /// running then stops and `self.run.interrupted` says so (the list is not complete).
+    /// running then stops and `self.run.regions.interrupted` says so (the list is not complete).
     pub(super) fn detect_along(
         &mut self,
         q: &Pose,
@@ -37,20 +37,20 @@ impl GodObject {
         deadline: Option<Instant>,
         slab: Option<FaceSlab>,
     ) -> Result<(f64, f64), collide::CollideError> {
-        self.run.cached = None;
-        self.pairs.clear();
-        self.run.dropped = 0;
-        self.run.interrupted = false;
-        self.run.pairs_question = None;
-        let pairs = &mut self.pairs;
-        let dropped = &mut self.run.dropped;
+        self.run.regions.cached = None;
+        self.detector.pairs.clear();
+        self.run.regions.dropped = 0;
+        self.run.regions.interrupted = false;
+        self.run.regions.pairs_question = None;
+        let pairs = &mut self.detector.pairs;
+        let dropped = &mut self.run.regions.dropped;
         let mut min_gap = f64::INFINITY;
-        self.face_stamp = self.face_stamp.wrapping_add(1);
-        if self.face_stamp == 0 {
-            self.face_seen.iter_mut().for_each(|s| *s = (0, 0));
-            self.face_stamp = 1;
+        self.detector.face_stamp = self.detector.face_stamp.wrapping_add(1);
+        if self.detector.face_stamp == 0 {
+            self.detector.face_seen.iter_mut().for_each(|s| *s = (0, 0));
+            self.detector.face_stamp = 1;
         }
-        let (seen, stamp) = (&mut self.face_seen, self.face_stamp);
+        let (seen, stamp) = (&mut self.detector.face_seen, self.detector.face_stamp);
         let mut collect = |p: &LeafPair| {
             min_gap = min_gap.min(p.gap);
             // A tool leaf above a face meets it through every object leaf on it: the rows
@@ -79,16 +79,17 @@ impl GodObject {
                 *dropped += 1;
             }
         };
-        self.run.frame_detections += 1;
+        self.run.lists.frame_detections += 1;
         // Inside the neighbour list: its pairs tested at `q` are the traversal's, and the list
         // proves free space as far as it reaches (every pair it does not hold is that far).
         let listed = if proof > margin && sweep.is_none() && slab.is_none() {
-            self.neighbours.filter_proving(q, margin, proof, |p| {
+            self.ahead.neighbours.filter_proving(q, margin, proof, |p| {
                 collect(p);
                 true
             })
         } else {
-            self.neighbours
+            self.ahead
+                .neighbours
                 .filter(q, sweep, margin, |p| {
                     collect(p);
                     true
@@ -96,54 +97,55 @@ impl GodObject {
                 .map(|n| (n, margin))
         };
         if let Some((_, proven)) = listed {
-            self.run.frame_scanned += self.neighbours.len() as u64;
-            self.run.regions_filtered += 1;
-            self.run.list_served = self.run.list_served.saturating_add(1);
-            if sweep.is_none() && slab.is_none() && self.run.dropped == 0 {
-                self.run.pairs_question = Some((*q, margin));
+            self.run.counts.frame_scanned += self.ahead.neighbours.len() as u64;
+            self.run.counts.regions_filtered += 1;
+            self.run.lists.list_served = self.run.lists.list_served.saturating_add(1);
+            if sweep.is_none() && slab.is_none() && self.run.regions.dropped == 0 {
+                self.run.regions.pairs_question = Some((*q, margin));
             }
             return Ok((min_gap, proven));
         }
-        self.run.regions_traversed += 1;
+        self.run.counts.regions_traversed += 1;
         // The shared traversal's order is the same with or without the helper, so the
         // frames are too.
         let (t, proven) = if proof > margin && sweep.is_none() && slab.is_none() {
             collide::overlap_shared_proving(
-                &self.tool,
+                &self.bodies.tool,
                 q,
-                &self.objects,
+                &self.bodies.objects,
                 margin,
                 proof,
-                &mut self.ws,
-                self.team.as_ref(),
+                &mut self.detector.ws,
+                self.detector.team.as_ref(),
                 deadline,
                 collect,
             )?
         } else {
             let t = collide::overlap_shared(
-                &self.tool,
+                &self.bodies.tool,
                 q,
                 sweep,
-                &self.objects,
+                &self.bodies.objects,
                 margin,
                 slab,
-                &mut self.ws,
-                self.team.as_ref(),
+                &mut self.detector.ws,
+                self.detector.team.as_ref(),
                 deadline,
                 collect,
             )?;
             (t, margin)
         };
-        self.run.frame_splits += self.ws.stats().node_pairs_split as u64;
-        self.run.dropped += t.unreported;
-        self.run.interrupted = !t.complete;
-        if sweep.is_none() && slab.is_none() && self.run.dropped == 0 && t.complete {
-            self.run.pairs_question = Some((*q, margin));
+        self.run.counts.frame_splits += self.detector.ws.stats().node_pairs_split as u64;
+        self.run.regions.dropped += t.unreported;
+        self.run.regions.interrupted = !t.complete;
+        if sweep.is_none() && slab.is_none() && self.run.regions.dropped == 0 && t.complete {
+            self.run.regions.pairs_question = Some((*q, margin));
         }
-        if !self.pairs.is_empty() {
+        if !self.detector.pairs.is_empty() {
             // What a region's traversal costs in this contact (a neighbour list must beat it).
-            let splits = self.ws.stats().node_pairs_split as f64;
-            self.run.splits_per_region = 0.9 * self.run.splits_per_region + 0.1 * splits;
+            let splits = self.detector.ws.stats().node_pairs_split as f64;
+            self.run.lists.splits_per_region =
+                0.9 * self.run.lists.splits_per_region + 0.1 * splits;
         }
         Ok((min_gap, proven))
     }
@@ -158,23 +160,23 @@ impl GodObject {
         deadline: Option<Instant>,
     ) -> Result<bool, collide::CollideError> {
         let mut any = false;
-        let listed = self.neighbours.filter(q, None, margin, |_| {
+        let listed = self.ahead.neighbours.filter(q, None, margin, |_| {
             any = true;
             false
         });
         if listed.is_some() {
-            self.run.frame_scanned += self.neighbours.len() as u64;
+            self.run.counts.frame_scanned += self.ahead.neighbours.len() as u64;
             return Ok(any);
         }
         let any = collide::any_pair_within_until(
-            &self.tool,
+            &self.bodies.tool,
             q,
-            &self.objects,
+            &self.bodies.objects,
             margin,
-            &mut self.ws,
+            &mut self.detector.ws,
             || deadline.is_none_or(|d| Instant::now() < d),
         );
-        self.run.frame_splits += self.ws.stats().node_pairs_split as u64;
+        self.run.counts.frame_splits += self.detector.ws.stats().node_pairs_split as u64;
         any.map(|a| a.unwrap_or(true))
     }
 
@@ -198,7 +200,7 @@ impl GodObject {
                 rotation_log(&(q_pred.rotation_matrix() * q_lin.rotation_matrix().transpose())),
             )
         };
-        let length = v.norm() + w.norm() * self.reach;
+        let length = v.norm() + w.norm() * self.bodies.reach;
         if length.is_nan() || length < MIN_SWEEP_MM {
             return None;
         }
@@ -229,7 +231,7 @@ impl GodObject {
         }
         let base = lin.variable(&region.center);
         let end = lin.variable(&region.end());
-        let reach2 = self.reach.max(1e-9).powi(2);
+        let reach2 = self.bodies.reach.max(1e-9).powi(2);
         let (mut along, mut len2) = (0.0, 0.0);
         for k in 0..6 {
             let d = (end[k] - base[k]) * if k < 3 { 1.0 } else { reach2 };
@@ -252,7 +254,7 @@ impl GodObject {
     pub(super) fn across_bound(&self, n: &Vector3<f64>, a: &Pose, b: &Pose) -> f64 {
         let dt = b.translation() - a.translation();
         let w = rotation_log(&(b.rotation_matrix() * a.rotation_matrix().transpose()));
-        n.dot(&dt).abs() + n.cross(&w).norm() * self.reach
+        n.dot(&dt).abs() + n.cross(&w).norm() * self.bodies.reach
     }
 
     /// The widths of a slab region (mm: across the face, along it) for a tool held by one
@@ -269,13 +271,13 @@ impl GodObject {
         cap: f64,
         dense_cap: f64,
     ) -> Option<(Vector3<f64>, f64, f64)> {
-        if self.run.slab_rest > 0 {
+        if self.run.regions.slab_rest > 0 {
             return None;
         }
-        let n = self.run.contact_face?;
-        let step = Vector3::from(self.run.last_step);
-        let turn = Vector3::from(self.run.last_turn);
-        let across = n.dot(&step).abs() + n.cross(&turn).norm() * self.reach;
+        let n = self.run.regions.contact_face?;
+        let step = Vector3::from(self.run.motion.last_step);
+        let turn = Vector3::from(self.run.motion.last_turn);
+        let across = n.dot(&step).abs() + n.cross(&turn).norm() * self.bodies.reach;
         let slide = need.min(allow.max(SLAB_SLIDE_MM)).min(cap);
         let face = (1.5 * across + SLAB_ACROSS_MIN_MM)
             .min(dense_cap.max(SLAB_ACROSS_MIN_MM))
@@ -285,20 +287,20 @@ impl GodObject {
 
     /// Width (mm) of a path region: twice the recent prediction error, within bounds.
     pub(super) fn path_width(&self) -> f64 {
-        (2.0 * self.run.prediction_error).clamp(PATH_WIDTH_MIN_MM, PATH_WIDTH_MAX_MM)
+        (2.0 * self.run.motion.prediction_error).clamp(PATH_WIDTH_MIN_MM, PATH_WIDTH_MAX_MM)
     }
 
     /// Where the graphic tool is expected for the device pose `q_h`: at last frame's offset
     /// from the hand ([`GodObject::hand_offset`]).
     pub(super) fn predicted_pose(&self, q_h: &Pose) -> Pose {
-        let (off_t, off_w) = self.run.hand_offset;
+        let (off_t, off_w) = self.run.motion.hand_offset;
         Pose::from_translation_rotation(
             &(q_h.translation() - off_t),
             &(rotation_exp(&-off_w) * q_h.rotation_matrix()),
         )
     }
 
-    /// Deepest overlap (mm, >= 0) of the tool at `q`, using `self.pairs` as scratch.
+    /// Deepest overlap (mm, >= 0) of the tool at `q`, using `self.detector.pairs` as scratch.
     pub fn penetration_at(&mut self, q: &Pose) -> f64 {
         match self.detect(q, 0.0) {
             Ok(g) if g.is_finite() => (-g).max(0.0),
@@ -311,8 +313,8 @@ impl GodObject {
     /// frame: its translation continued along the last step, its rotation turned on by the
     /// last turn (about the tool origin). A schedule's guess, not a bound.
     pub(super) fn pose_ahead(&self, q: &Pose, frames: f64) -> Pose {
-        let t = q.translation() + Vector3::from(self.run.last_step) * frames;
-        let turn = Vector3::from(self.run.last_turn) * frames;
+        let t = q.translation() + Vector3::from(self.run.motion.last_step) * frames;
+        let turn = Vector3::from(self.run.motion.last_turn) * frames;
         let r = rotation_exp(&turn) * q.rotation_matrix();
         if t.iter().all(|v| v.is_finite()) && r.iter().all(|v| v.is_finite()) {
             Pose::from_translation_rotation(&t, &r)
@@ -328,6 +330,7 @@ impl GodObject {
             return f64::NEG_INFINITY;
         }
         self.run
+            .proofs
             .free
             .iter()
             .map(|p| p.radius - self.proof_distance(p, q))
@@ -352,9 +355,9 @@ impl GodObject {
         if r <= 0.0 || segment_distance(&p, &proof.path) > r {
             return 0.0;
         }
-        let step = Vector3::from(self.run.last_step);
+        let step = Vector3::from(self.run.motion.last_step);
         // The motion per frame that is not the translation (turning) uses up the radius too.
-        let other = (self.run.last_motion - step.norm()).max(0.0);
+        let other = (self.run.motion.last_motion - step.norm()).max(0.0);
         let by_turn = if other > 1e-12 {
             r / other
         } else {
@@ -389,7 +392,7 @@ impl GodObject {
     /// ahead, until it leaves that one after the other hands it over (a frame before the
     /// other runs out); 0 for one it will not enter. A schedule, not a proof.
     pub(super) fn proof_reach(&self, q: &Pose, used: f64) -> [f64; 2] {
-        let direct = [0, 1].map(|i| self.frames_in(&self.run.free[i], q, used));
+        let direct = [0, 1].map(|i| self.frames_in(&self.run.proofs.free[i], q, used));
         let mut reach = direct;
         for (i, j) in [(0, 1), (1, 0)] {
             if direct[j] > 0.0 || !(direct[i] > 1.0 && direct[i].is_finite()) {
@@ -397,7 +400,7 @@ impl GodObject {
             }
             let handover = (direct[i] - 1.0).floor();
             let there = self.pose_ahead(q, handover);
-            let more = self.frames_in(&self.run.free[j], &there, used);
+            let more = self.frames_in(&self.run.proofs.free[j], &there, used);
             if more > 0.0 {
                 reach[j] = handover + more;
             }
@@ -423,7 +426,7 @@ impl GodObject {
         used: f64,
     ) {
         let [a, b] = self.proof_reach(q, used);
-        self.run.free[usize::from(a > b)] = FreeProof {
+        self.run.proofs.free[usize::from(a > b)] = FreeProof {
             center,
             path,
             radius,
@@ -435,8 +438,8 @@ impl GodObject {
     fn proof_slot_free(&self, q: &Pose, used: f64) -> bool {
         let [a, b] = self.proof_reach(q, used);
         let i = usize::from(a > b);
-        self.frames_in(&self.run.free[i], q, used) <= 0.0
-            || self.frames_in(&self.run.free[1 - i], q, used) > 0.0
+        self.frames_in(&self.run.proofs.free[i], q, used) <= 0.0
+            || self.frames_in(&self.run.proofs.free[1 - i], q, used) > 0.0
     }
 
     /// When the proofs have run out at `q` (a frame needing `used` mm) but the background
@@ -446,13 +449,13 @@ impl GodObject {
     /// deadline (the frame ends; the next one carries on); `None`: no covering probe, or it
     /// found a pair (a traversal is needed).
     pub(super) fn finish_probe(&mut self, q: &Pose, used: f64, deadline: Instant) -> Option<bool> {
-        if !self.params.heuristics.probes() || self.probe.status() != ProbeStatus::Running {
+        if !self.params.heuristics.probes() || self.ahead.probe.status() != ProbeStatus::Running {
             return None;
         }
-        let (center, radius) = self.probe.question();
+        let (center, radius) = self.ahead.probe.question();
         let asked = FreeProof {
             center,
-            path: Vector3::from(self.probe.path()),
+            path: Vector3::from(self.ahead.probe.path()),
             radius,
         };
         if self.proof_distance(&asked, q) + used > radius {
@@ -461,38 +464,38 @@ impl GodObject {
         loop {
             // Needed now: this thread works on it too (a helper running it in the background
             // goes on with the other stream).
-            let before = self.probe.splits();
-            self.probe.advance_now(
-                &self.tool,
-                &self.objects,
+            let before = self.ahead.probe.splits();
+            self.ahead.probe.advance_now(
+                &self.bodies.tool,
+                &self.bodies.objects,
                 PROBE_FINISH_SLICE_SPLITS,
                 Some(deadline),
             );
-            self.run.frame_splits += self.probe.splits().saturating_sub(before) as u64;
-            if self.probe.status() != ProbeStatus::Running {
+            self.run.counts.frame_splits += self.ahead.probe.splits().saturating_sub(before) as u64;
+            if self.ahead.probe.status() != ProbeStatus::Running {
                 break;
             }
             if Instant::now() >= deadline {
                 return Some(false);
             }
         }
-        if self.probe.status() != ProbeStatus::Free {
-            self.probe.take();
+        if self.ahead.probe.status() != ProbeStatus::Free {
+            self.ahead.probe.take();
             return None;
         }
         self.note_probe_cost();
-        let path = Vector3::from(self.probe.path());
-        let (_, pose, radius) = self.probe.take();
+        let path = Vector3::from(self.ahead.probe.path());
+        let (_, pose, radius) = self.ahead.probe.take();
         self.add_free_proof(pose, path, radius, q, used);
         Some(true)
     }
 
     /// Remembers the finished probe's cost (node pairs split) for the next of its kind.
     fn note_probe_cost(&mut self) {
-        if self.probe.path() != [0.0; 3] {
-            self.run.path_probe_splits = self.probe.splits();
+        if self.ahead.probe.path() != [0.0; 3] {
+            self.run.proofs.path_probe_splits = self.ahead.probe.splits();
         } else {
-            self.run.probe_splits = self.probe.splits();
+            self.run.proofs.probe_splits = self.ahead.probe.splits();
         }
     }
 
@@ -500,10 +503,10 @@ impl GodObject {
     /// any, four times a probe at a pose (measured in the spline's hole: 1.0–1.5 times the node
     /// pairs of a probe at a pose for 3–6 mm going out, 1.8–4.5 going in).
     fn path_probe_estimate(&self) -> f64 {
-        if self.run.path_probe_splits > 0 {
-            self.run.path_probe_splits as f64
+        if self.run.proofs.path_probe_splits > 0 {
+            self.run.proofs.path_probe_splits as f64
         } else {
-            4.0 * self.run.probe_splits as f64
+            4.0 * self.run.proofs.probe_splits as f64
         }
     }
 
@@ -517,27 +520,27 @@ impl GodObject {
         if !self.params.heuristics.probes() {
             return;
         }
-        if let Some(team) = &self.team {
+        if let Some(team) = &self.detector.team {
             // Probes come every few frames here: the helper stays ready for them.
             team.keep_awake();
         }
-        let speed = self.run.last_motion.max(1e-4);
+        let speed = self.run.motion.last_motion.max(1e-4);
         // Inside a neighbour list, a proof that runs out is renewed by filtering the list (a
         // pass over its entries, no traversal): the probe has until the list runs out.
-        let list_frames = (self.neighbours.slack(q, None, used) / speed).max(0.0);
+        let list_frames = (self.ahead.neighbours.slack(q, None, used) / speed).max(0.0);
         let horizon = self.proof_horizon(q, used).max(list_frames);
         // A tool sliding steadily (without turning) is probed along its way.
-        let step = Vector3::from(self.run.last_step);
-        let sliding =
-            step.norm() >= PATH_PROBE_MIN_STEP_MM && self.run.last_motion <= 1.25 * step.norm();
-        if self.probe.status() == ProbeStatus::Running {
+        let step = Vector3::from(self.run.motion.last_step);
+        let sliding = step.norm() >= PATH_PROBE_MIN_STEP_MM
+            && self.run.motion.last_motion <= 1.25 * step.norm();
+        if self.ahead.probe.status() == ProbeStatus::Running {
             // The last probe's cost (of the same kind) estimates this one's; one that runs
             // past it (a deeper hole costs more) is given a quarter more at a time. It aims to
             // finish a frame before the proofs run out.
-            let (estimate, least) = if self.probe.path() != [0.0; 3] {
+            let (estimate, least) = if self.ahead.probe.path() != [0.0; 3] {
                 (self.path_probe_estimate(), PATH_PROBE_MIN_SLICE_SPLITS)
             } else {
-                (self.run.probe_splits as f64, PROBE_MIN_SLICE_SPLITS)
+                (self.run.proofs.probe_splits as f64, PROBE_MIN_SLICE_SPLITS)
             };
             // Paced to finish a little before the horizon (a probe at a pose), or within three
             // quarters of it (along a path: the horizon is measured at the last frame's motion,
@@ -545,9 +548,9 @@ impl GodObject {
             // estimate, the last probe's cost (the spline's withdrawal ran a path probe of
             // 20 300 node pairs on an estimate of 16 300 at the least slice until its last
             // frames, then finished 3 500 of them in one).
-            let left =
-                (PROBE_ESTIMATE_SPARE * estimate - self.probe.splits() as f64).max(0.25 * estimate);
-            let within = if self.probe.path() != [0.0; 3] {
+            let left = (PROBE_ESTIMATE_SPARE * estimate - self.ahead.probe.splits() as f64)
+                .max(0.25 * estimate);
+            let within = if self.ahead.probe.path() != [0.0; 3] {
                 PROBE_FINISH_WITHIN * horizon - PROBE_FINISH_SPARE_FRAMES
             } else {
                 horizon - PROBE_FINISH_SPARE_FRAMES
@@ -556,7 +559,7 @@ impl GodObject {
                 (left / within.max(1.0)).clamp(least as f64, PROBE_MAX_SLICE_SPLITS as f64);
             // A new probe's first slice meets its part of the trees cold: a smaller one (the
             // later slices make up for it).
-            if self.probe.splits() == 0 && horizon > 2.0 {
+            if self.ahead.probe.splits() == 0 && horizon > 2.0 {
                 slice *= PROBE_FIRST_SLICE_SHARE;
             }
             let tt = Instant::now();
@@ -569,37 +572,40 @@ impl GodObject {
             };
             let slice_time = share * self.params.budget_us.max(0.0) * 1e-6;
             let slice_deadline = deadline.min(tt + std::time::Duration::from_secs_f64(slice_time));
-            let before = self.probe.splits();
-            self.probe.advance_shared(
-                &self.tool,
-                &self.objects,
+            let before = self.ahead.probe.splits();
+            self.ahead.probe.advance_shared(
+                &self.bodies.tool,
+                &self.bodies.objects,
                 slice as usize,
-                self.team.as_ref(),
+                self.detector.team.as_ref(),
                 Some(slice_deadline),
             );
-            self.run.frame_splits += self.probe.splits().saturating_sub(before) as u64;
+            self.run.counts.frame_splits += self.ahead.probe.splits().saturating_sub(before) as u64;
         }
-        match self.probe.status() {
+        match self.ahead.probe.status() {
             ProbeStatus::Free if !self.proof_slot_free(q, used) => {}
             ProbeStatus::Free => {
                 self.note_probe_cost();
-                let path = Vector3::from(self.probe.path());
-                let (_, pose, radius) = self.probe.take();
+                let path = Vector3::from(self.ahead.probe.path());
+                let (_, pose, radius) = self.ahead.probe.take();
                 self.add_free_proof(pose, path, radius, q, used);
-                self.run.probe_margin = (PROBE_MARGIN_GROWTH * radius).min(BACKGROUND_PROBE_MM);
+                self.run.proofs.probe_margin =
+                    (PROBE_MARGIN_GROWTH * radius).min(BACKGROUND_PROBE_MM);
             }
             ProbeStatus::Touching => {
                 // Something lies within the margin asked: the next probe asks for less.
-                let (_, radius) = self.probe.question();
-                self.probe.take();
-                self.run.probe_margin = (PROBE_MARGIN_SHRINK * radius).max(BACKGROUND_PROBE_MIN_MM);
+                let (_, radius) = self.ahead.probe.question();
+                self.ahead.probe.take();
+                self.run.proofs.probe_margin =
+                    (PROBE_MARGIN_SHRINK * radius).max(BACKGROUND_PROBE_MIN_MM);
             }
             ProbeStatus::Idle => {
                 // Where a whole proof costs less than a slice (open space), renewing it when
                 // it runs out is cheaper than probing ahead; not where a neighbour list
                 // renewed the proofs (the tight gap it was built in costs a long traversal
                 // once it runs out).
-                let worth_it = self.run.probe_splits > PROBE_SLICE_SPLITS || list_frames > 0.0;
+                let worth_it =
+                    self.run.proofs.probe_splits > PROBE_SLICE_SPLITS || list_frames > 0.0;
                 let (estimate, pace, ahead) = if sliding {
                     (
                         self.path_probe_estimate(),
@@ -607,10 +613,10 @@ impl GodObject {
                         PATH_PROBE_LEAD,
                     )
                 } else {
-                    (self.run.probe_splits as f64, PROBE_SLICE_SPLITS, 1.5)
+                    (self.run.proofs.probe_splits as f64, PROBE_SLICE_SPLITS, 1.5)
                 };
                 let lead = (ahead * estimate / pace as f64 + 2.0).max(PROBE_LEAD_FRAMES);
-                let margin = self.run.probe_margin;
+                let margin = self.run.proofs.probe_margin;
                 let lasts = margin - used >= PROBE_MIN_USABLE_FRAMES * speed;
                 // A tool at rest in free space has time to spare: a wider proof about it,
                 // built a slice a frame, serves the first frames of its next motion while the
@@ -619,7 +625,7 @@ impl GodObject {
                 let widen = horizon >= REST_HORIZON_FRAMES
                     && self.free_slack(q) + used < PROBE_WIDEN_RATIO * margin;
                 if worth_it && widen {
-                    let _ = self.probe.start(&self.tool, q, margin);
+                    let _ = self.ahead.probe.start(&self.bodies.tool, q, margin);
                 } else if worth_it && horizon < lead && lasts {
                     if sliding {
                         // The probe goes along the tool's way from where the proofs run out
@@ -631,9 +637,12 @@ impl GodObject {
                             from.q[k] += (horizon - 1.0).max(0.0) * step[k];
                         }
                         let path = step * (length / step.norm());
-                        let _ = self
-                            .probe
-                            .start_along(&self.tool, &from, path.into(), margin);
+                        let _ = self.ahead.probe.start_along(
+                            &self.bodies.tool,
+                            &from,
+                            path.into(),
+                            margin,
+                        );
                     } else {
                         // The tool keeps moving (and turning) as it did last frame: the new
                         // proof's ball is centred past the point where the current ones run
@@ -641,7 +650,7 @@ impl GodObject {
                         let usable = (margin - used).max(0.0);
                         let ahead_frames = horizon + PROBE_AHEAD * usable / speed;
                         let ahead = self.pose_ahead(q, ahead_frames);
-                        let _ = self.probe.start(&self.tool, &ahead, margin);
+                        let _ = self.ahead.probe.start(&self.bodies.tool, &ahead, margin);
                     }
                 }
             }
@@ -659,35 +668,40 @@ impl GodObject {
         if !self.params.heuristics.neighbour_lists {
             return;
         }
-        let speed = self.run.last_motion;
-        let margin = self.run.list_margin;
+        let speed = self.run.motion.last_motion;
+        let margin = self.run.lists.list_margin;
         let life = (margin - used).max(0.0) / speed.max(1e-9);
-        self.run.detections_per_frame =
-            0.9 * self.run.detections_per_frame + 0.1 * self.run.frame_detections as f64;
-        self.run.frame_detections = 0;
+        self.run.lists.detections_per_frame = 0.9 * self.run.lists.detections_per_frame
+            + 0.1 * self.run.lists.frame_detections as f64;
+        self.run.lists.frame_detections = 0;
         // A list pays where regions are costly to traverse (flat-on-flat contacts: a thousand
         // node pairs per region; not the bunny's hundred), and on this thread only where it
         // does not cost clearly more per frame than the regions it spares (a helper builds it
         // on time nobody else wants).
-        let spared = self.run.detections_per_frame * self.run.splits_per_region;
-        let costs = self.run.list_splits as f64 / life.max(1.0);
-        if self.next_neighbours.status() == ListStatus::Empty {
-            self.run.list_yield = (self.run.list_yield * LIST_YIELD_RECOVERY).min(LIST_FIRST_YIELD);
+        let spared = self.run.lists.detections_per_frame * self.run.lists.splits_per_region;
+        let costs = self.run.lists.list_splits as f64 / life.max(1.0);
+        if self.ahead.next_neighbours.status() == ListStatus::Empty {
+            self.run.lists.list_yield =
+                (self.run.lists.list_yield * LIST_YIELD_RECOVERY).min(LIST_FIRST_YIELD);
         }
-        let pays = self.run.splits_per_region >= LIST_MIN_REGION_SPLITS
-            && (self.team.is_some()
-                || self.run.idle_given
-                || (costs <= LIST_PAYOFF * spared && self.run.list_yield >= LIST_MIN_YIELD));
+        let pays = self.run.lists.splits_per_region >= LIST_MIN_REGION_SPLITS
+            && (self.detector.team.is_some()
+                || self.run.lists.idle_given
+                || (costs <= LIST_PAYOFF * spared && self.run.lists.list_yield >= LIST_MIN_YIELD));
         // A list holds leaf pairs without the faces' merging and pruning: with face caps its
         // build costs the whole-sphere traversal the faces spare, so none is kept (measured on
         // the spline with caps: p99 579 µs without lists, 727 µs with).
-        if self.pairs.is_empty() || life < LIST_MIN_LIFE_FRAMES || !pays || self.faces {
+        if self.detector.pairs.is_empty()
+            || life < LIST_MIN_LIFE_FRAMES
+            || !pays
+            || self.bodies.faces
+        {
             // Free space (the proofs serve), too fast for a list to last, or not worth it.
-            self.next_neighbours.cancel();
+            self.ahead.next_neighbours.cancel();
             return;
         }
-        let horizon = if self.neighbours.status() == ListStatus::Ready {
-            let (center, radius) = self.neighbours.question();
+        let horizon = if self.ahead.neighbours.status() == ListStatus::Ready {
+            let (center, radius) = self.ahead.neighbours.question();
             let list = FreeProof {
                 center,
                 path: Vector3::zeros(),
@@ -699,38 +713,48 @@ impl GodObject {
         };
         // With a helper thread the build runs in the background, as fast as it goes (its
         // grant per frame is large); alone, a slice per frame, sized to finish in time.
-        let pace = if self.team.is_some() {
+        let pace = if self.detector.team.is_some() {
             LIST_HELPER_WORK_PER_FRAME
         } else {
             PROBE_SLICE_SPLITS
         };
-        if self.next_neighbours.status() == ListStatus::Building && Instant::now() < deadline {
-            let estimate = self.run.list_work as f64;
-            let left = (estimate - self.next_neighbours.work() as f64).max(0.25 * estimate);
+        if self.ahead.next_neighbours.status() == ListStatus::Building && Instant::now() < deadline
+        {
+            let estimate = self.run.lists.list_work as f64;
+            let left = (estimate - self.ahead.next_neighbours.work() as f64).max(0.25 * estimate);
             let slice = (left / (horizon - 1.0).max(1.0))
                 .clamp(PROBE_MIN_SLICE_SPLITS as f64, LIST_MAX_SLICE_WORK as f64);
-            let grant = (slice as usize).max(if self.team.is_some() { pace } else { 0 });
-            let before = self.next_neighbours.work();
-            self.next_neighbours.advance(
-                &self.tool,
-                &self.objects,
+            let grant = (slice as usize).max(if self.detector.team.is_some() {
+                pace
+            } else {
+                0
+            });
+            let before = self.ahead.next_neighbours.work();
+            self.ahead.next_neighbours.advance(
+                &self.bodies.tool,
+                &self.bodies.objects,
                 grant,
                 slice as usize,
-                self.team.as_ref(),
+                self.detector.team.as_ref(),
                 Some(deadline),
             );
-            self.run.frame_splits += self.next_neighbours.work().saturating_sub(before) as u64;
+            self.run.counts.frame_splits +=
+                self.ahead.next_neighbours.work().saturating_sub(before) as u64;
         }
-        match self.next_neighbours.status() {
+        match self.ahead.next_neighbours.status() {
             ListStatus::Ready => self.take_next_list(),
             ListStatus::Overflowed => {
-                let (_, built) = self.next_neighbours.question();
-                self.run.list_margin = (0.6 * built).max(LIST_MIN_MM);
-                self.run.list_work = self.run.list_work.max(self.next_neighbours.work());
-                self.next_neighbours.cancel();
+                let (_, built) = self.ahead.next_neighbours.question();
+                self.run.lists.list_margin = (0.6 * built).max(LIST_MIN_MM);
+                self.run.lists.list_work = self
+                    .run
+                    .lists
+                    .list_work
+                    .max(self.ahead.next_neighbours.work());
+                self.ahead.next_neighbours.cancel();
             }
             ListStatus::Empty => {
-                let frames = self.run.list_work as f64 / pace as f64;
+                let frames = self.run.lists.list_work as f64 / pace as f64;
                 // (With a helper, measured paced: starting each build as soon as the last
                 // list is taken placed it too far ahead, p99 262–319 against 84–133 µs.)
                 let lead = 1.5 * frames + 2.0;
@@ -738,9 +762,12 @@ impl GodObject {
                     let ahead_frames = horizon + 0.5 * life;
                     let mut center = *q;
                     for k in 0..3 {
-                        center.q[k] += ahead_frames * self.run.last_step[k];
+                        center.q[k] += ahead_frames * self.run.motion.last_step[k];
                     }
-                    let _ = self.next_neighbours.start(&self.tool, &center, margin);
+                    let _ = self
+                        .ahead
+                        .next_neighbours
+                        .start(&self.bodies.tool, &center, margin);
                 }
             }
             ListStatus::Building => {}
@@ -750,23 +777,23 @@ impl GodObject {
     /// A finished next neighbour list replaces the one in use; its pair count sets the next
     /// list's margin.
     fn take_next_list(&mut self) {
-        let work = self.next_neighbours.work();
-        let in_use = self.neighbours.status() == ListStatus::Ready;
-        let (served, last_work) = (self.run.list_served, self.run.list_work);
-        if self.next_neighbours.take(&mut self.neighbours) {
+        let work = self.ahead.next_neighbours.work();
+        let in_use = self.ahead.neighbours.status() == ListStatus::Ready;
+        let (served, last_work) = (self.run.lists.list_served, self.run.lists.list_work);
+        if self.ahead.next_neighbours.take(&mut self.ahead.neighbours) {
             // What the list it replaces answered, against its work.
             if in_use {
-                let answered = served as f64 * self.run.splits_per_region;
+                let answered = served as f64 * self.run.lists.splits_per_region;
                 let sample = answered / last_work.max(1) as f64;
-                self.run.list_yield = 0.5 * self.run.list_yield + 0.5 * sample;
+                self.run.lists.list_yield = 0.5 * self.run.lists.list_yield + 0.5 * sample;
             }
-            self.run.list_served = 0;
-            self.run.list_work = work;
-            self.run.list_splits = self.neighbours.splits();
-            let n = self.neighbours.len().max(1) as f64;
-            let (_, built) = self.neighbours.question();
+            self.run.lists.list_served = 0;
+            self.run.lists.list_work = work;
+            self.run.lists.list_splits = self.ahead.neighbours.splits();
+            let n = self.ahead.neighbours.len().max(1) as f64;
+            let (_, built) = self.ahead.neighbours.question();
             // Pairs grow about as the margin cubed over a bumpy flat contact.
-            self.run.list_margin =
+            self.run.lists.list_margin =
                 (built * (LIST_TARGET_PAIRS / n).cbrt()).clamp(LIST_MIN_MM, LIST_MAX_MM);
         }
     }
@@ -784,26 +811,30 @@ impl GodObject {
     /// # Real-time
     /// No allocation, no panic; returns within one slice (~10–40 µs) of `until`.
     pub fn idle(&mut self, until: Instant) {
-        self.run.idle_given = until
+        self.run.lists.idle_given = until
             .checked_duration_since(Instant::now())
             .is_some_and(|d| d.as_micros() >= u128::from(IDLE_FOR_LISTS_US));
         let stop = until.checked_sub(std::time::Duration::from_micros(IDLE_WARM_US));
         let busy = |now: Instant| stop.is_some_and(|s| now < s);
-        while busy(Instant::now()) && self.probe.status() == ProbeStatus::Running {
-            self.probe
-                .advance_now(&self.tool, &self.objects, IDLE_SLICE_SPLITS, stop);
-        }
-        while busy(Instant::now()) && self.next_neighbours.status() == ListStatus::Building {
-            self.next_neighbours.advance(
-                &self.tool,
-                &self.objects,
+        while busy(Instant::now()) && self.ahead.probe.status() == ProbeStatus::Running {
+            self.ahead.probe.advance_now(
+                &self.bodies.tool,
+                &self.bodies.objects,
                 IDLE_SLICE_SPLITS,
-                IDLE_SLICE_SPLITS,
-                self.team.as_ref(),
                 stop,
             );
         }
-        if self.next_neighbours.status() == ListStatus::Ready {
+        while busy(Instant::now()) && self.ahead.next_neighbours.status() == ListStatus::Building {
+            self.ahead.next_neighbours.advance(
+                &self.bodies.tool,
+                &self.bodies.objects,
+                IDLE_SLICE_SPLITS,
+                IDLE_SLICE_SPLITS,
+                self.detector.team.as_ref(),
+                stop,
+            );
+        }
+        if self.ahead.next_neighbours.status() == ListStatus::Ready {
             self.take_next_list();
         }
         self.warm_caches(until);
@@ -814,9 +845,10 @@ impl GodObject {
     /// a centre `x = R_a p` moves by `2 sin(θ/2) |û × x| <= θ |û × x|`). A shaft turning about
     /// its own axis moves its centres by 17.7 mm per radian, not its reach of 56.5.
     pub(super) fn turn_bound(&self, r_a: &Matrix3<f64>, r_b: &Matrix3<f64>) -> f64 {
-        self.centres
+        self.bodies
+            .centres
             .turn_bound(r_a, r_b)
-            .min(rotation_angle(r_b, r_a) * self.reach)
+            .min(rotation_angle(r_b, r_a) * self.bodies.reach)
     }
 
     /// The near part of the tool ([`Lever`]) at `q` for a ball region of margin `margin` (mm),
@@ -826,16 +858,16 @@ impl GodObject {
     /// farther than `M - b` at a pose the motion bound `b` away.
     pub(super) fn lever_at(&mut self, q: &Pose, margin: f64) -> Option<Lever> {
         let need = margin + LEVER_MARGIN_MM;
-        if let Some((at, found, lever)) = self.run.lever_cache {
+        if let Some((at, found, lever)) = self.run.regions.lever_cache {
             if found - self.motion_bound(&at, q) >= need {
                 return lever;
             }
         }
         let found = need + LEVER_SPARE_MM;
         let lever = collide::near_box(
-            &self.tool,
+            &self.bodies.tool,
             q,
-            &self.objects,
+            &self.bodies.objects,
             found,
             LEVER_LEVEL,
             LEVER_LEVEL,
@@ -846,11 +878,11 @@ impl GodObject {
                 lo: Vector3::from(lo),
                 hi: Vector3::from(hi),
             };
-            let reach = near.reach().min(self.reach);
+            let reach = near.reach().min(self.bodies.reach);
             // Worth it only where the near leaves turn on a shorter arm than the tool.
-            (reach < 0.9 * self.reach).then_some(Lever { near, reach })
+            (reach < 0.9 * self.bodies.reach).then_some(Lever { near, reach })
         });
-        self.run.lever_cache = Some((*q, found, lever));
+        self.run.regions.lever_cache = Some((*q, found, lever));
         lever
     }
 
@@ -929,8 +961,8 @@ pub(super) mod tests {
     fn free_space_proofs_hand_the_tool_over_along_its_way() {
         let mut g = shaft();
         let step = 0.04;
-        g.run.last_step = [0.0, 0.0, step];
-        g.run.last_motion = step;
+        g.run.motion.last_step = [0.0, 0.0, step];
+        g.run.motion.last_motion = step;
         let at = |z: f64| Pose::from_array([0.0, 0.0, z, 0.0, 0.0, 0.0]);
         let proof = |z: f64, length: f64| FreeProof {
             center: at(z),
@@ -940,9 +972,9 @@ pub(super) mod tests {
         let used = 0.1;
         // The tool at z = 0 in a proof along 0..1 mm (it leaves it near z = 1.2: 30 frames),
         // the next along 1.1..5.1 mm (to z = 5.3: 132 frames in all).
-        g.run.free = [proof(0.0, 1.0), proof(1.1, 4.0)];
+        g.run.proofs.free = [proof(0.0, 1.0), proof(1.1, 4.0)];
         let q = at(0.0);
-        let direct = g.frames_in(&g.run.free[0], &q, used);
+        let direct = g.frames_in(&g.run.proofs.free[0], &q, used);
         assert!((direct - 30.0).abs() < 0.01, "{direct}");
         // (Before the handover was counted, the horizon was the first proof's 30 frames
         // only, and probes ahead were sized to finish in them.)
@@ -952,13 +984,13 @@ pub(super) mod tests {
         assert!(!g.proof_slot_free(&q, used));
         // Past the first, it takes the first's place.
         let q = at(1.5);
-        assert_eq!(g.frames_in(&g.run.free[0], &q, used), 0.0);
+        assert_eq!(g.frames_in(&g.run.proofs.free[0], &q, used), 0.0);
         assert!(g.proof_slot_free(&q, used));
         g.add_free_proof(at(5.2), Vector3::new(0.0, 0.0, 4.0), 0.3, &q, used);
-        assert_eq!(g.run.free[0].center.q[2], 5.2);
-        assert_eq!(g.run.free[1].center.q[2], 1.1);
+        assert_eq!(g.run.proofs.free[0].center.q[2], 5.2);
+        assert_eq!(g.run.proofs.free[1].center.q[2], 1.1);
         // A proof the tool will never enter serves it no frame.
-        g.run.free[0] = proof(-3.0, 1.0);
+        g.run.proofs.free[0] = proof(-3.0, 1.0);
         assert_eq!(g.proof_reach(&q, used)[0], 0.0);
     }
 
@@ -970,8 +1002,8 @@ pub(super) mod tests {
     fn a_turning_tool_is_handed_over_to_the_proof_ahead_of_its_turn() {
         let mut g = shaft();
         let turn = 0.001; // rad per frame: 0.012 mm at the leaves' 12 mm arm
-        g.run.last_turn = [0.0, 0.0, turn];
-        g.run.last_motion = turn * 12.0;
+        g.run.motion.last_turn = [0.0, 0.0, turn];
+        g.run.motion.last_motion = turn * 12.0;
         let at = |a: f64| Pose::from_array([0.0, 0.0, 0.0, 0.0, 0.0, a]);
         let proof = |a: f64| FreeProof {
             center: at(a),
@@ -981,11 +1013,11 @@ pub(super) mod tests {
         let used = 0.06;
         // The first proof serves (0.3 - 0.06) / 0.012 = 20 frames; the second is centred 25
         // frames on.
-        g.run.free = [proof(0.0), proof(25.0 * turn)];
+        g.run.proofs.free = [proof(0.0), proof(25.0 * turn)];
         let q = at(0.0);
-        let direct = g.frames_in(&g.run.free[0], &q, used);
+        let direct = g.frames_in(&g.run.proofs.free[0], &q, used);
         assert!((direct - 20.0).abs() < 0.01, "{direct}");
-        assert_eq!(g.frames_in(&g.run.free[1], &q, used), 0.0);
+        assert_eq!(g.frames_in(&g.run.proofs.free[1], &q, used), 0.0);
         let horizon = g.proof_horizon(&q, used);
         assert!(
             horizon > 30.0,
@@ -996,7 +1028,7 @@ pub(super) mod tests {
         assert!((ahead.q[5] - 25.0 * turn).abs() < 1e-12);
         assert_eq!(ahead.translation(), q.translation());
         // A non-finite guess keeps the pose.
-        g.run.last_turn = [f64::NAN, 0.0, 0.0];
+        g.run.motion.last_turn = [f64::NAN, 0.0, 0.0];
         assert_eq!(g.pose_ahead(&q, 3.0), q);
     }
 
@@ -1018,7 +1050,7 @@ pub(super) mod tests {
             EngineConfig::default(),
         )
         .unwrap();
-        g.run.probe_splits = 10 * PROBE_SLICE_SPLITS;
+        g.run.proofs.probe_splits = 10 * PROBE_SLICE_SPLITS;
         g
     }
 
@@ -1034,18 +1066,23 @@ pub(super) mod tests {
         let (gap, traversed) = g
             .detect_proving(&q, None, margin, proof, None, None)
             .unwrap();
-        assert!(g.pairs.is_empty() && gap.is_infinite());
+        assert!(g.detector.pairs.is_empty() && gap.is_infinite());
         assert!((traversed - 0.25).abs() < 1e-9, "{traversed}");
         assert_eq!(g.region_counts(), (0, 1));
-        g.neighbours.start(&g.tool, &Pose::identity(), 0.5).unwrap();
-        while g.neighbours.status() == ListStatus::Building {
-            g.neighbours.advance(&g.tool, &g.objects, 1 << 20, None);
+        g.ahead
+            .neighbours
+            .start(&g.bodies.tool, &Pose::identity(), 0.5)
+            .unwrap();
+        while g.ahead.neighbours.status() == ListStatus::Building {
+            g.ahead
+                .neighbours
+                .advance(&g.bodies.tool, &g.bodies.objects, 1 << 20, None);
         }
-        assert_eq!(g.neighbours.status(), ListStatus::Ready);
+        assert_eq!(g.ahead.neighbours.status(), ListStatus::Ready);
         let (gap, listed) = g
             .detect_proving(&q, None, margin, proof, None, None)
             .unwrap();
-        assert!(g.pairs.is_empty() && gap.is_infinite());
+        assert!(g.detector.pairs.is_empty() && gap.is_infinite());
         assert_eq!(listed, traversed);
         assert_eq!(g.region_counts(), (1, 1));
         // Where the list reaches less far than the proof margin, it proves as far as it
@@ -1066,53 +1103,63 @@ pub(super) mod tests {
     fn lists_that_answered_little_stop_the_next_until_the_yield_recovers() {
         let mut g = ring_near_object(0.2);
         let ready_next = |g: &mut GodObject| {
-            g.next_neighbours
-                .start(&g.tool, &Pose::identity(), 0.5)
+            g.ahead
+                .next_neighbours
+                .start(&g.bodies.tool, &Pose::identity(), 0.5)
                 .unwrap();
-            while g.next_neighbours.status() == ListStatus::Building {
-                let (tool, objects) = (&g.tool, &g.objects);
-                g.next_neighbours
+            while g.ahead.next_neighbours.status() == ListStatus::Building {
+                let (tool, objects) = (&g.bodies.tool, &g.bodies.objects);
+                g.ahead
+                    .next_neighbours
                     .advance(tool, objects, 1 << 20, 1 << 20, None, None);
             }
-            assert_eq!(g.next_neighbours.status(), ListStatus::Ready);
+            assert_eq!(g.ahead.next_neighbours.status(), ListStatus::Ready);
         };
         // The first list: nothing in use before it, so no sample.
-        assert_eq!(g.run.list_yield, LIST_FIRST_YIELD);
+        assert_eq!(g.run.lists.list_yield, LIST_FIRST_YIELD);
         ready_next(&mut g);
         g.take_next_list();
-        assert_eq!(g.neighbours.status(), ListStatus::Ready);
-        assert_eq!(g.run.list_yield, LIST_FIRST_YIELD);
+        assert_eq!(g.ahead.neighbours.status(), ListStatus::Ready);
+        assert_eq!(g.run.lists.list_yield, LIST_FIRST_YIELD);
         // The list in use answered `served` regions of 1 000 node pairs for 8 000 units of
         // work; the next one replaces it, from a yield of 1.
         let replace_after = |g: &mut GodObject, served: u32| {
-            g.run.list_served = served;
-            g.run.splits_per_region = 1000.0;
-            g.run.list_work = 8000;
-            g.run.list_yield = 1.0;
+            g.run.lists.list_served = served;
+            g.run.lists.splits_per_region = 1000.0;
+            g.run.lists.list_work = 8000;
+            g.run.lists.list_yield = 1.0;
             ready_next(g);
             g.take_next_list();
-            g.run.list_yield
+            g.run.lists.list_yield
         };
         // 1 region: 0.125.
         let y = replace_after(&mut g, 1);
         assert!((y - 0.5625).abs() < 1e-12, "{y}");
-        assert!(g.run.list_yield < LIST_MIN_YIELD);
-        assert_eq!(g.run.list_served, 0);
+        assert!(g.run.lists.list_yield < LIST_MIN_YIELD);
+        assert_eq!(g.run.lists.list_served, 0);
         // Frames with no list building (free space here: no pair) recover it, 2 % a frame:
         // past the floor after ln(2 / 0.5625) / ln(1.02) = 64.1 frames, capped at the first.
         let q = Pose::identity();
         let deadline = Instant::now() + std::time::Duration::from_secs(1);
-        assert!(g.pairs.is_empty());
+        assert!(g.detector.pairs.is_empty());
         for _ in 0..64 {
             g.tend_neighbours(&q, 0.05, deadline);
         }
-        assert!(g.run.list_yield < LIST_MIN_YIELD, "{}", g.run.list_yield);
+        assert!(
+            g.run.lists.list_yield < LIST_MIN_YIELD,
+            "{}",
+            g.run.lists.list_yield
+        );
         g.tend_neighbours(&q, 0.05, deadline);
-        assert!(g.run.list_yield >= LIST_MIN_YIELD, "{}", g.run.list_yield);
+        assert!(
+            g.run.lists.list_yield >= LIST_MIN_YIELD,
+            "{}",
+            g.run.lists.list_yield
+        );
         for _ in 0..200 {
             g.tend_neighbours(&q, 0.05, deadline);
         }
-        assert_eq!(g.run.list_yield, LIST_FIRST_YIELD);
+        assert_eq!(g.run.lists.list_yield, LIST_FIRST_YIELD);
         // 40 regions: 5, halfway from 1.
         let y = replace_after(&mut g, 40);
         assert!((y - 3.0).abs() < 1e-12, "{y}");
@@ -1126,7 +1173,7 @@ pub(super) mod tests {
         let mut g = ring_near_object(0.2);
         let q = Pose::identity();
         let used = 0.02;
-        g.run.free[0] = FreeProof {
+        g.run.proofs.free[0] = FreeProof {
             center: q,
             path: Vector3::zeros(),
             radius: 0.05,
@@ -1145,15 +1192,15 @@ pub(super) mod tests {
     #[test]
     fn a_probe_that_touches_asks_for_less_until_one_proves_free_space() {
         let mut g = ring_near_object(0.2);
-        g.run.last_motion = 0.002;
+        g.run.motion.last_motion = 0.002;
         let q = Pose::identity();
         let used = 0.02;
         let deadline = Instant::now() + std::time::Duration::from_secs(10);
-        let mut margins = vec![g.run.probe_margin];
+        let mut margins = vec![g.run.proofs.probe_margin];
         for _ in 0..40 {
             g.tend_probe(&q, used, deadline);
-            if margins.last() != Some(&g.run.probe_margin) {
-                margins.push(g.run.probe_margin);
+            if margins.last() != Some(&g.run.proofs.probe_margin) {
+                margins.push(g.run.proofs.probe_margin);
             }
             if g.free_slack(&q) > used {
                 break;
@@ -1163,7 +1210,13 @@ pub(super) mod tests {
             g.free_slack(&q) > used,
             "no proof; margins asked {margins:?}"
         );
-        let proven = g.run.free.iter().map(|p| p.radius).fold(0.0, f64::max);
+        let proven = g
+            .run
+            .proofs
+            .free
+            .iter()
+            .map(|p| p.radius)
+            .fold(0.0, f64::max);
         assert!(
             proven < 0.2 && proven > used,
             "{proven} (margins {margins:?})"
@@ -1178,9 +1231,10 @@ pub(super) mod tests {
     fn turn_bound_holds_every_leaf_centre_and_is_tight_about_the_axis() {
         let g = shaft();
         let centres: Vec<Vector3<f64>> = g
+            .bodies
             .tool
             .leaves()
-            .map(|n| Vector3::from(g.tool.center(n)))
+            .map(|n| Vector3::from(g.bodies.tool.center(n)))
             .collect();
         let mut rng = devkit::Rng::new(5);
         let mut axis = || {
@@ -1260,20 +1314,21 @@ pub(super) mod tests {
         let mut g = probe_over_a_plate();
         let (c, m) = (Pose::identity(), 0.3);
         g.detect_proving(&c, None, m, 0.0, None, None).unwrap();
-        assert_eq!(g.run.pairs_question, Some((c, m)));
+        assert_eq!(g.run.regions.pairs_question, Some((c, m)));
         let held: std::collections::HashSet<(u32, u32, u32)> = g
+            .detector
             .pairs
             .iter()
             .map(|p| (p.object, p.tool_slot, p.object_slot))
             .collect();
-        let mut ws = CollideWorkspace::for_trees(&g.tool, &g.objects);
+        let mut ws = CollideWorkspace::for_trees(&g.bodies.tool, &g.bodies.objects);
         let mut unheld_within = |g: &GodObject, q: &Pose, margin: f64| {
             let (mut pairs, mut unheld) = (0, 0);
             collide::overlap_shared(
-                &g.tool,
+                &g.bodies.tool,
                 q,
                 None,
-                &g.objects,
+                &g.bodies.objects,
                 margin,
                 None,
                 &mut ws,
@@ -1359,16 +1414,22 @@ pub(super) mod tests {
             lever: Some(lever),
         };
         let tool: Vec<(Vector3<f64>, f64)> = g
+            .bodies
             .tool
-            .leaves()
-            .map(|n| (Vector3::from(g.tool.center(n)), g.tool.radius(n)))
-            .collect();
-        let object: Vec<(Vector3<f64>, f64)> = g.objects[0]
             .leaves()
             .map(|n| {
                 (
-                    Vector3::from(g.objects[0].center(n)),
-                    g.objects[0].radius(n),
+                    Vector3::from(g.bodies.tool.center(n)),
+                    g.bodies.tool.radius(n),
+                )
+            })
+            .collect();
+        let object: Vec<(Vector3<f64>, f64)> = g.bodies.objects[0]
+            .leaves()
+            .map(|n| {
+                (
+                    Vector3::from(g.bodies.objects[0].center(n)),
+                    g.bodies.objects[0].radius(n),
                 )
             })
             .collect();

@@ -151,7 +151,7 @@ impl GodObject {
         let p = &self.params;
         let cap = p.max_margin_mm.max(1e-3);
         let max_passes = p.relinearize.saturating_add(1);
-        let q_g = self.run.q_g;
+        let q_g = self.run.motion.q_g;
         FrameWork {
             hand,
             goal,
@@ -182,7 +182,7 @@ impl GodObject {
                 allow: if max_passes == 1 {
                     cap
                 } else {
-                    (1.5 * self.run.last_motion + MIN_ALLOW_MM).min(cap)
+                    (1.5 * self.run.motion.last_motion + MIN_ALLOW_MM).min(cap)
                 },
                 path_regions: p.relinearize > 0
                     && p.rotation == RotationCoordinates::RotationVector,
@@ -202,8 +202,8 @@ impl GodObject {
     pub(super) fn reuse_region(&mut self, f: &mut FrameWork, out: &mut FrameOutput) {
         let reusable = self.params.heuristics.region_reuse
             && f.course.path_regions
-            && self.pairs.len() <= REUSE_MAX_PAIRS;
-        let Some((cached, trust)) = self.run.cached.filter(|_| reusable) else {
+            && self.detector.pairs.len() <= REUSE_MAX_PAIRS;
+        let Some((cached, trust)) = self.run.regions.cached.filter(|_| reusable) else {
             return;
         };
         let q_lin = f.course.q_lin;
@@ -220,7 +220,7 @@ impl GodObject {
             f.course.detect_now = false;
             f.course.reused = true;
             f.progress.listed = true;
-            out.pairs = self.pairs.len() as u32;
+            out.pairs = self.detector.pairs.len() as u32;
             out.margin_mm = cached.width + f.skin;
             self.map_warm_start();
         }
@@ -230,14 +230,14 @@ impl GodObject {
     /// toward the goal, then [`GodObject::check_answer`].
     pub(super) fn solve_pass(&mut self, f: &mut FrameWork, out: &mut FrameOutput) -> Flow {
         let t1 = Instant::now();
-        let n_pairs = self.pairs.len();
+        let n_pairs = self.detector.pairs.len();
         if n_pairs == 0 && f.course.trust.is_none() {
             // Free all the way to the goal (the region reaches it and holds no pair): the tool
             // is there, exactly (no rounding through the QP's coordinates).
             f.progress.q_safe = f.goal;
             f.progress.pen_safe = 0.0;
             out.contacts = 0;
-            self.run.warm_len = 0;
+            self.run.solve.warm_len = 0;
             f.progress.reached = true;
             return Flow::Stop;
         }
@@ -246,7 +246,7 @@ impl GodObject {
         // that has time left (half its budget), so that a slow spell cannot stop the tool.
         let budget = self.params.budget_us;
         let elapsed_us = (t1 - f.clock.start).as_secs_f64() * 1e6;
-        let solve_estimate = 2.0 * self.run.solve_us_per_row * (n_pairs + 12) as f64;
+        let solve_estimate = 2.0 * self.run.solve.solve_us_per_row * (n_pairs + 12) as f64;
         if elapsed_us + solve_estimate > budget
             && (f.progress.solved_in_frame || elapsed_us > 0.5 * budget)
         {
@@ -264,14 +264,16 @@ impl GodObject {
             .map(|t| (t, lin.variable(&region.center), lin.variable(&region.end())));
         let n = self.fill_rows(&lin, trust);
         let solved = self.solve(n, n_pairs, &lin.delta());
-        out.rows = out.rows.max(self.rows_solver.stats().working_rows as u32);
+        out.rows = out
+            .rows
+            .max(self.qp.rows_solver.stats().working_rows as u32);
         let solve_s = t1.elapsed().as_secs_f64();
         f.clock.solve_s += solve_s;
         // The usual rate: a running mean (one slow solve, e.g. the thread preempted, does not
         // stop later ones).
         let rate = solve_s * 1e6 / n.max(1) as f64;
-        self.run.solve_us_per_row = if self.run.solve_us_per_row > 0.0 {
-            0.9 * self.run.solve_us_per_row + 0.1 * rate
+        self.run.solve.solve_us_per_row = if self.run.solve.solve_us_per_row > 0.0 {
+            0.9 * self.run.solve.solve_us_per_row + 0.1 * rate
         } else {
             rate
         };
@@ -394,10 +396,10 @@ impl GodObject {
                 let w = spring_wrench(&g, self.params.rotation, q, &f.hand);
                 (0..6).map(|k| w[k] * w[k] / g[k]).sum::<f64>()
             };
-            if energy(&p.q_safe) > energy(&self.run.q_g) {
-                p.q_safe = self.run.q_g;
-                p.pen_safe = self.run.pen_g;
-                out.contacts = self.run.contacts_g;
+            if energy(&p.q_safe) > energy(&self.run.motion.q_g) {
+                p.q_safe = self.run.motion.q_g;
+                p.pen_safe = self.run.motion.pen_g;
+                out.contacts = self.run.motion.contacts_g;
             }
         }
     }
@@ -409,41 +411,40 @@ impl GodObject {
         if f.friction && f.progress.solved_current {
             self.remember_patch(&q_safe);
         } else if f.friction && out.contacts == 0 && f.progress.reached {
-            self.run.patch = None;
+            self.run.friction.patch = None;
         }
-        let run = &mut self.run;
-        run.pen_g = f.progress.pen_safe;
-        run.behind = !f.progress.reached;
-        run.contacts_g = out.contacts;
-        let q_g = run.q_g;
+        let q_g = self.run.motion.q_g;
         let last_motion = self.motion_bound(&q_g, &q_safe);
         let error = self.motion_bound(&self.predicted_pose(&goal), &q_safe);
-        let run = &mut self.run;
-        run.last_motion = last_motion;
+        self.run.regions.slab_rest = self.run.regions.slab_rest.saturating_sub(1);
+        let m = &mut self.run.motion;
+        m.pen_g = f.progress.pen_safe;
+        m.behind = !f.progress.reached;
+        m.contacts_g = out.contacts;
+        m.last_motion = last_motion;
         for k in 0..3 {
-            run.last_step[k] = q_safe.q[k] - q_g.q[k];
+            m.last_step[k] = q_safe.q[k] - q_g.q[k];
         }
-        run.slab_rest = run.slab_rest.saturating_sub(1);
-        run.last_turn =
+        m.last_turn =
             rotation_log(&(q_safe.rotation_matrix() * q_g.rotation_matrix().transpose())).into();
-        run.prediction_error = error.max(0.9 * run.prediction_error);
-        run.q_g = q_safe;
-        run.hand_offset = (
+        m.prediction_error = error.max(0.9 * m.prediction_error);
+        m.q_g = q_safe;
+        m.hand_offset = (
             goal.translation() - q_safe.translation(),
             rotation_log(&(goal.rotation_matrix() * q_safe.rotation_matrix().transpose())),
         );
         // In contact, the next frames' regions come from a neighbour list kept ahead.
         let used = out.margin_mm.max(MIN_ALLOW_MM + f.skin);
         self.tend_neighbours(&q_safe, used, f.clock.deadline);
-        self.run.idle_given = false;
+        self.run.lists.idle_given = false;
         out.penetration_mm = f.progress.pen_safe;
         out.q_g = q_safe.to_array();
         out.wrench = spring_wrench(&self.params.g(), self.params.rotation, &q_safe, &f.hand);
         out.raw_wrench = out.wrench;
         out.cd_us = f.clock.detect_s * 1e6;
         out.opt_us = f.clock.solve_s * 1e6;
-        out.splits = self.run.frame_splits.min(u64::from(u32::MAX)) as u32;
-        out.scanned = self.run.frame_scanned.min(u64::from(u32::MAX)) as u32;
+        out.splits = self.run.counts.frame_splits.min(u64::from(u32::MAX)) as u32;
+        out.scanned = self.run.counts.frame_scanned.min(u64::from(u32::MAX)) as u32;
         out.total_us = f.clock.elapsed_us();
     }
 }

@@ -139,7 +139,7 @@ const POINT_CONTACT_MM: f64 = 1e-6;
 impl GodObject {
     /// Friction per object as set (the pair's coefficients come from these and the tool's).
     pub fn friction(&self, object: usize) -> Option<Friction> {
-        self.object_friction.get(object).copied()
+        self.materials.object_friction.get(object).copied()
     }
 
     /// Sets the friction of object `object` (0-based index in the objects given to
@@ -147,8 +147,9 @@ impl GodObject {
     /// ranges.
     pub fn set_friction(&mut self, object: usize, f: Friction) -> Result<(), EngineError> {
         f.validate(&format!("[[object]] {} friction", object + 1))?;
-        let n = self.object_friction.len();
+        let n = self.materials.object_friction.len();
         let slot = self
+            .materials
             .object_friction
             .get_mut(object)
             .ok_or(EngineError::NoSuchObject { object, objects: n })?;
@@ -161,34 +162,35 @@ impl GodObject {
         if let Some(f) = f {
             f.validate("[tool] friction")?;
         }
-        self.tool_friction = f;
+        self.materials.tool_friction = f;
         Ok(())
     }
 
     /// The contact the last frame ended in, as friction sees it: its unit normal (world) and
     /// torsional radius (mm); `None` without a frictional contact.
     pub fn friction_contact(&self) -> Option<([f64; 3], f64)> {
-        self.run.patch.map(|p| (p.normal.into(), p.rho))
+        self.run.friction.patch.map(|p| (p.normal.into(), p.rho))
     }
 
     /// Turns friction on or off without forgetting the coefficients (off: the frictionless
     /// step, frame for frame).
     pub fn set_friction_enabled(&mut self, on: bool) {
-        self.friction_on = on;
-        self.run.sliding = false;
-        self.run.patch = None;
+        self.materials.friction_on = on;
+        self.run.friction.sliding = false;
+        self.run.friction.patch = None;
     }
 
     /// True when friction is on, the rotation coordinates are rotation vectors (friction's
     /// twist is a rotation about the contact normal) and some object has a non-zero
     /// coefficient.
     pub fn friction_active(&self) -> bool {
-        self.friction_on
+        self.materials.friction_on
             && self.params.rotation == RotationCoordinates::RotationVector
             && self
+                .materials
                 .object_friction
                 .iter()
-                .any(|f| !f.with_tool(self.tool_friction).is_none())
+                .any(|f| !f.with_tool(self.materials.tool_friction).is_none())
     }
 
     /// Remembers the contact the frame ended in at `q`, from its last solve over the listed
@@ -197,7 +199,7 @@ impl GodObject {
     /// they give the normal (their resultant's direction), the coefficients (their weighted
     /// mean) and the centre of pressure; the pairs touching at `q` give the patch's spread.
     pub(super) fn remember_patch(&mut self, q: &Pose) {
-        self.run.patch = None;
+        self.run.friction.patch = None;
         // A pair's contact point at q: on the tool sphere, toward what the pair stands for
         // (the object sphere or its face); and its gap.
         let (rot, t) = (q.rotation_matrix(), q.translation());
@@ -205,24 +207,25 @@ impl GodObject {
             let (at, gap, _) = p.contact_posed(&rot, &t);
             (Vector3::from(at), gap)
         };
-        let y = self.rows_solver.multipliers();
-        let n_pairs = self.pairs.len().min(y.len());
+        let y = self.qp.rows_solver.multipliers();
+        let n_pairs = self.detector.pairs.len().min(y.len());
         let (mut total, mut resultant, mut centre) = (0.0, Vector3::zeros(), Vector3::zeros());
         let (mut mu_s, mut mu_k) = (0.0, 0.0);
         for (i, &lambda) in y.iter().enumerate().take(n_pairs) {
             if !positive(lambda) {
                 continue;
             }
-            let row = &self.rows[i];
+            let row = &self.qp.rows[i];
             let normal = Vector3::new(row[0], row[1], row[2]);
             let force = lambda * normal.norm();
-            let pair = &self.pairs[i];
+            let pair = &self.detector.pairs[i];
             let f = self
+                .materials
                 .object_friction
                 .get(pair.object as usize)
                 .copied()
                 .unwrap_or_default()
-                .with_tool(self.tool_friction);
+                .with_tool(self.materials.tool_friction);
             total += force;
             mu_s += force * f.static_mu;
             mu_k += force * f.kinetic_mu;
@@ -235,7 +238,7 @@ impl GodObject {
         let n = resultant / resultant.norm();
         let centre = centre / total;
         let (mut spread, mut count) = (0.0, 0usize);
-        for p in &self.pairs {
+        for p in &self.detector.pairs {
             let (c, gap) = point(p);
             if gap <= TOUCH_MM {
                 let r = c - centre;
@@ -243,7 +246,7 @@ impl GodObject {
                 count += 1;
             }
         }
-        self.run.patch = Some(Patch {
+        self.run.friction.patch = Some(Patch {
             normal: n,
             centroid: centre,
             rho: if count > 0 {
@@ -262,31 +265,31 @@ impl GodObject {
     /// hand pulls away), nowhere (the tool sticks: [`FrictionState::Stick`]), or a goal held
     /// back from the hand by the friction ([`FrictionState::Slip`]).
     pub(super) fn friction_goal(&mut self, hand: &Pose) -> (Pose, FrictionState) {
-        let Some(patch) = self.run.patch else {
-            self.run.sliding = false;
+        let Some(patch) = self.run.friction.patch else {
+            self.run.friction.sliding = false;
             return (*hand, FrictionState::None);
         };
         let (kt, kr) = (self.params.kt, self.params.kr);
-        let r_g = self.run.q_g.rotation_matrix();
+        let r_g = self.run.motion.q_g.rotation_matrix();
         let r_h = hand.rotation_matrix();
-        let f = (hand.translation() - self.run.q_g.translation()) * kt;
+        let f = (hand.translation() - self.run.motion.q_g.translation()) * kt;
         let torque = rotation_log(&(r_h * r_g.transpose())) * kr;
         let n = patch.normal;
         let normal_force = -f.dot(&n);
-        let mu = if self.run.sliding {
+        let mu = if self.run.friction.sliding {
             patch.friction.kinetic_mu
         } else {
             patch.friction.static_mu
         };
         if !positive(normal_force) || !positive(mu) {
-            self.run.sliding = false;
+            self.run.friction.sliding = false;
             return (*hand, FrictionState::None);
         }
         let f_t = f + n * normal_force;
         // The twist friction must hold: the spring's moment about the patch's centroid, along
         // the normal.
         let twist = if patch.rho > POINT_CONTACT_MM {
-            (torque + (self.run.q_g.translation() - patch.centroid).cross(&f)).dot(&n)
+            (torque + (self.run.motion.q_g.translation() - patch.centroid).cross(&f)).dot(&n)
         } else {
             0.0
         };
@@ -295,10 +298,10 @@ impl GodObject {
         // Inside the cone the goal takes the whole pull away (the contact does not slide; the
         // tool may still settle along the normal and tilt); outside, what friction holds.
         let (k, state) = if phi <= limit {
-            self.run.sliding = false;
+            self.run.friction.sliding = false;
             (1.0, FrictionState::Stick)
         } else {
-            self.run.sliding = true;
+            self.run.friction.sliding = true;
             (limit / phi, FrictionState::Slip)
         };
         // Held back by k of the pull: the force by k F_t, the turn about n by k of the spring's
@@ -314,7 +317,7 @@ impl GodObject {
             &(rotation_exp(&(n * (-k * turn / kr))) * r_h),
         );
         if !goal.is_finite() {
-            self.run.sliding = false;
+            self.run.friction.sliding = false;
             return (*hand, FrictionState::None);
         }
         (goal, state)

@@ -46,12 +46,12 @@ impl GodObject {
     pub(super) fn gaps_at(&self, q: &Pose, dq: &[f64; 6], n_pairs: usize) -> (f64, f64, u32) {
         let (rot, t) = (q.rotation_matrix(), q.translation());
         let (mut deepest, mut slack, mut touching) = (0.0f64, 0.0f64, 0u32);
-        for (i, p) in self.pairs.iter().enumerate().take(n_pairs) {
+        for (i, p) in self.detector.pairs.iter().enumerate().take(n_pairs) {
             let gap = p.contact_posed(&rot, &t).1;
             deepest = deepest.max(-gap);
             touching += u32::from(gap <= TOUCH_MM);
-            let row = &self.rows[i];
-            let lin_gap: f64 = (0..6).map(|k| row[k] * dq[k]).sum::<f64>() - self.rhs[i];
+            let row = &self.qp.rows[i];
+            let lin_gap: f64 = (0..6).map(|k| row[k] * dq[k]).sum::<f64>() - self.qp.rhs[i];
             if lin_gap <= TIGHT_MM {
                 slack = slack.max(gap - lin_gap);
             }

@@ -65,6 +65,9 @@ mod measure;
 mod plan;
 mod reference;
 mod solve;
+mod state;
+
+use state::*;
 
 use frame::Flow;
 
@@ -591,208 +594,18 @@ impl Region {
 type PairId = (u32, u32, u32);
 
 /// The god-object: owns the packed trees, all scratch memory and the graphic configuration.
+/// Its state in groups ([`state`]): the settings, the bodies, the detection buffers, the work
+/// kept ahead, the QP's buffers, the materials, and what the run learnt.
 pub struct GodObject {
     /// The settings ([`EngineConfig`]; the step reads all but the safety limits).
     params: EngineConfig,
-    tool: PackedTree,
-    objects: Vec<PackedTree>,
-    /// Some object has face cuts (then no neighbour lists are kept).
-    faces: bool,
-    ws: CollideWorkspace,
-    /// The helper thread that shares large traversals ([`EngineConfig::helper_thread`]).
-    team: Option<TraversalTeam>,
-    pairs: Vec<LeafPair>,
-    /// By tool slot: the detection (`face_stamp`) and index in `pairs` of the tool leaf's last
-    /// half-space pair, so the same face met through several object leaves is kept once.
-    face_seen: Vec<(u32, u32)>,
-    face_stamp: u32,
-    rows: Vec<[f64; 6]>,
-    rhs: Vec<f64>,
-    solver: Solver,
-    /// Constraint reduction around the solver (exact solvers, unless turned off): its
-    /// multipliers and active set are the frame's, reduced or not.
-    rows_solver: RowGeneration,
-    /// Bench audit of the reduction: a second solver that solves every reduced QP in full
-    /// ([`GodObject::audit_reduction`]); none in normal use.
-    audit: Option<Box<(Solver, ReductionAudit)>>,
-    reach: f64,
-    /// Box of the tool's leaf centres (tool frame, mm): a turn about an axis moves them by at
-    /// most the angle times their largest distance from it ([`CentreBox::turn_bound`]).
-    centres: CentreBox,
-    /// The next free-space proof, computed a slice per frame ahead of need.
-    probe: FreeSpaceProbe,
-    /// The neighbour list in use: every leaf pair within a wide margin of a pose near the tool,
-    /// filtered instead of traversed while a region's query stays inside it.
-    neighbours: NeighbourList,
-    /// The next neighbour list, built a slice per frame ahead of need (by the helper thread,
-    /// if there is one, on the same schedule).
-    next_neighbours: BackgroundList,
-    /// Friction of each object's material, and of the tool's (`None`: the objects' alone).
-    object_friction: Vec<Friction>,
-    tool_friction: Option<Friction>,
-    /// Friction is applied (it can be turned off without forgetting the coefficients).
-    friction_on: bool,
-    /// Everything learnt while running (see [`RunState`]): replaced whole by [`GodObject::reset`].
+    bodies: Bodies,
+    detector: Detector,
+    ahead: Ahead,
+    qp: QpBuffers,
+    materials: Materials,
+    /// Everything learnt while running: replaced whole by [`GodObject::reset`].
     run: RunState,
-}
-
-/// Everything the god-object learns while it runs: the graphic pose and its last motion, the
-/// warm start, the prediction, the pair density, the cached region and near part of the tool,
-/// the free-space proofs and the probes' and lists' pacing, friction's stick/slip and patch,
-/// the frame's work counts. [`GodObject::new`] and [`GodObject::reset`] both start from
-/// [`RunState::fresh`], so a reset run repeats a fresh engine's frames: nothing carries over.
-///
-/// Plain values only: the buffers a run fills (pair list, probe, neighbour lists) are owned by
-/// [`GodObject`], sized once, and emptied in place by a reset.
-#[derive(Clone, Debug)]
-struct RunState {
-    /// Leaf pairs of the last detection that did not fit in `pairs` (its list is then not
-    /// complete).
-    dropped: usize,
-    /// The last traversal stopped at the frame's deadline (its list is not complete).
-    interrupted: bool,
-    /// Rows, trust region and solve time per row, µs: a running mean (to keep a solve from
-    /// starting when it would end past the budget).
-    solve_us_per_row: f64,
-    /// The pairs active at the last answer (warm start of the next solve), and their
-    /// indices in the current pair list.
-    warm: [PairId; 6],
-    warm_len: usize,
-    warm_idx: [usize; 6],
-    /// The graphic configuration: the last frame's answer.
-    q_g: Pose,
-    /// Motion bound of the graphic tool over the last frame, mm.
-    last_motion: f64,
-    /// Translation of the graphic tool over the last frame, mm.
-    last_step: [f64; 3],
-    /// Turn of the graphic tool over the last frame (rotation vector, world, rad).
-    last_turn: [f64; 3],
-    /// The unit normal of the one flat face whose half-space pairs alone held the tool in the
-    /// last solve (a slab region's face), if so.
-    contact_face: Option<Vector3<f64>>,
-    /// The last near part of the tool ([`Lever`]): the pose it was found at, and the margin
-    /// (mm) every leaf outside it was beyond there.
-    lever_cache: Option<(Pose, f64, Option<Lever>)>,
-    /// The last frame ended before the constrained optimum (passes or time ran out).
-    behind: bool,
-    /// Frames left without slab regions, and the rest after the next failure.
-    slab_rest: u32,
-    slab_next_rest: u32,
-    /// How the pair count grows with the margin near the tool, as last seen (sizes regions).
-    density: density::PairDensity,
-    /// Free-space proofs: poses at which no leaf pair was within a radius (mm). Each spares
-    /// traversals while the tool stays near it; two, so that one placed ahead of the tool by a
-    /// background probe can be ready before the other runs out.
-    free: [FreeProof; 2],
-    /// Node pairs the last finished probe at a pose, and along a path, split (their costs, to
-    /// size the next one's slices).
-    probe_splits: usize,
-    path_probe_splits: usize,
-    /// Margin (mm) of the next background probe: [`BACKGROUND_PROBE_MM`], shrunk after a
-    /// probe that touched ([`PROBE_MARGIN_SHRINK`]), grown back after one that proved free
-    /// space ([`PROBE_MARGIN_GROWTH`]).
-    probe_margin: f64,
-    /// Margin (mm) of the next neighbour list: adapted to the pairs the last one held.
-    list_margin: f64,
-    /// Work of the last finished list (node pairs split plus pairs listed: its cost, to size
-    /// the next one's slices), and the node pairs it split (its cost against the traversals
-    /// it spares, as [`LIST_PAYOFF`] was measured).
-    list_work: usize,
-    list_splits: usize,
-    /// Regions the neighbour list in use has answered since it was taken, and what the last
-    /// lists spared against their build's work (running mean; [`LIST_MIN_YIELD`]).
-    list_served: u32,
-    list_yield: f64,
-    /// Node pairs a region's traversal splits in the current contact (running mean), and
-    /// regions detected per frame (running mean; this frame's count): what a list spares.
-    splits_per_region: f64,
-    detections_per_frame: f64,
-    frame_detections: u32,
-    /// This frame's detection work so far: node pairs split (traversals, probes, list builds;
-    /// [`crate::Frame::splits`]) and neighbour-list entries tested ([`crate::Frame::scanned`]).
-    frame_splits: u64,
-    frame_scanned: u64,
-    /// The loop gave the engine its wait before this frame ([`GodObject::idle`]): the next
-    /// neighbour list is then built mostly there, so one is kept wherever it lasts (its build
-    /// no longer costs the frames).
-    idle_given: bool,
-    /// Regions answered from a neighbour list or the last ball's own pairs, and by a
-    /// traversal, since the last reset.
-    regions_filtered: u64,
-    regions_traversed: u64,
-    /// The ball detection that listed `pairs` (its pose and margin, mm), while they are
-    /// complete: every pair within that margin of touching there.
-    pairs_question: Option<(Pose, f64)>,
-    /// Where the hand was relative to the graphic tool at the end of the last frame:
-    /// translation `t_h - t_g` (mm) and rotation `log(R_h R_g^T)` (rad, world axes). A hand in
-    /// steady motion keeps it, which predicts where this frame's answer lies.
-    hand_offset: (Vector3<f64>, Vector3<f64>),
-    /// The region whose pairs `self.pairs` holds, and the trust region that keeps iterates in
-    /// it: the geometry is static, so it stays valid in later frames (temporal coherence).
-    cached: Option<(Region, Trust)>,
-    /// How far (mm, largest sphere motion) the answer lay from the predicted pose, recently
-    /// (the last frame's, or slowly forgotten larger ones).
-    prediction_error: f64,
-    /// A start pose was given (by [`GodObject::reset`] or the first frame's hand).
-    started: bool,
-    /// The tool slid in the last frame with contact (kinetic friction holds it), else it
-    /// stuck (static friction).
-    sliding: bool,
-    /// The contact the last frame ended in (for friction), if any.
-    patch: Option<friction::Patch>,
-    /// Overlap (mm) and touching pairs at `q_g`, as the last frame measured them.
-    pen_g: f64,
-    contacts_g: u32,
-}
-
-impl RunState {
-    /// The state before any frame.
-    fn fresh() -> Self {
-        Self {
-            dropped: 0,
-            interrupted: false,
-            solve_us_per_row: 0.0,
-            warm: [(0, 0, 0); 6],
-            warm_len: 0,
-            warm_idx: [0; 6],
-            q_g: Pose::identity(),
-            last_motion: 0.0,
-            last_step: [0.0; 3],
-            last_turn: [0.0; 3],
-            contact_face: None,
-            slab_rest: 0,
-            lever_cache: None,
-            behind: false,
-            slab_next_rest: SLAB_REST_FRAMES,
-            density: density::PairDensity::default(),
-            free: [FreeProof::none(); 2],
-            probe_splits: 0,
-            path_probe_splits: 0,
-            probe_margin: BACKGROUND_PROBE_MM,
-            list_margin: LIST_MARGIN_MM,
-            list_work: LIST_FIRST_WORK,
-            list_splits: LIST_FIRST_SPLITS,
-            list_served: 0,
-            list_yield: LIST_FIRST_YIELD,
-            splits_per_region: 0.0,
-            detections_per_frame: 0.0,
-            frame_detections: 0,
-            frame_splits: 0,
-            frame_scanned: 0,
-            idle_given: false,
-            regions_filtered: 0,
-            regions_traversed: 0,
-            pairs_question: None,
-            hand_offset: (Vector3::zeros(), Vector3::zeros()),
-            cached: None,
-            prediction_error: 0.0,
-            started: false,
-            sliding: false,
-            patch: None,
-            pen_g: 0.0,
-            contacts_g: 0,
-        }
-    }
 }
 
 impl GodObject {
@@ -847,27 +660,37 @@ impl GodObject {
         rows_solver.reserve(&mut solver, cap + 12);
         Ok(Self {
             params,
-            tool,
-            objects,
-            faces,
-            ws,
-            team,
-            pairs: Vec::with_capacity(cap),
-            face_seen: vec![(0, 0); tool_slots],
-            face_stamp: 0,
-            rows: vec![[0.0; 6]; cap + 12],
-            rhs: vec![0.0; cap + 12],
-            solver,
-            rows_solver,
-            audit: None,
-            reach,
-            centres,
-            probe,
-            neighbours,
-            next_neighbours,
-            object_friction: vec![Friction::NONE; n_objects],
-            tool_friction: None,
-            friction_on: true,
+            bodies: Bodies {
+                tool,
+                objects,
+                faces,
+                reach,
+                centres,
+            },
+            detector: Detector {
+                ws,
+                team,
+                pairs: Vec::with_capacity(cap),
+                face_seen: vec![(0, 0); tool_slots],
+                face_stamp: 0,
+            },
+            ahead: Ahead {
+                probe,
+                neighbours,
+                next_neighbours,
+            },
+            qp: QpBuffers {
+                rows: vec![[0.0; 6]; cap + 12],
+                rhs: vec![0.0; cap + 12],
+                solver,
+                rows_solver,
+                audit: None,
+            },
+            materials: Materials {
+                object_friction: vec![Friction::NONE; n_objects],
+                tool_friction: None,
+                friction_on: true,
+            },
             run: RunState::fresh(),
         })
     }
@@ -880,29 +703,32 @@ impl GodObject {
     /// The QP solver and its workspaces, e.g. to change iteration caps or tolerances
     /// (`solver_mut().dual.params.max_iterations`) between frames.
     pub fn solver_mut(&mut self) -> &mut Solver {
-        &mut self.solver
+        &mut self.qp.solver
     }
 
     /// The current graphic configuration.
     pub fn q_g(&self) -> Pose {
-        self.run.q_g
+        self.run.motion.q_g
     }
 
     /// Largest distance of a tool leaf centre from the tool origin, mm.
     pub fn reach(&self) -> f64 {
-        self.reach
+        self.bodies.reach
     }
 
     /// Regions (detections) answered without a traversal (from a neighbour list, or from the
     /// last ball's own pairs), and by a traversal, since the last reset (or since the
     /// god-object was made): how much the lists spare.
     pub fn region_counts(&self) -> (u64, u64) {
-        (self.run.regions_filtered, self.run.regions_traversed)
+        (
+            self.run.counts.regions_filtered,
+            self.run.counts.regions_traversed,
+        )
     }
 
     /// The leaf pairs of the last detected region (empty in free space).
     pub fn pairs(&self) -> &[LeafPair] {
-        &self.pairs
+        &self.detector.pairs
     }
 
     /// Bench audit of the constraint reduction: with `on`, every reduced QP is also solved in
@@ -910,16 +736,17 @@ impl GodObject {
     /// spring force `G dq` is kept ([`GodObject::take_reduction_audit`]). It costs a full
     /// solve per pass: for measuring, not for a device. Allocates (call outside the loop).
     pub fn audit_reduction(&mut self, on: bool) {
-        self.audit = on.then(|| {
+        self.qp.audit = on.then(|| {
             let mut solver = Solver::new(self.params.solver);
-            solver.reserve(self.rows.len());
+            solver.reserve(self.qp.rows.len());
             Box::new((solver, ReductionAudit::default()))
         });
     }
 
     /// What the audit measured since the last call (zero when it is off), and restarts it.
     pub fn take_reduction_audit(&mut self) -> ReductionAudit {
-        self.audit
+        self.qp
+            .audit
             .as_mut()
             .map_or_else(ReductionAudit::default, |a| std::mem::take(&mut a.1))
     }
@@ -935,8 +762,8 @@ impl GodObject {
     pub fn warm_caches(&self, until: Instant) {
         let mut acc = 0u32;
         for k in 0.. {
-            let mut read = self.tool.warm_chunk(k, &mut acc);
-            for o in &self.objects {
+            let mut read = self.bodies.tool.warm_chunk(k, &mut acc);
+            for o in &self.bodies.objects {
                 read |= o.warm_chunk(k, &mut acc);
             }
             if !read || Instant::now() >= until {
@@ -969,8 +796,8 @@ impl GodObject {
         let radius = self.params.safety.max_force_n / self.params.kt;
         for _ in 0..RESET_SEARCH_PASSES {
             if self.penetration_at(&q) <= tol {
-                self.run.q_g = q;
-                self.run.started = true;
+                self.run.motion.q_g = q;
+                self.run.motion.started = true;
                 return Ok(q);
             }
             // Push out: linearize at q with the gap target, minimising distance to `start`.
@@ -983,7 +810,7 @@ impl GodObject {
             };
             let n = self.fill_rows(&lin, None);
             // Aim for a gap of `tol` rather than 0 so the projection ends strictly outside.
-            for d in &mut self.rhs[..n] {
+            for d in &mut self.qp.rhs[..n] {
                 *d += tol;
             }
             let Some((dq, _, _, _)) = self.solve(n, n, &lin.delta()) else {
@@ -1011,10 +838,10 @@ impl GodObject {
     /// reduction audit) and the trees stay.
     fn forget_run(&mut self) {
         self.run = RunState::fresh();
-        self.pairs.clear();
-        self.probe.cancel();
-        self.neighbours.clear();
-        self.next_neighbours.cancel();
+        self.detector.pairs.clear();
+        self.ahead.probe.cancel();
+        self.ahead.neighbours.clear();
+        self.ahead.next_neighbours.cancel();
     }
 
     /// One haptic frame for the device configuration `q_h` (see the module docs): start,
@@ -1027,15 +854,15 @@ impl GodObject {
     /// traversals and one QP solve (the solver's iteration cap).
     pub fn step(&mut self, q_h: &Pose) -> FrameOutput {
         let t_start = Instant::now();
-        self.run.frame_splits = 0;
-        self.run.frame_scanned = 0;
+        self.run.counts.frame_splits = 0;
+        self.run.counts.frame_scanned = 0;
         let mut out = FrameOutput {
             q_h: q_h.to_array(),
             ..FrameOutput::default()
         };
-        if !self.run.started {
-            self.run.q_g = *q_h;
-            self.run.started = true;
+        if !self.run.motion.started {
+            self.run.motion.q_g = *q_h;
+            self.run.motion.started = true;
         }
         // A non-finite or absurd reading (beyond 1e6 mm or rad: `q - q_h` then keeps too few
         // digits for the constraints) is a device fault: keep the last safe pose.
@@ -1082,10 +909,15 @@ impl GodObject {
 
     fn keep_last_safe(&mut self, mut out: FrameOutput, q_h: &Pose, t0: Instant) -> FrameOutput {
         out.status = FrameStatus::KeptLastSafe;
-        out.q_g = self.run.q_g.to_array();
-        self.run.warm_len = 0;
+        out.q_g = self.run.motion.q_g.to_array();
+        self.run.solve.warm_len = 0;
         let w = if q_h.is_finite() {
-            spring_wrench(&self.params.g(), self.params.rotation, &self.run.q_g, q_h)
+            spring_wrench(
+                &self.params.g(),
+                self.params.rotation,
+                &self.run.motion.q_g,
+                q_h,
+            )
         } else {
             [0.0; 6]
         };
@@ -1133,15 +965,23 @@ mod tests {
             let hand = Pose::from_array([0.02 * i as f64, 0.0, 0.0, 0.0, 0.0, 0.002 * i as f64]);
             used.step(&hand);
         }
-        assert!(used.run.contacts_g > 0, "the run ends in contact");
-        let capacities = (used.pairs.capacity(), used.rows.len(), used.rhs.len());
+        assert!(used.run.motion.contacts_g > 0, "the run ends in contact");
+        let capacities = (
+            used.detector.pairs.capacity(),
+            used.qp.rows.len(),
+            used.qp.rhs.len(),
+        );
         used.reset(&start).unwrap();
         let mut fresh = ring();
         fresh.reset(&start).unwrap();
         assert_eq!(format!("{:?}", used.run), format!("{:?}", fresh.run));
-        assert_eq!(used.pairs, fresh.pairs);
+        assert_eq!(used.detector.pairs, fresh.detector.pairs);
         assert_eq!(
-            (used.pairs.capacity(), used.rows.len(), used.rhs.len()),
+            (
+                used.detector.pairs.capacity(),
+                used.qp.rows.len(),
+                used.qp.rhs.len()
+            ),
             capacities
         );
     }

@@ -50,7 +50,7 @@ impl GodObject {
         let mut plan = self.plan_region(f);
         let mut listed = self.list_pairs(f, &mut plan, pass);
         let slab_face = self.settle_slab(&mut plan);
-        if plan.trust && self.pairs.is_empty() && listed.is_ok() {
+        if plan.trust && self.detector.pairs.is_empty() && listed.is_ok() {
             listed = self.confirm_trust(f, &mut plan);
         }
         f.clock.detect_s += t0.elapsed().as_secs_f64();
@@ -58,7 +58,7 @@ impl GodObject {
             return Flow::Fail;
         }
         f.progress.solved_current = false;
-        if self.run.interrupted {
+        if self.run.regions.interrupted {
             // The frame's time is up before the region was listed: nothing from it is
             // proven; the frame ends at its last proven pose (lagging).
             return Flow::Stop;
@@ -72,13 +72,14 @@ impl GodObject {
     fn plan_region(&self, f: &mut FrameWork) -> RegionPlan {
         let (q_lin, goal, skin, cap) = (f.course.q_lin, f.goal, f.skin, f.cap);
         let need_t = (goal.translation() - q_lin.translation()).norm();
-        let need_r = rotation_angle(&goal.rotation_matrix(), &q_lin.rotation_matrix()) * self.reach;
+        let need_r =
+            rotation_angle(&goal.rotation_matrix(), &q_lin.rotation_matrix()) * self.bodies.reach;
         let need = need_t + need_r;
         // Dense contacts (flat on flat) hold many pairs per mm of margin: keep the expected
         // count near the target by taking smaller regions (more passes).
         let h = self.params.heuristics;
         let dense_cap = if h.density_sizing {
-            self.run.density.margin_for(BALL_PAIR_TARGET) - skin
+            self.run.regions.density.margin_for(BALL_PAIR_TARGET) - skin
         } else {
             f64::INFINITY
         };
@@ -88,14 +89,14 @@ impl GodObject {
             .min(dense_cap.max(DENSE_MIN_ALLOW_MM));
         // Inside a neighbour list a region costs a filter, not a traversal: one that stays
         // inside it (and a trust region) beats a wider one traversed.
-        let list_room = self.neighbours.slack(&q_lin, None, skin);
+        let list_room = self.ahead.neighbours.slack(&q_lin, None, skin);
         if list_room >= MIN_ALLOW_MM {
             allowed = allowed.min(list_room);
         }
         let mut trust = need > allowed;
         // A tool held by one flat face: a slab region (its face's half-space pairs within a
         // thin margin across the face, every other pair within the slide along it).
-        let slab = if h.slab_regions && f.course.path_regions && self.faces {
+        let slab = if h.slab_regions && f.course.path_regions && self.bodies.faces {
             self.slab_widths(need, f.course.allow, cap, dense_cap)
         } else {
             None
@@ -141,7 +142,7 @@ impl GodObject {
         let (q_lin, goal) = (f.course.q_lin, f.goal);
         let h = self.params.heuristics;
         let path_cap = if h.density_sizing {
-            (self.run.density.path_margin_for(PAIR_TARGET) - f.skin)
+            (self.run.regions.density.path_margin_for(PAIR_TARGET) - f.skin)
                 .max(MIN_ALLOW_MM)
                 .min(f.cap)
         } else {
@@ -150,9 +151,9 @@ impl GodObject {
         // A tool left behind while falling (the last frame ran out before its optimum with
         // the tool moving on toward the goal): its path is the straight way there.
         let falling = {
-            let step = Vector3::from(self.run.last_step);
+            let step = Vector3::from(self.run.motion.last_step);
             let way = goal.translation() - q_lin.translation();
-            self.run.behind
+            self.run.motion.behind
                 && step.norm() >= FALL_MIN_STEP_MM
                 && step.dot(&way) >= FALL_MIN_COS * step.norm() * way.norm()
         };
@@ -184,11 +185,11 @@ impl GodObject {
             return;
         }
         let q_lin = f.course.q_lin;
-        let own_room = match self.run.pairs_question {
+        let own_room = match self.run.regions.pairs_question {
             Some((c, m))
                 if plan.sweep.is_none()
                     && plan.list_room < MIN_ALLOW_MM
-                    && !self.pairs.is_empty() =>
+                    && !self.detector.pairs.is_empty() =>
             {
                 m - f.skin - self.motion_bound(&c, &q_lin)
             }
@@ -208,7 +209,7 @@ impl GodObject {
         }
     }
 
-    /// List: the planned region's pairs into `self.pairs`, by the cheapest means that proves
+    /// List: the planned region's pairs into `self.detector.pairs`, by the cheapest means that proves
     /// them complete. Returns the least gap (mm; +inf where nothing was traversed).
     fn list_pairs(
         &mut self,
@@ -221,21 +222,21 @@ impl GodObject {
         if used <= plan.free_slack {
             // Free space proven by an earlier empty detection: no pair within a proof's radius
             // at its centre, so none within `m` of q_lin while `b(centre, q_lin) + m <= radius`.
-            self.run.cached = None;
-            self.pairs.clear();
-            self.run.dropped = 0;
+            self.run.regions.cached = None;
+            self.detector.pairs.clear();
+            self.run.regions.dropped = 0;
             if pass == 0 {
                 self.tend_probe(&q_lin, plan.allowed + skin, deadline);
             }
             Ok(f64::INFINITY)
         } else if let Some((path, _)) = plan.sweep {
-            self.probe.cancel();
+            self.ahead.probe.cancel();
             self.detect_along(&q_lin, Some(&path), plan.width + skin, Some(deadline), None)
         } else if plan.recentred {
             // The pairs are held already: no detection.
-            self.run.regions_filtered += 1;
+            self.run.counts.regions_filtered += 1;
             Ok(f64::INFINITY)
-        } else if let Some(free) = if self.neighbours.covers(&q_lin, None, used) {
+        } else if let Some(free) = if self.ahead.neighbours.covers(&q_lin, None, used) {
             // A neighbour list answers it for a filter: no probe is finished for it.
             None
         } else {
@@ -245,14 +246,14 @@ impl GodObject {
             // pair); out of time, the frame ends here and the next one carries on with it (a
             // traversal too long for one frame's budget is spread over several instead of
             // never finishing).
-            self.run.cached = None;
-            self.pairs.clear();
-            self.run.dropped = 0;
-            self.run.interrupted = !free;
+            self.run.regions.cached = None;
+            self.detector.pairs.clear();
+            self.run.regions.dropped = 0;
+            self.run.regions.interrupted = !free;
             Ok(f64::INFINITY)
         } else {
             // A full traversal gives a fresh answer; an unfinished background probe is dropped.
-            self.probe.cancel();
+            self.ahead.probe.cancel();
             self.traverse_region(f, plan)
         }
     }
@@ -267,11 +268,11 @@ impl GodObject {
     ) -> Result<f64, collide::CollideError> {
         let (q_lin, skin, deadline) = (f.course.q_lin, f.skin, f.clock.deadline);
         let (allowed, h) = (plan.allowed, self.params.heuristics);
-        let in_free_space = self.pairs.is_empty();
+        let in_free_space = self.detector.pairs.is_empty();
         let probe = if in_free_space {
             // No wider than a dense contact just left allows.
             let dense = if h.density_sizing {
-                self.run.density.probe_margin_for(PAIR_TARGET)
+                self.run.regions.density.probe_margin_for(PAIR_TARGET)
             } else {
                 f64::INFINITY
             };
@@ -279,7 +280,7 @@ impl GodObject {
             // Within a neighbour list, no wider than it reaches (a filter, not a traversal:
             // its proof goes as far anyway), short of its edge by a rounding so that the list
             // covers it.
-            let room = self.neighbours.slack(&q_lin, None, 0.0) - PROOF_ROUNDING_MM;
+            let room = self.ahead.neighbours.slack(&q_lin, None, 0.0) - PROOF_ROUNDING_MM;
             if room >= allowed + skin {
                 wide.min(room)
             } else {
@@ -294,7 +295,7 @@ impl GodObject {
             tangent: slide + skin,
         });
         plan.slab_used = face_slab.is_some();
-        let traversed_before = self.run.regions_traversed;
+        let traversed_before = self.run.counts.regions_traversed;
         let (d, proven) = if h.proving_traversals && in_free_space && face_slab.is_none() {
             match self.detect_proving(&q_lin, None, probe, FREE_PROBE_MM, Some(deadline), None) {
                 Ok((gap, proven)) => (Ok(gap), proven),
@@ -306,27 +307,30 @@ impl GodObject {
         };
         // Only a complete traversal proves free space (one the deadline stopped may have
         // missed pairs).
-        if d.is_ok() && self.pairs.is_empty() && !self.run.interrupted {
+        if d.is_ok() && self.detector.pairs.is_empty() && !self.run.regions.interrupted {
             // (A pair may lie at the proven gap itself.)
             let radius = proven - PROOF_ROUNDING_MM;
             self.add_free_proof(q_lin, Vector3::zeros(), radius, &q_lin, probe);
             // What a proof costs here: a background probe pays off only where it is more than
             // a slice. (A list's proof costs no traversal.)
-            if self.run.regions_traversed > traversed_before {
-                self.run.probe_splits = self.ws.stats().node_pairs_split;
+            if self.run.counts.regions_traversed > traversed_before {
+                self.run.proofs.probe_splits = self.detector.ws.stats().node_pairs_split;
             }
             // The background probes ask for what the surfaces allow here: a proof short of the
             // widest asked met a pair (asking for more would come back touching); one as wide
             // as asked found room.
-            self.run.probe_margin = if proven < FREE_PROBE_MM - PROOF_ROUNDING_MM {
+            self.run.proofs.probe_margin = if proven < FREE_PROBE_MM - PROOF_ROUNDING_MM {
                 proven.max(BACKGROUND_PROBE_MIN_MM)
             } else {
-                self.run.probe_margin.max(proven.min(BACKGROUND_PROBE_MM))
+                self.run
+                    .proofs
+                    .probe_margin
+                    .max(proven.min(BACKGROUND_PROBE_MM))
             };
-        } else if h.probes() && d.is_ok() && self.pairs.is_empty() {
+        } else if h.probes() && d.is_ok() && self.detector.pairs.is_empty() {
             // Stopped before an answer: the same question goes to the background probe, which
             // the next frames finish (the tool waits here meanwhile).
-            let _ = self.probe.start(&self.tool, &q_lin, probe);
+            let _ = self.ahead.probe.start(&self.bodies.tool, &q_lin, probe);
         }
         d
     }
@@ -337,11 +341,11 @@ impl GodObject {
     /// slab's face (normal, width across, mm) when the region is one.
     fn settle_slab(&mut self, plan: &mut RegionPlan) -> Option<(Vector3<f64>, f64)> {
         if plan.slab_used {
-            let run = &mut self.run;
+            let run = &mut self.run.regions;
             if run.interrupted
                 || run.dropped > 0
-                || self.pairs.len() > SLAB_MAX_PAIRS
-                || self.ws.stats().node_pairs_split > SLAB_MAX_SPLITS
+                || self.detector.pairs.len() > SLAB_MAX_PAIRS
+                || self.detector.ws.stats().node_pairs_split > SLAB_MAX_SPLITS
             {
                 run.slab_rest = run.slab_next_rest;
                 run.slab_next_rest = (2 * run.slab_next_rest).min(SLAB_REST_MAX_FRAMES);
@@ -353,7 +357,7 @@ impl GodObject {
             .slab
             .filter(|_| plan.slab_used)
             .map(|(n, across, _)| (n, across));
-        if let Some((_, across)) = face.filter(|_| self.pairs.is_empty()) {
+        if let Some((_, across)) = face.filter(|_| self.detector.pairs.is_empty()) {
             plan.allowed = across;
             return None;
         }
@@ -395,9 +399,9 @@ impl GodObject {
         let (q_lin, skin) = (f.course.q_lin, f.skin);
         // The frame's pair count is its first list (a path region that overflowed is none:
         // the next one is).
-        if !f.progress.listed && (self.run.dropped == 0 || plan.sweep.is_none()) {
+        if !f.progress.listed && (self.run.regions.dropped == 0 || plan.sweep.is_none()) {
             f.progress.listed = true;
-            out.pairs = self.pairs.len() as u32;
+            out.pairs = self.detector.pairs.len() as u32;
             out.margin_mm = if plan.sweep.is_some() {
                 plan.width
             } else {
@@ -412,10 +416,13 @@ impl GodObject {
             (None, None) => plan.allowed,
         } + skin;
         if !plan.recentred {
-            let count = self.pairs.len() + self.run.dropped;
-            self.run.density.record(margin, count, plan.sweep.is_some());
+            let count = self.detector.pairs.len() + self.run.regions.dropped;
+            self.run
+                .regions
+                .density
+                .record(margin, count, plan.sweep.is_some());
         }
-        if self.run.dropped > 0 {
+        if self.run.regions.dropped > 0 {
             // More pairs than the storage holds: the list is not complete, so no answer from
             // it is proven. A smaller region (fewer pairs) next pass; after a path, balls.
             f.progress.overflowed = true;
@@ -449,7 +456,7 @@ impl GodObject {
                 lever: if self.params.heuristics.lever
                     && f.course.path_regions
                     && slab_face.is_none()
-                    && self.pairs.len() >= LEVER_MIN_PAIRS
+                    && self.detector.pairs.len() >= LEVER_MIN_PAIRS
                 {
                     self.lever_at(&q_lin, plan.allowed + skin)
                 } else {
@@ -458,17 +465,17 @@ impl GodObject {
             },
         };
         // The trust region's rotation is bounded by the near leaves' arm.
-        let lever_reach = region.lever.map_or(self.reach, |l| {
-            l.trust_reach(self.reach, plan.allowed, skin)
+        let lever_reach = region.lever.map_or(self.bodies.reach, |l| {
+            l.trust_reach(self.bodies.reach, plan.allowed, skin)
         });
         let trust = plan
             .trust
             .then(|| self.trust_for(f, plan, slab_face, lever_reach));
-        if !self.pairs.is_empty() {
+        if !self.detector.pairs.is_empty() {
             // Reused in later frames with a trust region (even where this pass needs none:
             // the hand will have moved).
             let keep = trust.unwrap_or_else(|| self.trust_box(plan.allowed, 1.0, 1.0, lever_reach));
-            self.run.cached = Some((region, keep));
+            self.run.regions.cached = Some((region, keep));
         }
         f.course.region = region;
         f.course.trust = trust;
@@ -493,7 +500,9 @@ impl GodObject {
             (None, None) if f.course.path_regions && self.params.heuristics.turned_trust => {
                 self.trust_turned(f, plan, lever_reach)
             }
-            (None, None) => self.trust_box(plan.allowed, plan.need_t, plan.need_r, self.reach),
+            (None, None) => {
+                self.trust_box(plan.allowed, plan.need_t, plan.need_r, self.bodies.reach)
+            }
         }
     }
 
@@ -508,7 +517,7 @@ impl GodObject {
         let q_pred = self.predicted_pose(&f.goal);
         let pred_t = (q_pred.translation() - q_lin.translation()).norm();
         let pred_r =
-            rotation_angle(&q_pred.rotation_matrix(), &q_lin.rotation_matrix()) * self.reach;
+            rotation_angle(&q_pred.rotation_matrix(), &q_lin.rotation_matrix()) * self.bodies.reach;
         let share = |t: f64, r: f64| {
             if t + r > 0.0 {
                 (t / (t + r)).clamp(0.2, 0.8)
@@ -530,7 +539,7 @@ impl GodObject {
         } else {
             (
                 q_pred.translation() - q_lin.translation(),
-                Vector3::from(self.run.last_turn),
+                Vector3::from(self.run.motion.last_turn),
             )
         };
         self.trust_oriented(plan.allowed, t, r, &step, &turn, lever_reach)

@@ -22,9 +22,9 @@ impl GodObject {
             q_h: q_h.to_array(),
             ..FrameOutput::default()
         };
-        if !self.run.started {
-            self.run.q_g = *q_h;
-            self.run.started = true;
+        if !self.run.motion.started {
+            self.run.motion.q_g = *q_h;
+            self.run.motion.started = true;
         }
         if !q_h.is_finite() || q_h.q.iter().any(|v| v.abs() > 1e6) {
             return self.keep_last_safe(out, q_h, t_start);
@@ -35,23 +35,23 @@ impl GodObject {
             p.max_margin_mm.max(1e-3),
             p.penetration_tol_mm,
         );
-        self.run.cached = None;
-        self.run.warm_len = 0;
-        let (mut q_lin, mut allow) = (self.run.q_g, cap);
-        let (mut q_safe, mut pen_safe) = (self.run.q_g, self.run.pen_g);
+        self.run.regions.cached = None;
+        self.run.solve.warm_len = 0;
+        let (mut q_lin, mut allow) = (self.run.motion.q_g, cap);
+        let (mut q_safe, mut pen_safe) = (self.run.motion.q_g, self.run.motion.pen_g);
         let mut last_answer = None;
         let (mut reached, mut overflowed) = (false, false);
         for pass in 0..p.relinearize.saturating_add(1) {
             out.passes = pass + 1;
             let need_t = (q_h.translation() - q_lin.translation()).norm();
-            let need_r =
-                rotation_angle(&q_h.rotation_matrix(), &q_lin.rotation_matrix()) * self.reach;
+            let need_r = rotation_angle(&q_h.rotation_matrix(), &q_lin.rotation_matrix())
+                * self.bodies.reach;
             let need = need_t + need_r;
             let allowed = need.min(allow);
             if self.detect(&q_lin, allowed + skin).is_err() {
                 return self.keep_last_safe(out, q_h, t_start);
             }
-            if self.run.dropped > 0 {
+            if self.run.regions.dropped > 0 {
                 // More pairs than the storage holds: a smaller ball (the list must be whole).
                 overflowed = true;
                 allow = 0.25 * allowed;
@@ -60,7 +60,7 @@ impl GodObject {
                 }
                 continue;
             }
-            let n_pairs = self.pairs.len();
+            let n_pairs = self.detector.pairs.len();
             if out.passes == 1 {
                 out.pairs = n_pairs as u32;
                 out.margin_mm = allowed + skin;
@@ -73,7 +73,7 @@ impl GodObject {
             let Some(lin) = self.linearization(&q_lin, q_h) else {
                 return self.keep_last_safe(out, q_h, t_start);
             };
-            let trust = capped.then(|| self.trust_box(allowed, need_t, need_r, self.reach));
+            let trust = capped.then(|| self.trust_box(allowed, need_t, need_r, self.bodies.reach));
             let centre = lin.variable(&q_lin);
             let n = self.fill_rows(&lin, trust.map(|t| (t, centre, centre)));
             let Some((dq, iters, status, viol)) = self.solve(n, n_pairs, &lin.delta()) else {
@@ -117,10 +117,10 @@ impl GodObject {
                 _ => FrameStatus::Lagging,
             };
         }
-        self.run.cached = None;
-        self.run.q_g = q_safe;
-        self.run.pen_g = pen_safe;
-        self.run.contacts_g = out.contacts;
+        self.run.regions.cached = None;
+        self.run.motion.q_g = q_safe;
+        self.run.motion.pen_g = pen_safe;
+        self.run.motion.contacts_g = out.contacts;
         out.penetration_mm = pen_safe;
         out.q_g = q_safe.to_array();
         out.wrench = spring_wrench(&p.g(), p.rotation, &q_safe, q_h);

@@ -33,8 +33,8 @@ impl GodObject {
         n_pairs: usize,
         dq0: &[f64; 6],
     ) -> Option<([f64; 6], u32, Status, f64)> {
-        let p = Problem::new(self.params.g(), &self.rows[..n], &self.rhs[..n]).ok()?;
-        let warm = &self.run.warm_idx[..self.run.warm_len];
+        let p = Problem::new(self.params.g(), &self.qp.rows[..n], &self.qp.rhs[..n]).ok()?;
+        let warm = &self.run.solve.warm_idx[..self.run.solve.warm_len];
         let s = if self.params.reduce_rows {
             let mut keep = [0usize; 12];
             let trust = n.saturating_sub(n_pairs).min(12);
@@ -42,10 +42,11 @@ impl GodObject {
                 *k = n_pairs + i;
             }
             let s = self
+                .qp
                 .rows_solver
-                .solve(&mut self.solver, &p, dq0, &keep[..trust], warm);
-            if let Some(audit) = self.audit.as_mut() {
-                let stats = self.rows_solver.stats();
+                .solve(&mut self.qp.solver, &p, dq0, &keep[..trust], warm);
+            if let Some(audit) = self.qp.audit.as_mut() {
+                let stats = self.qp.rows_solver.stats();
                 let (full_solver, acc) = &mut **audit;
                 full_solver.set_warm_start(&[]);
                 let full = full_solver.solve(&p, dq0);
@@ -73,7 +74,9 @@ impl GodObject {
             }
             s
         } else {
-            self.rows_solver.solve_full(&mut self.solver, &p, dq0, warm)
+            self.qp
+                .rows_solver
+                .solve_full(&mut self.qp.solver, &p, dq0, warm)
         };
         if s.status == Status::NumericalError {
             return None;
@@ -84,22 +87,23 @@ impl GodObject {
     /// Maps the remembered active pairs onto the rows of the current pair list.
     pub(super) fn map_warm_start(&mut self) {
         if !self.params.heuristics.warm_start {
-            self.run.warm_len = 0;
+            self.run.solve.warm_len = 0;
             return;
         }
         let mut m = 0;
-        for w in 0..self.run.warm_len {
-            let id = self.run.warm[w];
+        for w in 0..self.run.solve.warm_len {
+            let id = self.run.solve.warm[w];
             if let Some(i) = self
+                .detector
                 .pairs
                 .iter()
                 .position(|p| (p.object, p.tool_slot, p.object_slot) == id)
             {
-                self.run.warm_idx[m] = i;
+                self.run.solve.warm_idx[m] = i;
                 m += 1;
             }
         }
-        self.run.warm_len = m;
+        self.run.solve.warm_len = m;
     }
 
     /// Remembers the identities of the active pairs of the last solve.
@@ -108,13 +112,13 @@ impl GodObject {
         // The one face whose half-space pairs alone hold the tool, if so.
         let mut face: Option<[f64; 3]> = None;
         let mut one_face = true;
-        for &i in self.rows_solver.active_set() {
+        for &i in self.qp.rows_solver.active_set() {
             if i >= n_pairs {
                 continue;
             }
-            let p = &self.pairs[i];
+            let p = &self.detector.pairs[i];
             if m < 6 {
-                self.run.warm[m] = (p.object, p.tool_slot, p.object_slot);
+                self.run.solve.warm[m] = (p.object, p.tool_slot, p.object_slot);
                 m += 1;
             }
             match (p.stands_for_face(), p.face) {
@@ -122,7 +126,7 @@ impl GodObject {
                 _ => one_face = false,
             }
         }
-        self.run.warm_len = m;
-        self.run.contact_face = face.filter(|_| one_face).map(Vector3::from);
+        self.run.solve.warm_len = m;
+        self.run.regions.contact_face = face.filter(|_| one_face).map(Vector3::from);
     }
 }

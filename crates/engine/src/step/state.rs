@@ -1,0 +1,287 @@
+//! The god-object's state, grouped by what it serves: the bodies, the detection buffers,
+//! the work kept ahead (probes, neighbour lists), the QP's buffers, the materials, and the run
+//! state ([`RunState`]: everything learnt while running, replaced whole by a reset).
+
+use super::*;
+
+/// The bodies as the step sees them (fixed after construction).
+pub(super) struct Bodies {
+    /// The tool's packed tree (tool frame, mm) and the objects' (placed, mm).
+    pub(super) tool: PackedTree,
+    pub(super) objects: Vec<PackedTree>,
+    /// Some object has face cuts (then no neighbour lists are kept).
+    pub(super) faces: bool,
+    /// Largest distance of a tool leaf centre from the tool origin, mm.
+    pub(super) reach: f64,
+    /// Box of the tool's leaf centres (tool frame, mm): a turn about an axis moves them by at
+    /// most the angle times their largest distance from it ([`CentreBox::turn_bound`]).
+    pub(super) centres: CentreBox,
+}
+
+/// The detection's buffers: the traversal workspace, the helper thread and the pair list.
+pub(super) struct Detector {
+    pub(super) ws: CollideWorkspace,
+    /// The helper thread that shares large traversals ([`EngineConfig::helper_thread`]).
+    pub(super) team: Option<TraversalTeam>,
+    /// The leaf pairs of the current region.
+    pub(super) pairs: Vec<LeafPair>,
+    /// By tool slot: the detection (`face_stamp`) and index in `pairs` of the tool leaf's last
+    /// half-space pair, so the same face met through several object leaves is kept once.
+    pub(super) face_seen: Vec<(u32, u32)>,
+    pub(super) face_stamp: u32,
+}
+
+/// The work kept ahead of need, a slice per frame.
+pub(super) struct Ahead {
+    /// The next free-space proof.
+    pub(super) probe: FreeSpaceProbe,
+    /// The neighbour list in use: every leaf pair within a wide margin of a pose near the tool,
+    /// filtered instead of traversed while a region's query stays inside it.
+    pub(super) neighbours: NeighbourList,
+    /// The next neighbour list (built by the helper thread, if there is one, on the same
+    /// schedule).
+    pub(super) next_neighbours: BackgroundList,
+}
+
+/// The QP's buffers and solvers.
+pub(super) struct QpBuffers {
+    /// Constraint rows `J` (mm per QP unit) and right-hand sides `d` (mm), pairs then trust rows.
+    pub(super) rows: Vec<[f64; 6]>,
+    pub(super) rhs: Vec<f64>,
+    pub(super) solver: Solver,
+    /// Constraint reduction around the solver (exact solvers, unless turned off): its
+    /// multipliers and active set are the frame's, reduced or not.
+    pub(super) rows_solver: RowGeneration,
+    /// Bench audit of the reduction: a second solver that solves every reduced QP in full
+    /// ([`GodObject::audit_reduction`]); none in normal use.
+    pub(super) audit: Option<Box<(Solver, ReductionAudit)>>,
+}
+
+/// The materials' friction.
+pub(super) struct Materials {
+    /// Friction of each object's material, and of the tool's (`None`: the objects' alone).
+    pub(super) object_friction: Vec<Friction>,
+    pub(super) tool_friction: Option<Friction>,
+    /// Friction is applied (it can be turned off without forgetting the coefficients).
+    pub(super) friction_on: bool,
+}
+
+/// Everything the god-object learns while it runs, by stage. [`GodObject::new`] and
+/// [`GodObject::reset`] both start from [`RunState::fresh`], so a reset run repeats a fresh
+/// engine's frames: nothing carries over.
+///
+/// Plain values only: the buffers a run fills (pair list, probe, neighbour lists) are owned by
+/// [`GodObject`], sized once, and emptied in place by a reset.
+#[derive(Clone, Debug)]
+pub(super) struct RunState {
+    /// The graphic pose and how it moved: the last answer, its motion, the hand's offset from it (the prediction) and its overlap.
+    pub(super) motion: Motion,
+    /// The regions: the pair list's completeness, the cached region, the pair density, the contact face and its slab regions' rest, the near part of the tool.
+    pub(super) regions: RegionMemory,
+    /// The solves: the warm start and the time a row costs.
+    pub(super) solve: SolveMemory,
+    /// The free-space proofs and the background probes' costs and margin.
+    pub(super) proofs: ProofMemory,
+    /// The neighbour lists' margin, costs and yield, and what they spare.
+    pub(super) lists: ListPacing,
+    /// The detection work of the frame and of the run.
+    pub(super) counts: WorkCounts,
+    /// Friction's stick or slip, and the contact it acts in.
+    pub(super) friction: FrictionMemory,
+}
+
+impl RunState {
+    /// The state before any frame.
+    pub(super) fn fresh() -> Self {
+        Self {
+            motion: Motion {
+                q_g: Pose::identity(),
+                started: false,
+                last_motion: 0.0,
+                last_step: [0.0; 3],
+                last_turn: [0.0; 3],
+                hand_offset: (Vector3::zeros(), Vector3::zeros()),
+                prediction_error: 0.0,
+                behind: false,
+                pen_g: 0.0,
+                contacts_g: 0,
+            },
+            regions: RegionMemory {
+                cached: None,
+                pairs_question: None,
+                dropped: 0,
+                interrupted: false,
+                density: density::PairDensity::default(),
+                contact_face: None,
+                lever_cache: None,
+                slab_rest: 0,
+                slab_next_rest: SLAB_REST_FRAMES,
+            },
+            solve: SolveMemory {
+                warm: [(0, 0, 0); 6],
+                warm_len: 0,
+                warm_idx: [0; 6],
+                solve_us_per_row: 0.0,
+            },
+            proofs: ProofMemory {
+                free: [FreeProof::none(); 2],
+                probe_splits: 0,
+                path_probe_splits: 0,
+                probe_margin: BACKGROUND_PROBE_MM,
+            },
+            lists: ListPacing {
+                list_margin: LIST_MARGIN_MM,
+                list_work: LIST_FIRST_WORK,
+                list_splits: LIST_FIRST_SPLITS,
+                list_served: 0,
+                list_yield: LIST_FIRST_YIELD,
+                splits_per_region: 0.0,
+                detections_per_frame: 0.0,
+                frame_detections: 0,
+                idle_given: false,
+            },
+            counts: WorkCounts {
+                frame_splits: 0,
+                frame_scanned: 0,
+                regions_filtered: 0,
+                regions_traversed: 0,
+            },
+            friction: FrictionMemory {
+                sliding: false,
+                patch: None,
+            },
+        }
+    }
+}
+
+/// The graphic pose and how it moved: the last answer, its motion, the hand's offset from it (the prediction) and its overlap.
+#[derive(Clone, Debug)]
+pub(super) struct Motion {
+    /// The graphic configuration: the last frame's answer.
+    pub(super) q_g: Pose,
+    /// A start pose was given (by [`GodObject::reset`] or the first frame's hand).
+    pub(super) started: bool,
+    /// Motion bound of the graphic tool over the last frame, mm.
+    pub(super) last_motion: f64,
+    /// Translation of the graphic tool over the last frame, mm.
+    pub(super) last_step: [f64; 3],
+    /// Turn of the graphic tool over the last frame (rotation vector, world, rad).
+    pub(super) last_turn: [f64; 3],
+    /// Where the hand was relative to the graphic tool at the end of the last frame:
+    /// translation `t_h - t_g` (mm) and rotation `log(R_h R_g^T)` (rad, world axes). A hand in
+    /// steady motion keeps it, which predicts where this frame's answer lies.
+    pub(super) hand_offset: (Vector3<f64>, Vector3<f64>),
+    /// How far (mm, largest sphere motion) the answer lay from the predicted pose, recently
+    /// (the last frame's, or slowly forgotten larger ones).
+    pub(super) prediction_error: f64,
+    /// The last frame ended before the constrained optimum (passes or time ran out).
+    pub(super) behind: bool,
+    /// Overlap (mm) and touching pairs at `q_g`, as the last frame measured them.
+    pub(super) pen_g: f64,
+    pub(super) contacts_g: u32,
+}
+
+/// The regions: the pair list's completeness, the cached region, the pair density, the contact face and its slab regions' rest, the near part of the tool.
+#[derive(Clone, Debug)]
+pub(super) struct RegionMemory {
+    /// The region whose pairs `self.detector.pairs` holds, and the trust region that keeps iterates in
+    /// it: the geometry is static, so it stays valid in later frames (temporal coherence).
+    pub(super) cached: Option<(Region, Trust)>,
+    /// The ball detection that listed `pairs` (its pose and margin, mm), while they are
+    /// complete: every pair within that margin of touching there.
+    pub(super) pairs_question: Option<(Pose, f64)>,
+    /// Leaf pairs of the last detection that did not fit in `pairs` (its list is then not
+    /// complete).
+    pub(super) dropped: usize,
+    /// The last traversal stopped at the frame's deadline (its list is not complete).
+    pub(super) interrupted: bool,
+    /// How the pair count grows with the margin near the tool, as last seen (sizes regions).
+    pub(super) density: density::PairDensity,
+    /// The unit normal of the one flat face whose half-space pairs alone held the tool in the
+    /// last solve (a slab region's face), if so.
+    pub(super) contact_face: Option<Vector3<f64>>,
+    /// The last near part of the tool ([`Lever`]): the pose it was found at, and the margin
+    /// (mm) every leaf outside it was beyond there.
+    pub(super) lever_cache: Option<(Pose, f64, Option<Lever>)>,
+    /// Frames left without slab regions, and the rest after the next failure.
+    pub(super) slab_rest: u32,
+    pub(super) slab_next_rest: u32,
+}
+
+/// The solves: the warm start and the time a row costs.
+#[derive(Clone, Debug)]
+pub(super) struct SolveMemory {
+    /// The pairs active at the last answer (warm start of the next solve), and their
+    /// indices in the current pair list.
+    pub(super) warm: [PairId; 6],
+    pub(super) warm_len: usize,
+    pub(super) warm_idx: [usize; 6],
+    /// Rows, trust region and solve time per row, µs: a running mean (to keep a solve from
+    /// starting when it would end past the budget).
+    pub(super) solve_us_per_row: f64,
+}
+
+/// The free-space proofs and the background probes' costs and margin.
+#[derive(Clone, Debug)]
+pub(super) struct ProofMemory {
+    /// Free-space proofs: poses at which no leaf pair was within a radius (mm). Each spares
+    /// traversals while the tool stays near it; two, so that one placed ahead of the tool by a
+    /// background probe can be ready before the other runs out.
+    pub(super) free: [FreeProof; 2],
+    /// Node pairs the last finished probe at a pose, and along a path, split (their costs, to
+    /// size the next one's slices).
+    pub(super) probe_splits: usize,
+    pub(super) path_probe_splits: usize,
+    /// Margin (mm) of the next background probe: [`BACKGROUND_PROBE_MM`], shrunk after a
+    /// probe that touched ([`PROBE_MARGIN_SHRINK`]), grown back after one that proved free
+    /// space ([`PROBE_MARGIN_GROWTH`]).
+    pub(super) probe_margin: f64,
+}
+
+/// The neighbour lists' margin, costs and yield, and what they spare.
+#[derive(Clone, Debug)]
+pub(super) struct ListPacing {
+    /// Margin (mm) of the next neighbour list: adapted to the pairs the last one held.
+    pub(super) list_margin: f64,
+    /// Work of the last finished list (node pairs split plus pairs listed: its cost, to size
+    /// the next one's slices), and the node pairs it split (its cost against the traversals
+    /// it spares, as [`LIST_PAYOFF`] was measured).
+    pub(super) list_work: usize,
+    pub(super) list_splits: usize,
+    /// Regions the neighbour list in use has answered since it was taken, and what the last
+    /// lists spared against their build's work (running mean; [`LIST_MIN_YIELD`]).
+    pub(super) list_served: u32,
+    pub(super) list_yield: f64,
+    /// Node pairs a region's traversal splits in the current contact (running mean), and
+    /// regions detected per frame (running mean; this frame's count): what a list spares.
+    pub(super) splits_per_region: f64,
+    pub(super) detections_per_frame: f64,
+    pub(super) frame_detections: u32,
+    /// The loop gave the engine its wait before this frame ([`GodObject::idle`]): the next
+    /// neighbour list is then built mostly there, so one is kept wherever it lasts (its build
+    /// no longer costs the frames).
+    pub(super) idle_given: bool,
+}
+
+/// The detection work of the frame and of the run.
+#[derive(Clone, Debug)]
+pub(super) struct WorkCounts {
+    /// This frame's detection work so far: node pairs split (traversals, probes, list builds;
+    /// [`crate::Frame::splits`]) and neighbour-list entries tested ([`crate::Frame::scanned`]).
+    pub(super) frame_splits: u64,
+    pub(super) frame_scanned: u64,
+    /// Regions answered from a neighbour list or the last ball's own pairs, and by a
+    /// traversal, since the last reset.
+    pub(super) regions_filtered: u64,
+    pub(super) regions_traversed: u64,
+}
+
+/// Friction's stick or slip, and the contact it acts in.
+#[derive(Clone, Debug)]
+pub(super) struct FrictionMemory {
+    /// The tool slid in the last frame with contact (kinetic friction holds it), else it
+    /// stuck (static friction).
+    pub(super) sliding: bool,
+    /// The contact the last frame ended in (for friction), if any.
+    pub(super) patch: Option<friction::Patch>,
+}
