@@ -529,58 +529,8 @@ impl GodObject {
         // pass over its entries, no traversal): the probe has until the list runs out.
         let list_frames = (self.ahead.neighbours.slack(q, None, used) / speed).max(0.0);
         let horizon = self.proof_horizon(q, used).max(list_frames);
-        // A tool sliding steadily (without turning) is probed along its way.
-        let step = Vector3::from(self.run.motion.last_step);
-        let sliding = step.norm() >= PATH_PROBE_MIN_STEP_MM
-            && self.run.motion.last_motion <= 1.25 * step.norm();
         if self.ahead.probe.status() == ProbeStatus::Running {
-            // The last probe's cost (of the same kind) estimates this one's; one that runs
-            // past it (a deeper hole costs more) is given a quarter more at a time. It aims to
-            // finish a frame before the proofs run out.
-            let (estimate, least) = if self.ahead.probe.path() != [0.0; 3] {
-                (self.path_probe_estimate(), PATH_PROBE_MIN_SLICE_SPLITS)
-            } else {
-                (self.run.proofs.probe_splits as f64, PROBE_MIN_SLICE_SPLITS)
-            };
-            // Paced to finish a little before the horizon (a probe at a pose), or within three
-            // quarters of it (along a path: the horizon is measured at the last frame's motion,
-            // and a hand speeding up along the path shortens it), for a quarter more than the
-            // estimate, the last probe's cost (the spline's withdrawal ran a path probe of
-            // 20 300 node pairs on an estimate of 16 300 at the least slice until its last
-            // frames, then finished 3 500 of them in one).
-            let left = (PROBE_ESTIMATE_SPARE * estimate - self.ahead.probe.splits() as f64)
-                .max(0.25 * estimate);
-            let within = if self.ahead.probe.path() != [0.0; 3] {
-                PROBE_FINISH_WITHIN * horizon - PROBE_FINISH_SPARE_FRAMES
-            } else {
-                horizon - PROBE_FINISH_SPARE_FRAMES
-            };
-            let mut slice =
-                (left / within.max(1.0)).clamp(least as f64, PROBE_MAX_SLICE_SPLITS as f64);
-            // A new probe's first slice meets its part of the trees cold: a smaller one (the
-            // later slices make up for it).
-            if self.ahead.probe.splits() == 0 && horizon > 2.0 {
-                slice *= PROBE_FIRST_SLICE_SHARE;
-            }
-            let tt = Instant::now();
-            // A slice's node pairs cost 0.05–0.3 µs each (a path's more, a cold tree's more):
-            // while the proofs still serve, it also stops at its share of the frame's budget.
-            let share = if horizon > 2.0 {
-                PROBE_SLICE_MAX_SHARE
-            } else {
-                PROBE_SLICE_URGENT_SHARE
-            };
-            let slice_time = share * self.params.budget_us.max(0.0) * 1e-6;
-            let slice_deadline = deadline.min(tt + std::time::Duration::from_secs_f64(slice_time));
-            let before = self.ahead.probe.splits();
-            self.ahead.probe.advance_shared(
-                &self.bodies.tool,
-                &self.bodies.objects,
-                slice as usize,
-                self.detector.team.as_ref(),
-                Some(slice_deadline),
-            );
-            self.run.counts.frame_splits += self.ahead.probe.splits().saturating_sub(before) as u64;
+            self.probe_slice(horizon, deadline);
         }
         match self.ahead.probe.status() {
             ProbeStatus::Free if !self.proof_slot_free(q, used) => {}
@@ -599,62 +549,121 @@ impl GodObject {
                 self.run.proofs.probe_margin =
                     (PROBE_MARGIN_SHRINK * radius).max(BACKGROUND_PROBE_MIN_MM);
             }
-            ProbeStatus::Idle => {
-                // Where a whole proof costs less than a slice (open space), renewing it when
-                // it runs out is cheaper than probing ahead; not where a neighbour list
-                // renewed the proofs (the tight gap it was built in costs a long traversal
-                // once it runs out).
-                let worth_it =
-                    self.run.proofs.probe_splits > PROBE_SLICE_SPLITS || list_frames > 0.0;
-                let (estimate, pace, ahead) = if sliding {
-                    (
-                        self.path_probe_estimate(),
-                        PATH_PROBE_SLICE_SPLITS,
-                        PATH_PROBE_LEAD,
-                    )
-                } else {
-                    (self.run.proofs.probe_splits as f64, PROBE_SLICE_SPLITS, 1.5)
-                };
-                let lead = (ahead * estimate / pace as f64 + 2.0).max(PROBE_LEAD_FRAMES);
-                let margin = self.run.proofs.probe_margin;
-                let lasts = margin - used >= PROBE_MIN_USABLE_FRAMES * speed;
-                // A tool at rest in free space has time to spare: a wider proof about it,
-                // built a slice a frame, serves the first frames of its next motion while the
-                // probes ahead of that motion get going (the spline's insertion starts from
-                // rest in the hole: ~100 µs traversals without one).
-                let widen = horizon >= REST_HORIZON_FRAMES
-                    && self.free_slack(q) + used < PROBE_WIDEN_RATIO * margin;
-                if worth_it && widen {
-                    let _ = self.ahead.probe.start(&self.bodies.tool, q, margin);
-                } else if worth_it && horizon < lead && lasts {
-                    if sliding {
-                        // The probe goes along the tool's way from where the proofs run out
-                        // (a frame early), for many frames of the same motion.
-                        let length = (PATH_PROBE_FRAMES * step.norm())
-                            .clamp(PATH_PROBE_MIN_MM, PATH_PROBE_MAX_MM);
-                        let mut from = *q;
-                        for k in 0..3 {
-                            from.q[k] += (horizon - 1.0).max(0.0) * step[k];
-                        }
-                        let path = step * (length / step.norm());
-                        let _ = self.ahead.probe.start_along(
-                            &self.bodies.tool,
-                            &from,
-                            path.into(),
-                            margin,
-                        );
-                    } else {
-                        // The tool keeps moving (and turning) as it did last frame: the new
-                        // proof's ball is centred past the point where the current ones run
-                        // out, so that it takes over a little before and lasts well after.
-                        let usable = (margin - used).max(0.0);
-                        let ahead_frames = horizon + PROBE_AHEAD * usable / speed;
-                        let ahead = self.pose_ahead(q, ahead_frames);
-                        let _ = self.ahead.probe.start(&self.bodies.tool, &ahead, margin);
-                    }
-                }
-            }
+            ProbeStatus::Idle => self.start_probe(q, used, horizon, list_frames),
             ProbeStatus::Running => {}
+        }
+    }
+
+    /// One slice of the running background probe, paced from the last probe's cost to finish
+    /// a little before the proofs run out (`horizon` frames), and stopped at a share of the
+    /// frame's budget or the `deadline`.
+    fn probe_slice(&mut self, horizon: f64, deadline: Instant) {
+        // The last probe's cost (of the same kind) estimates this one's; one that runs
+        // past it (a deeper hole costs more) is given a quarter more at a time. It aims to
+        // finish a frame before the proofs run out.
+        let (estimate, least) = if self.ahead.probe.path() != [0.0; 3] {
+            (self.path_probe_estimate(), PATH_PROBE_MIN_SLICE_SPLITS)
+        } else {
+            (self.run.proofs.probe_splits as f64, PROBE_MIN_SLICE_SPLITS)
+        };
+        // Paced to finish a little before the horizon (a probe at a pose), or within three
+        // quarters of it (along a path: the horizon is measured at the last frame's motion,
+        // and a hand speeding up along the path shortens it), for a quarter more than the
+        // estimate, the last probe's cost (the spline's withdrawal ran a path probe of
+        // 20 300 node pairs on an estimate of 16 300 at the least slice until its last
+        // frames, then finished 3 500 of them in one).
+        let left = (PROBE_ESTIMATE_SPARE * estimate - self.ahead.probe.splits() as f64)
+            .max(0.25 * estimate);
+        let within = if self.ahead.probe.path() != [0.0; 3] {
+            PROBE_FINISH_WITHIN * horizon - PROBE_FINISH_SPARE_FRAMES
+        } else {
+            horizon - PROBE_FINISH_SPARE_FRAMES
+        };
+        let mut slice = (left / within.max(1.0)).clamp(least as f64, PROBE_MAX_SLICE_SPLITS as f64);
+        // A new probe's first slice meets its part of the trees cold: a smaller one (the
+        // later slices make up for it).
+        if self.ahead.probe.splits() == 0 && horizon > 2.0 {
+            slice *= PROBE_FIRST_SLICE_SHARE;
+        }
+        let tt = Instant::now();
+        // A slice's node pairs cost 0.05–0.3 µs each (a path's more, a cold tree's more):
+        // while the proofs still serve, it also stops at its share of the frame's budget.
+        let share = if horizon > 2.0 {
+            PROBE_SLICE_MAX_SHARE
+        } else {
+            PROBE_SLICE_URGENT_SHARE
+        };
+        let slice_time = share * self.params.budget_us.max(0.0) * 1e-6;
+        let slice_deadline = deadline.min(tt + std::time::Duration::from_secs_f64(slice_time));
+        let before = self.ahead.probe.splits();
+        self.ahead.probe.advance_shared(
+            &self.bodies.tool,
+            &self.bodies.objects,
+            slice as usize,
+            self.detector.team.as_ref(),
+            Some(slice_deadline),
+        );
+        self.run.counts.frame_splits += self.ahead.probe.splits().saturating_sub(before) as u64;
+    }
+
+    /// Starts the next background probe when the proofs about `q` (`horizon` frames left, for
+    /// a frame that needs `used` mm) run out within the probe's expected slices: along the
+    /// tool's way for a tool sliding steadily, else at the pose where they run out and beyond.
+    fn start_probe(&mut self, q: &Pose, used: f64, horizon: f64, list_frames: f64) {
+        let speed = self.run.motion.last_motion.max(1e-4);
+        // A tool sliding steadily (without turning) is probed along its way.
+        let step = Vector3::from(self.run.motion.last_step);
+        let sliding = step.norm() >= PATH_PROBE_MIN_STEP_MM
+            && self.run.motion.last_motion <= 1.25 * step.norm();
+        // Where a whole proof costs less than a slice (open space), renewing it when
+        // it runs out is cheaper than probing ahead; not where a neighbour list
+        // renewed the proofs (the tight gap it was built in costs a long traversal
+        // once it runs out).
+        let worth_it = self.run.proofs.probe_splits > PROBE_SLICE_SPLITS || list_frames > 0.0;
+        let (estimate, pace, ahead) = if sliding {
+            (
+                self.path_probe_estimate(),
+                PATH_PROBE_SLICE_SPLITS,
+                PATH_PROBE_LEAD,
+            )
+        } else {
+            (self.run.proofs.probe_splits as f64, PROBE_SLICE_SPLITS, 1.5)
+        };
+        let lead = (ahead * estimate / pace as f64 + 2.0).max(PROBE_LEAD_FRAMES);
+        let margin = self.run.proofs.probe_margin;
+        let lasts = margin - used >= PROBE_MIN_USABLE_FRAMES * speed;
+        // A tool at rest in free space has time to spare: a wider proof about it,
+        // built a slice a frame, serves the first frames of its next motion while the
+        // probes ahead of that motion get going (the spline's insertion starts from
+        // rest in the hole: ~100 µs traversals without one).
+        let widen = horizon >= REST_HORIZON_FRAMES
+            && self.free_slack(q) + used < PROBE_WIDEN_RATIO * margin;
+        if worth_it && widen {
+            let _ = self.ahead.probe.start(&self.bodies.tool, q, margin);
+        } else if worth_it && horizon < lead && lasts {
+            if sliding {
+                // The probe goes along the tool's way from where the proofs run out
+                // (a frame early), for many frames of the same motion.
+                let length =
+                    (PATH_PROBE_FRAMES * step.norm()).clamp(PATH_PROBE_MIN_MM, PATH_PROBE_MAX_MM);
+                let mut from = *q;
+                for k in 0..3 {
+                    from.q[k] += (horizon - 1.0).max(0.0) * step[k];
+                }
+                let path = step * (length / step.norm());
+                let _ = self
+                    .ahead
+                    .probe
+                    .start_along(&self.bodies.tool, &from, path.into(), margin);
+            } else {
+                // The tool keeps moving (and turning) as it did last frame: the new
+                // proof's ball is centred past the point where the current ones run
+                // out, so that it takes over a little before and lasts well after.
+                let usable = (margin - used).max(0.0);
+                let ahead_frames = horizon + PROBE_AHEAD * usable / speed;
+                let ahead = self.pose_ahead(q, ahead_frames);
+                let _ = self.ahead.probe.start(&self.bodies.tool, &ahead, margin);
+            }
         }
     }
 
