@@ -36,6 +36,9 @@
 //!   - [`PqpWorkspace`] (`pqp`): the paper's multiplicative-update dual method, with the
 //!     paper's stop ([`PqpParams::paper`]) or a KKT stop ([`PqpParams::tight`]). See [`pqp`]
 //!     for the dual problem and the derivation of its signs.
+//!   - [`ParallelPqpWorkspace`] (`pqp-parallel`): the same PQP iteration with its update
+//!     vectorized (AVX2 + FMA where the CPU has it) and split over persistent worker
+//!     threads; the serial iterates up to rounding. See [`pqp_parallel`].
 //!
 //! # Example
 //!
@@ -63,6 +66,7 @@ pub mod active_set;
 mod basis;
 pub mod dual;
 pub mod pqp;
+pub mod pqp_parallel;
 mod problem;
 pub mod reduce;
 mod solution;
@@ -71,6 +75,7 @@ mod solver;
 pub use active_set::{ActiveSetParams, ActiveSetWorkspace};
 pub use dual::{DualParams, DualWorkspace};
 pub use pqp::{PqpParams, PqpWorkspace};
+pub use pqp_parallel::ParallelPqpWorkspace;
 pub use problem::Problem;
 pub use reduce::{ReductionStats, RowGeneration};
 pub use solution::{Kkt, Solution, Status};
@@ -101,7 +106,7 @@ pub enum QpError {
         /// The first offending row.
         row: usize,
     },
-    /// A solver name that is not one of `dual`, `active-set`, `pqp`.
-    #[error("unknown solver `{0}`: use one of dual, active-set, pqp")]
+    /// A solver name that is not one of `dual`, `active-set`, `pqp`, `pqp-parallel`.
+    #[error("unknown solver `{0}`: use one of dual, active-set, pqp, pqp-parallel")]
     UnknownSolver(String),
 }

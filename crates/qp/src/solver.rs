@@ -1,8 +1,9 @@
-//! One entry point for the three solvers.
+//! One entry point for the four solvers.
 
 use crate::active_set::ActiveSetWorkspace;
 use crate::dual::DualWorkspace;
-use crate::pqp::PqpWorkspace;
+use crate::pqp::{PqpParams, PqpWorkspace};
+use crate::pqp_parallel::{available_threads, ParallelPqpWorkspace};
 use crate::problem::Problem;
 use crate::solution::Solution;
 
@@ -17,25 +18,39 @@ pub enum SolverKind {
     ActiveSet,
     /// The paper's multiplicative-update PQP (its stopping rule by default).
     Pqp,
+    /// The same PQP iteration vectorized and split over persistent threads (one per core):
+    /// the serial iterates up to rounding.
+    PqpParallel,
 }
 
 impl SolverKind {
     /// All kinds, in a fixed order.
-    pub const ALL: [SolverKind; 3] = [SolverKind::Dual, SolverKind::ActiveSet, SolverKind::Pqp];
+    pub const ALL: [SolverKind; 4] = [
+        SolverKind::Dual,
+        SolverKind::ActiveSet,
+        SolverKind::Pqp,
+        SolverKind::PqpParallel,
+    ];
 
-    /// The command-line name: `dual`, `active-set`, `pqp`.
+    /// The command-line name: `dual`, `active-set`, `pqp`, `pqp-parallel`.
     pub fn name(self) -> &'static str {
         match self {
             SolverKind::Dual => "dual",
             SolverKind::ActiveSet => "active-set",
             SolverKind::Pqp => "pqp",
+            SolverKind::PqpParallel => "pqp-parallel",
         }
     }
 
     /// True for solvers that return the exact QP optimum (within tolerance); the paper's PQP
-    /// stops early by design.
+    /// (serial or parallel) stops early by design.
     pub fn is_exact(self) -> bool {
-        !matches!(self, SolverKind::Pqp)
+        !self.is_pqp()
+    }
+
+    /// True for the paper's PQP, serial or parallel.
+    pub fn is_pqp(self) -> bool {
+        matches!(self, SolverKind::Pqp | SolverKind::PqpParallel)
     }
 }
 
@@ -52,6 +67,7 @@ impl std::str::FromStr for SolverKind {
             "dual" => Ok(SolverKind::Dual),
             "active-set" | "activeset" | "active_set" => Ok(SolverKind::ActiveSet),
             "pqp" => Ok(SolverKind::Pqp),
+            "pqp-parallel" | "pqp_parallel" => Ok(SolverKind::PqpParallel),
             _ => Err(crate::QpError::UnknownSolver(s.to_string())),
         }
     }
@@ -71,6 +87,10 @@ pub struct Solver {
     pub active_set: ActiveSetWorkspace,
     /// Workspace of the PQP solver (its `params` choose the stop rule).
     pub pqp: PqpWorkspace,
+    /// Workspace of the parallel PQP solver (its `params` choose the stop rule). Its worker
+    /// threads are spawned by [`Solver::new`] for [`SolverKind::PqpParallel`], otherwise by
+    /// its first reserve or solve.
+    pub pqp_parallel: ParallelPqpWorkspace,
 }
 
 impl Default for Solver {
@@ -81,14 +101,22 @@ impl Default for Solver {
 }
 
 impl Solver {
-    /// A solver of `kind` with default parameters (PQP: the paper's).
+    /// A solver of `kind` with default parameters (PQP: the paper's). For
+    /// [`SolverKind::PqpParallel`] this spawns one worker thread per further core
+    /// ([`crate::pqp_parallel::available_threads`]).
     pub fn new(kind: SolverKind) -> Self {
+        let pqp_parallel = if kind == SolverKind::PqpParallel {
+            ParallelPqpWorkspace::with_threads(PqpParams::paper(), available_threads())
+        } else {
+            ParallelPqpWorkspace::new()
+        };
         Self {
             kind,
             warm_start: true,
             dual: DualWorkspace::new(),
             active_set: ActiveSetWorkspace::new(),
             pqp: PqpWorkspace::new(),
+            pqp_parallel,
         }
     }
 
@@ -98,6 +126,7 @@ impl Solver {
             SolverKind::Dual => self.dual.reserve(n),
             SolverKind::ActiveSet => self.active_set.reserve(n),
             SolverKind::Pqp => self.pqp.reserve(n),
+            SolverKind::PqpParallel => self.pqp_parallel.reserve(n),
         }
     }
 
@@ -112,6 +141,7 @@ impl Solver {
             SolverKind::Dual => self.dual.solve(p, self.warm_start),
             SolverKind::ActiveSet => self.active_set.solve(p, dq0),
             SolverKind::Pqp => self.pqp.solve(p),
+            SolverKind::PqpParallel => self.pqp_parallel.solve(p),
         }
     }
 
@@ -121,16 +151,17 @@ impl Solver {
             SolverKind::Dual => self.dual.multipliers(),
             SolverKind::ActiveSet => self.active_set.multipliers(),
             SolverKind::Pqp => self.pqp.multipliers(),
+            SolverKind::PqpParallel => self.pqp_parallel.multipliers(),
         }
     }
 
     /// Indices of the rows active (held tight) at the answer of the last solve; empty for
-    /// [`SolverKind::Pqp`], which keeps no active set.
+    /// [`SolverKind::Pqp`] and [`SolverKind::PqpParallel`], which keep no active set.
     pub fn active_set(&self) -> &[usize] {
         match self.kind {
             SolverKind::Dual => self.dual.active_set(),
             SolverKind::ActiveSet => self.active_set.active_set(),
-            SolverKind::Pqp => &[],
+            SolverKind::Pqp | SolverKind::PqpParallel => &[],
         }
     }
 

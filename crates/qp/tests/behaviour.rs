@@ -112,8 +112,9 @@ fn zero_rows_are_ignored_or_infeasible() {
     let j = [[0.0; 6], [1.0, 0.0, 0.0, 0.0, 0.0, 0.0]];
     let p = Problem::new(G, &j, &[-1.0, 0.5]).unwrap();
     for (k, mut s) in all_solvers() {
-        if k == SolverKind::Pqp {
+        if k.is_pqp() {
             s.pqp.params = PqpParams::tight();
+            s.pqp_parallel.params = PqpParams::tight();
         }
         let sol = s.solve(&p, &[1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
         assert_eq!(sol.status, Status::Solved, "{k}");

@@ -32,12 +32,13 @@ fn warmed_up_solves_do_not_allocate() {
         .collect();
     for kind in SolverKind::ALL {
         let mut s = Solver::new(kind);
-        if kind == SolverKind::Pqp {
+        if kind.is_pqp() {
             // The paper's stop, warm-started (exercises the warm path too).
             s.pqp.params = PqpParams {
                 warm_start: true,
                 ..PqpParams::paper()
             };
+            s.pqp_parallel.params = s.pqp.params;
         }
         s.reserve(300);
         // Phase 1 of the active-set solver has its own buffers: warm them up too.
