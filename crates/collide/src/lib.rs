@@ -51,6 +51,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod constraint;
+mod mesh_leaves;
 mod near;
 mod neighbours;
 mod packed;
@@ -58,11 +59,13 @@ mod pose;
 mod probe;
 mod team;
 mod traverse;
+mod triangle;
 
 pub use constraint::{
     constraint_value, fill_constraints, pair_constraint_value, ConstraintForm, Linearization,
     RotationCoordinates, DEGENERATE_DISTANCE,
 };
+pub use mesh_leaves::{MeshLeaves, MeshLeavesError};
 pub use near::near_box;
 pub use neighbours::{BackgroundList, ListStatus, NeighbourList};
 pub use packed::{PackedTree, WARM_CHUNK_NODES};
@@ -77,6 +80,7 @@ pub use traverse::{
     overlap_tree_trees, overlap_until, CollideWorkspace, FaceCut, FacePlane, FaceSlab, LeafPair,
     StandIn, Sweep, Traversal, TraversalStats,
 };
+pub use triangle::{closest_on_triangle, triangle_distance, Triangle, TriangleDistance};
 
 /// Errors of this crate.
 #[derive(Debug, thiserror::Error)]
