@@ -207,7 +207,7 @@ mod tests {
 
     fn random_triangle(rng: &mut rand::rngs::StdRng, centre: [f64; 3], size: f64) -> Triangle {
         std::array::from_fn(|_| {
-            std::array::from_fn(|k| centre[k] + size * rng.gen_range(-1.0..1.0))
+            std::array::from_fn(|k| centre[k] + size * rng.random_range(-1.0..1.0))
         })
     }
 
@@ -268,7 +268,7 @@ mod tests {
     fn random_triangle_pairs_are_certified_and_never_above_a_sampled_minimum() {
         let mut rng = rand::rngs::StdRng::seed_from_u64(7);
         for case in 0..3000 {
-            let gap = rng.gen_range(0.0..3.0);
+            let gap = rng.random_range(0.0..3.0);
             let a = random_triangle(&mut rng, [0.0; 3], 1.0);
             let b = random_triangle(&mut rng, [gap, 0.3 * gap, 0.0], 1.0);
             let d = triangle_distance(&a, &b);
