@@ -155,8 +155,14 @@ fn segment_crosses(p: &V, q: &V, a: &V, b: &V, c: &V) -> Option<V> {
 /// No allocation, no panic, constant time (15 feature pairs and 6 edge crossings).
 pub fn triangle_distance(a: &Triangle, b: &Triangle) -> TriangleDistance {
     let (pa, pb) = (a.map(|p| v(&p)), b.map(|p| v(&p)));
-    // An edge of one crossing the other: they meet.
+    // An edge of one crossing the other: they meet. (Only where its corners are not all on
+    // one side of the other's plane.)
     for (s, t) in [(&pa, &pb), (&pb, &pa)] {
+        let n = (t[1] - t[0]).cross(&(t[2] - t[0]));
+        let side = s.map(|p| n.dot(&(p - t[0])));
+        if side.iter().all(|&d| d > 0.0) || side.iter().all(|&d| d < 0.0) {
+            continue;
+        }
         for k in 0..3 {
             if let Some(x) = segment_crosses(&s[k], &s[(k + 1) % 3], &t[0], &t[1], &t[2]) {
                 return TriangleDistance {

@@ -6,7 +6,7 @@ use spheretree::SphereTree;
 
 use crate::safety::{Safety, SafetyEvents, SafetyParams};
 use crate::step::{FrameOutput, FrameStatus, Friction, FrictionState, GodObject, Heuristics};
-use crate::EngineError;
+use crate::{EngineError, Geometry, MeshRef};
 
 /// Every setting of the engine, checked once by [`Engine::new`] against the ranges in
 /// [`crate::config`] (the same ranges a scene file's keys are checked against).
@@ -61,6 +61,9 @@ pub struct EngineConfig {
     pub face_caps: bool,
     /// Device limits applied to every wrench sent.
     pub safety: SafetyParams,
+    /// The geometry the step keeps the tool out of: the leaf spheres (default, the paper's) or
+    /// the parts' meshes where the engine is given them ([`Geometry`]).
+    pub geometry: Geometry,
     /// The frame step's heuristics, each switchable ([`Heuristics`]; all on by default). For
     /// measuring and testing the step: not a scene-file setting.
     pub heuristics: Heuristics,
@@ -84,6 +87,7 @@ impl Default for EngineConfig {
             helper_thread: false,
             face_caps: false,
             safety: SafetyParams::default(),
+            geometry: Geometry::Spheres,
             heuristics: Heuristics::ALL,
         }
     }
@@ -257,7 +261,20 @@ impl Engine {
         objects: &[(SphereTree, Pose)],
         config: EngineConfig,
     ) -> Result<Self, EngineError> {
-        let god = GodObject::new(tool, objects, config)?; // validates the config
+        Self::with_meshes(tool, None, objects, &[], config)
+    }
+
+    /// [`Engine::new`] with the bodies' meshes (each in its tree's frame, mm), for the mesh
+    /// geometry mode ([`GodObject::with_meshes`]).
+    pub fn with_meshes(
+        tool: &SphereTree,
+        tool_mesh: Option<MeshRef<'_>>,
+        objects: &[(SphereTree, Pose)],
+        object_meshes: &[Option<MeshRef<'_>>],
+        config: EngineConfig,
+    ) -> Result<Self, EngineError> {
+        // Validates the config.
+        let god = GodObject::with_meshes(tool, tool_mesh, objects, object_meshes, config)?;
         Ok(Self {
             god,
             config,

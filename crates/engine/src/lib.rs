@@ -54,12 +54,14 @@
 
 pub mod config;
 mod engine;
+mod geometry;
 pub mod safety;
 pub mod setting;
 pub mod step;
 
 pub use collide::{ConstraintForm, LeafPair, Pose, RotationCoordinates};
 pub use engine::{Counters, Engine, EngineConfig, Frame};
+pub use geometry::{Geometry, MeshRef};
 pub use qp::SolverKind;
 pub use step::{FrameStatus, Friction, FrictionState, Heuristics};
 
@@ -84,6 +86,18 @@ pub enum EngineError {
         /// Search radius, mm.
         searched_mm: f64,
     },
+    /// A body's mesh cannot be attached to its tree (the mesh geometry mode).
+    #[error("{body}: {source}")]
+    Mesh {
+        /// Which mesh: `tool mesh` or `object N mesh` (1-based).
+        body: String,
+        /// Why.
+        #[source]
+        source: collide::MeshLeavesError,
+    },
+    /// The mesh geometry mode was asked for with the squared constraint form.
+    #[error("geometry = \"mesh\" needs form = \"distance\" (the squared form has no meaning between triangles)")]
+    MeshNeedsDistance,
     /// The detection helper thread ([`EngineConfig::helper_thread`]) could not be started.
     #[error("cannot start the detection helper thread: {0} (set `[solver] helper_thread = false` to detect on one thread)")]
     HelperThread(String),

@@ -172,6 +172,11 @@ pub struct SolverSpec {
     /// (docs/DESIGN.md §Face caps): `false` (default: whole spheres, the paper's trees) or
     /// `true` (the built-in plate scenes).
     pub face_caps: bool,
+    /// What the tool touches: `spheres` (default: the trees' leaf spheres, the paper's model)
+    /// or `mesh` (the parts' own triangles, the trees as the bounding hierarchy; needs every
+    /// body built from a mesh, else the run keeps spheres and says so).
+    #[serde(with = "by_name")]
+    pub geometry: engine::Geometry,
     /// The frame step's heuristic switches ([`engine::Heuristics`], all on): for the bench's
     /// ablation study and the tests, not a key of the scene file.
     #[serde(skip)]
@@ -191,6 +196,7 @@ impl Default for SolverSpec {
             reduce_rows: true,
             helper_thread: false,
             face_caps: false,
+            geometry: engine::Geometry::Spheres,
             heuristics: engine::Heuristics::ALL,
         }
     }
@@ -552,6 +558,7 @@ impl Scene {
             reduce_rows: self.solver.reduce_rows,
             helper_thread: self.solver.helper_thread,
             face_caps: self.solver.face_caps,
+            geometry: self.solver.geometry,
             heuristics: self.solver.heuristics,
             safety: self.safety,
             ..EngineConfig::default()
@@ -562,13 +569,18 @@ impl Scene {
     /// [`engine::Engine::reset`]).
     /// Allocates; call before the haptic loop.
     pub fn engine(&self) -> Result<Engine, SceneError> {
-        let mut engine =
-            Engine::new(&self.tool, &self.objects, self.engine_config()).map_err(|source| {
-                SceneError::Engine {
-                    file: self.name.clone(),
-                    source,
-                }
-            })?;
+        let (tool_mesh, object_meshes) = self.mesh_refs();
+        let mut engine = Engine::with_meshes(
+            &self.tool,
+            tool_mesh,
+            &self.objects,
+            &object_meshes,
+            self.engine_config(),
+        )
+        .map_err(|source| SceneError::Engine {
+            file: self.name.clone(),
+            source,
+        })?;
         self.apply_friction(&mut engine)?;
         engine
             .reset(&self.start)
@@ -592,14 +604,54 @@ impl Scene {
         Ok(())
     }
 
+    /// The bodies' meshes as the engine takes them (the mesh geometry mode uses them).
+    fn mesh_refs(
+        &self,
+    ) -> (
+        Option<engine::MeshRef<'_>>,
+        Vec<Option<engine::MeshRef<'_>>>,
+    ) {
+        fn as_ref(m: &TriMesh) -> engine::MeshRef<'_> {
+            engine::MeshRef {
+                vertices: &m.vertices,
+                triangles: &m.triangles,
+            }
+        }
+        (
+            self.tool_mesh.as_ref().map(as_ref),
+            self.object_meshes
+                .iter()
+                .map(|m| m.as_ref().map(as_ref))
+                .collect(),
+        )
+    }
+
+    /// The geometry the engine will keep the tool out of: the mesh mode where it is asked for
+    /// and every body has its mesh, else the leaf spheres.
+    pub fn geometry(&self) -> engine::Geometry {
+        let all = self.tool_mesh.is_some() && self.object_meshes.iter().all(Option::is_some);
+        if self.solver.geometry == engine::Geometry::Mesh && all {
+            engine::Geometry::Mesh
+        } else {
+            engine::Geometry::Spheres
+        }
+    }
+
     /// The god-object step alone (no safety layer), for tools that measure it.
     pub fn god_object(&self) -> Result<engine::step::GodObject, SceneError> {
         let err = |source| SceneError::Engine {
             file: self.name.clone(),
             source,
         };
-        let mut god = engine::step::GodObject::new(&self.tool, &self.objects, self.engine_config())
-            .map_err(err)?;
+        let (tool_mesh, object_meshes) = self.mesh_refs();
+        let mut god = engine::step::GodObject::with_meshes(
+            &self.tool,
+            tool_mesh,
+            &self.objects,
+            &object_meshes,
+            self.engine_config(),
+        )
+        .map_err(err)?;
         god.set_tool_friction(self.tool_friction).map_err(err)?;
         for (i, f) in self.object_friction.iter().enumerate() {
             god.set_friction(i, *f).map_err(err)?;

@@ -25,25 +25,29 @@ impl GodObject {
         Linearization::with_coordinates(self.params.form, self.params.rotation, q_lin, q_h).ok()
     }
 
-    /// Fills rows for `self.detector.pairs` from `lin`, plus the trust region when given, about the
-    /// variable's values `base` at the region's centre and `end` at the end of its path.
-    /// Returns the row count.
+    /// Fills rows for the region's list from `lin` (a row per leaf pair, or per triangle pair
+    /// in the mesh mode), plus the trust region when given, about the variable's values `base`
+    /// at the region's centre and `end` at the end of its path. Returns the row count.
     pub(super) fn fill_rows(
         &mut self,
         lin: &Linearization,
         trust: Option<(Trust, [f64; 6], [f64; 6])>,
     ) -> usize {
         let mut n = 0;
-        for (pair, (row, d)) in self
-            .detector
-            .pairs
-            .iter()
-            .zip(self.qp.rows.iter_mut().zip(self.qp.rhs.iter_mut()))
-        {
-            let (j, rhs) = lin.row(pair);
-            *row = j;
-            *d = rhs;
-            n += 1;
+        if self.bodies.meshes.is_some() {
+            n = self.fill_mesh_rows(lin);
+        } else {
+            for (pair, (row, d)) in self
+                .detector
+                .pairs
+                .iter()
+                .zip(self.qp.rows.iter_mut().zip(self.qp.rhs.iter_mut()))
+            {
+                let (j, rhs) = lin.row(pair);
+                *row = j;
+                *d = rhs;
+                n += 1;
+            }
         }
         match trust {
             None => {}

@@ -300,12 +300,23 @@ impl GodObject {
         )
     }
 
-    /// Deepest overlap (mm, >= 0) of the tool at `q`, using `self.detector.pairs` as scratch.
+    /// Deepest overlap (mm, >= 0) of the tool at `q`, using the region's buffers as scratch.
+    /// In the mesh mode the triangles' overlap has no depth: 0 when no triangles meet, else
+    /// infinity.
     pub fn penetration_at(&mut self, q: &Pose) -> f64 {
-        match self.detect(q, 0.0) {
+        let depth = match self.detect(q, 0.0) {
             Ok(g) if g.is_finite() => (-g).max(0.0),
             Ok(_) => 0.0,
-            Err(_) => f64::INFINITY,
+            Err(_) => return f64::INFINITY,
+        };
+        if self.bodies.meshes.is_none() {
+            return depth;
+        }
+        self.narrow_phase(q, 0.0);
+        if self.mesh_meets(None, q) {
+            f64::INFINITY
+        } else {
+            0.0
         }
     }
 

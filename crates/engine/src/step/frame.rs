@@ -230,7 +230,7 @@ impl GodObject {
     /// toward the goal, then [`GodObject::check_answer`].
     pub(super) fn solve_pass(&mut self, f: &mut FrameWork, out: &mut FrameOutput) -> Flow {
         let t1 = Instant::now();
-        let n_pairs = self.detector.pairs.len();
+        let n_pairs = self.listed_rows();
         if n_pairs == 0 && f.course.trust.is_none() {
             // Free all the way to the goal (the region reaches it and holds no pair): the tool
             // is there, exactly (no rounding through the QP's coordinates).
@@ -331,7 +331,30 @@ impl GodObject {
         // Every pair that can touch between the region's centre and q_new is listed: their
         // exact gaps at q_new give the deepest overlap, and how far the linearisation
         // undershot (an active row whose true gap is open: another pass moves further).
-        let (pen, slack, touching) = self.gaps_at(&q_new, dq, n_pairs);
+        let (pen, slack, touching) = if self.bodies.meshes.is_some() {
+            self.mesh_gaps_at(&q_lin, &q_new, dq, n_pairs)
+        } else {
+            self.gaps_at(&q_new, dq, n_pairs)
+        };
+        if self.bodies.meshes.is_some() && pen > f.tol {
+            // Triangles meet at the answer (the rows' planes misjudged a curved or turning
+            // contact): the last free pose on the way is safe, and the next pass linearises
+            // there, where the nearest features are well defined.
+            let back = self.last_free_on_the_way(lin, dq).filter(|(q, v)| {
+                self.distance_from_region(lin, &region, q, v) <= region.width + f.skin
+            });
+            f.clock.detect_s += t2.elapsed().as_secs_f64();
+            f.clock.end_pass();
+            let Some((q_back, _)) = back else {
+                return Flow::Stop;
+            };
+            f.progress.q_safe = q_back;
+            f.progress.pen_safe = 0.0;
+            f.progress.last_answer = Some((q_back, 0.0));
+            f.course.crept_from = None;
+            f.course.q_lin = q_back;
+            return Flow::Go;
+        }
         f.clock.detect_s += t2.elapsed().as_secs_f64();
         f.progress.last_answer = Some((q_new, pen));
         if pen <= f.tol {

@@ -203,26 +203,38 @@ impl GodObject {
         // A pair's contact point at q: on the tool sphere, toward what the pair stands for
         // (the object sphere or its face); and its gap.
         let (rot, t) = (q.rotation_matrix(), q.translation());
-        let point = |p: &LeafPair| {
-            let (at, gap, _) = p.contact_posed(&rot, &t);
-            (Vector3::from(at), gap)
+        // Row i's contact point and gap at q, and its object: a leaf pair's (on the tool
+        // sphere, toward what the pair stands for), or a triangle pair's nearest tool point.
+        let mesh = self.bodies.meshes.is_some();
+        let point = |i: usize| -> Option<(Vector3<f64>, f64, u32)> {
+            if mesh {
+                let object = self.detector.contacts.get(i)?.object;
+                let (at, gap) = self.mesh_contact_point(i, &rot, &t)?;
+                Some((at, gap, object))
+            } else {
+                let p = self.detector.pairs.get(i)?;
+                let (at, gap, _) = p.contact_posed(&rot, &t);
+                Some((Vector3::from(at), gap, p.object))
+            }
         };
         let y = self.qp.rows_solver.multipliers();
-        let n_pairs = self.detector.pairs.len().min(y.len());
+        let n_pairs = self.listed_rows().min(y.len());
         let (mut total, mut resultant, mut centre) = (0.0, Vector3::zeros(), Vector3::zeros());
         let (mut mu_s, mut mu_k) = (0.0, 0.0);
         for (i, &lambda) in y.iter().enumerate().take(n_pairs) {
             if !positive(lambda) {
                 continue;
             }
+            let Some((at, _, object)) = point(i) else {
+                continue;
+            };
             let row = &self.qp.rows[i];
             let normal = Vector3::new(row[0], row[1], row[2]);
             let force = lambda * normal.norm();
-            let pair = &self.detector.pairs[i];
             let f = self
                 .materials
                 .object_friction
-                .get(pair.object as usize)
+                .get(object as usize)
                 .copied()
                 .unwrap_or_default()
                 .with_tool(self.materials.tool_friction);
@@ -230,7 +242,7 @@ impl GodObject {
             mu_s += force * f.static_mu;
             mu_k += force * f.kinetic_mu;
             resultant += normal * lambda;
-            centre += point(pair).0 * force;
+            centre += at * force;
         }
         if !positive(total) || !positive(resultant.norm()) || (mu_s == 0.0 && mu_k == 0.0) {
             return;
@@ -238,8 +250,10 @@ impl GodObject {
         let n = resultant / resultant.norm();
         let centre = centre / total;
         let (mut spread, mut count) = (0.0, 0usize);
-        for p in &self.detector.pairs {
-            let (c, gap) = point(p);
+        for i in 0..self.listed_rows() {
+            let Some((c, gap, _)) = point(i) else {
+                continue;
+            };
             if gap <= TOUCH_MM {
                 let r = c - centre;
                 spread += (r - n * r.dot(&n)).norm();

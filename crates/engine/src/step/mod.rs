@@ -53,7 +53,7 @@ use nalgebra::{Matrix3, Vector3};
 use qp::{Problem, RowGeneration, Solver, Status};
 use spheretree::SphereTree;
 
-use crate::{EngineConfig, EngineError};
+use crate::{EngineConfig, EngineError, Geometry, MeshRef};
 
 mod constrain;
 mod density;
@@ -62,11 +62,13 @@ mod frame;
 mod friction;
 mod heuristics;
 mod measure;
+mod narrow;
 mod plan;
 mod reference;
 mod solve;
 mod state;
 
+use narrow::{Meshes, TriPair};
 use state::*;
 
 use frame::Flow;
@@ -610,22 +612,72 @@ pub struct GodObject {
 
 impl GodObject {
     /// Packs the tool tree (tool frame, mm) and the object trees (object frame, mm, each with
-    /// its fixed pose) and reserves every buffer (allocates; not real-time).
+    /// its fixed pose) and reserves every buffer (allocates; not real-time). The leaf spheres
+    /// are the geometry ([`Geometry::Spheres`]); [`GodObject::with_meshes`] takes the parts'
+    /// meshes too.
     pub fn new(
         tool: &SphereTree,
         objects: &[(SphereTree, Pose)],
         params: EngineConfig,
     ) -> Result<Self, EngineError> {
+        Self::with_meshes(tool, None, objects, &[], params)
+    }
+
+    /// [`GodObject::new`] with the bodies' meshes (each in its tree's frame, mm): with
+    /// `params.geometry` [`Geometry::Mesh`] and a mesh for the tool and every object, the step
+    /// keeps the tool out of the parts' triangles, the trees (their leaves grown to hold the
+    /// triangles whole: [`collide::MeshLeaves::attach`]) being the bounding hierarchy; with a
+    /// mesh missing, or [`Geometry::Spheres`], the leaf spheres are the geometry
+    /// ([`GodObject::geometry`] says which). The mesh mode needs the distance form and no face
+    /// caps (the triangles are the faces).
+    pub fn with_meshes(
+        tool: &SphereTree,
+        tool_mesh: Option<MeshRef<'_>>,
+        objects: &[(SphereTree, Pose)],
+        object_meshes: &[Option<MeshRef<'_>>],
+        params: EngineConfig,
+    ) -> Result<Self, EngineError> {
         params.validate()?; // the same ranges as the scene file (crate::config)
         let bad = |body: String, source: collide::CollideError| EngineError::Tree { body, source };
-        let tool = PackedTree::new(tool).map_err(|e| bad("tool tree".into(), e))?;
-        let objects = objects
+        let mesh_bad =
+            |body: String, source: collide::MeshLeavesError| EngineError::Mesh { body, source };
+        let all_meshes = tool_mesh.is_some()
+            && object_meshes.len() == objects.len()
+            && object_meshes.iter().all(Option::is_some);
+        let (mut tool_tree, mut object_trees) = (tool.clone(), objects.to_vec());
+        let mut meshes = None;
+        if params.geometry == Geometry::Mesh && all_meshes {
+            if params.form != collide::ConstraintForm::Distance {
+                return Err(EngineError::MeshNeedsDistance);
+            }
+            let attach = |tree: &SphereTree, m: &MeshRef<'_>, pose: &Pose| {
+                collide::MeshLeaves::attach(tree, m.vertices, m.triangles, pose)
+            };
+            let tm = tool_mesh.as_ref().ok_or(EngineError::MeshNeedsDistance)?;
+            let (grown, tool_leaves) =
+                attach(tool, tm, &Pose::identity()).map_err(|e| mesh_bad("tool mesh".into(), e))?;
+            tool_tree = grown;
+            let mut object_leaves = Vec::with_capacity(objects.len());
+            for (i, ((t, p), m)) in objects.iter().zip(object_meshes).enumerate() {
+                let Some(m) = m else { continue };
+                let (grown, leaves) =
+                    attach(t, m, p).map_err(|e| mesh_bad(format!("object {} mesh", i + 1), e))?;
+                object_trees[i].0 = grown;
+                object_leaves.push(leaves);
+            }
+            meshes = Some(Meshes {
+                tool: tool_leaves,
+                objects: object_leaves,
+            });
+        }
+        let tool = PackedTree::new(&tool_tree).map_err(|e| bad("tool tree".into(), e))?;
+        let objects = object_trees
             .iter()
             .enumerate()
             .map(|(i, (t, p))| {
                 let mut packed =
                     PackedTree::with_pose(t, p).map_err(|e| bad(format!("object {}", i + 1), e))?;
-                if !params.face_caps {
+                if !params.face_caps || meshes.is_some() {
                     packed.drop_face_cuts();
                 }
                 Ok::<_, EngineError>(packed)
@@ -638,7 +690,11 @@ impl GodObject {
                 (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
             })
             .fold(0.0, f64::max);
-        let centres = CentreBox::of_points(tool.leaves().map(|n| tool.center(n)));
+        // In the mesh mode the motion bound covers the triangles' corners too (the narrow
+        // phase's bounding spheres move no farther than they).
+        let corners = meshes.iter().flat_map(|m| m.tool.corners());
+        let reach = meshes.as_ref().map_or(reach, |m| reach.max(m.tool.reach()));
+        let centres = CentreBox::of_points(tool.leaves().map(|n| tool.center(n)).chain(corners));
         let ws = CollideWorkspace::for_trees(&tool, &objects);
         let faces = objects.iter().any(|o| o.face_cut_count() > 0);
         let tool_slots = (0..tool.len()).map(|n| tool.slot(n) + 1).max().unwrap_or(0);
@@ -655,6 +711,7 @@ impl GodObject {
         let neighbours = NeighbourList::for_trees(&tool, &objects, list_capacity);
         let next_neighbours = BackgroundList::for_trees(&tool, &objects, list_capacity);
         let cap = params.max_pairs;
+        let contacts_cap = if meshes.is_some() { cap } else { 0 };
         let mut solver = Solver::new(params.solver);
         let mut rows_solver = RowGeneration::new();
         rows_solver.reserve(&mut solver, cap + 12);
@@ -666,6 +723,7 @@ impl GodObject {
                 faces,
                 reach,
                 centres,
+                meshes,
             },
             detector: Detector {
                 ws,
@@ -673,6 +731,8 @@ impl GodObject {
                 pairs: Vec::with_capacity(cap),
                 face_seen: vec![(0, 0); tool_slots],
                 face_stamp: 0,
+                contacts: Vec::with_capacity(contacts_cap),
+                contact_gaps: vec![0.0; contacts_cap],
             },
             ahead: Ahead {
                 probe,
@@ -805,6 +865,7 @@ impl GodObject {
             if self.detect(&q, margin).is_err() {
                 break;
             }
+            self.narrow_phase(&q, margin);
             let Some(lin) = self.linearization(&q, start) else {
                 break;
             };

@@ -422,6 +422,12 @@ impl GodObject {
                 .density
                 .record(margin, count, plan.sweep.is_some());
         }
+        // The mesh mode's triangle pairs that can touch in the region (more than the storage
+        // holds count as dropped: the region shrinks as for leaf pairs).
+        let extent = plan
+            .sweep
+            .map_or(plan.allowed, |(_, length)| length + plan.width);
+        self.narrow_phase(&q_lin, extent + skin);
         if self.run.regions.dropped > 0 {
             // More pairs than the storage holds: the list is not complete, so no answer from
             // it is proven. A smaller region (fewer pairs) next pass; after a path, balls.

@@ -60,7 +60,17 @@ impl GodObject {
                 }
                 continue;
             }
-            let n_pairs = self.detector.pairs.len();
+            self.narrow_phase(&q_lin, allowed + skin);
+            if self.run.regions.dropped > 0 {
+                // More triangle pairs than the storage holds: a smaller ball, as for pairs.
+                overflowed = true;
+                allow = 0.25 * allowed;
+                if allow < MIN_OVERFLOW_ALLOW_MM {
+                    break;
+                }
+                continue;
+            }
+            let n_pairs = self.listed_rows();
             if out.passes == 1 {
                 out.pairs = n_pairs as u32;
                 out.margin_mm = allowed + skin;
@@ -95,7 +105,21 @@ impl GodObject {
                 allow = (1.25 * moved).min(cap);
                 continue;
             }
-            let (pen, slack, touching) = self.gaps_at(&q_new, &dq, n_pairs);
+            let mesh = self.bodies.meshes.is_some();
+            let (pen, slack, touching) = if mesh {
+                self.mesh_gaps_at(&q_lin, &q_new, &dq, n_pairs)
+            } else {
+                self.gaps_at(&q_new, &dq, n_pairs)
+            };
+            if mesh && pen > tol {
+                // Triangles meet at the answer: on from the last free pose on the way.
+                let Some((q_back, _)) = self.last_free_on_the_way(&lin, &dq) else {
+                    break;
+                };
+                (q_safe, pen_safe, q_lin, allow) = (q_back, 0.0, q_back, cap);
+                last_answer = Some((q_back, 0.0));
+                continue;
+            }
             last_answer = Some((q_new, pen));
             if pen <= tol {
                 (q_safe, pen_safe, out.contacts) = (q_new, pen, touching);

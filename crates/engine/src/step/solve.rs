@@ -93,6 +93,18 @@ impl GodObject {
         let mut m = 0;
         for w in 0..self.run.solve.warm_len {
             let id = self.run.solve.warm[w];
+            if self.bodies.meshes.is_some() {
+                let found = self
+                    .detector
+                    .contacts
+                    .iter()
+                    .position(|c| (c.object, c.tool, c.part) == id);
+                if let Some(i) = found {
+                    self.run.solve.warm_idx[m] = i;
+                    m += 1;
+                }
+                continue;
+            }
             if let Some(i) = self
                 .detector
                 .pairs
@@ -112,11 +124,22 @@ impl GodObject {
         // The one face whose half-space pairs alone hold the tool, if so.
         let mut face: Option<[f64; 3]> = None;
         let mut one_face = true;
+        let mesh = self.bodies.meshes.is_some();
         for &i in self.qp.rows_solver.active_set() {
             if i >= n_pairs {
                 continue;
             }
-            let p = &self.detector.pairs[i];
+            if let Some(c) = self.detector.contacts.get(i).filter(|_| mesh) {
+                if m < 6 {
+                    self.run.solve.warm[m] = (c.object, c.tool, c.part);
+                    m += 1;
+                }
+                one_face = false;
+                continue;
+            }
+            let Some(p) = self.detector.pairs.get(i) else {
+                continue;
+            };
             if m < 6 {
                 self.run.solve.warm[m] = (p.object, p.tool_slot, p.object_slot);
                 m += 1;

@@ -13,9 +13,12 @@ pub(super) struct Bodies {
     pub(super) faces: bool,
     /// Largest distance of a tool leaf centre from the tool origin, mm.
     pub(super) reach: f64,
-    /// Box of the tool's leaf centres (tool frame, mm): a turn about an axis moves them by at
-    /// most the angle times their largest distance from it ([`CentreBox::turn_bound`]).
+    /// Box of the tool's leaf centres (tool frame, mm; with the mesh's corners in the mesh
+    /// mode): a turn about an axis moves them by at most the angle times their largest
+    /// distance from it ([`CentreBox::turn_bound`]).
     pub(super) centres: CentreBox,
+    /// The meshes of the mesh geometry mode (`None`: the leaf spheres are the geometry).
+    pub(super) meshes: Option<Meshes>,
 }
 
 /// The detection's buffers: the traversal workspace, the helper thread and the pair list.
@@ -29,6 +32,10 @@ pub(super) struct Detector {
     /// half-space pair, so the same face met through several object leaves is kept once.
     pub(super) face_seen: Vec<(u32, u32)>,
     pub(super) face_stamp: u32,
+    /// The mesh mode's triangle pairs of the current region (the rows' order), and their
+    /// distances at the last linearisation pose (mm).
+    pub(super) contacts: Vec<TriPair>,
+    pub(super) contact_gaps: Vec<f64>,
 }
 
 /// The work kept ahead of need, a slice per frame.

@@ -1,0 +1,490 @@
+//! The mesh geometry mode's narrow phase (docs/DESIGN.md §Mesh-exact contact): the triangle
+//! pairs of a region's leaf pairs, their rows at the linearisation pose (nearest features,
+//! exact distance), their exact distances at an answer, and the last free pose on the way to an
+//! answer where triangles meet.
+//!
+//! Each triangle lies whole inside the one leaf that holds it ([`collide::MeshLeaves`]), so
+//! two triangles that can touch anywhere in a region belong to a leaf pair the region lists,
+//! and their bounding spheres' gap at the region's centre is at most the region's extent plus
+//! the skin (the spheres' centres move no farther than the motion bound, whose reach covers
+//! the mesh's corners): the narrow phase keeps those, and the step's guarantees carry over
+//! from spheres to triangles.
+
+use collide::{triangle_distance, MeshLeaves, Triangle};
+
+use super::*;
+
+/// A pair of triangles: the object (index), the tool's triangle and the object's triangle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct TriPair {
+    pub(super) object: u32,
+    pub(super) tool: u32,
+    pub(super) part: u32,
+}
+
+/// The meshes of the mesh geometry mode: the tool's triangles by leaf (tool frame) and each
+/// object's (world).
+pub(super) struct Meshes {
+    pub(super) tool: MeshLeaves,
+    pub(super) objects: Vec<MeshLeaves>,
+}
+
+/// Bisections of a step whose end has meeting triangles, toward the last free pose on it.
+const BACKTRACK_STEPS: u32 = 8;
+
+impl GodObject {
+    /// The geometry the step keeps the tool out of: [`Geometry::Mesh`] when it was asked for
+    /// and every body came with its mesh, else [`Geometry::Spheres`].
+    pub fn geometry(&self) -> Geometry {
+        if self.bodies.meshes.is_some() {
+            Geometry::Mesh
+        } else {
+            Geometry::Spheres
+        }
+    }
+
+    /// How many constraint rows the region's list gives (before the trust region's): one per
+    /// leaf pair, or per triangle pair in the mesh mode.
+    pub(super) fn listed_rows(&self) -> usize {
+        if self.bodies.meshes.is_some() {
+            self.detector.contacts.len()
+        } else {
+            self.detector.pairs.len()
+        }
+    }
+
+    /// The mesh mode's row target (mm): rows keep every triangle pair this far apart, so an
+    /// answer's triangles do not meet by a rounding.
+    pub(super) fn mesh_gap(&self) -> f64 {
+        self.params.penetration_tol_mm.max(1e-6)
+    }
+
+    /// Narrow phase: the triangle pairs of the listed leaf pairs whose bounding spheres are
+    /// within `margin` (mm) with the tool at `center`, into `detector.contacts` (those past
+    /// its capacity counted in `run.regions.dropped`, so the region is shrunk as for pairs).
+    /// Nothing in sphere mode.
+    pub(super) fn narrow_phase(&mut self, center: &Pose, margin: f64) {
+        let Some(meshes) = &self.bodies.meshes else {
+            return;
+        };
+        let contacts = &mut self.detector.contacts;
+        contacts.clear();
+        let (rot, t) = (center.rotation_matrix(), center.translation());
+        let mut dropped = 0usize;
+        for pair in &self.detector.pairs {
+            let Some(part_mesh) = meshes.objects.get(pair.object as usize) else {
+                continue;
+            };
+            let parts = part_mesh.of_leaf(pair.object_slot);
+            for &tool in meshes.tool.of_leaf(pair.tool_slot) {
+                let (c, r) = meshes.tool.bound(tool);
+                let c = rot * Vector3::from(c) + t;
+                let tool_tri = meshes
+                    .tool
+                    .triangle(tool)
+                    .map(|p| (rot * Vector3::from(p) + t).into());
+                for &part in parts {
+                    let (pc, pr) = part_mesh.bound(part);
+                    if (c - Vector3::from(pc)).norm() - r - pr > margin
+                        || triangle_distance(&tool_tri, part_mesh.triangle(part)).distance > margin
+                    {
+                        continue;
+                    }
+                    if contacts.len() < contacts.capacity() {
+                        contacts.push(TriPair {
+                            object: pair.object,
+                            tool,
+                            part,
+                        });
+                    } else {
+                        dropped += 1;
+                    }
+                }
+            }
+        }
+        self.run.regions.dropped += dropped;
+    }
+
+    /// The two triangles of `c` with the tool at `(rot, t)`: the tool's posed, the object's.
+    fn posed_pair(
+        &self,
+        meshes: &Meshes,
+        c: &TriPair,
+        rot: &Matrix3<f64>,
+        t: &Vector3<f64>,
+    ) -> (Triangle, Triangle) {
+        let tool = meshes
+            .tool
+            .triangle(c.tool)
+            .map(|p| (rot * Vector3::from(p) + t).into());
+        let part = *meshes.objects[c.object as usize].triangle(c.part);
+        (tool, part)
+    }
+
+    /// The rows of the triangle pairs linearised at `lin`'s pose: for each pair, the plane
+    /// through the object's nearest point normal to the way to the tool's, moving with the
+    /// tool's nearest point (the distance's value and gradient where the nearest features are
+    /// unique), kept at [`GodObject::mesh_gap`]. Returns the row count.
+    pub(super) fn fill_mesh_rows(&mut self, lin: &Linearization) -> usize {
+        let Some(meshes) = &self.bodies.meshes else {
+            return 0;
+        };
+        let q = lin.configuration(&lin.delta());
+        let (rot, t) = (q.rotation_matrix(), q.translation());
+        let target = self.mesh_gap();
+        let mut n = 0;
+        for c in &self.detector.contacts {
+            let (tool, part) = self.posed_pair(meshes, c, &rot, &t);
+            let d = triangle_distance(&tool, &part);
+            self.detector.contact_gaps[n] = d.distance;
+            let (a, b) = (Vector3::from(d.on_a), Vector3::from(d.on_b));
+            let normal = if d.distance > 0.0 {
+                (a - b) / d.distance
+            } else {
+                // Meeting triangles have no nearest direction: the object face's normal,
+                // turned toward the tool triangle's centre.
+                face_normal_toward(&part, &centroid(&tool))
+            };
+            let p_in_tool: [f64; 3] = (rot.transpose() * (a - t)).into();
+            let (value, j) =
+                lin.face_value_gradient(&p_in_tool, 0.0, &normal.into(), normal.dot(&b) + target);
+            let jd: f64 = j.iter().zip(&lin.delta()).map(|(x, y)| x * y).sum();
+            self.qp.rows[n] = j;
+            self.qp.rhs[n] = jd - value;
+            n += 1;
+        }
+        n
+    }
+
+    /// At the answer `q` (variable `dq`, the first `n` rows): whether any listed triangles
+    /// meet (`f64::INFINITY` then, else 0: the mesh mode has no overlap), how far the rows the
+    /// answer holds tight are open in truth (mm), and how many triangle pairs touch (exact
+    /// distance at most [`TOUCH_MM`]).
+    ///
+    /// A pair farther apart at the linearisation pose `from` than the tool moves from there to
+    /// `q` (the motion bound) cannot touch at `q` and is not measured again, unless its row is
+    /// tight.
+    pub(super) fn mesh_gaps_at(
+        &self,
+        from: &Pose,
+        q: &Pose,
+        dq: &[f64; 6],
+        n: usize,
+    ) -> (f64, f64, u32) {
+        let Some(meshes) = &self.bodies.meshes else {
+            return (0.0, 0.0, 0);
+        };
+        let (rot, t) = (q.rotation_matrix(), q.translation());
+        let (target, moved) = (self.mesh_gap(), self.motion_bound(from, q));
+        let (mut meet, mut slack, mut touching) = (false, 0.0f64, 0u32);
+        for (i, c) in self.detector.contacts.iter().enumerate().take(n) {
+            let row = &self.qp.rows[i];
+            let lin_gap: f64 = (0..6).map(|k| row[k] * dq[k]).sum::<f64>() - self.qp.rhs[i];
+            let tight = lin_gap <= TIGHT_MM;
+            if !tight && self.detector.contact_gaps[i] - moved > TOUCH_MM {
+                continue;
+            }
+            let (tool, part) = self.posed_pair(meshes, c, &rot, &t);
+            let d = triangle_distance(&tool, &part);
+            meet |= d.meet;
+            touching += u32::from(d.distance <= TOUCH_MM);
+            if tight {
+                slack = slack.max(d.distance - target - lin_gap);
+            }
+        }
+        (if meet { f64::INFINITY } else { 0.0 }, slack, touching)
+    }
+
+    /// Whether any listed triangles meet with the tool at `q`; with `from`, the linearisation
+    /// pose whose distances `contact_gaps` holds, a pair farther apart there than the tool
+    /// moves to `q` is not measured again.
+    pub(super) fn mesh_meets(&self, from: Option<&Pose>, q: &Pose) -> bool {
+        let Some(meshes) = &self.bodies.meshes else {
+            return false;
+        };
+        let (rot, t) = (q.rotation_matrix(), q.translation());
+        let moved = from.map(|f| self.motion_bound(f, q));
+        self.detector.contacts.iter().enumerate().any(|(i, c)| {
+            if moved.is_some_and(|m| self.detector.contact_gaps[i] > m) {
+                return false;
+            }
+            let (tool, part) = self.posed_pair(meshes, c, &rot, &t);
+            triangle_distance(&tool, &part).meet
+        })
+    }
+
+    /// The last pose on the way from `lin`'s pose (free) to the answer `dq` (in the QP
+    /// variable) where no listed triangles meet, by bisection, and its variable; `None` when
+    /// even a short step meets (the rows misjudge the contact there).
+    pub(super) fn last_free_on_the_way(
+        &self,
+        lin: &Linearization,
+        dq: &[f64; 6],
+    ) -> Option<(Pose, [f64; 6])> {
+        let from = lin.delta();
+        let q_lin = lin.configuration(&from);
+        let at = |s: f64| -> [f64; 6] { std::array::from_fn(|k| from[k] + s * (dq[k] - from[k])) };
+        let (mut free, mut meets) = (0.0, 1.0);
+        for _ in 0..BACKTRACK_STEPS {
+            let s = 0.5 * (free + meets);
+            if self.mesh_meets(Some(&q_lin), &lin.configuration(&at(s))) {
+                meets = s;
+            } else {
+                free = s;
+            }
+        }
+        (free > 0.0).then(|| {
+            let v = at(free);
+            (lin.configuration(&v), v)
+        })
+    }
+
+    /// The nearest point on the tool (world, mm) and the distance (mm) of listed triangle pair
+    /// `i` with the tool at `(rot, t)`.
+    pub(super) fn mesh_contact_point(
+        &self,
+        i: usize,
+        rot: &Matrix3<f64>,
+        t: &Vector3<f64>,
+    ) -> Option<(Vector3<f64>, f64)> {
+        let meshes = self.bodies.meshes.as_ref()?;
+        let c = self.detector.contacts.get(i)?;
+        let (tool, part) = self.posed_pair(meshes, c, rot, t);
+        let d = triangle_distance(&tool, &part);
+        Some((Vector3::from(d.on_a), d.distance))
+    }
+}
+
+fn centroid(t: &Triangle) -> Vector3<f64> {
+    (Vector3::from(t[0]) + Vector3::from(t[1]) + Vector3::from(t[2])) / 3.0
+}
+
+/// The unit normal of triangle `t` on the side of `p` (any unit vector for a degenerate one).
+fn face_normal_toward(t: &Triangle, p: &Vector3<f64>) -> Vector3<f64> {
+    let (a, b, c) = (
+        Vector3::from(t[0]),
+        Vector3::from(t[1]),
+        Vector3::from(t[2]),
+    );
+    let n = (b - a).cross(&(c - a));
+    let len = n.norm();
+    if len <= 0.0 {
+        return Vector3::z();
+    }
+    let n = n / len;
+    if n.dot(&(p - a)) < 0.0 {
+        -n
+    } else {
+        n
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use spheretree::Sphere;
+
+    /// A closed box mesh, `half` its half-extents (mm), centred at `c`.
+    fn box_mesh(c: [f64; 3], half: [f64; 3]) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+        let v: Vec<[f64; 3]> = (0..8)
+            .map(|i| {
+                std::array::from_fn(|k| c[k] + if (i >> k) & 1 == 1 { half[k] } else { -half[k] })
+            })
+            .collect();
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let t = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect();
+        (v, t)
+    }
+
+    /// A one-leaf tree of radius `r` about `c` (the mesh mode grows it to hold its triangles,
+    /// split to half its size).
+    fn one_leaf(c: [f64; 3], r: f64) -> SphereTree {
+        SphereTree::from_slots(1, 2, vec![Sphere::new(c, r)]).unwrap()
+    }
+
+    /// A 4 mm cube tool (its centre at the tool origin) over a 40 x 40 x 2 mm plate whose top is
+    /// at z = 0, in the mesh mode.
+    fn cube_on_plate() -> (GodObject, Vec<Triangle>, Vec<Triangle>) {
+        let (tv, tt) = box_mesh([0.0; 3], [2.0; 3]);
+        let (pv, pt) = box_mesh([0.0, 0.0, -1.0], [20.0, 20.0, 1.0]);
+        let params = EngineConfig {
+            geometry: Geometry::Mesh,
+            ..EngineConfig::default()
+        };
+        let god = GodObject::with_meshes(
+            &one_leaf([0.0; 3], 3.5),
+            Some(MeshRef {
+                vertices: &tv,
+                triangles: &tt,
+            }),
+            &[(one_leaf([0.0, 0.0, -1.0], 28.3), Pose::identity())],
+            &[Some(MeshRef {
+                vertices: &pv,
+                triangles: &pt,
+            })],
+            params,
+        )
+        .unwrap();
+        let tris = |v: &[[f64; 3]], t: &[[u32; 3]]| -> Vec<Triangle> {
+            t.iter().map(|t| t.map(|i| v[i as usize])).collect()
+        };
+        (god, tris(&tv, &tt), tris(&pv, &pt))
+    }
+
+    /// The least distance between the tool's triangles at `q` and the plate's, over every pair
+    /// (negative when some meet).
+    fn brute_distance(tool: &[Triangle], plate: &[Triangle], q: &Pose) -> f64 {
+        let (r, t) = (q.rotation_matrix(), q.translation());
+        let mut best = f64::INFINITY;
+        for a in tool {
+            let a = a.map(|p| (r * Vector3::from(p) + t).into());
+            for b in plate {
+                let d = triangle_distance(&a, b);
+                if d.meet {
+                    return -1.0;
+                }
+                best = best.min(d.distance);
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn the_mesh_rows_are_the_distance_and_its_gradient() {
+        let (mut god, _, _) = cube_on_plate();
+        assert_eq!(god.geometry(), Geometry::Mesh);
+        // Tilted and turned so that one corner is lowest: the nearest features are unique.
+        let q = Pose::from_array([0.3, -0.2, 3.1, 0.31, -0.17, 0.4]);
+        let hand = Pose::from_array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        god.detect(&q, 2.0).unwrap();
+        god.narrow_phase(&q, 2.0);
+        assert!(!god.detector.contacts.is_empty());
+        let lin = god.linearization(&q, &hand).unwrap();
+        let n = god.fill_rows(&lin, None);
+        let target = god.mesh_gap();
+        let meshes = god.bodies.meshes.as_ref().unwrap();
+        let distance = |c: &TriPair, v: &[f64; 6]| {
+            let p = lin.configuration(v);
+            let (tool, part) = god.posed_pair(meshes, c, &p.rotation_matrix(), &p.translation());
+            triangle_distance(&tool, &part)
+        };
+        let base = lin.delta();
+        let mut checked = 0;
+        for (i, c) in god.detector.contacts.iter().enumerate().take(n) {
+            let d0 = distance(c, &base);
+            // The row's value at the linearisation pose is the distance less the target.
+            let row = god.qp.rows[i];
+            let value: f64 = (0..6).map(|k| row[k] * base[k]).sum::<f64>() - god.qp.rhs[i];
+            assert!(
+                (value - (d0.distance - target)).abs() < 1e-9,
+                "row {i}: {value} vs {}",
+                d0.distance
+            );
+            // Its gradient, where the nearest features stay the same a step either way.
+            let h = 1e-6;
+            for k in 0..6 {
+                let (mut up, mut down) = (base, base);
+                up[k] += h;
+                down[k] -= h;
+                let fd = (distance(c, &up).distance - distance(c, &down).distance) / (2.0 * h);
+                assert!(
+                    (fd - row[k]).abs() < 1e-5 * (1.0 + row[k].abs()),
+                    "row {i}, coordinate {k}: {} vs {fd}",
+                    row[k]
+                );
+            }
+            checked += 1;
+        }
+        assert!(checked > 0);
+    }
+
+    #[test]
+    fn pressed_and_twisted_into_a_plate_no_triangles_ever_meet() {
+        let (mut god, tool, plate) = cube_on_plate();
+        god.reset(&Pose::from_array([0.0, 0.0, 5.0, 0.0, 0.0, 0.0]))
+            .unwrap();
+        let mut touched = 0;
+        for i in 0..600 {
+            let s = i as f64 / 600.0;
+            // Down 3 mm into the plate by mid-run, twisting, tilting and sliding on.
+            let hand = Pose::from_array([
+                4.0 * (3.0 * s).sin(),
+                2.0 * s,
+                5.0 - 8.0 * s.min(0.5) * 2.0,
+                0.3 * (7.0 * s).sin(),
+                0.2 * (5.0 * s).cos() - 0.2,
+                1.5 * s,
+            ]);
+            let f = god.step(&hand);
+            let q = Pose::from_array(f.q_g);
+            let d = brute_distance(&tool, &plate, &q);
+            assert!(
+                d > 0.0,
+                "frame {i}: the cube's triangles meet the plate's ({:?})",
+                f.status
+            );
+            if f.contacts > 0 {
+                touched += 1;
+                assert!(d <= 0.01, "frame {i}: in contact yet {d} mm off");
+            }
+        }
+        assert!(
+            touched > 200,
+            "the hand presses the cube onto the plate: {touched} frames touch"
+        );
+    }
+
+    #[test]
+    fn rocked_fast_on_a_plate_no_triangles_meet() {
+        let (mut god, tool, plate) = cube_on_plate();
+        god.reset(&Pose::from_array([0.0, 0.0, 2.5, 0.0, 0.0, 0.0]))
+            .unwrap();
+        for i in 0..200 {
+            // Pressed 1 mm down, rocking about x by up to 0.6 rad at 0.25 rad a frame: each
+            // frame's corner sweeps an arc the rows' planes take for a line.
+            let angle = 0.6 * ((i as f64) * 0.45).sin();
+            let hand = Pose::from_array([0.0, 0.0, 1.0, angle, 0.0, 0.0]);
+            let f = god.step(&hand);
+            let d = brute_distance(&tool, &plate, &Pose::from_array(f.q_g));
+            assert!(
+                d > 0.0,
+                "frame {i}: the cube's triangles meet the plate's ({:?})",
+                f.status
+            );
+        }
+    }
+
+    #[test]
+    fn a_step_through_the_plate_is_cut_back_to_the_last_free_pose_on_the_way() {
+        let (mut god, tool, plate) = cube_on_plate();
+        let q = Pose::from_array([0.0, 0.0, 2.5, 0.0, 0.0, 0.0]);
+        god.detect(&q, 3.0).unwrap();
+        god.narrow_phase(&q, 3.0);
+        let lin = god
+            .linearization(&q, &Pose::from_array([0.0, 0.0, 0.5, 0.0, 0.0, 0.0]))
+            .unwrap();
+        god.fill_rows(&lin, None);
+        // The hand's pose itself: 2 mm down, the cube's bottom 1.5 mm into the plate.
+        let through = lin.variable(&Pose::from_array([0.0, 0.0, 0.5, 0.0, 0.0, 0.0]));
+        assert!(god.mesh_meets(Some(&q), &lin.configuration(&through)));
+        let (back, _) = god.last_free_on_the_way(&lin, &through).unwrap();
+        let d = brute_distance(&tool, &plate, &back);
+        // Free, and within the bisection's last step (2 mm / 2^8) of the touch.
+        assert!(d > 0.0 && d <= 2.0 / 256.0 + 1e-12, "{d}");
+        assert!(
+            (back.q[2] - 2.0).abs() <= 2.0 / 256.0 + 1e-12,
+            "{:?}",
+            back.q
+        );
+    }
+}
