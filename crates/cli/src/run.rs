@@ -14,7 +14,7 @@ use engine::setting::Setting;
 use engine::{ConstraintForm, Friction, RotationCoordinates, SolverKind};
 use scene::cache::TreeCache;
 use scene::device::DeviceKind;
-use scene::report::{frames_csv, summarize, tree_infos, RunSummary};
+use scene::report::{run_frames_csv, summarize, tree_infos, MeshPenetrationReport, RunSummary};
 use scene::rt::{run_loop, LoopParams, Pacing};
 use scene::trajectory::Trajectory;
 use scene::{load_scene_file, Motion, Scene};
@@ -636,6 +636,9 @@ pub fn run(args: RunArgs) -> Result<()> {
         scene.motion = Motion::Trajectory(t);
     }
     scene.validate()?;
+    if let Some(why) = missing_meshes(&scene) {
+        eprintln!("{}: {why}: mesh-level penetration not measured", scene.name);
+    }
     let traj = scene.trajectory();
     let kind = device_kind.unwrap_or(scene.device.kind);
     let max_frames = match args.duration {
@@ -694,10 +697,17 @@ pub fn run(args: RunArgs) -> Result<()> {
         load_s,
     );
     summary.trees = tree_infos(&scene);
+    let mesh_column = match mesh_penetration(&scene, &report.frames) {
+        Some((column, measured)) => {
+            summary.mesh_penetration_mm = Some(measured);
+            column
+        }
+        None => Vec::new(),
+    };
     let dir = staging.dir();
     scene::io::write_atomic(
         &dir.join("frames.csv"),
-        frames_csv(&report.frames).as_bytes(),
+        run_frames_csv(&report.frames, &mesh_column).as_bytes(),
     )?;
     fail_hook("frames.csv")?;
     // The device input as the engine saw it (scene frame): for the emulator, where the hand
@@ -738,6 +748,105 @@ pub fn run(args: RunArgs) -> Result<()> {
     Ok(())
 }
 
+/// Mesh-level penetration is measured on every this many frames in contact (1: every one): a
+/// frame's measure costs 0.03–0.6 ms on 2 cores on the built-in and zoo scenes, after the
+/// frames (docs/DESIGN.md §Formats).
+pub const MESH_STRIDE: usize = 1;
+
+/// Surface samples per mesh of the mesh-level measure beside its vertices (as the bench's zoo
+/// study: the measure adds more on large meshes, 0.5 per mm²).
+const MESH_SAMPLES: usize = 2000;
+
+/// Why the scene cannot be measured at the mesh level (`None`: the tool and every object
+/// have meshes).
+fn missing_meshes(scene: &Scene) -> Option<String> {
+    let mut without: Vec<String> = Vec::new();
+    if scene.tool_mesh.is_none() {
+        without.push("the tool".into());
+    }
+    for k in 0..scene.objects.len() {
+        if scene.object_meshes.get(k).is_none_or(|m| m.is_none()) {
+            without.push(format!("object {k}"));
+        }
+    }
+    (!without.is_empty()).then(|| {
+        format!(
+            "no mesh for {} (a tree read from a .sph file has no triangles)",
+            without.join(", ")
+        )
+    })
+}
+
+/// The mesh-level penetration ([`peer::MeshPenetration`]) of the scene's tool mesh at each
+/// of `poses` (mm, rad) into its object meshes, mm, measured on all cores; `None` when the
+/// scene lacks a mesh ([`missing_meshes`]).
+pub(crate) fn mesh_depths(scene: &Scene, poses: &[[f64; 6]]) -> Option<Vec<f64>> {
+    let tool = scene.tool_mesh.as_ref()?;
+    let objects = scene
+        .object_meshes
+        .iter()
+        .zip(&scene.objects)
+        .map(|(m, (_, pose))| m.as_ref().map(|m| (m, *pose)))
+        .collect::<Option<Vec<_>>>()?;
+    if objects.len() != scene.objects.len() {
+        return None;
+    }
+    if poses.is_empty() {
+        return Some(Vec::new());
+    }
+    let measure = peer::MeshPenetration::new(tool, &objects, MESH_SAMPLES);
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .clamp(1, poses.len());
+    let per = poses.len().div_ceil(threads);
+    std::thread::scope(|s| {
+        let handles: Vec<_> = poses
+            .chunks(per)
+            .map(|part| {
+                let measure = &measure;
+                s.spawn(move || {
+                    part.iter()
+                        .map(|q| measure.depth_mm(&collide::Pose::from_array(*q)))
+                        .collect::<Vec<f64>>()
+                })
+            })
+            .collect();
+        let mut depths = Vec::with_capacity(poses.len());
+        for h in handles {
+            depths.extend(h.join().ok()?);
+        }
+        Some(depths)
+    })
+}
+
+/// The mesh-level penetration of the graphic tool at every [`MESH_STRIDE`]-th frame in contact
+/// (touching leaf pairs), measured after the run ([`mesh_depths`]): one entry per frame (mm,
+/// `None` where not measured) and the summary; `None` when the scene lacks a mesh.
+fn mesh_penetration(
+    scene: &Scene,
+    frames: &[scene::rt::FrameRecord],
+) -> Option<(Vec<Option<f64>>, MeshPenetrationReport)> {
+    let t0 = Instant::now();
+    let in_contact: Vec<usize> = (0..frames.len())
+        .filter(|&k| frames[k].frame.contacts > 0)
+        .collect();
+    let chosen: Vec<usize> = in_contact.iter().copied().step_by(MESH_STRIDE).collect();
+    let poses: Vec<[f64; 6]> = chosen.iter().map(|&k| frames[k].frame.q_g).collect();
+    let depths = mesh_depths(scene, &poses)?;
+    let mut column = vec![None; frames.len()];
+    for (&k, &d) in chosen.iter().zip(&depths) {
+        column[k] = Some(d);
+    }
+    let report = MeshPenetrationReport {
+        max: depths.iter().copied().fold(0.0, f64::max),
+        frames: depths.len(),
+        contact_frames: in_contact.len(),
+        stride: MESH_STRIDE,
+        wall_s: t0.elapsed().as_secs_f64(),
+    };
+    Some((column, report))
+}
+
 fn print_human(s: &RunSummary, out: &Path) {
     for l in &s.load {
         eprintln!("{l}");
@@ -757,6 +866,13 @@ fn print_human(s: &RunSummary, out: &Path) {
         "  pairs p50 {:.0} max {:.0}; iterations p99 {:.0}; penetration max {:.4} mm",
         s.pairs.p50, s.pairs.max, s.iterations.p99, s.penetration_mm.max
     );
+    match &s.mesh_penetration_mm {
+        Some(m) => println!(
+            "  mesh penetration max {:.4} mm ({} of {} frames in contact measured, {:.2} s)",
+            m.max, m.frames, m.contact_frames, m.wall_s
+        ),
+        None => println!("  mesh penetration: not measured (no meshes)"),
+    }
     println!(
         "  force max {:.2} N, torque max {:.1} N·mm, largest force jump {:.3} N (excl. {} contact onsets)",
         s.force.max_force_n, s.force.max_torque_nmm, s.force.max_force_jump_n, s.force.contact_onsets

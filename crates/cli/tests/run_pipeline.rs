@@ -32,7 +32,8 @@ fn temp_dir(tag: &str) -> PathBuf {
     d
 }
 
-/// The numeric columns of `frames.csv` (all but the last, `status`) and the statuses.
+/// The numeric columns of `frames.csv` (all but `status`; an empty field, a frame whose mesh
+/// penetration was not measured, reads NaN).
 fn csv_rows(path: &Path) -> (String, Vec<Vec<f64>>) {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
@@ -57,7 +58,13 @@ fn csv_rows(path: &Path) -> (String, Vec<Vec<f64>>) {
                 .iter()
                 .enumerate()
                 .filter(|&(k, _)| k != status_at)
-                .map(|(_, v)| v.parse::<f64>().unwrap())
+                .map(|(_, v)| {
+                    if v.is_empty() {
+                        f64::NAN
+                    } else {
+                        v.parse::<f64>().unwrap()
+                    }
+                })
                 .collect()
         })
         .collect();
@@ -88,12 +95,19 @@ fn bunny_run_writes_frames_summary_plots_and_replays_identically() {
     let (header, rows) = csv_rows(&out.join("frames.csv"));
     assert_eq!(
         header,
-        "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,splits,scanned"
+        "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,splits,scanned,mesh_penetration_mm"
     );
     assert_eq!(rows.len() as u64, summary["frames"].as_u64().unwrap());
     assert!(rows
         .iter()
-        .all(|r| r.len() == 28 && r.iter().all(|v| v.is_finite())));
+        .all(|r| r.len() == 29 && r[..28].iter().all(|v| v.is_finite())));
+    // The bunny scene keeps its meshes: every frame in contact is measured at the mesh level.
+    let measured = rows.iter().filter(|r| r[28].is_finite()).count() as u64;
+    let mesh = &summary["mesh_penetration_mm"];
+    assert_eq!(mesh["frames"].as_u64(), Some(measured));
+    assert_eq!(mesh["contact_frames"].as_u64(), Some(measured));
+    assert!(measured > 1000, "{measured} frames measured");
+    assert!(mesh["max"].as_f64().unwrap() <= 0.01, "{mesh}");
     for key in [
         "cd_us",
         "opt_us",
@@ -233,5 +247,96 @@ fn run_refuses_foreign_files_and_unknown_names() {
         err.contains("newton") && err.contains("dual, pqp, active-set"),
         "{err}"
     );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn run_measures_the_mesh_penetration_of_a_mesh_scene_and_says_when_it_cannot() {
+    let d = temp_dir("mesh-penetration");
+    std::fs::write(d.join("box.obj"), box_obj(10.0)).unwrap();
+    // Tool box (20 mm) pressed 5 mm past the object box's top face, then lifted clear.
+    let mut traj = String::from("t,x,y,z,gamma,beta,alpha\n");
+    for i in 0..=600 {
+        let t = i as f64 * 1e-3;
+        let z = if i <= 400 {
+            25.0 - 10.0 * (i as f64 / 400.0)
+        } else {
+            15.0 + 15.0 * ((i - 400) as f64 / 200.0)
+        };
+        traj += &format!("{t},0,0,{z},0,0,0\n");
+    }
+    std::fs::write(d.join("down.csv"), traj).unwrap();
+    let scene = |tool: &str| {
+        format!(
+            "[tool]\n{tool}\nstart = [0, 0, 25, 0, 0, 0]\n\n\
+             [[object]]\nmesh = \"box.obj\"\ndepth = 2\n\n\
+             [device]\ntrajectory = \"down.csv\"\n"
+        )
+    };
+    std::fs::write(
+        d.join("meshes.toml"),
+        scene("mesh = \"box.obj\"\ndepth = 2"),
+    )
+    .unwrap();
+    let out = d.join("meshes");
+    let o = haptic6d(&[
+        "run",
+        d.join("meshes.toml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--no-plots",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let text = std::fs::read_to_string(out.join("frames.csv")).unwrap();
+    let header = text.lines().next().unwrap();
+    assert!(header.ends_with(",scanned,mesh_penetration_mm"), "{header}");
+    let (_, rows) = csv_rows(&out.join("frames.csv"));
+    let pairs_at = 19;
+    let measured: Vec<&Vec<f64>> = rows.iter().filter(|r| r[28].is_finite()).collect();
+    // Measured on the frames in contact (the press), empty in free space (the start, the end).
+    assert!(measured.len() > 100, "{} frames measured", measured.len());
+    assert!(rows.first().unwrap()[28].is_nan() && rows.last().unwrap()[28].is_nan());
+    assert!(measured.iter().all(|r| r[pairs_at] > 0.0));
+    // The trees keep the boxes apart: the meshes do not overlap (the tree sits on or above
+    // the mesh contact height).
+    assert!(measured.iter().all(|r| (0.0..=0.01).contains(&r[28])));
+    let mesh = &summary["mesh_penetration_mm"];
+    assert_eq!(mesh["frames"].as_u64(), Some(measured.len() as u64));
+    assert_eq!(mesh["stride"].as_u64(), Some(1));
+
+    // A tool from a .sph file has no triangles: said in one line, the column left empty.
+    std::fs::write(d.join("ball.sph"), "1 8\n0 0 0 10 1\n").unwrap();
+    std::fs::write(d.join("sph.toml"), scene("tree = \"ball.sph\"")).unwrap();
+    let out = d.join("sph");
+    let o = haptic6d(&[
+        "run",
+        d.join("sph.toml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--no-plots",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let err = String::from_utf8_lossy(&o.stderr);
+    let first = err.lines().next().unwrap_or_default();
+    assert!(
+        first.contains("no mesh for the tool") && first.contains("not measured"),
+        "{err}"
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("mesh penetration: not measured"),
+        "{stdout}"
+    );
+    let (_, rows) = csv_rows(&out.join("frames.csv"));
+    assert!(rows.iter().all(|r| r.len() == 29 && r[28].is_nan()));
+    assert!(
+        rows.iter().any(|r| r[pairs_at] > 0.0),
+        "the ball never reached the box"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    assert!(summary["mesh_penetration_mm"].is_null());
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -3,7 +3,7 @@
 //! approximation error shows too, and the peer's convex decomposition's).
 
 use collide::Pose;
-use mesh::{sample_surface, MeshQuery, TriMesh};
+use mesh::{sample_surface, InsideTest, MeshQuery, TriMesh};
 use nalgebra::{Isometry3, Point3};
 
 /// Surface samples per mm² beside the vertices (about 1.4 mm apart): a 5 mm ball 0.5 mm into
@@ -54,7 +54,7 @@ impl Probed {
         );
         let (lo, hi) = mesh.aabb().unwrap_or(([0.0; 3], [0.0; 3]));
         Self {
-            query: MeshQuery::new(mesh),
+            query: MeshQuery::with_inside_test(mesh, InsideTest::for_mesh(mesh)),
             points,
             lo,
             hi,
@@ -84,9 +84,10 @@ impl Probed {
 /// an object mesh and the deepest object probe point inside the tool mesh (mm). Probe points
 /// are every vertex plus area-weighted surface samples (0.5 per mm², at least the number asked
 /// for, at most 50 000 from the density), so a flat face pushed into another shows between
-/// vertices too. Meshes must be closed (signed distance by pseudo-normals). Depth is the
-/// distance to the nearest surface, so inside a plate of thickness `h` a tool point reads at
-/// most `h / 2`; the plate's own points inside the tool read the full depth.
+/// vertices too. Inside is told by pseudo-normals on closed meshes, by the winding number on
+/// open ones ([`InsideTest::for_mesh`]). Depth is the distance to the nearest surface, so
+/// inside a plate of thickness `h` a tool point reads at most `h / 2`; the plate's own points
+/// inside the tool read the full depth.
 #[derive(Clone, Debug)]
 pub struct MeshPenetration {
     tool: Probed,

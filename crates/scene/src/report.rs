@@ -14,34 +14,66 @@ use engine::step::FrameStatus;
 /// The header of `frames.csv`.
 pub const FRAMES_HEADER: &str = "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,splits,scanned";
 
-/// `frames.csv` text: one row per frame; the force/torque columns are the wrench sent to the
-/// device (after the safety layer).
+/// The header of the `frames.csv` that `haptic6d run` writes: [`FRAMES_HEADER`] (the engine's
+/// columns, as [`frames_csv`] writes them) and then [`MESH_PENETRATION_COLUMN`].
+pub const RUN_FRAMES_HEADER: &str = "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,splits,scanned,mesh_penetration_mm";
+
+/// The last column of `haptic6d run`'s `frames.csv`: the mesh-level penetration of the tool
+/// mesh into the object meshes at the graphic pose, mm; empty on frames not measured.
+pub const MESH_PENETRATION_COLUMN: &str = "mesh_penetration_mm";
+
+/// `frames.csv` text with the engine's columns ([`FRAMES_HEADER`]): one row per frame; the
+/// force/torque columns are the wrench sent to the device (after the safety layer).
 pub fn frames_csv(frames: &[FrameRecord]) -> String {
     let mut s = String::with_capacity(256 * (frames.len() + 1));
     s.push_str(FRAMES_HEADER);
     s.push('\n');
     for f in frames {
-        let o = &f.frame;
-        let _ = write!(s, "{}", f.t);
-        for v in o.q_h.iter().chain(o.q_g.iter()).chain(o.wrench.iter()) {
-            let _ = write!(s, ",{v}");
-        }
-        let _ = writeln!(
-            s,
-            ",{},{:.3},{:.3},{:.3},{},{},{},{},{},{}",
-            o.pairs,
-            o.cd_us,
-            o.opt_us,
-            o.total_us,
-            o.iterations,
-            o.penetration_mm,
-            o.passes,
-            o.status.name(),
-            o.splits,
-            o.scanned
-        );
+        frame_fields(&mut s, f);
+        s.push('\n');
     }
     s
+}
+
+/// `frames.csv` text as `haptic6d run` writes it ([`RUN_FRAMES_HEADER`]): the engine's columns,
+/// then the mesh-level penetration of each frame (mm; `mesh_mm[k]`, an empty field where it is
+/// `None` or missing).
+pub fn run_frames_csv(frames: &[FrameRecord], mesh_mm: &[Option<f64>]) -> String {
+    let mut s = String::with_capacity(264 * (frames.len() + 1));
+    s.push_str(RUN_FRAMES_HEADER);
+    s.push('\n');
+    for (k, f) in frames.iter().enumerate() {
+        frame_fields(&mut s, f);
+        s.push(',');
+        if let Some(d) = mesh_mm.get(k).copied().flatten() {
+            let _ = write!(s, "{d}");
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// The engine's columns of one frame (no line end).
+fn frame_fields(s: &mut String, f: &FrameRecord) {
+    let o = &f.frame;
+    let _ = write!(s, "{}", f.t);
+    for v in o.q_h.iter().chain(o.q_g.iter()).chain(o.wrench.iter()) {
+        let _ = write!(s, ",{v}");
+    }
+    let _ = write!(
+        s,
+        ",{},{:.3},{:.3},{:.3},{},{},{},{},{},{}",
+        o.pairs,
+        o.cd_us,
+        o.opt_us,
+        o.total_us,
+        o.iterations,
+        o.penetration_mm,
+        o.passes,
+        o.status.name(),
+        o.splits,
+        o.scanned
+    );
 }
 
 /// Outcome of a scene's goal.
@@ -169,6 +201,28 @@ pub struct RunSummary {
     /// The trees the run used (leaf counts, builder version); filled by the caller from the
     /// scene ([`tree_infos`]), empty when not known.
     pub trees: Vec<TreeInfo>,
+    /// The mesh-level penetration of the tool mesh into the object meshes; filled by the
+    /// caller (`haptic6d run`), `None` when the scene has no meshes (a tree read from a `.sph`
+    /// file) or it was not measured.
+    pub mesh_penetration_mm: Option<MeshPenetrationReport>,
+}
+
+/// The mesh-level penetration of a run: the deepest point of the tool mesh inside an object
+/// mesh, or of an object mesh inside the tool mesh, at the graphic pose, over the frames
+/// measured (independent of the sphere-trees and of the engine's constraint rows).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct MeshPenetrationReport {
+    /// Deepest penetration over the measured frames, mm (0 when none was measured).
+    pub max: f64,
+    /// Frames measured.
+    pub frames: usize,
+    /// Frames in contact (touching leaf pairs) in the run, of which every `stride`-th was
+    /// measured.
+    pub contact_frames: usize,
+    /// One frame in contact of every this many was measured (1: every one).
+    pub stride: usize,
+    /// Wall time of the measure (after the run, outside the haptic loop), s.
+    pub wall_s: f64,
 }
 
 /// Force extremes and continuity of a run (raw wrench, before safety).
@@ -249,5 +303,19 @@ pub fn summarize(
         load,
         load_s,
         trees: Vec::new(),
+        mesh_penetration_mm: None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_run_header_is_the_engine_header_and_the_mesh_column() {
+        assert_eq!(
+            RUN_FRAMES_HEADER,
+            format!("{FRAMES_HEADER},{MESH_PENETRATION_COLUMN}")
+        );
     }
 }
