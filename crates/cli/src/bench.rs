@@ -1,4 +1,4 @@
-//! `haptic6d bench [--quick] [--out DIR] [--studies replay,scaling,speed,contact,friction,peer,zoo,ablation]
+//! `haptic6d bench [--quick] [--out DIR] [--studies replay,scaling,speed,contact,friction,peer,zoo,ablation,fit]
 //! [--peer]`: the paper's experiments, every solver on identical input, plus scaling,
 //! hand-speed, contact and friction studies, and the comparison with the rapier3d
 //! virtual-coupling peer.
@@ -26,6 +26,10 @@
 //!    built-ins and the zoo: frames over 1 ms, degraded frames, p99, detection work,
 //!    penetration, drag ([`crate::bench_ablation`]; the reduced zoo with `--quick`; also
 //!    written to `DIR/ablation.md`).
+//! 9. **Fit.** Generated pegs lowered into holes at radial clearances 0.5–0.02 mm (round and
+//!    splined, two radii, with and without chamfers, straight and tilted): depth reached,
+//!    force, degraded frames, frame times, mesh-level penetration, per geometry mode
+//!    ([`crate::bench_fit`]; four rows with `--quick`; also written to `DIR/fit.md`).
 //!
 //! Output: a table on stdout, `DIR/bench.json`, `DIR/bench.md`, and the plots
 //! `DIR/bench_pairs_<scene>.png`, `DIR/bench_time_<scene>.png`, `DIR/bench_cost.png`,
@@ -92,11 +96,11 @@ pub struct BenchArgs {
     #[arg(long)]
     pub no_scaling: bool,
     /// Studies to run (comma-separated): replay, scaling, speed, contact, friction, peer, zoo,
-    /// ablation (with --quick, a reduced zoo of four scenes).
+    /// ablation, fit (with --quick, a reduced zoo of four scenes and four fit rows).
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "replay,scaling,speed,contact,friction,peer,zoo,ablation"
+        default_value = "replay,scaling,speed,contact,friction,peer,zoo,ablation,fit"
     )]
     pub studies: Vec<String>,
     /// Only the comparison with the rapier3d virtual-coupling peer (same as `--studies peer`).
@@ -136,11 +140,11 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     }
     for study in &args.studies {
         if ![
-            "replay", "scaling", "speed", "contact", "friction", "peer", "zoo", "ablation",
+            "replay", "scaling", "speed", "contact", "friction", "peer", "zoo", "ablation", "fit",
         ]
         .contains(&study.as_str())
         {
-            crate::usage_bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact, friction, peer, zoo, ablation)");
+            crate::usage_bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact, friction, peer, zoo, ablation, fit)");
         }
     }
     let wants = |name: &str| args.studies.iter().any(|s| s == name);
@@ -298,6 +302,17 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
             crate::bench_ablation::ablation_markdown(&report.ablation)
         );
         scene::io::write_atomic(&args.out.join("ablation.md"), md.as_bytes())?;
+    }
+    if wants("fit") {
+        eprintln!("bench: fit study (pegs into holes at 0.5-0.02 mm clearance, shipped settings)");
+        report.fit = crate::bench_fit::fit_study(&cache, args.quick)?;
+        let md = format!(
+            "# haptic6d bench: pegs and holes ({}), {}\n\n{}",
+            report.mode,
+            report.machine,
+            crate::bench_fit::fit_markdown(&report.fit)
+        );
+        scene::io::write_atomic(&args.out.join("fit.md"), md.as_bytes())?;
     }
     report.wall_s = t0.elapsed().as_secs_f64();
 
@@ -675,6 +690,13 @@ pub fn markdown(r: &BenchReport) -> String {
     if !r.ablation.is_empty() {
         let _ = writeln!(s, "\n## Heuristics ablation (dual, shipped settings)\n");
         s.push_str(&crate::bench_ablation::ablation_markdown(&r.ablation));
+    }
+    if !r.fit.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n## Pegs and holes by clearance (dual, shipped settings)\n"
+        );
+        s.push_str(&crate::bench_fit::fit_markdown(&r.fit));
     }
     let _ = writeln!(s, "\nbench wall time: {:.1} s", r.wall_s);
     s

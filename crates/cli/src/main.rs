@@ -8,6 +8,7 @@
 mod bench;
 mod bench_ablation;
 mod bench_contact;
+mod bench_fit;
 mod bench_friction;
 mod bench_peer;
 mod bench_plot;

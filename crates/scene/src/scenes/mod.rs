@@ -5,8 +5,10 @@
 //! - [`spline_mesh::SplineParams`]: the splined shaft and hub meshes of the `spline` scene.
 //! - [`plate`]: a puck or ball pressed onto a flat plate and slid or turned at hand speeds.
 //! - [`zoo`]: the scene zoo (`zoo/slot`, `zoo/gears`, ...), scripted strokes on many shapes.
+//! - [`fit`]: generated pegs and holes at a chosen clearance, for clearance studies.
 
 pub mod bunny;
+pub mod fit;
 pub mod plate;
 pub mod spline_mesh;
 pub mod zoo;

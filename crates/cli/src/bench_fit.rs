@@ -1,0 +1,273 @@
+//! The `fit` study of `haptic6d bench`: generated pegs lowered into holes
+//! ([`scene::scenes::fit`]) at radial clearances 0.5, 0.2, 0.1, 0.05 and 0.02 mm, replayed with
+//! the shipped settings (dual solver, 1 ms budget, one thread, frames back to back), one row per
+//! case, clearance and geometry mode.
+//!
+//! Cases: a round peg of radius 10 mm with and without chamfers (1 mm at the tip and the
+//! mouth), approached straight and tilted by [`TILT_RAD`]; a round peg of radius 3 mm
+//! (0.5 mm chamfers) straight and tilted; the splined shaft (root radius 10 mm, six keys) with
+//! and without chamfers, straight and tilted. The hand enters and inserts at 12 mm/s mean
+//! (18 mm/s peak) to 20 mm below the mouth, holds, withdraws.
+//!
+//! Per row: how deep the tip got below the mouth and whether it reached full depth; the largest
+//! force; lagging and degraded frames; whole-step time p50 / p99 / max and frames over 1 ms;
+//! the engine's deepest leaf overlap; the mesh-level penetration of the peg mesh into the block
+//! mesh at the graphic pose ([`peer::MeshPenetration`], on every [`MESH_STRIDE`]-th frame in
+//! contact); the tree sizes.
+//!
+//! Every row names its geometry mode ([`GeometryMode`], `[solver] geometry`): the
+//! sphere-trees; another mode is a variant of [`GeometryMode`] and an entry of
+//! [`GEOMETRY_MODES`].
+//!
+//! `--quick` replays [`QUICK_ROWS`] rows.
+
+use anyhow::Result;
+use engine::setting::Setting;
+use engine::SolverKind;
+use scene::cache::TreeCache;
+use scene::scenes::fit::{self, FitParams, FitShape};
+use scene::Scene;
+use serde::Serialize;
+
+/// The radial clearances of the study, mm.
+pub const CLEARANCES_MM: [f64; 5] = [0.5, 0.2, 0.1, 0.05, 0.02];
+
+/// Mesh-level penetration is measured on every this many frames in contact (a peg in its hole
+/// puts all its probe points in the block's box: about 1.5 ms a frame on 2 cores).
+pub const MESH_STRIDE: usize = 5;
+
+/// Tilt of a tilted approach about `x`, rad (2°).
+pub const TILT_RAD: f64 = 0.035;
+
+/// The geometry the engine keeps the tool out of, as a row of the study sets it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum GeometryMode {
+    /// Leaf spheres against leaf spheres (the paper's model, the engine's default).
+    Spheres,
+}
+
+/// The geometry modes every case is replayed in.
+pub const GEOMETRY_MODES: &[GeometryMode] = &[GeometryMode::Spheres];
+
+impl GeometryMode {
+    /// The mode's name in the table.
+    pub fn name(self) -> &'static str {
+        self.engine().setting_name()
+    }
+
+    /// The engine's setting for this mode (`[solver] geometry`).
+    pub fn engine(self) -> engine::Geometry {
+        match self {
+            GeometryMode::Spheres => engine::Geometry::Spheres,
+        }
+    }
+
+    /// Sets the scene's solver to this mode.
+    pub fn apply(self, scene: &mut Scene) {
+        scene.solver.geometry = self.engine();
+    }
+}
+
+/// One case of the study before its clearance: shape, radius, chamfers, approach.
+#[derive(Clone, Copy, Debug)]
+struct Case {
+    shape: FitShape,
+    radius_mm: f64,
+    chamfer_mm: f64,
+    tilted: bool,
+}
+
+/// The study's cases, each at every clearance of [`CLEARANCES_MM`].
+const CASES: [Case; 10] = [
+    case(FitShape::Round, 10.0, 0.0, false),
+    case(FitShape::Round, 10.0, 0.0, true),
+    case(FitShape::Round, 10.0, 1.0, false),
+    case(FitShape::Round, 10.0, 1.0, true),
+    case(FitShape::Round, 3.0, 0.5, false),
+    case(FitShape::Round, 3.0, 0.5, true),
+    case(FitShape::Splined, 10.0, 0.0, false),
+    case(FitShape::Splined, 10.0, 0.0, true),
+    case(FitShape::Splined, 10.0, 1.0, false),
+    case(FitShape::Splined, 10.0, 1.0, true),
+];
+
+const fn case(shape: FitShape, radius_mm: f64, chamfer_mm: f64, tilted: bool) -> Case {
+    Case {
+        shape,
+        radius_mm,
+        chamfer_mm,
+        tilted,
+    }
+}
+
+/// The rows of `--quick`: (index into the cases, clearance mm).
+pub const QUICK_ROWS: &[(usize, f64)] = &[(2, 0.5), (2, 0.1), (5, 0.2), (8, 0.5)];
+
+impl Case {
+    fn params(&self, clearance_mm: f64) -> FitParams {
+        FitParams {
+            shape: self.shape,
+            radius_mm: self.radius_mm,
+            clearance_mm,
+            peg_chamfer_mm: self.chamfer_mm,
+            hole_chamfer_mm: self.chamfer_mm,
+            tilt_rad: if self.tilted { TILT_RAD } else { 0.0 },
+            ..FitParams::default()
+        }
+    }
+}
+
+/// One row: a case at one clearance in one geometry mode.
+#[derive(Serialize, Clone, Debug)]
+pub struct FitRow {
+    /// Scene name (`fit/round-r10-c0.5-chamfer-tilted`, ...).
+    pub scene: String,
+    /// `round` or `splined`.
+    pub shape: String,
+    /// Peg radius (round) or root radius (splined), mm.
+    pub radius_mm: f64,
+    /// Chamfer at the peg's tip and the hole's mouth, mm (0: none).
+    pub chamfer_mm: f64,
+    /// `straight` or `tilted`.
+    pub approach: String,
+    /// Radial clearance, mm.
+    pub clearance_mm: f64,
+    /// Geometry the engine used ([`GeometryMode::name`]; `spheres` where a mode needs meshes
+    /// the scene lacks).
+    pub geometry: String,
+    /// Frames replayed.
+    pub frames: usize,
+    /// Used leaves of the peg's tree.
+    pub tool_leaves: usize,
+    /// Used leaves of the block's tree.
+    pub object_leaves: usize,
+    /// Full insertion depth asked for, mm.
+    pub full_depth_mm: f64,
+    /// What the replay did: depth reached, full depth, force, degraded frames, times.
+    pub outcome: fit::FitOutcome,
+    /// Frames whose step took more than 1000 µs.
+    pub over_1ms: usize,
+    /// Deepest leaf–leaf overlap at the graphic pose (the engine's measure), mm.
+    pub max_penetration_mm: f64,
+    /// Deepest penetration of the peg mesh into the block mesh or the reverse at the graphic
+    /// pose over the frames measured (independent of the trees), mm.
+    pub mesh_penetration_mm: f64,
+    /// Frames measured at the mesh level (every [`MESH_STRIDE`]-th frame in contact).
+    pub mesh_frames: usize,
+    /// Wall time of the replay (without the mesh measure), s.
+    pub wall_s: f64,
+}
+
+/// Runs the study: every case at every clearance in every geometry mode, or [`QUICK_ROWS`]
+/// with `quick`.
+pub fn fit_study(cache: &TreeCache, quick: bool) -> Result<Vec<FitRow>> {
+    let rows: Vec<(Case, f64)> = if quick {
+        QUICK_ROWS.iter().map(|&(k, c)| (CASES[k], c)).collect()
+    } else {
+        CASES
+            .iter()
+            .flat_map(|&case| CLEARANCES_MM.iter().map(move |&c| (case, c)))
+            .collect()
+    };
+    let mut out = Vec::with_capacity(rows.len() * GEOMETRY_MODES.len());
+    for (case, clearance) in rows {
+        let f = fit::fit_scene(&case.params(clearance), cache)?;
+        for line in &f.scene.load_log {
+            eprintln!("bench: {line}");
+        }
+        for &mode in GEOMETRY_MODES {
+            let mut scene = f.scene.clone();
+            mode.apply(&mut scene);
+            let t0 = std::time::Instant::now();
+            let (_, frames, _) =
+                crate::bench_contact::replay_audited(&scene, SolverKind::Dual, false, false)?;
+            let wall_s = t0.elapsed().as_secs_f64();
+            let outcome = f.outcome(&frames);
+            let poses: Vec<[f64; 6]> = frames
+                .iter()
+                .filter(|fr| fr.contacts > 0)
+                .step_by(MESH_STRIDE)
+                .map(|fr| fr.q_g)
+                .collect();
+            let depths = crate::run::mesh_depths(&scene, &poses).unwrap_or_default();
+            let leaves = |t: &spheretree::SphereTree| t.leaves().count();
+            let row = FitRow {
+                scene: scene.name.clone(),
+                shape: case.shape.name().into(),
+                radius_mm: case.radius_mm,
+                chamfer_mm: case.chamfer_mm,
+                approach: if case.tilted { "tilted" } else { "straight" }.into(),
+                clearance_mm: clearance,
+                geometry: scene.geometry().setting_name().into(),
+                frames: frames.len(),
+                tool_leaves: leaves(&scene.tool),
+                object_leaves: scene.objects.iter().map(|(t, _)| leaves(t)).sum(),
+                full_depth_mm: f.params.depth_mm,
+                over_1ms: frames.iter().filter(|fr| fr.total_us > 1000.0).count(),
+                max_penetration_mm: frames
+                    .iter()
+                    .map(|fr| fr.penetration_mm)
+                    .fold(0.0, f64::max),
+                mesh_penetration_mm: depths.iter().copied().fold(0.0, f64::max),
+                mesh_frames: depths.len(),
+                wall_s,
+                outcome,
+            };
+            eprintln!(
+                "bench: {} ({}): depth {:.2} of {} mm, force max {:.1} N, p99 {:.1} µs, {} degraded ({wall_s:.1} s)",
+                row.scene,
+                mode.name(),
+                row.outcome.depth_reached_mm,
+                row.full_depth_mm,
+                row.outcome.force_max_n,
+                row.outcome.total_us.p99,
+                row.outcome.degraded
+            );
+            out.push(row);
+        }
+    }
+    Ok(out)
+}
+
+/// The study as a markdown table.
+pub fn fit_markdown(rows: &[FitRow]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| shape | r mm | chamfer mm | approach | clearance mm | geometry | depth reached / full mm | full depth | force max N | lagging / degraded | total µs p50 / p99 / max | frames > 1 ms | max pen. mm (engine) | mesh pen. mm (frames) | leaves tool / block |"
+    );
+    let _ = writeln!(
+        s,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    for r in rows {
+        let o = &r.outcome;
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {:.2} / {} | {} | {:.1} | {} / {} | {:.1} / {:.1} / {:.1} | {} | {:.4} | {:.4} ({}) | {} / {} |",
+            r.shape,
+            r.radius_mm,
+            r.chamfer_mm,
+            r.approach,
+            r.clearance_mm,
+            r.geometry,
+            o.depth_reached_mm,
+            r.full_depth_mm,
+            if o.full_depth { "yes" } else { "**no**" },
+            o.force_max_n,
+            o.lagging,
+            o.degraded,
+            o.total_us.p50,
+            o.total_us.p99,
+            o.total_us.max,
+            r.over_1ms,
+            r.max_penetration_mm,
+            r.mesh_penetration_mm,
+            r.mesh_frames,
+            r.tool_leaves,
+            r.object_leaves,
+        );
+    }
+    s
+}
