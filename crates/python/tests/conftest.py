@@ -17,6 +17,10 @@ BUDGET_US = 1_000_000.0
 # frames.csv's wall-clock columns, left out of comparisons.
 TIMING_COLUMNS = ("cd_us", "opt_us", "total_us")
 
+# frames.csv's columns that `haptic6d run` measures after the run, beyond the engine's frame
+# (the replay has none of them): not read.
+RUN_ONLY_COLUMNS = ("mesh_penetration_mm",)
+
 
 def cli_path() -> pathlib.Path:
     """The `haptic6d` binary of this checkout (CARGO_TARGET_DIR or target/, release)."""
@@ -38,12 +42,14 @@ def run_cli(*args: str, check: bool = True) -> subprocess.CompletedProcess:
 
 
 def read_frames_csv(path: pathlib.Path) -> dict:
-    """frames.csv as columns: floats, except `status` (names)."""
+    """frames.csv as columns: floats, except `status` (names); the run-only columns left out."""
     with open(path, newline="") as f:
         rows = list(csv.reader(f))
     header, body = rows[0], rows[1:]
     cols = {}
     for k, name in enumerate(header):
+        if name in RUN_ONLY_COLUMNS:
+            continue
         values = [r[k] for r in body]
         cols[name] = np.array(values) if name == "status" else np.array(values, dtype=float)
     return cols
