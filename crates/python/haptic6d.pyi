@@ -108,7 +108,7 @@ class Engine:
     """The haptic engine: device pose in, constrained (god-object) pose and safe wrench out.
 
     Keyword settings (all optional, checked against the scene file's ranges): kt (N/mm),
-    kr (N·mm/rad), solver ('dual' | 'pqp' | 'active-set'), form ('distance' | 'squared'),
+    kr (N·mm/rad), solver ('dual' | 'pqp' | 'active-set' | 'pqp-parallel'), form ('distance' | 'squared'),
     rotation ('rotation-vector' | 'euler'), relinearize (passes), penetration_tol_mm,
     skin_mm, max_margin_mm, budget_us (µs), max_pairs, max_force_n (N), max_torque_nmm (N·mm),
     max_force_step_n (N), max_torque_step_nmm (N·mm), soft_start_s (s), rate_hz (Hz).

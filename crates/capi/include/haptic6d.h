@@ -71,6 +71,9 @@ enum H6dSolver
   H6D_SOLVER_PQP = 1,
   // The paper's primal active-set baseline.
   H6D_SOLVER_ACTIVE_SET = 2,
+  // The paper's PQP vectorized and split over worker threads (one per core, spawned when
+  // the engine is created): the serial PQP's iterates up to rounding.
+  H6D_SOLVER_PQP_PARALLEL = 3,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L

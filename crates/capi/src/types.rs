@@ -17,6 +17,9 @@ pub enum H6dSolver {
     Pqp = 1,
     /// The paper's primal active-set baseline.
     ActiveSet = 2,
+    /// The paper's PQP vectorized and split over worker threads (one per core, spawned when
+    /// the engine is created): the serial PQP's iterates up to rounding.
+    PqpParallel = 3,
 }
 
 /// Constraint form (`H6dConfig::form`).
@@ -126,6 +129,7 @@ impl From<&EngineConfig> for H6dConfig {
                 SolverKind::Dual => H6dSolver::Dual,
                 SolverKind::Pqp => H6dSolver::Pqp,
                 SolverKind::ActiveSet => H6dSolver::ActiveSet,
+                SolverKind::PqpParallel => H6dSolver::PqpParallel,
             } as u32,
             form: match c.form {
                 ConstraintForm::Distance => H6dForm::Distance,
@@ -158,11 +162,12 @@ impl H6dConfig {
             0 => SolverKind::Dual,
             1 => SolverKind::Pqp,
             2 => SolverKind::ActiveSet,
+            3 => SolverKind::PqpParallel,
             v => {
                 return Err(bad_enum(
                     "solver",
                     v,
-                    "H6D_SOLVER_DUAL (0), H6D_SOLVER_PQP (1), H6D_SOLVER_ACTIVE_SET (2)",
+                    "H6D_SOLVER_DUAL (0), H6D_SOLVER_PQP (1), H6D_SOLVER_ACTIVE_SET (2), H6D_SOLVER_PQP_PARALLEL (3)",
                 ))
             }
         };
@@ -208,6 +213,7 @@ impl H6dConfig {
             helper_thread: EngineConfig::default().helper_thread,
             face_caps: EngineConfig::default().face_caps,
             heuristics: EngineConfig::default().heuristics,
+            geometry: EngineConfig::default().geometry,
             safety: SafetyParams {
                 max_force_n: self.max_force_n,
                 max_torque_nmm: self.max_torque_nmm,

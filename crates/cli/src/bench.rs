@@ -31,6 +31,10 @@
 //!    force, degraded frames, frame times, mesh-level penetration, per geometry mode
 //!    ([`crate::bench_fit`]; four rows with `--quick`; also written to `DIR/fit.md`).
 //!
+//! **PQP scaling** (`--studies pqp-scaling`, not in the default set): the paper's PQP serial,
+//! vectorized and on two threads against the active sets on QPs of real frames and generated
+//! ones of 50 … 20 000 rows ([`crate::bench_pqp`]; `DIR/pqp_scaling.md`).
+//!
 //! Output: a table on stdout, `DIR/bench.json`, `DIR/bench.md`, and the plots
 //! `DIR/bench_pairs_<scene>.png`, `DIR/bench_time_<scene>.png`, `DIR/bench_cost.png`,
 //! `DIR/bench_scaling_pairs.png`, `DIR/bench_scaling_depth.png`, `DIR/bench_speed_drag.png`,
@@ -96,6 +100,8 @@ pub struct BenchArgs {
     #[arg(long)]
     pub no_scaling: bool,
     /// Studies to run (comma-separated): replay, scaling, speed, contact, friction, peer, zoo,
+    /// pqp-scaling (not by default: the serial, vectorized and threaded PQP on 50 to 20 000
+    /// rows, minutes),
     /// ablation, fit (with --quick, a reduced zoo of four scenes and four fit rows).
     #[arg(
         long,
@@ -119,7 +125,12 @@ pub struct BenchArgs {
 }
 
 /// The solvers compared, in table order.
-const SOLVERS: [SolverKind; 3] = [SolverKind::Pqp, SolverKind::ActiveSet, SolverKind::Dual];
+const SOLVERS: [SolverKind; 4] = [
+    SolverKind::Pqp,
+    SolverKind::PqpParallel,
+    SolverKind::ActiveSet,
+    SolverKind::Dual,
+];
 
 /// Frames replayed per scene in `--quick` mode.
 const QUICK_FRAMES: usize = 1500;
@@ -140,11 +151,20 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     }
     for study in &args.studies {
         if ![
-            "replay", "scaling", "speed", "contact", "friction", "peer", "zoo", "ablation", "fit",
+            "replay",
+            "scaling",
+            "speed",
+            "contact",
+            "friction",
+            "peer",
+            "zoo",
+            "ablation",
+            "fit",
+            "pqp-scaling",
         ]
         .contains(&study.as_str())
         {
-            crate::usage_bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact, friction, peer, zoo, ablation, fit)");
+            crate::usage_bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact, friction, peer, zoo, ablation, fit, pqp-scaling)");
         }
     }
     let wants = |name: &str| args.studies.iter().any(|s| s == name);
@@ -291,6 +311,17 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
             crate::bench_zoo::zoo_markdown(&report.zoo)
         );
         scene::io::write_atomic(&args.out.join("zoo.md"), md.as_bytes())?;
+    }
+    if wants("pqp-scaling") {
+        eprintln!("bench: pqp-scaling study (serial, vectorized, threaded PQP; active sets)");
+        report.pqp_scaling = crate::bench_pqp::pqp_study(&cache, args.quick)?;
+        let md = format!(
+            "# haptic6d bench: PQP scaling ({}), {}\n\n{}",
+            report.mode,
+            report.machine,
+            crate::bench_pqp::pqp_markdown(&report.pqp_scaling)
+        );
+        scene::io::write_atomic(&args.out.join("pqp_scaling.md"), md.as_bytes())?;
     }
     if wants("ablation") {
         eprintln!("bench: ablation study (each heuristic of the step off in turn)");
@@ -465,7 +496,7 @@ fn pairs_study(
             params.skin_mm = hi;
             let mut god = GodObject::new(&scene.tool, &scene.objects, params)?;
             // PQP is O(N^2) per iteration: cap its repetitions at large N so the bench ends.
-            let n = if kind == SolverKind::Pqp && target > 1000 {
+            let n = if kind.is_pqp() && target > 1000 {
                 reps.min(5)
             } else {
                 reps

@@ -15,6 +15,8 @@ use crate::plot::{chart, register_font, render_png, time_chart, Series};
 fn solver_color(name: &str) -> RGBColor {
     match name {
         "pqp" => RGBColor(214, 39, 40),
+        "pqp-simd" => RGBColor(255, 127, 14),
+        "pqp-parallel" => RGBColor(148, 103, 189),
         "active-set" => RGBColor(31, 119, 180),
         _ => RGBColor(44, 160, 44),
     }
@@ -68,8 +70,60 @@ pub fn write_bench_plots(dir: &Path, replays: &[SceneReplays], report: &BenchRep
     render_png(&dir.join("bench_cost.png"), 480, |root| {
         cost_bars(root, report)
     })?;
+    if !report.pqp_scaling.is_empty() {
+        // Generated QPs only: one size per point, log axes.
+        let points = |name: &str, per_iteration: bool| -> Vec<(f64, f64)> {
+            report
+                .pqp_scaling
+                .iter()
+                .filter(|r| r.solver == name && r.source == "generated")
+                .filter_map(|r| {
+                    let s = if per_iteration {
+                        &r.iteration_us
+                    } else {
+                        &r.solve_us
+                    };
+                    (s.count > 0 && s.p50 > 0.0).then(|| ((r.n as f64).log10(), s.p50.log10()))
+                })
+                .collect()
+        };
+        let iteration: Vec<Series<'_>> = ["pqp", "pqp-simd", "pqp-parallel"]
+            .iter()
+            .map(|&name| Series {
+                label: name,
+                color: solver_color(name),
+                values: points(name, true),
+            })
+            .collect();
+        render_png(&dir.join("bench_pqp_iteration.png"), 480, |root| {
+            chart(
+                root,
+                "PQP: time per iteration against rows (generated QPs, p50)",
+                "log10(rows)",
+                "log10(µs per iteration)",
+                &iteration,
+            )
+        })?;
+        let solve: Vec<Series<'_>> = crate::bench_pqp::VARIANTS
+            .iter()
+            .map(|&name| Series {
+                label: name,
+                color: solver_color(name),
+                values: points(name, false),
+            })
+            .collect();
+        render_png(&dir.join("bench_pqp_solve.png"), 480, |root| {
+            chart(
+                root,
+                "time per solve against rows (generated QPs, cold, p50)",
+                "log10(rows)",
+                "log10(µs per solve)",
+                &solve,
+            )
+        })?;
+    }
     if !report.scaling_pairs.is_empty() {
-        let series: Vec<Series<'_>> = ["pqp", "active-set", "dual"]
+        let series: Vec<Series<'_>> = ["pqp", "pqp-parallel", "active-set", "dual"]
             .iter()
             .map(|&name| Series {
                 label: name,
@@ -93,7 +147,7 @@ pub fn write_bench_plots(dir: &Path, replays: &[SceneReplays], report: &BenchRep
         })?;
     }
     if !report.scaling_depth.is_empty() {
-        let series: Vec<Series<'_>> = ["pqp", "active-set", "dual"]
+        let series: Vec<Series<'_>> = ["pqp", "pqp-parallel", "active-set", "dual"]
             .iter()
             .map(|&name| Series {
                 label: name,

@@ -12,6 +12,7 @@ mod bench_fit;
 mod bench_friction;
 mod bench_peer;
 mod bench_plot;
+mod bench_pqp;
 mod bench_report;
 mod bench_speed;
 mod bench_zoo;

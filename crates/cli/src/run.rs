@@ -1,4 +1,4 @@
-//! `haptic6d run SCENE [--trajectory FILE.csv] [--solver dual|pqp|active-set] --out DIR`:
+//! `haptic6d run SCENE [--trajectory FILE.csv] [--solver dual|pqp|active-set|pqp-parallel] --out DIR`:
 //! runs the haptic pipeline over a device trajectory and writes `DIR/frames.csv`,
 //! `DIR/summary.json`, `DIR/trajectory.csv` (the device input, for replay into any solver) and
 //! the plots `DIR/pairs.png`, `DIR/timing.png`, `DIR/force.png`.
@@ -49,7 +49,8 @@ pub struct RunArgs {
     /// live device runs for the scene's trajectory length unless given).
     #[arg(long)]
     pub duration: Option<f64>,
-    /// QP solver: dual (default, exact), pqp (the paper's), active-set (the paper's baseline).
+    /// QP solver: dual (default, exact), pqp (the paper's), active-set (the paper's baseline),
+    /// pqp-parallel (the paper's PQP vectorized and on one thread per core).
     #[arg(long)]
     pub solver: Option<String>,
     /// Output directory (created if missing). The run is written beside it and moved into

@@ -10,7 +10,7 @@ use collide::{ConstraintForm, RotationCoordinates};
 use qp::SolverKind;
 
 /// A name that is not one of a setting's values. Displays as one line:
-/// `unknown solver `newton`; expected one of: dual, pqp, active-set`.
+/// `unknown solver `newton`; expected one of: dual, pqp, active-set, pqp-parallel`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct UnknownSetting {
     /// What kind of setting (`solver`, `constraint form`, ...).
@@ -78,10 +78,16 @@ pub trait Setting: Sized + Copy + PartialEq + 'static {
 
 impl Setting for SolverKind {
     const WHAT: &'static str = "solver";
-    const ALL: &'static [Self] = &[SolverKind::Dual, SolverKind::Pqp, SolverKind::ActiveSet];
+    const ALL: &'static [Self] = &[
+        SolverKind::Dual,
+        SolverKind::Pqp,
+        SolverKind::ActiveSet,
+        SolverKind::PqpParallel,
+    ];
     const ALIASES: &'static [(&'static str, Self)] = &[
         ("activeset", SolverKind::ActiveSet),
         ("active_set", SolverKind::ActiveSet),
+        ("pqp_parallel", SolverKind::PqpParallel),
     ];
     fn setting_name(self) -> &'static str {
         self.name()
@@ -140,7 +146,7 @@ mod tests {
         );
         assert_eq!(
             SolverKind::parse_setting("newton").unwrap_err().to_string(),
-            "unknown solver `newton`; expected one of: dual, pqp, active-set"
+            "unknown solver `newton`; expected one of: dual, pqp, active-set, pqp-parallel"
         );
     }
 }

@@ -16,7 +16,7 @@ pub struct EngineOptions {
     pub kt: Option<f64>,
     /// Rotational stiffness, N·mm/rad.
     pub kr: Option<f64>,
-    /// QP solver name: `dual`, `pqp`, `active-set`.
+    /// QP solver name: `dual`, `pqp`, `active-set`, `pqp-parallel`.
     pub solver: Option<String>,
     /// Constraint form name: `distance`, `squared`.
     pub form: Option<String>,
@@ -58,7 +58,7 @@ pub struct Settings {
 }
 
 /// Parses `name` as a setting of type `S`, naming the keyword in the error:
-/// `solver: unknown solver `newton`; expected one of: dual, pqp, active-set`.
+/// `solver: unknown solver `newton`; expected one of: dual, pqp, active-set, pqp-parallel`.
 fn parse<S: Setting>(keyword: &str, name: &str) -> Result<S, Failure> {
     S::parse_setting(name).map_err(|e| Failure::value(format!("{keyword}: {e}")))
 }
@@ -231,7 +231,7 @@ mod tests {
                 solver: Some("newton".into()),
                 ..Default::default()
             }),
-            "solver: unknown solver `newton`; expected one of: dual, pqp, active-set"
+            "solver: unknown solver `newton`; expected one of: dual, pqp, active-set, pqp-parallel"
         );
         assert!(bad(EngineOptions {
             kt: Some(f64::NAN),

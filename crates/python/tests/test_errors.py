@@ -78,7 +78,7 @@ def test_an_unknown_solver_and_keyword():
     with pytest.raises(haptic6d.InputError) as e:
         haptic6d.Engine.from_scene("bunny", solver="newton")
     assert one_line(e.value) == (
-        "solver: unknown solver `newton`; expected one of: dual, pqp, active-set"
+        "solver: unknown solver `newton`; expected one of: dual, pqp, active-set, pqp-parallel"
     )
     with pytest.raises(haptic6d.InputError, match="unknown setting `stiffness`"):
         haptic6d.Engine.from_scene("bunny", stiffness=3)

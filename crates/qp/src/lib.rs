@@ -79,7 +79,7 @@ pub use pqp_parallel::ParallelPqpWorkspace;
 pub use problem::Problem;
 pub use reduce::{ReductionStats, RowGeneration};
 pub use solution::{Kkt, Solution, Status};
-pub use solver::{Solver, SolverKind};
+pub use solver::{RecordedProblem, Solver, SolverKind};
 
 /// Errors of this crate (bad input only; a solve that fails to converge is a [`Status`]).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

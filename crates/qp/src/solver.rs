@@ -91,6 +91,26 @@ pub struct Solver {
     /// threads are spawned by [`Solver::new`] for [`SolverKind::PqpParallel`], otherwise by
     /// its first reserve or solve.
     pub pqp_parallel: ParallelPqpWorkspace,
+    /// A copy of the last problem solved, while recording ([`Solver::record`]).
+    recorded: Option<Box<RecordedProblem>>,
+}
+
+/// An owned copy of a [`Problem`] (see [`Solver::record`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RecordedProblem {
+    /// The diagonal of `G`.
+    pub g: [f64; 6],
+    /// The rows `J`.
+    pub j: Vec<[f64; 6]>,
+    /// The right-hand sides `d`.
+    pub d: Vec<f64>,
+}
+
+impl RecordedProblem {
+    /// A view of the copy.
+    pub fn problem(&self) -> Option<Problem<'_>> {
+        Problem::new(self.g, &self.j, &self.d).ok()
+    }
 }
 
 impl Default for Solver {
@@ -117,7 +137,20 @@ impl Solver {
             active_set: ActiveSetWorkspace::new(),
             pqp: PqpWorkspace::new(),
             pqp_parallel,
+            recorded: None,
         }
+    }
+
+    /// Starts (`true`) or stops keeping a copy of each problem solved, the last one readable
+    /// with [`Solver::recorded`]: for benches and tests that replay real frames' QPs. Not for
+    /// the frame loop (the copy allocates when a problem is larger than every earlier one).
+    pub fn record(&mut self, on: bool) {
+        self.recorded = on.then(Box::default);
+    }
+
+    /// The last problem solved while recording (`None` when not recording or nothing solved).
+    pub fn recorded(&self) -> Option<&RecordedProblem> {
+        self.recorded.as_deref().filter(|r| !r.j.is_empty())
     }
 
     /// Reserves room for problems of up to `n` rows in the workspace of the current kind.
@@ -137,6 +170,13 @@ impl Solver {
     /// Allocates only when `p.len()` exceeds every earlier `N` (see [`Solver::reserve`]);
     /// never panics; bounded by each solver's iteration cap.
     pub fn solve(&mut self, p: &Problem<'_>, dq0: &[f64; 6]) -> Solution {
+        if let Some(r) = self.recorded.as_deref_mut() {
+            r.g = *p.g();
+            r.j.clear();
+            r.j.extend_from_slice(p.j());
+            r.d.clear();
+            r.d.extend_from_slice(p.d());
+        }
         match self.kind {
             SolverKind::Dual => self.dual.solve(p, self.warm_start),
             SolverKind::ActiveSet => self.active_set.solve(p, dq0),
