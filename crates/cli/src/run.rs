@@ -637,9 +637,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         scene.motion = Motion::Trajectory(t);
     }
     scene.validate()?;
-    if let Some(why) = missing_meshes(&scene) {
-        eprintln!("{}: {why}: mesh-level penetration not measured", scene.name);
-    }
+    let mesh_note = missing_meshes(&scene);
     let traj = scene.trajectory();
     let kind = device_kind.unwrap_or(scene.device.kind);
     let max_frames = match args.duration {
@@ -740,6 +738,9 @@ pub fn run(args: RunArgs) -> Result<()> {
         fail_hook("plots")?;
     }
     staging.commit()?;
+    if let Some(why) = &mesh_note {
+        eprintln!("{}: {why}: mesh-level penetration not measured", scene.name);
+    }
     let out = &args.out;
     if args.json {
         println!("{json}");
