@@ -172,12 +172,7 @@ fn every_heuristic_off_in_turn_stays_exact_and_safe_regions() {
 
 #[test]
 fn every_heuristic_off_in_turn_stays_exact_and_safe_proofs() {
-    for name in [
-        "free-space-proofs",
-        "proving-traversals",
-        "background-probes",
-        "neighbour-lists",
-    ] {
+    for name in ["free-space-proofs", "background-probes", "neighbour-lists"] {
         check(SCENES, without(name), 4);
     }
 }

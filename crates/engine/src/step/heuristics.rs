@@ -24,9 +24,6 @@ pub struct Heuristics {
     /// frames near it skip their traversals. Off, the background probes are off too (a probe
     /// is a proof made ahead).
     pub free_space_proofs: bool,
-    /// A traversal in free space proves free space as far as the nearest pair beyond its
-    /// margin (one traversal, the widest proof the surfaces allow).
-    pub proving_traversals: bool,
     /// Background probes: the next free-space proof computed a slice per frame ahead of need.
     pub background_probes: bool,
     /// Neighbour lists: every leaf pair within a wide margin of a pose near the tool, built a
@@ -59,7 +56,6 @@ impl Heuristics {
         slab_regions: true,
         density_sizing: true,
         free_space_proofs: true,
-        proving_traversals: true,
         background_probes: true,
         neighbour_lists: true,
         lever: true,
@@ -75,7 +71,6 @@ impl Heuristics {
         slab_regions: false,
         density_sizing: false,
         free_space_proofs: false,
-        proving_traversals: false,
         background_probes: false,
         neighbour_lists: false,
         lever: false,
@@ -85,13 +80,12 @@ impl Heuristics {
     };
 
     /// The names of the switches (as the bench's ablation study prints them), in order.
-    pub const NAMES: [&'static str; 12] = [
+    pub const NAMES: [&'static str; 11] = [
         "region-reuse",
         "path-regions",
         "slab-regions",
         "density-sizing",
         "free-space-proofs",
-        "proving-traversals",
         "background-probes",
         "neighbour-lists",
         "lever",
@@ -108,7 +102,6 @@ impl Heuristics {
             "slab-regions" => &mut self.slab_regions,
             "density-sizing" => &mut self.density_sizing,
             "free-space-proofs" => &mut self.free_space_proofs,
-            "proving-traversals" => &mut self.proving_traversals,
             "background-probes" => &mut self.background_probes,
             "neighbour-lists" => &mut self.neighbour_lists,
             "lever" => &mut self.lever,

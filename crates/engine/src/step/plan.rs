@@ -259,8 +259,7 @@ impl GodObject {
     }
 
     /// A traversal for the region: in free space a little wider, so that an empty answer
-    /// proves free space for several frames ([`FREE_PROBE_MM`]), and proving as far as the
-    /// nearest pair beyond (one traversal gives the widest proof the surfaces allow).
+    /// proves free space for several frames ([`FREE_PROBE_MM`]).
     fn traverse_region(
         &mut self,
         f: &FrameWork,
@@ -296,15 +295,8 @@ impl GodObject {
         });
         plan.slab_used = face_slab.is_some();
         let traversed_before = self.run.counts.regions_traversed;
-        let (d, proven) = if h.proving_traversals && in_free_space && face_slab.is_none() {
-            match self.detect_proving(&q_lin, None, probe, FREE_PROBE_MM, Some(deadline), None) {
-                Ok((gap, proven)) => (Ok(gap), proven),
-                Err(e) => (Err(e), probe),
-            }
-        } else {
-            let d = self.detect_along(&q_lin, None, probe, Some(deadline), face_slab);
-            (d, probe)
-        };
+        let d = self.detect_along(&q_lin, None, probe, Some(deadline), face_slab);
+        let proven = probe;
         // Only a complete traversal proves free space (one the deadline stopped may have
         // missed pairs).
         if d.is_ok() && self.detector.pairs.is_empty() && !self.run.regions.interrupted {
