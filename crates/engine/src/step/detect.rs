@@ -258,7 +258,7 @@ impl GodObject {
     }
 
     /// The widths of a slab region (mm: across the face, along it) for a tool held by one
-    /// flat face ([`GodObject::contact_face`]), or `None` where a ball serves as well: the
+    /// flat face (`run.regions.contact_face`), or `None` where a ball serves as well: the
     /// slide along the face as a ball region would take it (`need`, `allow`, `cap`), at least
     /// [`SLAB_SLIDE_MM`]; across it 1.5 times last frame's motion across plus
     /// [`SLAB_ACROSS_MIN_MM`], within the pair density's allowance `dense_cap` (the face's
@@ -291,7 +291,7 @@ impl GodObject {
     }
 
     /// Where the graphic tool is expected for the device pose `q_h`: at last frame's offset
-    /// from the hand ([`GodObject::hand_offset`]).
+    /// from the hand (`run.motion.hand_offset`).
     pub(super) fn predicted_pose(&self, q_h: &Pose) -> Pose {
         let (off_t, off_w) = self.run.motion.hand_offset;
         Pose::from_translation_rotation(

@@ -1,0 +1,358 @@
+//! The frame step's tuning constants, grouped by the heuristic (switch) they belong to.
+//!
+//! Each says what it is and why it has its value: derived from the geometry, the budget or
+//! the tolerances where it can be; otherwise tuned, with the trade-off it sets and where the
+//! measurement that chose it is recorded (docs/design-notes.md). What each heuristic pays
+//! across the scene zoo is the ablation table in docs/BENCHMARKS.md.
+
+// ---- Convergence, contact and start ----
+
+/// A leaf pair whose exact gap (mm) at the answer is at most this is counted as touching
+/// ([`Frame::contacts`](crate::Frame::contacts)).
+pub const TOUCH_MM: f64 = 0.01;
+
+/// A row whose linearized gap at the answer is below this (mm) holds the tool.
+pub(super) const TIGHT_MM: f64 = 1e-6;
+
+/// The frame has reached the optimum when no holding row is open by more than this in truth
+/// (mm): a further pass would move the tool by about this much.
+pub(super) const CONVERGED_MM: f64 = 0.005;
+
+/// Projection passes a reset makes toward a free pose before it gives up: each moves the tool
+/// out of the overlaps it lists, so a start a few leaf sizes deep takes a few.
+pub(super) const RESET_SEARCH_PASSES: usize = 100;
+
+// ---- The budget: passes, deadline, the paced loop's wait ----
+
+/// A pass starts only if the frame's time so far plus this many times its longest pass stays
+/// within `budget_us` (a new region's traversal may cost more than any pass so far; the
+/// deadline stops one that overruns). Tuned between 1.0 and 1.5 on a fast slide and a tight
+/// insertion (design-notes §Regions, trust boxes and passes).
+pub(super) const PASS_HEADROOM: f64 = 1.25;
+
+/// Share of the frame budget kept after the last traversal may run for that pass's rows,
+/// solve and check: a traversal still running at `(1 - DETECT_RESERVE) · budget_us` stops,
+/// and the frame ends lagging at its last proven pose.
+pub(super) const DETECT_RESERVE: f64 = 0.15;
+
+/// Node pairs (probe) or units of list work a paced loop's wait runs between clock reads
+/// ([`GodObject::idle`](super::GodObject::idle)): ~10–40 µs, so the wait ends within that of its limit.
+pub(super) const IDLE_SLICE_SPLITS: usize = 128;
+
+/// The end of a paced loop's wait kept for warming the caches, µs ([`GodObject::idle`](super::GodObject::idle)).
+pub(super) const IDLE_WARM_US: u64 = 60;
+
+/// A wait of at least this (µs) before a frame builds most of the next neighbour list: a list
+/// is then kept wherever it lasts, its build no longer weighed against the traversals it
+/// spares (at 1 kHz the wait is ~380 µs; design-notes §The paced loop).
+pub(super) const IDLE_FOR_LISTS_US: u64 = 200;
+
+// ---- Region size (`density-sizing`, overflow) ----
+
+/// Leaf pairs a detected region aims at: a dense contact takes smaller regions (more passes)
+/// rather than one region of tens of thousands of rows.
+pub(super) const PAIR_TARGET: f64 = 1500.0;
+
+/// Leaf pairs a ball region aims at in a dense contact (paths and free-space probes keep
+/// [`PAIR_TARGET`]). A ball region in a turning or pressed contact is detected again every few
+/// frames, and a dense one's cost grows faster than its life: a smaller target trades more
+/// passes for cheaper ones. Tuned on a dense turning contact (the cost model fitted to measured
+/// frames; design-notes §Regions, trust boxes and passes).
+pub(super) const BALL_PAIR_TARGET: f64 = 500.0;
+
+/// Least allowance (mm) the pair density may give a ball region: a dense contact's regions
+/// may be thinner than [`MIN_ALLOW_MM`] (two bumpy faces hold ~1 500 pairs within ~0.1 mm;
+/// design-notes §Regions, trust boxes and passes).
+pub(super) const DENSE_MIN_ALLOW_MM: f64 = 0.03;
+
+/// Smallest motion allowance of a detected region, mm.
+pub(super) const MIN_ALLOW_MM: f64 = 0.1;
+
+/// Below this allowance (mm) an overflowing pair list ends the frame (lagging, safe).
+pub(super) const MIN_OVERFLOW_ALLOW_MM: f64 = 0.005;
+
+// ---- Reuse and re-centring (`region-reuse`, `recentre`) ----
+
+/// Largest pair list reused from an earlier frame: a list about [`PAIR_TARGET`] costs ~20 µs to
+/// solve again, ~150 µs to find again (design-notes §Regions, trust boxes and passes).
+/// (Deterministic: a rule on measured times would make frames depend on the machine.)
+pub(super) const REUSE_MAX_PAIRS: usize = 2000;
+
+/// A ball region's own pairs serve the next region about a pose it still covers by at least
+/// this share of the allowance wanted (else a fresh detection pays).
+pub(super) const RECENTRE_SHARE: f64 = 0.5;
+
+/// … and by at least this many times the motion predicted for the tool this frame (a tool
+/// about to move farther, e.g. dropping into a hole, needs a detection anyway).
+pub(super) const RECENTRE_MOTION_SPARE: f64 = 2.0;
+
+// ---- Path regions (`path-regions`) ----
+
+/// A predicted motion shorter than this (mm, largest sphere motion) takes a ball region: a
+/// path region pays off only for a hand in motion.
+pub(super) const MIN_SWEEP_MM: f64 = 0.1;
+
+/// A path region is taken only while its length plus width stays within this many times the
+/// allowance that keeps a ball region near [`PAIR_TARGET`] pairs: 1 made fast slides lag, 3
+/// let a tight insertion's worst frame over 1 ms (design-notes §Regions, trust boxes and
+/// passes).
+pub(super) const PATH_DENSITY_FACTOR: f64 = 2.0;
+
+/// A path region reaches at least this far ahead (mm, largest sphere motion; at most
+/// `max_margin_mm`), so that a slow hand's next frames reuse it.
+pub(super) const PATH_MIN_MM: f64 = 0.2;
+
+/// How far (mm) the iterates of a path region may stray from the predicted path: twice the
+/// recent prediction error, within these bounds (a tool riding over the bumps of a sphere-tree
+/// surface strays by a few tenths of a millimetre).
+pub(super) const PATH_WIDTH_MIN_MM: f64 = 0.1;
+
+pub(super) const PATH_WIDTH_MAX_MM: f64 = 0.4;
+
+/// A tool left behind that moved at least this far (mm) in its last frame is falling toward
+/// the hand: its path region is the straight way there.
+pub(super) const FALL_MIN_STEP_MM: f64 = 0.1;
+
+/// ... and moved toward the hand: the cosine between its last step and the way to the hand
+/// is at least this (a tool sliding across a face the hand presses into is not falling).
+pub(super) const FALL_MIN_COS: f64 = 0.9;
+
+// ---- Turned trust boxes (`turned-trust`) ----
+
+/// A pass whose answer stayed within this share of its region's width (its motion bound from
+/// the region's centre) crept: its trust box or the contact stopped it well inside its ball,
+/// and the next region's trust box is turned to that pass's motion.
+pub(super) const CREEP_SHARE: f64 = 0.5;
+
+// ---- Slab regions (`slab-regions`) ----
+
+/// A slab region (a tool held by one flat face) allows a slide along the face of at least this
+/// much (mm): its face's pairs do not grow with it, only with the margin across (1 mm against
+/// 0.5 mm: p50 3–4 µs against 16–23 for a fast slide and turn; 2 mm no better).
+pub(super) const SLAB_SLIDE_MM: f64 = 1.0;
+
+/// Least margin (mm) across the face of a slab region, over 1.5 times last frame's motion
+/// across it.
+pub(super) const SLAB_ACROSS_MIN_MM: f64 = 0.03;
+
+/// Frames without slab regions after one that failed (stopped at the deadline, overflowed, or
+/// listed more than [`SLAB_MAX_PAIRS`] pairs or split more than [`SLAB_MAX_SPLITS`] node
+/// pairs: the other pairs within the slide, of faces whose discs are too small or of the
+/// tool's own bumps, can be many, and the tool's leaves near a face broken by slots are let
+/// go only one by one), doubled after each failure in a row up to [`SLAB_REST_MAX_FRAMES`].
+pub(super) const SLAB_REST_FRAMES: u32 = 100;
+
+pub(super) const SLAB_REST_MAX_FRAMES: u32 = 12_800;
+
+/// A slab region is small by design (a flat contact's: ~50 pairs); one past these failed to be.
+pub(super) const SLAB_MAX_PAIRS: usize = 500;
+
+pub(super) const SLAB_MAX_SPLITS: usize = 8_000;
+
+// ---- The near part of the tool (`lever`) ----
+
+/// How much farther (mm) than a ball region's margin the rest of the tool is from the objects
+/// ([`Lever`](super::Lever)): a turn about the contact (a long tool spinning and rocking on its tip) is
+/// bounded by the near leaves' lever arm, not the far end's reach, while the far end moves
+/// less than this.
+pub(super) const LEVER_MARGIN_MM: f64 = 0.8;
+
+/// Tool and object levels at which the near part of the tool is decided ([`Lever`](super::Lever)): 512
+/// nodes of a tree of branching 8 (a long tool on a face: ~5 500 sphere tests).
+pub(super) const LEVER_LEVEL: u32 = 3;
+
+/// A near part of the tool is found this much (mm) wider than a region needs, and kept for
+/// later regions while the tool stays within it of where it was found ([`Lever`](super::Lever)).
+pub(super) const LEVER_SPARE_MM: f64 = 0.5;
+
+/// Most sphere tests spent finding the near part of the tool (~7 ns each with the descent:
+/// ~37 µs, once every ~15 regions).
+pub(super) const LEVER_MAX_TESTS: usize = 8_000;
+
+/// Fewest pairs of a ball region that looks for the near part of the tool: a small contact's
+/// regions are cheap to detect again (a first contact then costs no more than it did).
+pub(super) const LEVER_MIN_PAIRS: usize = 100;
+
+// ---- Free-space proofs and background probes (`free-space-proofs`, `background-probes`) ----
+
+/// Margin (mm) of a detection made in free space: an empty result proves free space this far,
+/// and later frames near the same pose skip their traversals.
+pub(super) const FREE_PROBE_MM: f64 = 0.3;
+
+/// How much less than the proven gap (mm) a free-space proof from a proving traversal claims:
+/// a pair may lie at the gap itself.
+pub(super) const PROOF_ROUNDING_MM: f64 = 1e-6;
+
+/// Margin (mm) of a background probe: wider than a frame's own proof, since its cost is spread
+/// over frames and a wider proof lasts longer per node pair split (measured in a tight hole:
+/// 0.4 mm costs ~20 % more than 0.3 mm and covers ~40 % more of the way; design-notes
+/// §Free-space proofs and background probes).
+pub(super) const BACKGROUND_PROBE_MM: f64 = 0.4;
+
+/// Least margin (mm) of a background probe. A probe that finds a pair within its margin (a
+/// tool turning in a tight groove, 0.1–0.4 mm from its flanks) proves nothing; the next one
+/// asks for less ([`PROBE_MARGIN_SHRINK`]), down to this.
+pub(super) const BACKGROUND_PROBE_MIN_MM: f64 = 0.05;
+
+/// Frames of the tool's motion a background probe's margin must hold beyond the frame's own
+/// need, or it is not started (a proof that lasts fewer frames than its slices take is no
+/// use: fresh traversals serve).
+pub(super) const PROBE_MIN_USABLE_FRAMES: f64 = 2.0;
+
+/// Node pairs a background free-space probe aims to split per frame (~15–25 µs): it starts
+/// early enough to finish at this pace before the current proof runs out.
+pub(super) const PROBE_SLICE_SPLITS: usize = 800;
+
+/// A running background probe at a pose is paced to finish this many frames before the
+/// free-space proofs run out (at the tool's last motion); one along a path within
+/// [`PROBE_FINISH_WITHIN`] of their horizon, less these frames. (Paced over the whole horizon,
+/// a path probe behind a speeding hand fell behind its time-capped slices and finished
+/// thousands of node pairs in one frame; design-notes §Free-space proofs and background
+/// probes.)
+pub(super) const PROBE_FINISH_SPARE_FRAMES: f64 = 2.0;
+
+/// Share of the proofs' horizon (frames) a running background probe along a path is paced to
+/// finish within: the horizon is measured at the last frame's motion, and a hand speeding up
+/// shortens it. Three quarters against a half: 16 % fewer node pairs in a tight hole, no probe
+/// finishing late (design-notes §Free-space proofs and background probes).
+pub(super) const PROBE_FINISH_WITHIN: f64 = 0.75;
+
+/// A new background probe's first slice is this share of its paced slice (when the proofs
+/// last more than 2 frames): it meets its part of the trees out of cache, and its node pairs
+/// cost 2–3 times the next slices' (measured per frame; design-notes §Free-space proofs and
+/// background probes).
+pub(super) const PROBE_FIRST_SLICE_SHARE: f64 = 0.5;
+
+/// A running background probe is paced for this many times its estimated cost.
+pub(super) const PROBE_ESTIMATE_SPARE: f64 = 1.25;
+
+/// Share of the frame's budget a background probe's slice may take while the free-space
+/// proofs still serve the next two frames (30 µs at 1 kHz): its node pairs are counted ahead of
+/// time at a pose probe's cost, and a path probe's cost ~3 times as much.
+pub(super) const PROBE_SLICE_MAX_SHARE: f64 = 0.03;
+
+/// Share of the frame's budget a background probe's slice may take when the proofs run out
+/// within two frames (100 µs at 1 kHz). A probe still unfinished when they do is carried on
+/// to the frame's deadline, or replaced by a fresh traversal if it does not cover the tool.
+pub(super) const PROBE_SLICE_URGENT_SHARE: f64 = 0.1;
+
+/// Node pairs between two clock reads when a probe is finished within a frame's deadline.
+pub(super) const PROBE_FINISH_SLICE_SPLITS: usize = 256;
+
+/// Fewest node pairs a running probe splits in a frame.
+pub(super) const PROBE_MIN_SLICE_SPLITS: usize = 300;
+
+/// Most node pairs a background probe splits in one frame (~100–250 µs), when its proof is
+/// about to run out.
+pub(super) const PROBE_MAX_SLICE_SPLITS: usize = 5000;
+
+/// A tool sliding at least this far per frame (mm, without turning) gets background probes
+/// along its way ([`collide::FreeSpaceProbe::start_along`]) instead of at a pose.
+pub(super) const PATH_PROBE_MIN_STEP_MM: f64 = 0.005;
+
+/// Frames of the tool's steady motion a background probe's path covers, within
+/// [`PATH_PROBE_MIN_MM`, `PATH_PROBE_MAX_MM`]: where walls run along the motion a path costs
+/// 1.7–3.9 times a probe at a pose and covers 11–21 times the way (design-notes §Free-space
+/// proofs and background probes).
+pub(super) const PATH_PROBE_FRAMES: f64 = 150.0;
+
+pub(super) const PATH_PROBE_MIN_MM: f64 = 0.5;
+
+pub(super) const PATH_PROBE_MAX_MM: f64 = 10.0;
+
+/// Node pairs a probe along a path aims to split per frame, and the fewest it splits (a swept
+/// node pair costs ~70 ns against ~40 for one at a pose: ~25 µs and ~10 µs).
+pub(super) const PATH_PROBE_SLICE_SPLITS: usize = 350;
+
+pub(super) const PATH_PROBE_MIN_SLICE_SPLITS: usize = 150;
+
+/// A probe along a path starts when the proofs have this many times its expected slices of
+/// frames left (a path's cost varies more with where it runs than a ball's: one that starts
+/// late ends in long slices). Tuned between 1.5 and 8 in a tight hole (design-notes
+/// §Free-space proofs and background probes).
+pub(super) const PATH_PROBE_LEAD: f64 = 5.0;
+
+/// A background probe starts at the latest when the free-space proof has this many frames of
+/// slack left (earlier when the last probe needed more slices).
+pub(super) const PROBE_LEAD_FRAMES: f64 = 8.0;
+
+/// How far past the pose where the current free-space proofs run out a probe is placed, as a
+/// share of a proof's usable radius: a tool moving on as it did crosses the new proof's ball
+/// instead of leaving it from its centre (a proof covers ~1.7 times as much of the way).
+pub(super) const PROBE_AHEAD: f64 = 0.7;
+
+/// A background probe that proved free space lets the next one ask for this many times its
+/// margin (up to [`BACKGROUND_PROBE_MM`]): a tool that left a tight gap gets its wide proofs
+/// back within a few probes.
+pub(super) const PROBE_MARGIN_GROWTH: f64 = 1.5;
+
+/// Frames the free-space proofs must serve a tool, at its last motion, for it to count as at
+/// rest (a second at 1 kHz): then a background probe widens its proof.
+pub(super) const REST_HORIZON_FRAMES: f64 = 1000.0;
+
+/// A tool at rest gets a wider proof when the proofs about it reach less than this share of
+/// the next probe's margin.
+pub(super) const PROBE_WIDEN_RATIO: f64 = 0.8;
+
+/// A background probe that touched lets the next one ask for this share of its margin.
+pub(super) const PROBE_MARGIN_SHRINK: f64 = 0.7;
+
+// ---- Neighbour lists (`neighbour-lists`) ----
+
+/// First margin (mm) of a neighbour list; later ones follow the pairs the last one held.
+pub(super) const LIST_MARGIN_MM: f64 = 0.6;
+
+/// Bounds (mm) of a neighbour list's margin.
+pub(super) const LIST_MIN_MM: f64 = 0.3;
+
+pub(super) const LIST_MAX_MM: f64 = 2.0;
+
+/// On the frame's own thread a neighbour list is built only when its cost per frame of its
+/// life is at most this many times the traversals it would spare (a list also spares the
+/// second regions of a frame and keeps later frames cheap, which the count does not see; the
+/// limit only keeps lists out where they clearly cost more; design-notes §Neighbour lists).
+pub(super) const LIST_PAYOFF: f64 = 1.5;
+
+/// Neighbour lists are kept only where a region's traversal splits at least this many node
+/// pairs (~30 µs): where regions are cheap (60–170 splits) a list costs more than it spares
+/// (design-notes §Neighbour lists).
+pub(super) const LIST_MIN_REGION_SPLITS: f64 = 800.0;
+
+/// On the frame's own thread, a neighbour list is built only while the last ones answered at
+/// least this many times their build's work in regions (regions answered times a region's
+/// node pairs; running mean over the lists taken). [`LIST_PAYOFF`]'s prediction misses that a
+/// list in use shrinks the regions to fit inside it (design-notes §Neighbour lists).
+pub(super) const LIST_MIN_YIELD: f64 = 2.0;
+
+/// The yield assumed before any list has been used: a contact's first list is tried.
+pub(super) const LIST_FIRST_YIELD: f64 = 10.0;
+
+/// Per frame with no list building, the yield recovers by this factor (2 from 0.8 in ~46
+/// frames), so a contact whose lists did not pay tries one again soon.
+pub(super) const LIST_YIELD_RECOVERY: f64 = 1.02;
+
+/// Pairs a neighbour list aims at (filtering them costs ~1 ns each).
+pub(super) const LIST_TARGET_PAIRS: f64 = 3000.0;
+
+/// Most pairs a neighbour list holds; a build past it is dropped and the margin shrunk.
+pub(super) const LIST_MAX_PAIRS: usize = 8192;
+
+/// Work (node pairs split plus pairs listed) the first neighbour list is expected to cost
+/// (its slices' size), and the node pairs it is expected to split (its cost as
+/// [`LIST_PAYOFF`] weighs it).
+pub(super) const LIST_FIRST_WORK: usize = 8000;
+
+pub(super) const LIST_FIRST_SPLITS: usize = 5000;
+
+/// A neighbour list is built only when it would serve at least this many frames at the
+/// tool's current motion (a fast tool outruns it: its regions are traversed).
+pub(super) const LIST_MIN_LIFE_FRAMES: f64 = 3.0;
+
+/// Most work (node pairs split plus pairs listed, [`collide::NeighbourList::work`]) a frame
+/// spends building the next neighbour list on its own thread (~50–100 µs): a list late for
+/// its use costs the traversals it would have spared, a long slice costs the frame.
+pub(super) const LIST_MAX_SLICE_WORK: usize = 1280;
+
+/// Work a frame grants the next neighbour list's build when a helper thread builds it
+/// (~300 µs of the helper's time): the list is then ready a frame or two after it starts.
+pub(super) const LIST_HELPER_WORK_PER_FRAME: usize = 8192;
