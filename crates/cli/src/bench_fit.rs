@@ -15,9 +15,8 @@
 //! mesh at the graphic pose ([`peer::MeshPenetration`], on every [`MESH_STRIDE`]-th frame in
 //! contact); the tree sizes.
 //!
-//! Every row names its geometry mode ([`GeometryMode`], `[solver] geometry`): the
-//! sphere-trees; another mode is a variant of [`GeometryMode`] and an entry of
-//! [`GEOMETRY_MODES`].
+//! Every row names the geometry mode the engine used (`[solver] geometry`); the modes replayed
+//! are [`GEOMETRY_MODES`].
 //!
 //! `--quick` replays [`QUICK_ROWS`] rows.
 
@@ -26,7 +25,6 @@ use engine::setting::Setting;
 use engine::SolverKind;
 use scene::cache::TreeCache;
 use scene::scenes::fit::{self, FitParams, FitShape};
-use scene::Scene;
 use serde::Serialize;
 
 /// The radial clearances of the study, mm.
@@ -39,34 +37,10 @@ pub const MESH_STRIDE: usize = 5;
 /// Tilt of a tilted approach about `x`, rad (2°).
 pub const TILT_RAD: f64 = 0.035;
 
-/// The geometry the engine keeps the tool out of, as a row of the study sets it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub enum GeometryMode {
-    /// Leaf spheres against leaf spheres (the paper's model, the engine's default).
-    Spheres,
-}
-
-/// The geometry modes every case is replayed in.
-pub const GEOMETRY_MODES: &[GeometryMode] = &[GeometryMode::Spheres];
-
-impl GeometryMode {
-    /// The mode's name in the table.
-    pub fn name(self) -> &'static str {
-        self.engine().setting_name()
-    }
-
-    /// The engine's setting for this mode (`[solver] geometry`).
-    pub fn engine(self) -> engine::Geometry {
-        match self {
-            GeometryMode::Spheres => engine::Geometry::Spheres,
-        }
-    }
-
-    /// Sets the scene's solver to this mode.
-    pub fn apply(self, scene: &mut Scene) {
-        scene.solver.geometry = self.engine();
-    }
-}
+/// The geometry modes every case is replayed in (`[solver] geometry`, the engine's
+/// [`engine::Geometry`]): the leaf spheres, the paper's model and the default. Adding
+/// `engine::Geometry::Mesh` to the list replays every case in the mesh mode too.
+pub const GEOMETRY_MODES: &[engine::Geometry] = &[engine::Geometry::Spheres];
 
 /// One case of the study before its clearance: shape, radius, chamfers, approach.
 #[derive(Clone, Copy, Debug)]
@@ -132,8 +106,8 @@ pub struct FitRow {
     pub approach: String,
     /// Radial clearance, mm.
     pub clearance_mm: f64,
-    /// Geometry the engine used ([`GeometryMode::name`]; `spheres` where a mode needs meshes
-    /// the scene lacks).
+    /// Geometry the engine used (`spheres` or `mesh`, as `[solver] geometry`; `spheres` where
+    /// the mesh mode was asked for and a mesh is missing).
     pub geometry: String,
     /// Frames replayed.
     pub frames: usize,
@@ -177,7 +151,7 @@ pub fn fit_study(cache: &TreeCache, quick: bool) -> Result<Vec<FitRow>> {
         }
         for &mode in GEOMETRY_MODES {
             let mut scene = f.scene.clone();
-            mode.apply(&mut scene);
+            scene.solver.geometry = mode;
             let t0 = std::time::Instant::now();
             let (_, frames, _) =
                 crate::bench_contact::replay_audited(&scene, SolverKind::Dual, false, false)?;
@@ -216,7 +190,7 @@ pub fn fit_study(cache: &TreeCache, quick: bool) -> Result<Vec<FitRow>> {
             eprintln!(
                 "bench: {} ({}): depth {:.2} of {} mm, force max {:.1} N, p99 {:.1} µs, {} degraded ({wall_s:.1} s)",
                 row.scene,
-                mode.name(),
+                mode.setting_name(),
                 row.outcome.depth_reached_mm,
                 row.full_depth_mm,
                 row.outcome.force_max_n,
