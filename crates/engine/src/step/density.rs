@@ -19,8 +19,9 @@ const MIN_PAIRS_TO_MEASURE: f64 = 16.0;
 /// Least ratio of two detections' margins (as `|ln m_b / m_a|`) that measures the exponent.
 const MIN_LOG_MARGIN_RATIO: f64 = 0.1;
 
-/// Bounds of the growth exponent (1: a line of contact growing sideways; 4: measured between
-/// 0.12 and 0.18 mm on the flat-on-flat puck). Until two detections have measured it, a
+/// Bounds of the growth exponent (1: a line of contact growing sideways; 4: two bumpy flat
+/// faces pressed together, measured between 0.12 and 0.18 mm: design-notes §Regions, trust
+/// boxes and passes). Until two detections have measured it, a
 /// region grows as the steepest contact would and shrinks as the flattest would (both the
 /// cautious side): a contact resting at one margin tells nothing of how it grows.
 const MIN_EXPONENT: f64 = 1.0;

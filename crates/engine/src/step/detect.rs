@@ -511,7 +511,7 @@ impl GodObject {
     }
 
     /// Node pairs the next probe along a path is expected to split: the last one's, or before
-    /// any, four times a probe at a pose (measured in the spline's hole: 1.0–1.5 times the node
+    /// any, four times a probe at a pose (measured in a tight hole: 1.0–1.5 times the node
     /// pairs of a probe at a pose for 3–6 mm going out, 1.8–4.5 going in).
     fn path_probe_estimate(&self) -> f64 {
         if self.run.proofs.path_probe_splits > 0 {
