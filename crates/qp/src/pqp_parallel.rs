@@ -738,28 +738,38 @@ fn compute_body<const FMA: bool>(input: &Input, part: &mut Part) {
                     .enumerate()
                 {
                     let base = (c0 + k) * LANES;
-                    let cb: [&[f64]; DIM] =
-                        std::array::from_fn(|i| &input.cols[i][base..base + LANES]);
-                    let mut cv = [0.0f64; LANES];
-                    cv.copy_from_slice(cc);
+                    // Fixed-size views (the lengths hold by construction), so the compiler
+                    // sees whole vectors and no bounds checks.
+                    let (Ok(pc), Ok(cc)) = (
+                        <&mut [f64; R * LANES]>::try_from(pc),
+                        <&mut [f64; LANES]>::try_from(cc),
+                    ) else {
+                        continue;
+                    };
+                    let cb: [[f64; LANES]; DIM] = std::array::from_fn(|i| {
+                        <[f64; LANES]>::try_from(&input.cols[i][base..base + LANES])
+                            .unwrap_or([0.0; LANES])
+                    });
+                    let mut cv = *cc;
                     for r in 0..R {
                         let a = a0 + r;
-                        for l in 0..LANES {
+                        // 1 on the strict upper triangle of the real rows, else 0.
+                        let keep: [f64; LANES] = std::array::from_fn(|l| {
                             let bcol = base + l;
+                            f64::from(u8::from((bcol > a) & (bcol < n)))
+                        });
+                        for l in 0..LANES {
                             let mut q = rows[r][0] * cb[0][l];
                             for i in 1..DIM {
                                 q = madd::<FMA>(rows[r][i], cb[i][l], q);
                             }
-                            // Strict upper triangle of the real rows only.
-                            let keep = (bcol > a) & (bcol < n);
-                            let u = if keep { q.abs() } else { 0.0 };
-                            let neg = if keep { (-q).max(0.0) } else { 0.0 };
-                            pc[r * LANES + l] = u;
+                            let neg = (-q).max(0.0) * keep[l];
+                            pc[r * LANES + l] = q.abs() * keep[l];
                             s[r][l] += neg;
                             cv[l] += neg;
                         }
                     }
-                    cc.copy_from_slice(&cv);
+                    *cc = cv;
                 }
             }
             Phase::Product => {
@@ -769,8 +779,14 @@ fn compute_body<const FMA: bool>(input: &Input, part: &mut Part) {
                         .chunks_exact(LANES)
                         .zip(col[c0 * LANES..].chunks_exact_mut(LANES)),
                 ) {
-                    let mut cv = [0.0f64; LANES];
-                    cv.copy_from_slice(cc);
+                    let (Ok(pc), Ok(yc), Ok(cc)) = (
+                        <&[f64; R * LANES]>::try_from(pc),
+                        <&[f64; LANES]>::try_from(yc),
+                        <&mut [f64; LANES]>::try_from(cc),
+                    ) else {
+                        continue;
+                    };
+                    let mut cv = *cc;
                     for r in 0..R {
                         for l in 0..LANES {
                             let u = pc[r * LANES + l];
@@ -778,7 +794,7 @@ fn compute_body<const FMA: bool>(input: &Input, part: &mut Part) {
                             cv[l] = madd::<FMA>(u, ya[r], cv[l]);
                         }
                     }
-                    cc.copy_from_slice(&cv);
+                    *cc = cv;
                 }
             }
         }
