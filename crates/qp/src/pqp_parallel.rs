@@ -707,6 +707,26 @@ fn madd<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
     }
 }
 
+/// `acc + a .* b`, lane by lane.
+#[inline(always)]
+fn fma_vv<const FMA: bool>(acc: [f64; LANES], a: &[f64; LANES], b: &[f64; LANES]) -> [f64; LANES] {
+    let mut out = acc;
+    for l in 0..LANES {
+        out[l] = madd::<FMA>(a[l], b[l], out[l]);
+    }
+    out
+}
+
+/// `acc + a * s`, lane by lane.
+#[inline(always)]
+fn fma_vs<const FMA: bool>(acc: [f64; LANES], a: &[f64; LANES], s: f64) -> [f64; LANES] {
+    let mut out = acc;
+    for l in 0..LANES {
+        out[l] = madd::<FMA>(a[l], s, out[l]);
+    }
+    out
+}
+
 #[inline(always)]
 fn compute_body<const FMA: bool>(input: &Input, part: &mut Part) {
     let (n, np) = (input.n, input.np);
@@ -774,28 +794,36 @@ fn compute_body<const FMA: bool>(input: &Input, part: &mut Part) {
             }
             Phase::Product => {
                 let ya: [f64; R] = std::array::from_fn(|r| input.y[a0 + r]);
+                // One accumulator vector per row, whole-vector operations only: the loop body
+                // is 8 packed multiply-adds of 4 lanes for the rows and 8 for the columns.
+                let [mut s0, mut s1, mut s2, mut s3] = s;
                 for (pc, (yc, cc)) in panel.chunks_exact(R * LANES).zip(
                     input.y[c0 * LANES..]
                         .chunks_exact(LANES)
                         .zip(col[c0 * LANES..].chunks_exact_mut(LANES)),
                 ) {
-                    let (Ok(pc), Ok(yc), Ok(cc)) = (
-                        <&[f64; R * LANES]>::try_from(pc),
+                    let (Ok(p0), Ok(p1), Ok(p2), Ok(p3), Ok(yc), Ok(cc)) = (
+                        <&[f64; LANES]>::try_from(&pc[..LANES]),
+                        <&[f64; LANES]>::try_from(&pc[LANES..2 * LANES]),
+                        <&[f64; LANES]>::try_from(&pc[2 * LANES..3 * LANES]),
+                        <&[f64; LANES]>::try_from(&pc[3 * LANES..]),
                         <&[f64; LANES]>::try_from(yc),
                         <&mut [f64; LANES]>::try_from(cc),
                     ) else {
                         continue;
                     };
+                    s0 = fma_vv::<FMA>(s0, p0, yc);
+                    s1 = fma_vv::<FMA>(s1, p1, yc);
+                    s2 = fma_vv::<FMA>(s2, p2, yc);
+                    s3 = fma_vv::<FMA>(s3, p3, yc);
                     let mut cv = *cc;
-                    for r in 0..R {
-                        for l in 0..LANES {
-                            let u = pc[r * LANES + l];
-                            s[r][l] = madd::<FMA>(u, yc[l], s[r][l]);
-                            cv[l] = madd::<FMA>(u, ya[r], cv[l]);
-                        }
-                    }
+                    cv = fma_vs::<FMA>(cv, p0, ya[0]);
+                    cv = fma_vs::<FMA>(cv, p1, ya[1]);
+                    cv = fma_vs::<FMA>(cv, p2, ya[2]);
+                    cv = fma_vs::<FMA>(cv, p3, ya[3]);
                     *cc = cv;
                 }
+                s = [s0, s1, s2, s3];
             }
         }
         for r in 0..R {
