@@ -12,8 +12,8 @@
 //! Per row: how deep the tip got below the mouth and whether it reached full depth; the largest
 //! force; lagging and degraded frames; whole-step time p50 / p99 / max and frames over 1 ms;
 //! the engine's deepest leaf overlap; the mesh-level penetration of the peg mesh into the block
-//! mesh at the graphic pose ([`peer::MeshPenetration`], on every [`MESH_STRIDE`]-th frame in
-//! contact); the tree sizes.
+//! mesh at the graphic pose ([`peer::MeshPenetration`], on every [`MESH_STRIDE`]-th frame near
+//! or in contact); the tree sizes.
 //!
 //! Every row names the geometry mode the engine used (`[solver] geometry`); the modes replayed
 //! are [`GEOMETRY_MODES`].
@@ -30,7 +30,8 @@ use serde::Serialize;
 /// The radial clearances of the study, mm.
 pub const CLEARANCES_MM: [f64; 5] = [0.5, 0.2, 0.1, 0.05, 0.02];
 
-/// Mesh-level penetration is measured on every this many frames in contact (a peg in its hole
+/// Mesh-level penetration is measured on every this many frames near or in contact
+/// ([`crate::run::near_contact`], whatever the geometry mode; a peg in its hole
 /// puts all its probe points in the block's box: about 1.5 ms a frame on 2 cores).
 pub const MESH_STRIDE: usize = 5;
 
@@ -126,7 +127,7 @@ pub struct FitRow {
     /// Deepest penetration of the peg mesh into the block mesh or the reverse at the graphic
     /// pose over the frames measured (independent of the trees), mm.
     pub mesh_penetration_mm: f64,
-    /// Frames measured at the mesh level (every [`MESH_STRIDE`]-th frame in contact).
+    /// Frames measured at the mesh level (every [`MESH_STRIDE`]-th frame near or in contact).
     pub mesh_frames: usize,
     /// Wall time of the replay (without the mesh measure), s.
     pub wall_s: f64,
@@ -159,7 +160,7 @@ pub fn fit_study(cache: &TreeCache, quick: bool) -> Result<Vec<FitRow>> {
             let outcome = f.outcome(&frames);
             let poses: Vec<[f64; 6]> = frames
                 .iter()
-                .filter(|fr| fr.contacts > 0)
+                .filter(|fr| crate::run::near_contact(fr))
                 .step_by(MESH_STRIDE)
                 .map(|fr| fr.q_g)
                 .collect();

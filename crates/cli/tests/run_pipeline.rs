@@ -295,9 +295,10 @@ fn run_measures_the_mesh_penetration_of_a_mesh_scene_and_says_when_it_cannot() {
     let (_, rows) = csv_rows(&out.join("frames.csv"));
     let pairs_at = 19;
     let measured: Vec<&Vec<f64>> = rows.iter().filter(|r| r[28].is_finite()).collect();
-    // Measured on the frames in contact (the press), empty in free space (the start, the end).
+    // Measured on the frames near or in contact (the depth-2 trees' leaf pairs are listed from
+    // the start, 5 mm apart, through the press), empty in free space (the end, 10 mm apart).
     assert!(measured.len() > 100, "{} frames measured", measured.len());
-    assert!(rows.first().unwrap()[28].is_nan() && rows.last().unwrap()[28].is_nan());
+    assert!(rows.last().unwrap()[28].is_nan());
     assert!(measured.iter().all(|r| r[pairs_at] > 0.0));
     // The trees keep the boxes apart: the meshes do not overlap (the tree sits on or above
     // the mesh contact height).

@@ -216,10 +216,10 @@ pub struct MeshPenetrationReport {
     pub max: f64,
     /// Frames measured.
     pub frames: usize,
-    /// Frames in contact (touching leaf pairs) in the run, of which every `stride`-th was
-    /// measured.
+    /// Frames near or in contact in the run (leaf pairs listed or touching, or the tool held
+    /// off the hand), of which every `stride`-th was measured.
     pub contact_frames: usize,
-    /// One frame in contact of every this many was measured (1: every one).
+    /// One frame near or in contact of every this many was measured (1: every one).
     pub stride: usize,
     /// Wall time of the measure (after the run, outside the haptic loop), s.
     pub wall_s: f64,
