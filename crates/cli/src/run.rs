@@ -751,9 +751,8 @@ pub fn run(args: RunArgs) -> Result<()> {
 }
 
 /// Mesh-level penetration is measured on every this many frames near or in contact (1: every
-/// one, [`near_contact`]): a
-/// frame's measure costs 0.03–0.6 ms on 2 cores on the built-in and zoo scenes, after the
-/// frames (docs/DESIGN.md §Formats).
+/// one, [`near_contact`]): a frame's measure costs 0.03–1 ms on 2 cores on the built-in and zoo
+/// scenes, after the frames (docs/DESIGN.md §Formats).
 pub const MESH_STRIDE: usize = 1;
 
 /// Surface samples per mesh of the mesh-level measure beside its vertices (as the bench's zoo
@@ -878,7 +877,7 @@ fn print_human(s: &RunSummary, out: &Path) {
     );
     match &s.mesh_penetration_mm {
         Some(m) => println!(
-            "  mesh penetration max {:.4} mm ({} of {} frames in contact measured, {:.2} s)",
+            "  mesh penetration max {:.4} mm ({} of {} frames near or in contact measured, {:.2} s)",
             m.max, m.frames, m.contact_frames, m.wall_s
         ),
         None => println!("  mesh penetration: not measured (no meshes)"),
