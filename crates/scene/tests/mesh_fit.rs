@@ -1,0 +1,62 @@
+//! The mesh geometry mode against the sphere envelope on small generated fits: a round peg of
+//! radius 2 mm at 0.2 and 0.05 mm radial clearance jams at the hole's mouth on the leaf spheres
+//! (their envelope stands off the cylinder by more than the gap) and goes to full depth on the
+//! parts' own triangles, whose rows keep every triangle pair apart. No deadline, so the frames
+//! are the same on a loaded machine.
+
+mod common;
+
+use common::test_cache;
+use engine::Geometry;
+use scene::scenes::fit::{self, FitOutcome, FitParams};
+
+/// A short peg and block: radius 2 mm, inserted 3.5 mm, depth-3 trees.
+fn small_fit(clearance_mm: f64) -> FitParams {
+    FitParams {
+        radius_mm: 2.0,
+        clearance_mm,
+        peg_length_mm: 7.0,
+        block_height_mm: 5.0,
+        depth_mm: 3.5,
+        tree_depth: 3,
+        ..FitParams::default()
+    }
+}
+
+/// The fit inserted with `geometry`, no deadline: its outcome, after checking every frame is
+/// finite and, in the mesh mode, that the step used the meshes.
+fn insert(p: &FitParams, geometry: Geometry) -> FitOutcome {
+    let mut f = fit::fit_scene(p, &test_cache()).unwrap();
+    f.scene.solver.budget_us = engine::config::BUDGET_US.hi;
+    f.scene.solver.geometry = geometry;
+    assert_eq!(f.scene.geometry(), geometry);
+    let frames = common::replay(&f.scene);
+    for fr in &frames {
+        assert!(fr.q_g.iter().chain(&fr.wrench).all(|v| v.is_finite()));
+    }
+    f.outcome(&frames)
+}
+
+fn check(clearance_mm: f64) {
+    let p = small_fit(clearance_mm);
+    let spheres = insert(&p, Geometry::Spheres);
+    assert!(
+        !spheres.full_depth && spheres.depth_reached_mm < 0.5 * p.depth_mm,
+        "{clearance_mm} mm: the leaf spheres let the peg in: {spheres:?}"
+    );
+    let mesh = insert(&p, Geometry::Mesh);
+    assert!(
+        mesh.full_depth,
+        "{clearance_mm} mm: the mesh mode jams: {mesh:?}"
+    );
+}
+
+#[test]
+fn a_round_peg_at_0_2_mm_clearance_jams_on_spheres_and_goes_in_on_the_mesh() {
+    check(0.2);
+}
+
+#[test]
+fn a_round_peg_at_0_05_mm_clearance_jams_on_spheres_and_goes_in_on_the_mesh() {
+    check(0.05);
+}
