@@ -86,6 +86,11 @@ pub struct RunArgs {
     /// for a few ms after each).
     #[arg(long)]
     pub helper_thread: bool,
+    /// What the tool touches: spheres (default: the trees' leaf spheres, the paper's model) or
+    /// mesh (the parts' own triangles; needs every body built from a mesh; docs/DESIGN.md
+    /// §Mesh-exact contact).
+    #[arg(long)]
+    pub geometry: Option<String>,
     /// Face caps on object trees: on or off (default: the scene's; docs/DESIGN.md §Face caps).
     #[arg(long, value_parser = crate::parse_on_off)]
     pub face_caps: Option<bool>,
@@ -558,6 +563,12 @@ pub fn run(args: RunArgs) -> Result<()> {
         .map(SolverKind::parse_setting)
         .transpose()
         .context("--solver")?;
+    let geometry = args
+        .geometry
+        .as_deref()
+        .map(engine::Geometry::parse_setting)
+        .transpose()
+        .context("--geometry")?;
     let form = args
         .form
         .as_deref()
@@ -626,6 +637,9 @@ pub fn run(args: RunArgs) -> Result<()> {
     }
     if let Some(on) = args.face_caps {
         scene.solver.face_caps = on;
+    }
+    if let Some(g) = geometry {
+        scene.solver.geometry = g;
     }
     if let Some(r) = rotation {
         scene.coupling.rotation = r;
@@ -696,6 +710,13 @@ pub fn run(args: RunArgs) -> Result<()> {
         load_s,
     );
     summary.trees = tree_infos(&scene);
+    summary.geometry = scene.geometry().name().into();
+    if scene.solver.geometry != scene.geometry() {
+        summary.load.push(format!(
+            "geometry: {} asked, but not every body has a mesh (a tree read from a .sph file has no triangles): the leaf spheres are the geometry",
+            scene.solver.geometry.name()
+        ));
+    }
     let mesh_column = match mesh_penetration(&scene, &report.frames) {
         Some((column, measured)) => {
             summary.mesh_penetration_mm = Some(measured);
@@ -861,8 +882,8 @@ fn print_human(s: &RunSummary, out: &Path) {
         eprintln!("{l}");
     }
     println!(
-        "{} / {} ({}): {} frames, scene loaded in {:.3} s",
-        s.scene, s.solver, s.form, s.frames, s.load_s
+        "{} / {} ({}, {}): {} frames, scene loaded in {:.3} s",
+        s.scene, s.solver, s.form, s.geometry, s.frames, s.load_s
     );
     for t in &s.trees {
         println!("  tree: {}", t.describe());

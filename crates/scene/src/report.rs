@@ -167,6 +167,8 @@ pub struct RunSummary {
     pub solver: String,
     /// Constraint form.
     pub form: String,
+    /// What the tool touched: `spheres` (the trees' leaves) or `mesh` (the parts' triangles).
+    pub geometry: String,
     /// Frames run.
     pub frames: usize,
     /// Collision detection time per frame, µs.
@@ -287,6 +289,7 @@ pub fn summarize(
         scene: scene.into(),
         solver: solver.into(),
         form: form.into(),
+        geometry: engine::Geometry::Spheres.name().into(),
         frames: frames.len(),
         cd_us: Summary::of(frames.iter().map(|f| f.frame.cd_us)),
         opt_us: Summary::of(frames.iter().map(|f| f.frame.opt_us)),
