@@ -71,8 +71,8 @@ mod tuning;
 
 use narrow::{Meshes, TriPair};
 use state::*;
-use tuning::*;
 pub use tuning::TOUCH_MM;
+use tuning::*;
 
 use frame::Flow;
 
