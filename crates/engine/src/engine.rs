@@ -282,6 +282,12 @@ impl Engine {
         })
     }
 
+    /// The geometry the engine keeps the tool out of ([`GodObject::geometry`]): the mesh mode
+    /// where it was asked for and every body came with its mesh, else the leaf spheres.
+    pub fn geometry(&self) -> Geometry {
+        self.god.geometry()
+    }
+
     /// Starts a new run with the device at `start`: the graphic tool is placed at `start`, or
     /// at a free pose near it when `start` is in collision (returned;
     /// [`GodObject::reset`] says how near); the safety layer's soft start and rate limit start

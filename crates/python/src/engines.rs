@@ -55,8 +55,17 @@ fn engine_error(label: &str, source: engine::EngineError) -> Failure {
 /// named as `haptic6d run` names its flags (`budget_us = 0: must be ...`).
 pub fn from_scene(scene: Scene, options: &EngineOptions) -> Result<Made, Failure> {
     let settings = options.apply(scene.engine_config(), scene.rate_hz)?;
-    let mut engine = Engine::new(&scene.tool, &scene.objects, settings.config)
-        .map_err(|e| engine_error(&scene.name, e))?;
+    // The scene's meshes go with its trees, so that `[solver] geometry = "mesh"` holds here
+    // as it does in `haptic6d run`.
+    let (tool_mesh, object_meshes) = scene.mesh_refs();
+    let mut engine = Engine::with_meshes(
+        &scene.tool,
+        tool_mesh,
+        &scene.objects,
+        &object_meshes,
+        settings.config,
+    )
+    .map_err(|e| engine_error(&scene.name, e))?;
     scene.apply_friction(&mut engine).map_err(Failure::from)?;
     engine
         .reset(&scene.start)
@@ -106,6 +115,20 @@ pub fn from_trees(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_scene_that_asks_for_the_mesh_geometry_gets_it() {
+        let cache = TreeCache::disabled();
+        for (asked, got) in [
+            (engine::Geometry::Spheres, engine::Geometry::Spheres),
+            (engine::Geometry::Mesh, engine::Geometry::Mesh),
+        ] {
+            let mut scene = scene::scenes::builtin("zoo/cube-edge", &cache).unwrap();
+            scene.solver.geometry = asked;
+            let made = from_scene(scene, &EngineOptions::default()).unwrap();
+            assert_eq!(made.engine.geometry(), got);
+        }
+    }
 
     #[test]
     fn an_unknown_scene_is_a_file_error_naming_the_built_in_ones() {

@@ -604,8 +604,9 @@ impl Scene {
         Ok(())
     }
 
-    /// The bodies' meshes as the engine takes them (the mesh geometry mode uses them).
-    fn mesh_refs(
+    /// The bodies' meshes as the engine takes them (the mesh geometry mode uses them):
+    /// [`engine::Engine::with_meshes`]'s `tool_mesh` and `object_meshes`.
+    pub fn mesh_refs(
         &self,
     ) -> (
         Option<engine::MeshRef<'_>>,
