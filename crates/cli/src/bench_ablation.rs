@@ -16,7 +16,7 @@
 //! `--quick` runs the reduced zoo ([`crate::bench_zoo::QUICK_SCENES`]).
 
 use anyhow::Result;
-use engine::step::{FrameOutput, FrameStatus};
+use engine::step::FrameOutput;
 use engine::{Heuristics, SolverKind};
 use scene::cache::TreeCache;
 use scene::scenes::zoo;
@@ -128,35 +128,12 @@ fn scene_result(
     frames: &[FrameOutput],
     phases: Option<&zoo::ZooPhases>,
 ) -> AblationScene {
-    let drag = phases.map(|p| {
-        let mut drag = Vec::new();
-        for k in 1..frames.len() {
-            let (t, dt) = (times[k], times[k] - times[k - 1]);
-            if t < p.slide_s.0 || t > p.slide_s.1 || dt <= 0.0 {
-                continue;
-            }
-            let v: [f64; 3] =
-                std::array::from_fn(|i| (frames[k].q_g[i] - frames[k - 1].q_g[i]) / dt);
-            let speed = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-            if speed > crate::bench_zoo::DRAG_MIN_SPEED {
-                drag.push(-(0..3).map(|i| frames[k].wrench[i] * v[i]).sum::<f64>() / speed);
-            }
-        }
-        Summary::of(drag).mean
-    });
+    let drag = phases.map(|p| crate::bench_zoo::slide_drag(times, frames, p.slide_s));
     AblationScene {
         scene: name.to_string(),
         total_us: Summary::of(frames.iter().map(|f| f.total_us)),
         over_1ms: frames.iter().filter(|f| f.total_us > 1000.0).count(),
-        degraded: frames
-            .iter()
-            .filter(|f| {
-                matches!(
-                    f.status,
-                    FrameStatus::Lagging | FrameStatus::PairOverflow | FrameStatus::KeptLastSafe
-                )
-            })
-            .count(),
+        degraded: frames.iter().filter(|f| f.status.is_degraded()).count(),
         splits: frames.iter().map(|f| u64::from(f.splits)).sum(),
         scanned: frames.iter().map(|f| u64::from(f.scanned)).sum(),
         max_penetration_mm: frames.iter().map(|f| f.penetration_mm).fold(0.0, f64::max),

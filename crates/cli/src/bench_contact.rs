@@ -17,7 +17,7 @@
 
 use anyhow::Result;
 use collide::Pose;
-use engine::step::{FrameOutput, FrameStatus, ReductionAudit};
+use engine::step::{FrameOutput, ReductionAudit};
 use engine::SolverKind;
 use scene::cache::TreeCache;
 use scene::scenes::plate::{self, PlateTool, SpeedMotion};
@@ -161,15 +161,7 @@ fn row<'a>(
         passes: Summary::of(f.clone().map(|o| f64::from(o.passes))),
         splits: Summary::of(f.clone().map(|o| f64::from(o.splits))),
         scanned: Summary::of(f.clone().map(|o| f64::from(o.scanned))),
-        degraded_frames: f
-            .clone()
-            .filter(|o| {
-                matches!(
-                    o.status,
-                    FrameStatus::Lagging | FrameStatus::PairOverflow | FrameStatus::KeptLastSafe
-                )
-            })
-            .count(),
+        degraded_frames: f.clone().filter(|o| o.status.is_degraded()).count(),
         max_penetration_mm: f.map(|o| o.penetration_mm).fold(0.0, f64::max),
     }
 }

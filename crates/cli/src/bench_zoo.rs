@@ -123,20 +123,29 @@ fn norm3(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
-fn zoo_row(z: &ZooScene, times: &[f64], frames: &[FrameOutput], wall_s: f64) -> ZooRow {
-    let in_window = |t: f64, w: (f64, f64)| t >= w.0 && t <= w.1;
+/// Drag: the mean force opposing the graphic tool's motion over the frames of `slide_s` (s)
+/// where the tool moves faster than [`DRAG_MIN_SPEED`], N (`times` in s, one per frame).
+pub fn slide_drag(times: &[f64], frames: &[FrameOutput], slide_s: (f64, f64)) -> f64 {
     let mut drag = Vec::new();
-    let mut twist_lag: f64 = 0.0;
     for k in 1..frames.len() {
         let (t, f, prev) = (times[k], &frames[k], &frames[k - 1]);
         let dt = t - times[k - 1];
-        if in_window(t, z.phases.slide_s) && dt > 0.0 {
+        if t >= slide_s.0 && t <= slide_s.1 && dt > 0.0 {
             let v: Vec<f64> = (0..3).map(|i| (f.q_g[i] - prev.q_g[i]) / dt).collect();
             let speed = norm3(&v);
             if speed > DRAG_MIN_SPEED {
                 drag.push(-(0..3).map(|i| f.wrench[i] * v[i]).sum::<f64>() / speed);
             }
         }
+    }
+    Summary::of(drag).mean
+}
+
+fn zoo_row(z: &ZooScene, times: &[f64], frames: &[FrameOutput], wall_s: f64) -> ZooRow {
+    let in_window = |t: f64, w: (f64, f64)| t >= w.0 && t <= w.1;
+    let mut twist_lag: f64 = 0.0;
+    for (t, f) in times.iter().zip(frames).skip(1) {
+        let t = *t;
         if in_window(t, z.phases.twist_s) {
             let lag = (3..6)
                 .map(|i| (f.q_g[i] - f.q_h[i]).abs())
@@ -158,16 +167,8 @@ fn zoo_row(z: &ZooScene, times: &[f64], frames: &[FrameOutput], wall_s: f64) -> 
             .iter()
             .filter(|f| f.status == FrameStatus::Lagging)
             .count(),
-        degraded: frames
-            .iter()
-            .filter(|f| {
-                matches!(
-                    f.status,
-                    FrameStatus::Lagging | FrameStatus::PairOverflow | FrameStatus::KeptLastSafe
-                )
-            })
-            .count(),
-        drag_n: Summary::of(drag).mean,
+        degraded: frames.iter().filter(|f| f.status.is_degraded()).count(),
+        drag_n: slide_drag(times, frames, z.phases.slide_s),
         max_penetration_mm: frames.iter().map(|f| f.penetration_mm).fold(0.0, f64::max),
         mesh_penetration_mm: mesh_depths.map(|d| d.0),
         hand_depth_mm: mesh_depths.map(|d| d.1),

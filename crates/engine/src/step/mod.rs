@@ -103,6 +103,15 @@ pub enum FrameStatus {
 }
 
 impl FrameStatus {
+    /// The frame ended short of a proven optimum: lagging, with a pair overflow, or with the
+    /// last safe pose kept (what the bench counts as degraded).
+    pub fn is_degraded(&self) -> bool {
+        matches!(
+            self,
+            Self::Lagging | Self::PairOverflow | Self::KeptLastSafe
+        )
+    }
+
     /// The name written in `frames.csv`: `ok`, `inexact`, `pair-overflow`, `lagging`,
     /// `kept-last-safe`.
     pub fn name(&self) -> &'static str {

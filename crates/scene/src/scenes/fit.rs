@@ -528,17 +528,7 @@ impl FitScene {
                 .iter()
                 .filter(|f| f.status == FrameStatus::Lagging)
                 .count(),
-            degraded: frames
-                .iter()
-                .filter(|f| {
-                    matches!(
-                        f.status,
-                        FrameStatus::Lagging
-                            | FrameStatus::PairOverflow
-                            | FrameStatus::KeptLastSafe
-                    )
-                })
-                .count(),
+            degraded: frames.iter().filter(|f| f.status.is_degraded()).count(),
             total_us: Summary::of(frames.iter().map(|f| f.total_us)),
         }
     }
