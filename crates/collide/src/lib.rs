@@ -60,6 +60,7 @@ mod probe;
 mod team;
 mod traverse;
 mod triangle;
+mod triangle_tree;
 
 pub use constraint::{
     constraint_value, fill_constraints, pair_constraint_value, ConstraintForm, Linearization,
@@ -81,6 +82,7 @@ pub use traverse::{
     StandIn, Sweep, Traversal, TraversalStats,
 };
 pub use triangle::{closest_on_triangle, triangle_distance, Triangle, TriangleDistance};
+pub use triangle_tree::{TreePairStack, TriangleTree, LEAF_TRIANGLES};
 
 /// Errors of this crate.
 #[derive(Debug, thiserror::Error)]

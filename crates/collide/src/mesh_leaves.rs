@@ -1,6 +1,6 @@
-//! The triangles of a body's mesh that each leaf of its sphere-tree covers: the sphere-tree
-//! stays the bounding hierarchy, and the mesh geometry mode's narrow phase measures the
-//! triangles of the leaf pairs it lists (docs/DESIGN.md §Mesh-exact contact).
+//! The triangles of a body's mesh that each leaf of its sphere-tree covers, each leaf grown to
+//! hold its triangles whole: the grown tree's free-space answers then hold for the mesh too
+//! (docs/DESIGN.md §Mesh-exact contact).
 
 use nalgebra::Vector3;
 use spheretree::SphereTree;

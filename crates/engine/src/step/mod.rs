@@ -47,7 +47,7 @@ use std::time::{Duration, Instant};
 use collide::{
     rotation_exp, rotation_log, BackgroundList, CentreBox, CollideWorkspace, FaceSlab,
     FreeSpaceProbe, LeafPair, Linearization, ListStatus, NeighbourList, PackedTree, Pose,
-    ProbeStatus, RotationCoordinates, Sweep, TraversalTeam,
+    ProbeStatus, RotationCoordinates, Sweep, TraversalTeam, TriangleTree,
 };
 use nalgebra::{Matrix3, Vector3};
 use qp::{Problem, RowGeneration, Solver, Status};
@@ -316,24 +316,34 @@ impl GodObject {
             if params.form != collide::ConstraintForm::Distance {
                 return Err(EngineError::MeshNeedsDistance);
             }
+            // The sphere-trees' top levels, grown to hold the triangles, keep the free-space
+            // answers true for the parts; the narrow phase finds and measures the triangles
+            // themselves through their own box trees.
             let attach = |tree: &SphereTree, m: &MeshRef<'_>, pose: &Pose| {
-                collide::MeshLeaves::attach(tree, m.vertices, m.triangles, pose)
+                let tree = &top_levels(tree, MESH_SPHERE_LEVELS);
+                let (grown, _) = collide::MeshLeaves::attach(tree, m.vertices, m.triangles, pose)?;
+                let triangles: Vec<collide::Triangle> = m
+                    .triangles
+                    .iter()
+                    .map(|t| t.map(|i| m.vertices[i as usize]))
+                    .collect();
+                Ok::<_, collide::MeshLeavesError>((grown, TriangleTree::build(&triangles, pose)))
             };
             let tm = tool_mesh.as_ref().ok_or(EngineError::MeshNeedsDistance)?;
-            let (grown, tool_leaves) =
+            let (grown, tool_triangles) =
                 attach(tool, tm, &Pose::identity()).map_err(|e| mesh_bad("tool mesh".into(), e))?;
             tool_tree = grown;
-            let mut object_leaves = Vec::with_capacity(objects.len());
+            let mut object_triangles = Vec::with_capacity(objects.len());
             for (i, ((t, p), m)) in objects.iter().zip(object_meshes).enumerate() {
                 let Some(m) = m else { continue };
-                let (grown, leaves) =
+                let (grown, tris) =
                     attach(t, m, p).map_err(|e| mesh_bad(format!("object {} mesh", i + 1), e))?;
                 object_trees[i].0 = grown;
-                object_leaves.push(leaves);
+                object_triangles.push(tris);
             }
             meshes = Some(Meshes {
-                tool: tool_leaves,
-                objects: object_leaves,
+                tool: tool_triangles,
+                objects: object_triangles,
             });
         }
         let tool = PackedTree::new(&tool_tree).map_err(|e| bad("tool tree".into(), e))?;
@@ -359,7 +369,12 @@ impl GodObject {
         // In the mesh mode the motion bound covers the triangles' corners too (the narrow
         // phase's bounding spheres move no farther than they).
         let corners = meshes.iter().flat_map(|m| m.tool.corners());
-        let reach = meshes.as_ref().map_or(reach, |m| reach.max(m.tool.reach()));
+        let reach = meshes.as_ref().map_or(reach, |m| {
+            m.tool
+                .corners()
+                .map(|p| Vector3::from(p).norm())
+                .fold(reach, f64::max)
+        });
         let centres = CentreBox::of_points(tool.leaves().map(|n| tool.center(n)).chain(corners));
         let ws = CollideWorkspace::for_trees(&tool, &objects);
         let faces = objects.iter().any(|o| o.face_cut_count() > 0);
@@ -378,6 +393,13 @@ impl GodObject {
         let next_neighbours = BackgroundList::for_trees(&tool, &objects, list_capacity);
         let cap = params.max_pairs;
         let contacts_cap = if meshes.is_some() { cap } else { 0 };
+        let tree_stack = meshes.as_ref().map_or_else(Vec::new, |m| {
+            m.objects
+                .iter()
+                .map(|o| TriangleTree::stack_for(&m.tool, o))
+                .max_by_key(Vec::capacity)
+                .unwrap_or_default()
+        });
         let mut solver = Solver::new(params.solver);
         let mut rows_solver = RowGeneration::new();
         rows_solver.reserve(&mut solver, cap + 12);
@@ -398,7 +420,9 @@ impl GodObject {
                 face_seen: vec![(0, 0); tool_slots],
                 face_stamp: 0,
                 contacts: Vec::with_capacity(contacts_cap),
+                near: Vec::with_capacity(contacts_cap),
                 contact_gaps: vec![0.0; contacts_cap],
+                tree_stack,
             },
             ahead: Ahead {
                 probe,
@@ -712,4 +736,13 @@ mod tests {
             capacities
         );
     }
+}
+
+/// The first `levels` levels of `tree` (all of it when it has no more), its face caps dropped:
+/// the mesh mode's bounding hierarchy.
+fn top_levels(tree: &SphereTree, levels: u32) -> SphereTree {
+    let levels = levels.clamp(1, tree.levels());
+    let slots = spheretree::slot_count(levels, tree.branching()).unwrap_or(tree.len());
+    SphereTree::from_slots(levels, tree.branching(), tree.spheres()[..slots].to_vec())
+        .unwrap_or_else(|_| tree.clone())
 }

@@ -1,16 +1,16 @@
 //! The mesh geometry mode's narrow phase (docs/DESIGN.md §Mesh-exact contact): the triangle
-//! pairs of a region's leaf pairs, their rows at the linearisation pose (nearest features,
+//! pairs that can touch in a region, their rows at the linearisation pose (nearest features,
 //! exact distance), their exact distances at an answer, and the last free pose on the way to an
 //! answer where triangles meet.
 //!
-//! Each triangle lies whole inside the one leaf that holds it ([`collide::MeshLeaves`]), so
-//! two triangles that can touch anywhere in a region belong to a leaf pair the region lists,
-//! and their bounding spheres' gap at the region's centre is at most the region's extent plus
-//! the skin (the spheres' centres move no farther than the motion bound, whose reach covers
-//! the mesh's corners): the narrow phase keeps those, and the step's guarantees carry over
-//! from spheres to triangles.
+//! The pairs come from the bodies' triangle trees ([`collide::TriangleTree`]), descended
+//! together down to the pairs within a margin: a pair that can touch anywhere in a region is
+//! within the region's extent plus the skin at its centre (no tool point moves farther than the
+//! motion bound, whose reach covers the mesh's corners), so the step's guarantees carry over
+//! from spheres to triangles. The sphere-trees' top levels, grown to hold the triangles
+//! ([`collide::MeshLeaves`]), still answer "free" for the whole step.
 
-use collide::{triangle_distance, MeshLeaves, Triangle};
+use collide::{triangle_distance, Triangle, TriangleTree};
 
 use super::*;
 
@@ -22,11 +22,11 @@ pub(super) struct TriPair {
     pub(super) part: u32,
 }
 
-/// The meshes of the mesh geometry mode: the tool's triangles by leaf (tool frame) and each
-/// object's (world).
+/// The meshes of the mesh geometry mode: the tool's triangles in their box tree (tool frame)
+/// and each object's (world).
 pub(super) struct Meshes {
-    pub(super) tool: MeshLeaves,
-    pub(super) objects: Vec<MeshLeaves>,
+    pub(super) tool: TriangleTree,
+    pub(super) objects: Vec<TriangleTree>,
 }
 
 /// Bisections of a step whose end has meeting triangles, toward the last free pose on it.
@@ -59,53 +59,100 @@ impl GodObject {
         self.params.penetration_tol_mm.max(1e-6)
     }
 
-    /// Narrow phase: the triangle pairs of the listed leaf pairs whose bounding spheres are
-    /// within `margin` (mm) with the tool at `center`, into `detector.contacts` (those past
-    /// its capacity counted in `run.regions.dropped`, so the region is shrunk as for pairs).
-    /// Nothing in sphere mode.
+    /// Narrow phase: the triangle pairs within `margin` (mm) of each other with the tool at
+    /// `center` (and some farther apart), into `detector.contacts` (those past its capacity
+    /// counted in `run.regions.dropped`, so the region is shrunk as for pairs). Nothing in
+    /// sphere mode, or when the region lists no leaf pair (the grown leaves hold the
+    /// triangles, so no triangle is near then either).
+    ///
+    /// The pairs come from the near list, the pairs within a wider margin of a recent pose
+    /// (listed again, by descending the triangle trees, when it no longer covers the region):
+    /// a pair within `margin` at `center` is within `margin` plus the motion bound from the
+    /// list's pose there.
     pub(super) fn narrow_phase(&mut self, center: &Pose, margin: f64) {
+        if self.bodies.meshes.is_none() {
+            return;
+        }
+        self.detector.contacts.clear();
+        if self.detector.pairs.is_empty() {
+            return;
+        }
+        let covered = |at: &(Pose, f64)| self.motion_bound(&at.0, center) + margin <= at.1;
+        let listed = self.run.regions.near_at.filter(covered);
+        if listed.is_none() {
+            let wide = margin + NEAR_LIST_MM;
+            if self.list_near(center, wide) == 0 {
+                self.run.regions.near_at = Some((*center, wide));
+            } else {
+                // Too many for the list: the region's own margin, straight into the contacts
+                // (those past their storage dropped: the region shrinks).
+                self.run.regions.near_at = None;
+                let dropped = self.list_near(center, margin);
+                self.run.regions.dropped += dropped;
+                std::mem::swap(&mut self.detector.near, &mut self.detector.contacts);
+                self.detector.near.clear();
+                return;
+            }
+        }
         let Some(meshes) = &self.bodies.meshes else {
             return;
         };
-        let contacts = &mut self.detector.contacts;
-        contacts.clear();
         let (rot, t) = (center.rotation_matrix(), center.translation());
-        let mut dropped = 0usize;
-        for pair in &self.detector.pairs {
-            let Some(part_mesh) = meshes.objects.get(pair.object as usize) else {
-                continue;
-            };
-            let parts = part_mesh.of_leaf(pair.object_slot);
-            for &tool in meshes.tool.of_leaf(pair.tool_slot) {
-                let (c, r) = meshes.tool.bound(tool);
-                let c = rot * Vector3::from(c) + t;
-                let tool_tri = meshes
-                    .tool
-                    .triangle(tool)
-                    .map(|p| (rot * Vector3::from(p) + t).into());
-                for &part in parts {
-                    let (pc, pr) = part_mesh.bound(part);
-                    let part_tri = part_mesh.triangle(part);
-                    if (c - Vector3::from(pc)).norm() - r - pr > margin
-                        || plane_gap(&tool_tri, part_tri) > margin
-                        || plane_gap(part_tri, &tool_tri) > margin
-                        || triangle_distance(&tool_tri, part_tri).distance > margin
-                    {
-                        continue;
-                    }
-                    if contacts.len() < contacts.capacity() {
-                        contacts.push(TriPair {
-                            object: pair.object,
-                            tool,
-                            part,
-                        });
-                    } else {
-                        dropped += 1;
-                    }
-                }
+        let detector = &mut self.detector;
+        for c in &detector.near {
+            let tool = meshes
+                .tool
+                .triangle(c.tool)
+                .map(|p| (rot * Vector3::from(p) + t).into());
+            let part = meshes.objects[c.object as usize].triangle(c.part);
+            if separation_bound(&tool, part) <= margin
+                && triangle_distance(&tool, part).distance <= margin
+            {
+                // The near list is no longer than the contacts' storage.
+                detector.contacts.push(*c);
             }
         }
-        self.run.regions.dropped += dropped;
+    }
+
+    /// Lists into `detector.near` the triangle pairs within `margin` (mm) with the tool at
+    /// `center`, by descending the tool's triangle tree against each object's. Returns how
+    /// many did not fit in the list's storage (0: the list is complete).
+    fn list_near(&mut self, center: &Pose, margin: f64) -> usize {
+        let Some(meshes) = &self.bodies.meshes else {
+            return 0;
+        };
+        let detector = &mut self.detector;
+        detector.near.clear();
+        let (rot, t) = (center.rotation_matrix(), center.translation());
+        let mut dropped = 0usize;
+        let near = &mut detector.near;
+        for (object, part_tree) in meshes.objects.iter().enumerate() {
+            let tool_tree = &meshes.tool;
+            let visit = |tools: std::ops::Range<u32>, parts: std::ops::Range<u32>| {
+                for tool in tools {
+                    let tool_tri = tool_tree
+                        .triangle(tool)
+                        .map(|p| (rot * Vector3::from(p) + t).into());
+                    for part in parts.clone() {
+                        if separation_bound(&tool_tri, part_tree.triangle(part)) > margin {
+                            continue;
+                        }
+                        if near.len() < near.capacity() {
+                            near.push(TriPair {
+                                object: object as u32,
+                                tool,
+                                part,
+                            });
+                        } else {
+                            dropped += 1;
+                        }
+                    }
+                }
+                true
+            };
+            tool_tree.near_leaf_pairs(&rot, &t, part_tree, margin, &mut detector.tree_stack, visit);
+        }
+        dropped
     }
 
     /// The two triangles of `c` with the tool at `(rot, t)`: the tool's posed, the object's.
@@ -188,6 +235,11 @@ impl GodObject {
                 continue;
             }
             let (tool, part) = self.posed_pair(meshes, c, &rot, &t);
+            // A pair apart by more than the touch distance across a face's plane neither meets
+            // nor touches: a few products instead of the fifteen features.
+            if !tight && separation_bound(&tool, &part) > TOUCH_MM {
+                continue;
+            }
             let d = triangle_distance(&tool, &part);
             meet |= d.meet;
             touching += u32::from(d.distance <= TOUCH_MM);
@@ -212,7 +264,7 @@ impl GodObject {
                 return false;
             }
             let (tool, part) = self.posed_pair(meshes, c, &rot, &t);
-            triangle_distance(&tool, &part).meet
+            separation_bound(&tool, &part) <= 0.0 && triangle_distance(&tool, &part).meet
         })
     }
 
@@ -286,6 +338,12 @@ fn plane_gap(a: &Triangle, b: &Triangle) -> f64 {
     } else {
         0.0
     }
+}
+
+/// A lower bound (mm) on the distance of triangles `a` and `b`: the larger of their
+/// [`plane_gap`]s (positive only where one lies wholly on one side of the other's plane).
+fn separation_bound(a: &Triangle, b: &Triangle) -> f64 {
+    plane_gap(a, b).max(plane_gap(b, a))
 }
 
 fn centroid(t: &Triangle) -> Vector3<f64> {
@@ -390,6 +448,105 @@ mod tests {
             }
         }
         best
+    }
+
+    /// The 4 mm cube tool over a wavy 40 x 40 mm sheet of 2 x 2 mm cells (800 triangles), so
+    /// that which pairs are near changes as the tool slides.
+    fn cube_over_sheet() -> (GodObject, Vec<Triangle>, Vec<Triangle>) {
+        let (tv, tt) = box_mesh([0.0; 3], [2.0; 3]);
+        let n = 20u32;
+        let sv: Vec<[f64; 3]> = (0..=n)
+            .flat_map(|i| (0..=n).map(move |j| (i, j)))
+            .map(|(i, j)| {
+                let (x, y) = (-20.0 + 2.0 * f64::from(i), -20.0 + 2.0 * f64::from(j));
+                [x, y, 0.3 * (0.4 * x).sin() * (0.3 * y).cos()]
+            })
+            .collect();
+        let at = |i: u32, j: u32| i * (n + 1) + j;
+        let st: Vec<[u32; 3]> = (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .flat_map(|(i, j)| {
+                [
+                    [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
+                    [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
+                ]
+            })
+            .collect();
+        let params = EngineConfig {
+            geometry: Geometry::Mesh,
+            ..EngineConfig::default()
+        };
+        let god = GodObject::with_meshes(
+            &one_leaf([0.0; 3], 3.5),
+            Some(MeshRef {
+                vertices: &tv,
+                triangles: &tt,
+            }),
+            &[(one_leaf([0.0; 3], 28.3), Pose::identity())],
+            &[Some(MeshRef {
+                vertices: &sv,
+                triangles: &st,
+            })],
+            params,
+        )
+        .unwrap();
+        let tris = |v: &[[f64; 3]], t: &[[u32; 3]]| -> Vec<Triangle> {
+            t.iter().map(|t| t.map(|i| v[i as usize])).collect()
+        };
+        (god, tris(&tv, &tt), tris(&sv, &st))
+    }
+
+    #[test]
+    fn the_near_list_gives_every_pair_within_the_margin_as_the_tool_wanders() {
+        let (mut god, tool, sheet) = cube_over_sheet();
+        // A walk over the sheet, sliding, bobbing and turning, in steps from 1 µm to 0.4 mm,
+        // so that the near list is both reused and listed again.
+        let (mut reused, mut relisted, mut near_pairs) = (0, 0, 0);
+        let mut q = [0.0, 0.0, 2.6, 0.0, 0.0, 0.0];
+        for k in 0..600 {
+            let step = [1e-3, 0.05, 0.4][k % 3];
+            let phase = k as f64 * 0.05;
+            q[0] += step * phase.sin();
+            q[1] += step * (0.7 * phase).cos();
+            q[2] = 2.45 + 0.2 * (1.3 * phase).sin();
+            q[3] = 0.1 * phase.sin();
+            q[5] += 0.3 * step;
+            let pose = Pose::from_array(q);
+            let margin = [0.05, 0.2, 0.6][(k / 3) % 3];
+            let before = god.run.regions.near_at;
+            god.detect(&pose, margin).unwrap();
+            god.narrow_phase(&pose, margin);
+            if before.is_some() && god.run.regions.near_at == before {
+                reused += 1;
+            } else {
+                relisted += 1;
+            }
+            let meshes = god.bodies.meshes.as_ref().unwrap();
+            let (r, t) = (pose.rotation_matrix(), pose.translation());
+            let listed: std::collections::HashSet<(u32, u32)> = god
+                .detector
+                .contacts
+                .iter()
+                .map(|c| (meshes.tool.origin(c.tool), meshes.objects[0].origin(c.part)))
+                .collect();
+            for (i, a) in tool.iter().enumerate() {
+                let a = a.map(|p| (r * Vector3::from(p) + t).into());
+                for (j, b) in sheet.iter().enumerate() {
+                    let d = triangle_distance(&a, b).distance;
+                    if d <= margin {
+                        near_pairs += 1;
+                        assert!(
+                            listed.contains(&(i as u32, j as u32)),
+                            "step {k}: triangles {i} and {j} are {d} mm apart (margin {margin}) but not listed"
+                        );
+                    }
+                }
+            }
+        }
+        assert!(
+            reused > 100 && relisted > 50 && near_pairs > 1000,
+            "reused {reused}, listed {relisted}, near pairs {near_pairs}"
+        );
     }
 
     #[test]

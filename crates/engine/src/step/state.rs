@@ -36,6 +36,12 @@ pub(super) struct Detector {
     /// distances at the last linearisation pose (mm).
     pub(super) contacts: Vec<TriPair>,
     pub(super) contact_gaps: Vec<f64>,
+    /// The mesh mode's triangle pairs within a wider margin ([`super::tuning::NEAR_LIST_MM`])
+    /// of a recent pose: the narrow phase filters them while they cover its region.
+    pub(super) near: Vec<TriPair>,
+    /// The stack the narrow phase descends the triangle trees on (reserved for the deepest
+    /// pair of trees).
+    pub(super) tree_stack: collide::TreePairStack,
 }
 
 /// The work kept ahead of need, a slice per frame.
@@ -123,6 +129,7 @@ impl RunState {
                 lever_cache: None,
                 slab_rest: 0,
                 slab_next_rest: SLAB_REST_FRAMES,
+                near_at: None,
             },
             solve: SolveMemory {
                 warm: [(0, 0, 0); 6],
@@ -213,6 +220,9 @@ pub(super) struct RegionMemory {
     /// Frames left without slab regions, and the rest after the next failure.
     pub(super) slab_rest: u32,
     pub(super) slab_next_rest: u32,
+    /// The mesh mode's near list: the tool pose and margin (mm) `detector.near` was listed at
+    /// (`None`: no list).
+    pub(super) near_at: Option<(Pose, f64)>,
 }
 
 /// The solves: the warm start and the time a row costs.

@@ -1,0 +1,434 @@
+//! A bounding-box hierarchy over a body's own triangles: the mesh geometry mode's narrow phase
+//! lists the triangle pairs within a margin of each other by descending two of them at once
+//! (docs/DESIGN.md §Mesh-exact contact).
+//!
+//! Each node holds an oriented box in its body's frame, along the principal axes of its
+//! triangles' corners (a patch of a curved wall gets a box as thin as the patch's bulge, where
+//! an axis-aligned one would be as thick as the patch is wide across the axes). With the tool
+//! placed, a tool node's box is tested against an object node's by the separating axis theorem
+//! (the three axes of each box and the nine cross products). The object's box is grown by the
+//! margin on every side, which holds the margin's ball around it, so no pair of triangles
+//! within the margin is ever pruned. Boxes, not spheres: a long thin facet of a machined part
+//! (a cylinder's side) has a sphere as wide as its length, but a box as thin as the facet.
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::triangle::Triangle;
+use crate::Pose;
+
+/// Triangles per leaf at most: a leaf pair measures up to this squared many triangle pairs,
+/// against one box test per node pair above it.
+pub const LEAF_TRIANGLES: usize = 4;
+
+/// One node: a box (centre and half extents, mm, along the columns of `axes`, the body's
+/// frame) and either its triangles
+/// (`count > 0`: `first..first + count` of the tree's triangles) or its two children
+/// (`count == 0`: nodes `first` and `first + 1`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct BoxNode {
+    center: [f64; 3],
+    axes: Matrix3<f64>,
+    half: [f64; 3],
+    first: u32,
+    count: u32,
+}
+
+/// A body's triangles in a box hierarchy (the body's frame: the tool's own, or an object's
+/// placed in the world), for [`TriangleTree::near_leaf_pairs`].
+#[derive(Clone, Debug)]
+pub struct TriangleTree {
+    nodes: Vec<BoxNode>,
+    /// Leaf by leaf.
+    triangles: Vec<Triangle>,
+    /// Each triangle's index in the mesh it came from.
+    origin: Vec<u32>,
+    depth: usize,
+}
+
+/// The stack a descent of two trees works on: reserved once ([`TriangleTree::stack_for`]), so
+/// that [`TriangleTree::near_leaf_pairs`] never allocates.
+pub type TreePairStack = Vec<(u32, u32)>;
+
+impl TriangleTree {
+    /// The hierarchy of `triangles` (mm), each placed by `pose` (the identity for a tool):
+    /// split at the median centre along the longest side of the centres' box, down to
+    /// [`LEAF_TRIANGLES`] a leaf. Allocates; not real-time. An empty list gives an empty tree.
+    pub fn build(triangles: &[Triangle], pose: &Pose) -> Self {
+        let (rot, t) = (pose.rotation_matrix(), pose.translation());
+        let placed: Vec<Triangle> = triangles
+            .iter()
+            .map(|tri| tri.map(|p| (rot * Vector3::from(p) + t).into()))
+            .collect();
+        let mut order: Vec<u32> = (0..placed.len() as u32).collect();
+        let mut nodes = Vec::with_capacity(2 * placed.len().div_ceil(LEAF_TRIANGLES) + 1);
+        let mut depth = 0;
+        if !placed.is_empty() {
+            nodes.push(box_of(&placed, &order));
+            split(&placed, &mut order, 0, 0, &mut nodes, 1, &mut depth);
+        }
+        let triangles = order.iter().map(|&i| placed[i as usize]).collect();
+        Self {
+            nodes,
+            triangles,
+            origin: order,
+            depth,
+        }
+    }
+
+    /// Triangle `i` (in leaf order), mm, the tree's frame.
+    #[inline]
+    pub fn triangle(&self, i: u32) -> &Triangle {
+        &self.triangles[i as usize]
+    }
+
+    /// The mesh's own index of triangle `i` (in leaf order).
+    #[inline]
+    pub fn origin(&self, i: u32) -> u32 {
+        self.origin[i as usize]
+    }
+
+    /// How many triangles there are.
+    pub fn len(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// True without triangles.
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// Levels from the root to the deepest leaf (1 for a single leaf; 0 when empty).
+    pub fn depth(&self) -> usize {
+        self.depth
+    }
+
+    /// Every corner (mm, the tree's frame).
+    pub fn corners(&self) -> impl Iterator<Item = [f64; 3]> + '_ {
+        self.triangles.iter().flatten().copied()
+    }
+
+    /// A stack deep enough for any descent of `a` against `b` (allocates; once).
+    pub fn stack_for(a: &Self, b: &Self) -> TreePairStack {
+        Vec::with_capacity(a.depth + b.depth + 2)
+    }
+
+    /// Calls `visit(tool_triangles, object_triangles)` with the leaf ranges of every leaf pair
+    /// of `self` (the tool, placed at `(rot, t)`: world = rot · p + t) and `object` (its frame
+    /// the world) whose boxes are within `margin` (mm) of each other; every pair of triangles
+    /// within `margin` is in one such leaf pair (some farther apart are too). `stack` is
+    /// [`TriangleTree::stack_for`]'s; nothing is allocated. Stops early when `visit` returns
+    /// false.
+    pub fn near_leaf_pairs(
+        &self,
+        rot: &Matrix3<f64>,
+        t: &Vector3<f64>,
+        object: &Self,
+        margin: f64,
+        stack: &mut TreePairStack,
+        mut visit: impl FnMut(std::ops::Range<u32>, std::ops::Range<u32>) -> bool,
+    ) {
+        stack.clear();
+        if self.nodes.is_empty() || object.nodes.is_empty() {
+            return;
+        }
+        stack.push((0, 0));
+        while let Some((a, b)) = stack.pop() {
+            let (na, nb) = (&self.nodes[a as usize], &object.nodes[b as usize]);
+            // The tool box in the object box's axes: its rotation and centre.
+            let turn = nb.axes.transpose() * (rot * na.axes);
+            let offset = nb.axes.transpose()
+                * (rot * Vector3::from(na.center) + t - Vector3::from(nb.center));
+            if boxes_apart(&offset, &na.half, &turn, &nb.half, margin) {
+                continue;
+            }
+            match (na.count > 0, nb.count > 0) {
+                (true, true) => {
+                    if !visit(na.first..na.first + na.count, nb.first..nb.first + nb.count) {
+                        stack.clear();
+                        return;
+                    }
+                }
+                // Descend the larger box (by its longest side), or the one that is not a leaf.
+                (false, true) => push_children(stack, na.first, b, true),
+                (true, false) => push_children(stack, nb.first, a, false),
+                (false, false) => {
+                    if longest(&na.half) >= longest(&nb.half) {
+                        push_children(stack, na.first, b, true);
+                    } else {
+                        push_children(stack, nb.first, a, false);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Pushes `first`'s pair of children, each with `other` (`tool`: the children are the tool's).
+/// A pop pushes two pairs a level deeper on one side, leaving one behind per level, so the
+/// stack never holds more than the two trees' depths together: its reserve is not outgrown.
+fn push_children(stack: &mut TreePairStack, first: u32, other: u32, tool: bool) {
+    for child in [first, first + 1] {
+        stack.push(if tool { (child, other) } else { (other, child) });
+    }
+}
+
+fn longest(h: &[f64; 3]) -> f64 {
+    h[0].max(h[1]).max(h[2])
+}
+
+/// True when the tool's box (centre `d` and axes the columns of `r`, in the object box's
+/// axes; half extents `ha`) and the object's box (centred at the origin, half extents `hb`)
+/// grown by `margin` on every side have a separating axis.
+fn boxes_apart(
+    d: &Vector3<f64>,
+    ha: &[f64; 3],
+    r: &Matrix3<f64>,
+    hb: &[f64; 3],
+    margin: f64,
+) -> bool {
+    let hb = [hb[0] + margin, hb[1] + margin, hb[2] + margin];
+    // |r| with a rounding's room, so that near-parallel axes do not separate by a rounding.
+    let a: Matrix3<f64> = r.map(|x| x.abs() + 1e-12);
+    // The object box's axes.
+    for i in 0..3 {
+        let ra = ha[0] * a[(i, 0)] + ha[1] * a[(i, 1)] + ha[2] * a[(i, 2)];
+        if d[i].abs() > hb[i] + ra {
+            return true;
+        }
+    }
+    // The tool box's axes.
+    for j in 0..3 {
+        let rb = hb[0] * a[(0, j)] + hb[1] * a[(1, j)] + hb[2] * a[(2, j)];
+        let s = d[0] * r[(0, j)] + d[1] * r[(1, j)] + d[2] * r[(2, j)];
+        if s.abs() > ha[j] + rb {
+            return true;
+        }
+    }
+    // Cross products of object axis i with tool axis j: along e_i × r_j, the offset's length
+    // is d[i2]·r(i1, j) − d[i1]·r(i2, j) (i1, i2 the other two object axes), the object box's
+    // reach hb[i1]·|r(i2, j)| + hb[i2]·|r(i1, j)| and the tool box's, by its other two axes,
+    // ha[j1]·|r(i, j2)| + ha[j2]·|r(i, j1)|.
+    for i in 0..3 {
+        let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
+        for j in 0..3 {
+            let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
+            let s = d[i2] * r[(i1, j)] - d[i1] * r[(i2, j)];
+            let rb = hb[i1] * a[(i2, j)] + hb[i2] * a[(i1, j)];
+            let ra = ha[j1] * a[(i, j2)] + ha[j2] * a[(i, j1)];
+            if s.abs() > ra + rb {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// The box of the triangles `order` names: along the principal axes of their corners (the
+/// eigenvectors of the corners' covariance), just holding every corner, mm.
+fn box_of(tris: &[Triangle], order: &[u32]) -> BoxNode {
+    let corners = || {
+        order
+            .iter()
+            .flat_map(|&i| tris[i as usize].iter().map(|p| Vector3::from(*p)))
+    };
+    let n = (3 * order.len()).max(1) as f64;
+    let mean = corners().fold(Vector3::zeros(), |s, p| s + p) / n;
+    let cov = corners().fold(Matrix3::zeros(), |s, p| {
+        let e = p - mean;
+        s + e * e.transpose()
+    }) / n;
+    let axes = if cov.iter().all(|x| x.is_finite()) {
+        let eig = nalgebra::SymmetricEigen::new(cov);
+        let mut axes = eig.eigenvectors;
+        // A right-handed frame (the test needs only unit, orthogonal axes, but a rotation
+        // reads better).
+        if axes.determinant() < 0.0 {
+            axes.set_column(2, &(-axes.column(2)));
+        }
+        axes
+    } else {
+        Matrix3::identity()
+    };
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for p in corners() {
+        let local = axes.transpose() * p;
+        for k in 0..3 {
+            lo[k] = lo[k].min(local[k]);
+            hi[k] = hi[k].max(local[k]);
+        }
+    }
+    let mid = Vector3::from(std::array::from_fn::<f64, 3, _>(|k| 0.5 * (lo[k] + hi[k])));
+    BoxNode {
+        center: (axes * mid).into(),
+        axes,
+        half: std::array::from_fn(|k| 0.5 * (hi[k] - lo[k])),
+        first: 0,
+        count: 0,
+    }
+}
+
+/// Makes node `node` (whose triangles are `order[start..start + order.len()]`) a leaf or
+/// splits it, children appended as a pair.
+fn split(
+    tris: &[Triangle],
+    order: &mut [u32],
+    start: usize,
+    node: usize,
+    nodes: &mut Vec<BoxNode>,
+    level: usize,
+    depth: &mut usize,
+) {
+    *depth = (*depth).max(level);
+    if order.len() <= LEAF_TRIANGLES {
+        nodes[node].first = start as u32;
+        nodes[node].count = order.len() as u32;
+        return;
+    }
+    // Split at the median along the box's longest axis.
+    let (axes, half) = (nodes[node].axes, nodes[node].half);
+    let long = (0..3)
+        .max_by(|&a, &b| half[a].total_cmp(&half[b]))
+        .unwrap_or(0);
+    let along = axes.column(long).into_owned();
+    let key = |i: u32| -> f64 {
+        let t = &tris[i as usize];
+        (Vector3::from(t[0]) + Vector3::from(t[1]) + Vector3::from(t[2])).dot(&along)
+    };
+    let mid = order.len() / 2;
+    order.select_nth_unstable_by(mid, |&a, &b| key(a).total_cmp(&key(b)));
+    let first = nodes.len();
+    let (left, right) = order.split_at_mut(mid);
+    nodes.push(box_of(tris, left));
+    nodes.push(box_of(tris, right));
+    nodes[node].first = first as u32;
+    nodes[node].count = 0;
+    split(tris, left, start, first, nodes, level + 1, depth);
+    split(tris, right, start + mid, first + 1, nodes, level + 1, depth);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::triangle::triangle_distance;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// A bumpy sheet of `n`×`n` cells, 1 mm each, with long thin facets when `sliver`.
+    fn sheet(n: usize, sliver: bool, rng: &mut ChaCha8Rng) -> Vec<Triangle> {
+        let sx = if sliver { 8.0 } else { 1.0 };
+        let z: Vec<Vec<f64>> = (0..=n)
+            .map(|_| (0..=n).map(|_| rng.random_range(-0.3..0.3)).collect())
+            .collect();
+        let p = |i: usize, j: usize| [i as f64 * sx, j as f64, z[i][j]];
+        let mut out = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                out.push([p(i, j), p(i + 1, j), p(i + 1, j + 1)]);
+                out.push([p(i, j), p(i + 1, j + 1), p(i, j + 1)]);
+            }
+        }
+        out
+    }
+
+    fn random_pose(rng: &mut ChaCha8Rng, lift: f64) -> Pose {
+        let r = |rng: &mut ChaCha8Rng, s: f64| rng.random_range(-s..s);
+        Pose::from_array([
+            r(rng, 3.0),
+            r(rng, 3.0),
+            lift + r(rng, 0.5),
+            r(rng, 0.4),
+            r(rng, 0.4),
+            r(rng, 3.2),
+        ])
+    }
+
+    #[test]
+    fn every_pair_within_the_margin_is_in_a_listed_leaf_pair_as_brute_force_finds_it() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        for case in 0..24 {
+            let sliver = case % 2 == 1;
+            let tool_tris = sheet(5, sliver, &mut rng);
+            let object_tris = sheet(7, !sliver, &mut rng);
+            let object_pose = Pose::from_array([1.0, -2.0, 0.0, 0.1, 0.0, 0.3]);
+            let tool = TriangleTree::build(&tool_tris, &Pose::identity());
+            let object = TriangleTree::build(&object_tris, &object_pose);
+            let mut stack = TriangleTree::stack_for(&tool, &object);
+            let margin = [0.0, 0.05, 0.5, 2.0][case % 4];
+            let q = random_pose(&mut rng, 0.8);
+            let (rot, t) = (q.rotation_matrix(), q.translation());
+            let mut listed = std::collections::HashSet::new();
+            let mut leaf_pairs = 0;
+            tool.near_leaf_pairs(&rot, &t, &object, margin, &mut stack, |ta, ob| {
+                leaf_pairs += 1;
+                for i in ta {
+                    for j in ob.clone() {
+                        listed.insert((tool.origin(i), object.origin(j)));
+                    }
+                }
+                true
+            });
+            let place = |p: &Pose, tri: &Triangle| -> Triangle {
+                tri.map(|c| (p.rotation_matrix() * Vector3::from(c) + p.translation()).into())
+            };
+            let mut near = 0;
+            for (i, a) in tool_tris.iter().enumerate() {
+                for (j, b) in object_tris.iter().enumerate() {
+                    let d = triangle_distance(&place(&q, a), &place(&object_pose, b));
+                    if d.distance <= margin {
+                        near += 1;
+                        assert!(
+                            listed.contains(&(i as u32, j as u32)),
+                            "case {case}: triangles {i} and {j} are {} mm apart (margin {margin}) but not listed",
+                            d.distance
+                        );
+                    }
+                }
+            }
+            // The boxes prune: far fewer pairs measured than all of them.
+            let all = tool_tris.len() * object_tris.len();
+            assert!(
+                listed.len() < all / 2 || near > all / 4,
+                "case {case}: {} of {all} pairs listed for {near} near ones",
+                listed.len()
+            );
+            assert!(stack.capacity() == tool.depth() + object.depth() + 2);
+            let _ = leaf_pairs;
+        }
+    }
+
+    #[test]
+    fn a_tree_keeps_every_triangle_once_in_its_frame_and_an_empty_one_lists_nothing() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let tris = sheet(6, false, &mut rng);
+        let pose = Pose::from_array([5.0, 0.0, -1.0, 0.0, 0.2, 0.0]);
+        let tree = TriangleTree::build(&tris, &pose);
+        assert_eq!(tree.len(), tris.len());
+        let mut seen: Vec<u32> = (0..tree.len() as u32).map(|i| tree.origin(i)).collect();
+        seen.sort_unstable();
+        assert!(seen.iter().enumerate().all(|(k, &o)| k as u32 == o));
+        for i in 0..tree.len() as u32 {
+            let want: Triangle = tris[tree.origin(i) as usize]
+                .map(|c| (pose.rotation_matrix() * Vector3::from(c) + pose.translation()).into());
+            assert_eq!(*tree.triangle(i), want);
+        }
+        // Balanced: a median split halves the triangles each level.
+        let leaves = tris.len().div_ceil(LEAF_TRIANGLES);
+        assert!(tree.depth() <= (leaves as f64).log2().ceil() as usize + 2);
+        let empty = TriangleTree::build(&[], &Pose::identity());
+        assert!(empty.is_empty() && empty.depth() == 0);
+        let mut stack = TriangleTree::stack_for(&tree, &empty);
+        let mut called = false;
+        tree.near_leaf_pairs(
+            &nalgebra::Matrix3::identity(),
+            &Vector3::zeros(),
+            &empty,
+            1.0,
+            &mut stack,
+            |_, _| {
+                called = true;
+                true
+            },
+        );
+        assert!(!called);
+    }
+}
