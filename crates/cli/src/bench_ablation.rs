@@ -72,7 +72,11 @@ pub struct AblationRow {
 /// The configurations, in order: the shipped step, each switch off, all off.
 fn configurations() -> Vec<(String, Heuristics)> {
     let mut c = vec![("shipped".to_string(), Heuristics::ALL)];
-    for name in Heuristics::NAMES {
+    // The study replays the leaf spheres, where the mesh mode's switches do nothing.
+    for name in Heuristics::NAMES
+        .into_iter()
+        .filter(|n| !Heuristics::mesh_only(n))
+    {
         if let Some(h) = Heuristics::without(name) {
             c.push((format!("no {name}"), h));
         }

@@ -40,6 +40,12 @@ pub struct Heuristics {
     pub turned_trust: bool,
     /// Warm-start each solve from the pairs active at the last answer.
     pub warm_start: bool,
+    /// The mesh mode's near list: the triangle pairs within a wider margin of a recent pose,
+    /// filtered for each region it covers instead of descending the triangle trees again.
+    pub mesh_near_list: bool,
+    /// The mesh mode's far rows: a triangle pair too far apart to meet anywhere in the region
+    /// gets an empty row instead of its exact distance.
+    pub mesh_far_rows: bool,
 }
 
 impl Default for Heuristics {
@@ -62,6 +68,8 @@ impl Heuristics {
         recentre: true,
         turned_trust: true,
         warm_start: true,
+        mesh_near_list: true,
+        mesh_far_rows: true,
     };
 
     /// Every heuristic off.
@@ -77,10 +85,12 @@ impl Heuristics {
         recentre: false,
         turned_trust: false,
         warm_start: false,
+        mesh_near_list: false,
+        mesh_far_rows: false,
     };
 
     /// The names of the switches (as the bench's ablation study prints them), in order.
-    pub const NAMES: [&'static str; 11] = [
+    pub const NAMES: [&'static str; 13] = [
         "region-reuse",
         "path-regions",
         "slab-regions",
@@ -92,6 +102,8 @@ impl Heuristics {
         "recentre",
         "turned-trust",
         "warm-start",
+        "mesh-near-list",
+        "mesh-far-rows",
     ];
 
     /// The switch called `name` ([`Heuristics::NAMES`]), for reading and setting.
@@ -108,6 +120,8 @@ impl Heuristics {
             "recentre" => &mut self.recentre,
             "turned-trust" => &mut self.turned_trust,
             "warm-start" => &mut self.warm_start,
+            "mesh-near-list" => &mut self.mesh_near_list,
+            "mesh-far-rows" => &mut self.mesh_far_rows,
             _ => return None,
         })
     }
@@ -117,6 +131,11 @@ impl Heuristics {
         let mut h = Self::ALL;
         *h.switch_mut(name)? = false;
         Some(h)
+    }
+
+    /// True for a switch of the mesh geometry mode only (no effect on the leaf spheres).
+    pub fn mesh_only(name: &str) -> bool {
+        name.starts_with("mesh-")
     }
 
     /// Background probes run: they and the free-space proofs they make are both on.

@@ -681,6 +681,15 @@ impl GodObject {
     }
 }
 
+/// The first `levels` levels of `tree` (all of it when it has no more), its face caps dropped:
+/// the mesh mode's bounding hierarchy.
+fn top_levels(tree: &SphereTree, levels: u32) -> SphereTree {
+    let levels = levels.clamp(1, tree.levels());
+    let slots = spheretree::slot_count(levels, tree.branching()).unwrap_or(tree.len());
+    SphereTree::from_slots(levels, tree.branching(), tree.spheres()[..slots].to_vec())
+        .unwrap_or_else(|_| tree.clone())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -736,13 +745,4 @@ mod tests {
             capacities
         );
     }
-}
-
-/// The first `levels` levels of `tree` (all of it when it has no more), its face caps dropped:
-/// the mesh mode's bounding hierarchy.
-fn top_levels(tree: &SphereTree, levels: u32) -> SphereTree {
-    let levels = levels.clamp(1, tree.levels());
-    let slots = spheretree::slot_count(levels, tree.branching()).unwrap_or(tree.len());
-    SphereTree::from_slots(levels, tree.branching(), tree.spheres()[..slots].to_vec())
-        .unwrap_or_else(|_| tree.clone())
 }

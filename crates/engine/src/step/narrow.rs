@@ -74,24 +74,35 @@ impl GodObject {
             return;
         }
         self.detector.contacts.clear();
+        self.run.regions.contacts_at = Some((*center, margin));
         if self.detector.pairs.is_empty() {
             return;
         }
         let covered = |at: &(Pose, f64)| self.motion_bound(&at.0, center) + margin <= at.1;
-        let listed = self.run.regions.near_at.filter(covered);
+        let listed = self
+            .run
+            .regions
+            .near_at
+            .filter(|at| self.params.heuristics.mesh_near_list && covered(at));
         if listed.is_none() {
-            let wide = margin + NEAR_LIST_MM;
-            if self.list_near(center, wide) == 0 {
-                self.run.regions.near_at = Some((*center, wide));
+            // A list no wider than the region's own margin is not kept for later regions.
+            let extra = self.run.regions.near_extra;
+            let wide = self.params.heuristics.mesh_near_list && extra >= NEAR_LIST_MIN_MM;
+            let dropped = self.list_near(center, margin + if wide { extra } else { 0.0 });
+            if wide && dropped == 0 {
+                self.run.regions.near_at = Some((*center, margin + extra));
+                self.run.regions.near_extra = (2.0 * extra).min(NEAR_LIST_MM);
             } else {
-                // Too many for the list: the region's own margin, straight into the contacts
-                // (those past their storage dropped: the region shrinks).
                 self.run.regions.near_at = None;
-                let dropped = self.list_near(center, margin);
+                let dropped = if wide {
+                    self.run.regions.near_extra = 0.25 * extra;
+                    self.list_near(center, margin)
+                } else {
+                    self.run.regions.near_extra = (2.0 * extra).min(NEAR_LIST_MM);
+                    dropped
+                };
+                // Past the storage: the region shrinks.
                 self.run.regions.dropped += dropped;
-                std::mem::swap(&mut self.detector.near, &mut self.detector.contacts);
-                self.detector.near.clear();
-                return;
             }
         }
         let Some(meshes) = &self.bodies.meshes else {
@@ -182,9 +193,31 @@ impl GodObject {
         let q = lin.configuration(&lin.delta());
         let (rot, t) = (q.rotation_matrix(), q.translation());
         let target = self.mesh_gap();
+        // No answer leaves the region (its trust rows), and no point of the tool moves farther
+        // from its place at the region's centre than the listing margin: a pair farther apart
+        // here than the way back to the centre and out to the region's edge (plus the gap) can
+        // hold no answer back. Its row is left empty (never binding) and its distance bound
+        // kept for the checks.
+        let reach = self
+            .run
+            .regions
+            .contacts_at
+            .map_or(f64::INFINITY, |(c, m)| {
+                self.motion_bound(&q, &c) + m + target
+            });
         let mut n = 0;
         for c in &self.detector.contacts {
             let (tool, part) = self.posed_pair(meshes, c, &rot, &t);
+            if self.params.heuristics.mesh_far_rows {
+                let bound = separation_bound(&tool, &part);
+                if bound > reach {
+                    self.detector.contact_gaps[n] = bound;
+                    self.qp.rows[n] = [0.0; 6];
+                    self.qp.rhs[n] = -1.0;
+                    n += 1;
+                    continue;
+                }
+            }
             let d = triangle_distance(&tool, &part);
             self.detector.contact_gaps[n] = d.distance;
             let (a, b) = (Vector3::from(d.on_a), Vector3::from(d.on_b));

@@ -407,19 +407,20 @@ impl GodObject {
             (None, Some(_)) => plan.width,
             (None, None) => plan.allowed,
         } + skin;
-        if !plan.recentred {
-            let count = self.detector.pairs.len() + self.run.regions.dropped;
-            self.run
-                .regions
-                .density
-                .record(margin, count, plan.sweep.is_some());
-        }
         // The mesh mode's triangle pairs that can touch in the region (more than the storage
         // holds count as dropped: the region shrinks as for leaf pairs).
         let extent = plan
             .sweep
             .map_or(plan.allowed, |(_, length)| length + plan.width);
         self.narrow_phase(&q_lin, extent + skin);
+        if !plan.recentred {
+            // The rows the region gives (leaf pairs, or triangle pairs in the mesh mode).
+            let count = self.listed_rows() + self.run.regions.dropped;
+            self.run
+                .regions
+                .density
+                .record(margin, count, plan.sweep.is_some());
+        }
         if self.run.regions.dropped > 0 {
             // More pairs than the storage holds: the list is not complete, so no answer from
             // it is proven. A smaller region (fewer pairs) next pass; after a path, balls.

@@ -130,6 +130,8 @@ impl RunState {
                 slab_rest: 0,
                 slab_next_rest: SLAB_REST_FRAMES,
                 near_at: None,
+                contacts_at: None,
+                near_extra: NEAR_LIST_MM,
             },
             solve: SolveMemory {
                 warm: [(0, 0, 0); 6],
@@ -223,6 +225,11 @@ pub(super) struct RegionMemory {
     /// The mesh mode's near list: the tool pose and margin (mm) `detector.near` was listed at
     /// (`None`: no list).
     pub(super) near_at: Option<(Pose, f64)>,
+    /// How far beyond the region's margin the next near list reaches, mm: [`NEAR_LIST_MM`],
+    /// quartered each time a list overflows its storage and doubled back each time one fits.
+    pub(super) near_extra: f64,
+    /// The region centre and margin (mm) `detector.contacts` was listed for.
+    pub(super) contacts_at: Option<(Pose, f64)>,
 }
 
 /// The solves: the warm start and the time a row costs.

@@ -362,6 +362,12 @@ pub(super) const LIST_HELPER_WORK_PER_FRAME: usize = 8192;
 /// where it was listed), so the trees are descended once in several frames.
 pub(super) const NEAR_LIST_MM: f64 = 0.25;
 
+/// The narrowest reach (mm) beyond the region's margin worth a near list: after lists that
+/// overflowed their storage (a tight fit, its whole wall near) quartered the reach below this,
+/// the narrow phase lists the region's own margin only, and tries a wider list again (doubled)
+/// on the next region.
+pub(super) const NEAR_LIST_MIN_MM: f64 = NEAR_LIST_MM / 16.0;
+
 /// Levels of each sphere-tree the mesh mode keeps (grown to hold the triangles) above the
 /// triangles' own box trees. Deeper levels only add pairs: a tool touching the parts sits
 /// inside the leaves' envelope, so every leaf pair within a leaf's overhang is listed. Measured
