@@ -109,6 +109,11 @@ pub struct BenchArgs {
         default_value = "replay,scaling,speed,contact,friction,peer,zoo,ablation,fit"
     )]
     pub studies: Vec<String>,
+    /// What the tool touches in the zoo and fit studies (comma-separated): spheres (the
+    /// trees' leaf spheres, the default), mesh (the parts' own triangles), or both; each scene
+    /// is replayed once per mode, every row naming its mode.
+    #[arg(long, value_delimiter = ',', default_value = "spheres")]
+    pub geometry: Vec<String>,
     /// Only the comparison with the rapier3d virtual-coupling peer (same as `--studies peer`).
     #[arg(long, conflicts_with = "studies")]
     pub peer: bool,
@@ -165,6 +170,14 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
         .contains(&study.as_str())
         {
             crate::usage_bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact, friction, peer, zoo, ablation, fit, pqp-scaling)");
+        }
+    }
+    let mut geometries = Vec::new();
+    for g in &args.geometry {
+        let g = <engine::Geometry as engine::setting::Setting>::parse_setting(g)
+            .context("--geometry")?;
+        if !geometries.contains(&g) {
+            geometries.push(g);
         }
     }
     let wants = |name: &str| args.studies.iter().any(|s| s == name);
@@ -303,7 +316,7 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     }
     if wants("zoo") {
         eprintln!("bench: zoo study (every zoo scene, shipped settings)");
-        report.zoo = crate::bench_zoo::zoo_study(&cache, args.quick)?;
+        report.zoo = crate::bench_zoo::zoo_study(&cache, args.quick, &geometries)?;
         let md = format!(
             "# haptic6d bench: scene zoo ({}), {}\n\n{}",
             report.mode,
@@ -336,7 +349,7 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     }
     if wants("fit") {
         eprintln!("bench: fit study (pegs into holes at 0.5-0.02 mm clearance, shipped settings)");
-        report.fit = crate::bench_fit::fit_study(&cache, args.quick)?;
+        report.fit = crate::bench_fit::fit_study(&cache, args.quick, &geometries)?;
         let md = format!(
             "# haptic6d bench: pegs and holes ({}), {}\n\n{}",
             report.mode,

@@ -16,7 +16,7 @@
 //! or in contact); the tree sizes.
 //!
 //! Every row names the geometry mode the engine used (`[solver] geometry`); the modes replayed
-//! are [`GEOMETRY_MODES`].
+//! are `bench --geometry`'s (the leaf spheres by default).
 //!
 //! `--quick` replays [`QUICK_ROWS`] rows.
 
@@ -37,11 +37,6 @@ pub const MESH_STRIDE: usize = 5;
 
 /// Tilt of a tilted approach about `x`, rad (2°).
 pub const TILT_RAD: f64 = 0.035;
-
-/// The geometry modes every case is replayed in (`[solver] geometry`, the engine's
-/// [`engine::Geometry`]): the leaf spheres, the paper's model and the default. Adding
-/// `engine::Geometry::Mesh` to the list replays every case in the mesh mode too.
-pub const GEOMETRY_MODES: &[engine::Geometry] = &[engine::Geometry::Spheres];
 
 /// One case of the study before its clearance: shape, radius, chamfers, approach.
 #[derive(Clone, Copy, Debug)]
@@ -133,9 +128,13 @@ pub struct FitRow {
     pub wall_s: f64,
 }
 
-/// Runs the study: every case at every clearance in every geometry mode, or [`QUICK_ROWS`]
-/// with `quick`.
-pub fn fit_study(cache: &TreeCache, quick: bool) -> Result<Vec<FitRow>> {
+/// Runs the study: every case at every clearance in every geometry mode of `geometries`, or
+/// [`QUICK_ROWS`] with `quick`.
+pub fn fit_study(
+    cache: &TreeCache,
+    quick: bool,
+    geometries: &[engine::Geometry],
+) -> Result<Vec<FitRow>> {
     let rows: Vec<(Case, f64)> = if quick {
         QUICK_ROWS.iter().map(|&(k, c)| (CASES[k], c)).collect()
     } else {
@@ -144,13 +143,13 @@ pub fn fit_study(cache: &TreeCache, quick: bool) -> Result<Vec<FitRow>> {
             .flat_map(|&case| CLEARANCES_MM.iter().map(move |&c| (case, c)))
             .collect()
     };
-    let mut out = Vec::with_capacity(rows.len() * GEOMETRY_MODES.len());
+    let mut out = Vec::with_capacity(rows.len() * geometries.len());
     for (case, clearance) in rows {
         let f = fit::fit_scene(&case.params(clearance), cache)?;
         for line in &f.scene.load_log {
             eprintln!("bench: {line}");
         }
-        for &mode in GEOMETRY_MODES {
+        for &mode in geometries {
             let mut scene = f.scene.clone();
             scene.solver.geometry = mode;
             let t0 = std::time::Instant::now();

@@ -51,6 +51,8 @@ const MESH_SAMPLES: usize = 2000;
 pub struct ZooRow {
     /// Scene name.
     pub scene: String,
+    /// What the tool touched (`spheres` or `mesh`, as `[solver] geometry`).
+    pub geometry: String,
     /// Frames replayed.
     pub frames: usize,
     /// Used leaves of the tool's tree.
@@ -93,28 +95,40 @@ pub struct ZooRow {
 }
 
 /// Runs the study: every zoo scene, or the [`QUICK_SCENES`] with `quick`.
-pub fn zoo_study(cache: &TreeCache, quick: bool) -> Result<Vec<ZooRow>> {
+pub fn zoo_study(
+    cache: &TreeCache,
+    quick: bool,
+    geometries: &[engine::Geometry],
+) -> Result<Vec<ZooRow>> {
     let names: Vec<&str> = if quick {
         QUICK_SCENES.to_vec()
     } else {
         zoo::names().collect()
     };
-    let mut rows = Vec::with_capacity(names.len());
+    let mut rows = Vec::with_capacity(names.len() * geometries.len());
     for name in names {
         let z = zoo::zoo_scene(name, cache)?;
         for line in &z.scene.load_log {
             eprintln!("bench: {line}");
         }
-        let t0 = std::time::Instant::now();
-        let (times, frames, _) =
-            crate::bench_contact::replay_audited(&z.scene, SolverKind::Dual, false, false)?;
-        let wall_s = t0.elapsed().as_secs_f64();
-        let row = zoo_row(&z, &times, &frames, wall_s);
-        eprintln!(
-            "bench: {name}: {} frames, p99 {:.1} µs, max {:.1} µs, {} degraded ({wall_s:.1} s)",
-            row.frames, row.total_us.p99, row.total_us.max, row.degraded
-        );
-        rows.push(row);
+        for &mode in geometries {
+            let mut z = z.clone();
+            z.scene.solver.geometry = mode;
+            let t0 = std::time::Instant::now();
+            let (times, frames, _) =
+                crate::bench_contact::replay_audited(&z.scene, SolverKind::Dual, false, false)?;
+            let wall_s = t0.elapsed().as_secs_f64();
+            let row = zoo_row(&z, &times, &frames, wall_s);
+            eprintln!(
+                "bench: {name} ({}): {} frames, p99 {:.1} µs, max {:.1} µs, {} degraded ({wall_s:.1} s)",
+                row.geometry,
+                row.frames,
+                row.total_us.p99,
+                row.total_us.max,
+                row.degraded
+            );
+            rows.push(row);
+        }
     }
     Ok(rows)
 }
@@ -157,6 +171,7 @@ fn zoo_row(z: &ZooScene, times: &[f64], frames: &[FrameOutput], wall_s: f64) -> 
     let mesh_depths = mesh_penetration(z, frames);
     ZooRow {
         scene: z.scene.name.clone(),
+        geometry: z.scene.geometry().name().into(),
         frames: frames.len(),
         tool_leaves: leaves(&z.scene.tool),
         object_leaves: z.scene.objects.iter().map(|(t, _)| leaves(t)).sum(),
@@ -215,17 +230,18 @@ pub fn zoo_markdown(rows: &[ZooRow]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "| scene | leaves tool / objects (objects) | frames | total µs p50 / p99 / max | frames > 1 ms | lagging / degraded | drag N | max pen. mm (engine) | mesh pen. mm (hand's depth) | pairs max | touching max | force max N | twist lag max rad | end lag mm |"
+        "| scene | geometry | leaves tool / objects (objects) | frames | total µs p50 / p99 / max | frames > 1 ms | lagging / degraded | drag N | max pen. mm (engine) | mesh pen. mm (hand's depth) | pairs max | touching max | force max N | twist lag max rad | end lag mm |"
     );
     let _ = writeln!(
         s,
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "| {} | {} / {} ({}) | {} | {:.1} / {:.1} / {:.1} | {} | {} / {} | {:.3} | {:.4} | {} | {} | {} | {:.2} | {:.3} | {:.3} |",
+            "| {} | {} | {} / {} ({}) | {} | {:.1} / {:.1} / {:.1} | {} | {} / {} | {:.3} | {:.4} | {} | {} | {} | {:.2} | {:.3} | {:.3} |",
             r.scene,
+            r.geometry,
             r.tool_leaves,
             r.object_leaves,
             r.objects,

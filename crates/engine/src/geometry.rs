@@ -10,10 +10,11 @@ pub enum Geometry {
     /// which stands up to a leaf's overhang off the parts.
     #[default]
     Spheres,
-    /// The parts' own triangles: the sphere-trees are the bounding hierarchy, each leaf holds
-    /// the triangles it covers, and every listed leaf pair's triangle pairs give the rows
-    /// (nearest features, exact distances). Needs the tool's and every object's mesh; without
-    /// them the step keeps spheres ([`crate::step::GodObject::geometry`] says which it uses).
+    /// The parts' own triangles: each body's triangles in a box tree give the pairs near each
+    /// other, and each pair a row (nearest features, exact distances); the sphere-trees' roots,
+    /// grown to hold the triangles, still prove free space. Needs the tool's and every
+    /// object's mesh; without them the step keeps spheres
+    /// ([`crate::step::GodObject::geometry`] says which it uses).
     Mesh,
 }
 
