@@ -40,6 +40,9 @@ pub struct TriangleTree {
     nodes: Vec<BoxNode>,
     /// Leaf by leaf.
     triangles: Vec<Triangle>,
+    /// Each triangle's plane: unit normal and offset (`n · p = d` on it; all zero for a
+    /// degenerate triangle), mm.
+    planes: Vec<([f64; 3], f64)>,
     /// Each triangle's index in the mesh it came from.
     origin: Vec<u32>,
     depth: usize,
@@ -66,10 +69,12 @@ impl TriangleTree {
             nodes.push(box_of(&placed, &order));
             split(&placed, &mut order, 0, 0, &mut nodes, 1, &mut depth);
         }
-        let triangles = order.iter().map(|&i| placed[i as usize]).collect();
+        let triangles: Vec<Triangle> = order.iter().map(|&i| placed[i as usize]).collect();
+        let planes = triangles.iter().map(plane_of).collect();
         Self {
             nodes,
             triangles,
+            planes,
             origin: order,
             depth,
         }
@@ -79,6 +84,13 @@ impl TriangleTree {
     #[inline]
     pub fn triangle(&self, i: u32) -> &Triangle {
         &self.triangles[i as usize]
+    }
+
+    /// Triangle `i`'s plane (in leaf order): its unit normal and offset `d`, `n · p = d` on
+    /// it, mm; all zero for a degenerate triangle.
+    #[inline]
+    pub fn plane(&self, i: u32) -> ([f64; 3], f64) {
+        self.planes[i as usize]
     }
 
     /// The mesh's own index of triangle `i` (in leaf order).
@@ -161,6 +173,23 @@ impl TriangleTree {
             }
         }
     }
+}
+
+/// The plane of `t`: unit normal (right-handed about its corners) and offset, or zeros for a
+/// degenerate triangle.
+fn plane_of(t: &Triangle) -> ([f64; 3], f64) {
+    let (a, b, c) = (
+        Vector3::from(t[0]),
+        Vector3::from(t[1]),
+        Vector3::from(t[2]),
+    );
+    let n = (b - a).cross(&(c - a));
+    let len = n.norm();
+    if len <= 0.0 || !len.is_finite() {
+        return ([0.0; 3], 0.0);
+    }
+    let n = n / len;
+    (n.into(), n.dot(&a))
 }
 
 /// Pushes `first`'s pair of children, each with `other` (`tool`: the children are the tool's).

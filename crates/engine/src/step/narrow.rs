@@ -111,13 +111,10 @@ impl GodObject {
         let (rot, t) = (center.rotation_matrix(), center.translation());
         let detector = &mut self.detector;
         for c in &detector.near {
-            let tool = meshes
-                .tool
-                .triangle(c.tool)
-                .map(|p| (rot * Vector3::from(p) + t).into());
-            let part = meshes.objects[c.object as usize].triangle(c.part);
-            if separation_bound(&tool, part) <= margin
-                && triangle_distance(&tool, part).distance <= margin
+            let tool = PosedTriangle::of(&meshes.tool, c.tool, &rot, &t);
+            let part_tree = &meshes.objects[c.object as usize];
+            if tool.separation(part_tree, c.part) <= margin
+                && triangle_distance(&tool.corners, part_tree.triangle(c.part)).distance <= margin
             {
                 // The near list is no longer than the contacts' storage.
                 detector.contacts.push(*c);
@@ -141,11 +138,9 @@ impl GodObject {
             let tool_tree = &meshes.tool;
             let visit = |tools: std::ops::Range<u32>, parts: std::ops::Range<u32>| {
                 for tool in tools {
-                    let tool_tri = tool_tree
-                        .triangle(tool)
-                        .map(|p| (rot * Vector3::from(p) + t).into());
+                    let tool_tri = PosedTriangle::of(tool_tree, tool, &rot, &t);
                     for part in parts.clone() {
-                        if separation_bound(&tool_tri, part_tree.triangle(part)) > margin {
+                        if tool_tri.separation(part_tree, part) > margin {
                             continue;
                         }
                         if near.len() < near.capacity() {
@@ -174,12 +169,23 @@ impl GodObject {
         rot: &Matrix3<f64>,
         t: &Vector3<f64>,
     ) -> (Triangle, Triangle) {
-        let tool = meshes
-            .tool
-            .triangle(c.tool)
-            .map(|p| (rot * Vector3::from(p) + t).into());
-        let part = *meshes.objects[c.object as usize].triangle(c.part);
-        (tool, part)
+        let tool = PosedTriangle::of(&meshes.tool, c.tool, rot, t).corners;
+        (tool, *meshes.objects[c.object as usize].triangle(c.part))
+    }
+
+    /// The lower bound of [`PosedTriangle::separation`] for `c` with the tool at `(rot, t)`,
+    /// with the two triangles.
+    fn posed_separation(
+        &self,
+        meshes: &Meshes,
+        c: &TriPair,
+        rot: &Matrix3<f64>,
+        t: &Vector3<f64>,
+    ) -> (f64, Triangle, Triangle) {
+        let part_tree = &meshes.objects[c.object as usize];
+        let tool = PosedTriangle::of(&meshes.tool, c.tool, rot, t);
+        let bound = tool.separation(part_tree, c.part);
+        (bound, tool.corners, *part_tree.triangle(c.part))
     }
 
     /// The rows of the triangle pairs linearised at `lin`'s pose: for each pair, the plane
@@ -207,16 +213,13 @@ impl GodObject {
             });
         let mut n = 0;
         for c in &self.detector.contacts {
-            let (tool, part) = self.posed_pair(meshes, c, &rot, &t);
-            if self.params.heuristics.mesh_far_rows {
-                let bound = separation_bound(&tool, &part);
-                if bound > reach {
-                    self.detector.contact_gaps[n] = bound;
-                    self.qp.rows[n] = [0.0; 6];
-                    self.qp.rhs[n] = -1.0;
-                    n += 1;
-                    continue;
-                }
+            let (bound, tool, part) = self.posed_separation(meshes, c, &rot, &t);
+            if self.params.heuristics.mesh_far_rows && bound > reach {
+                self.detector.contact_gaps[n] = bound;
+                self.qp.rows[n] = [0.0; 6];
+                self.qp.rhs[n] = -1.0;
+                n += 1;
+                continue;
             }
             let d = triangle_distance(&tool, &part);
             self.detector.contact_gaps[n] = d.distance;
@@ -267,10 +270,10 @@ impl GodObject {
             if !tight && self.detector.contact_gaps[i] - moved > TOUCH_MM {
                 continue;
             }
-            let (tool, part) = self.posed_pair(meshes, c, &rot, &t);
+            let (bound, tool, part) = self.posed_separation(meshes, c, &rot, &t);
             // A pair apart by more than the touch distance across a face's plane neither meets
             // nor touches: a few products instead of the fifteen features.
-            if !tight && separation_bound(&tool, &part) > TOUCH_MM {
+            if !tight && bound > TOUCH_MM {
                 continue;
             }
             let d = triangle_distance(&tool, &part);
@@ -296,8 +299,8 @@ impl GodObject {
             if moved.is_some_and(|m| self.detector.contact_gaps[i] > m) {
                 return false;
             }
-            let (tool, part) = self.posed_pair(meshes, c, &rot, &t);
-            separation_bound(&tool, &part) <= 0.0 && triangle_distance(&tool, &part).meet
+            let (bound, tool, part) = self.posed_separation(meshes, c, &rot, &t);
+            bound <= 0.0 && triangle_distance(&tool, &part).meet
         })
     }
 
@@ -343,27 +346,12 @@ impl GodObject {
     }
 }
 
-/// A lower bound (mm) on the distance of triangles `a` and `b`: how far `a` lies wholly on one
-/// side of `b`'s plane (0 where it touches or crosses it; every point of `b` is in the plane,
-/// so no point of `a` is nearer to `b` than to the plane). A few products against the exact
-/// distance's fifteen features: it drops the facing pairs of a wall a tight fit slides along.
-fn plane_gap(a: &Triangle, b: &Triangle) -> f64 {
-    let (b0, b1, b2) = (
-        Vector3::from(b[0]),
-        Vector3::from(b[1]),
-        Vector3::from(b[2]),
-    );
-    let n = (b1 - b0).cross(&(b2 - b0));
-    let len = n.norm();
-    if len <= 0.0 {
-        return 0.0;
-    }
-    let side = a.map(|p| n.dot(&(Vector3::from(p) - b0)) / len);
-    let (lo, hi) = side
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &d| {
-            (lo.min(d), hi.max(d))
-        });
+/// How far (mm) the points of `a` lie wholly on one side of the plane `n · p = d` (`n` unit):
+/// 0 where they touch or cross it, or for a zero normal.
+fn side_gap(a: &Triangle, n: &[f64; 3], d: f64) -> f64 {
+    let side = a.map(|p| n[0] * p[0] + n[1] * p[1] + n[2] * p[2] - d);
+    let lo = side[0].min(side[1]).min(side[2]);
+    let hi = side[0].max(side[1]).max(side[2]);
     if lo > 0.0 {
         lo
     } else if hi < 0.0 {
@@ -373,10 +361,44 @@ fn plane_gap(a: &Triangle, b: &Triangle) -> f64 {
     }
 }
 
-/// A lower bound (mm) on the distance of triangles `a` and `b`: the larger of their
-/// [`plane_gap`]s (positive only where one lies wholly on one side of the other's plane).
-fn separation_bound(a: &Triangle, b: &Triangle) -> f64 {
-    plane_gap(a, b).max(plane_gap(b, a))
+/// A lower bound (mm) on the distance of triangles `a` and `b`: how far `a` lies wholly on one
+/// side of `b`'s plane (0 where it touches or crosses it; every point of `b` is in the plane,
+/// so no point of `a` is nearer to `b` than to the plane). A few products against the exact
+/// distance's fifteen features: it drops the facing pairs of a wall a tight fit slides along.
+#[cfg(test)]
+fn plane_gap(a: &Triangle, b: &Triangle) -> f64 {
+    let t = TriangleTree::build(&[*b], &Pose::identity());
+    let (n, d) = t.plane(0);
+    side_gap(a, &n, d)
+}
+
+/// A triangle of the tool posed in the world: corners and plane (unit normal, offset), mm.
+pub(super) struct PosedTriangle {
+    pub(super) corners: Triangle,
+    normal: [f64; 3],
+    offset: f64,
+}
+
+impl PosedTriangle {
+    /// Triangle `i` of `tree` (the tool frame) with the tool at `(rot, t)`.
+    fn of(tree: &TriangleTree, i: u32, rot: &Matrix3<f64>, t: &Vector3<f64>) -> Self {
+        let (n, d) = tree.plane(i);
+        let n = rot * Vector3::from(n);
+        Self {
+            corners: tree
+                .triangle(i)
+                .map(|p| (rot * Vector3::from(p) + t).into()),
+            normal: n.into(),
+            offset: d + n.dot(t),
+        }
+    }
+
+    /// A lower bound (mm) on its distance to triangle `i` of `part` (world): the larger of
+    /// how far either lies wholly on one side of the other's plane.
+    fn separation(&self, part: &TriangleTree, i: u32) -> f64 {
+        let (n, d) = part.plane(i);
+        side_gap(&self.corners, &n, d).max(side_gap(part.triangle(i), &self.normal, self.offset))
+    }
 }
 
 fn centroid(t: &Triangle) -> Vector3<f64> {
