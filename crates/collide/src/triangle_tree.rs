@@ -137,14 +137,41 @@ impl TriangleTree {
         object: &Self,
         margin: f64,
         stack: &mut TreePairStack,
-        mut visit: impl FnMut(std::ops::Range<u32>, std::ops::Range<u32>) -> bool,
+        visit: impl FnMut(std::ops::Range<u32>, std::ops::Range<u32>) -> bool,
     ) {
+        Self::start_descent(stack);
+        self.descend(rot, t, object, margin, stack, usize::MAX, visit);
+    }
+
+    /// Sets `stack` for a descent from the two roots ([`TriangleTree::descend`]).
+    pub fn start_descent(stack: &mut TreePairStack) {
         stack.clear();
-        if self.nodes.is_empty() || object.nodes.is_empty() {
-            return;
-        }
         stack.push((0, 0));
-        while let Some((a, b)) = stack.pop() {
+    }
+
+    /// Goes on with the descent `stack` holds ([`TriangleTree::start_descent`], then earlier
+    /// calls with the same trees, pose and margin), testing at most `steps` box pairs, as
+    /// [`TriangleTree::near_leaf_pairs`]. Returns true when the descent is over (every leaf
+    /// pair visited, or `visit` returned false); false leaves the rest on the stack.
+    #[allow(clippy::too_many_arguments)]
+    pub fn descend(
+        &self,
+        rot: &Matrix3<f64>,
+        t: &Vector3<f64>,
+        object: &Self,
+        margin: f64,
+        stack: &mut TreePairStack,
+        steps: usize,
+        mut visit: impl FnMut(std::ops::Range<u32>, std::ops::Range<u32>) -> bool,
+    ) -> bool {
+        if self.nodes.is_empty() || object.nodes.is_empty() {
+            stack.clear();
+            return true;
+        }
+        for _ in 0..steps {
+            let Some((a, b)) = stack.pop() else {
+                return true;
+            };
             let (na, nb) = (&self.nodes[a as usize], &object.nodes[b as usize]);
             // The tool box in the object box's axes: its rotation and centre.
             let turn = nb.axes.transpose() * (rot * na.axes);
@@ -157,7 +184,7 @@ impl TriangleTree {
                 (true, true) => {
                     if !visit(na.first..na.first + na.count, nb.first..nb.first + nb.count) {
                         stack.clear();
-                        return;
+                        return true;
                     }
                 }
                 // Descend the larger box (by its longest side), or the one that is not a leaf.
@@ -172,6 +199,7 @@ impl TriangleTree {
                 }
             }
         }
+        stack.is_empty()
     }
 }
 
@@ -423,6 +451,35 @@ mod tests {
             assert!(stack.capacity() == tool.depth() + object.depth() + 2);
             let _ = leaf_pairs;
         }
+    }
+
+    #[test]
+    fn a_descent_in_slices_visits_the_same_leaf_pairs_as_one_whole() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let tool = TriangleTree::build(&sheet(6, true, &mut rng), &Pose::identity());
+        let object = TriangleTree::build(&sheet(9, false, &mut rng), &Pose::identity());
+        let q = random_pose(&mut rng, 0.6);
+        let (rot, t) = (q.rotation_matrix(), q.translation());
+        let mut stack = TriangleTree::stack_for(&tool, &object);
+        let mut whole = Vec::new();
+        tool.near_leaf_pairs(&rot, &t, &object, 0.3, &mut stack, |a, b| {
+            whole.push((a, b));
+            true
+        });
+        for steps in [1, 3, 50] {
+            let mut sliced = Vec::new();
+            TriangleTree::start_descent(&mut stack);
+            let mut slices = 0;
+            while !tool.descend(&rot, &t, &object, 0.3, &mut stack, steps, |a, b| {
+                sliced.push((a, b));
+                true
+            }) {
+                slices += 1;
+            }
+            assert_eq!(sliced, whole, "{steps} steps a slice");
+            assert!(slices > 0 && stack.capacity() == tool.depth() + object.depth() + 2);
+        }
+        assert!(!whole.is_empty());
     }
 
     #[test]

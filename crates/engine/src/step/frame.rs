@@ -459,6 +459,11 @@ impl GodObject {
         // In contact, the next frames' regions come from a neighbour list kept ahead.
         let used = out.margin_mm.max(MIN_ALLOW_MM + f.skin);
         self.tend_neighbours(&q_safe, used, f.clock.deadline);
+        self.tend_near(
+            &q_safe,
+            NEAR_AHEAD_SHARE * self.params.budget_us,
+            f.clock.deadline,
+        );
         self.run.lists.idle_given = false;
         out.penetration_mm = f.progress.pen_safe;
         out.q_g = q_safe.to_array();

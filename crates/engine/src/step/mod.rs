@@ -421,6 +421,8 @@ impl GodObject {
                 face_stamp: 0,
                 contacts: Vec::with_capacity(contacts_cap),
                 near: Vec::with_capacity(contacts_cap),
+                next_near: Vec::with_capacity(contacts_cap),
+                next_stack: tree_stack.clone(),
                 contact_gaps: vec![0.0; contacts_cap],
                 tree_stack,
             },

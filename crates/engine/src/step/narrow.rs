@@ -79,16 +79,20 @@ impl GodObject {
             return;
         }
         let covered = |at: &(Pose, f64)| self.motion_bound(&at.0, center) + margin <= at.1;
-        let listed = self
+        let mut listed = self
             .run
             .regions
             .near_at
             .filter(|at| self.params.heuristics.mesh_near_list && covered(at));
+        if listed.is_none() && self.take_near_ahead(center, margin) {
+            listed = self.run.regions.near_at;
+        }
         if listed.is_none() {
             // A list no wider than the region's own margin is not kept for later regions.
             let extra = self.run.regions.near_extra;
             let wide = self.params.heuristics.mesh_near_list && extra >= NEAR_LIST_MIN_MM;
             let dropped = self.list_near(center, margin + if wide { extra } else { 0.0 });
+            self.run.counts.near_listed += 1;
             if wide && dropped == 0 {
                 self.run.regions.near_at = Some((*center, margin + extra));
                 self.run.regions.near_extra = (2.0 * extra).min(NEAR_LIST_MM);
@@ -159,6 +163,113 @@ impl GodObject {
             tool_tree.near_leaf_pairs(&rot, &t, part_tree, margin, &mut detector.tree_stack, visit);
         }
         dropped
+    }
+
+    /// Puts the next near list in place of the current one when it is complete and covers the
+    /// region about `center` within `margin` (mm); returns whether it did. An unfinished or
+    /// overflowed one that does not is dropped when the current list is spent.
+    fn take_near_ahead(&mut self, center: &Pose, margin: f64) -> bool {
+        let ahead = self.run.regions.near_ahead;
+        let Some(at) = ahead.at else {
+            return false;
+        };
+        self.run.regions.near_ahead = NearAhead::IDLE;
+        if !ahead.done || self.motion_bound(&at.0, center) + margin > at.1 {
+            return false;
+        }
+        std::mem::swap(&mut self.detector.near, &mut self.detector.next_near);
+        self.run.regions.near_at = Some(at);
+        self.run.counts.near_taken += 1;
+        true
+    }
+
+    /// Builds the next near list a slice at a time (at most `slice_us`, µs, and never past
+    /// `deadline`): once the tool has used half the current list's extra reach, a list as
+    /// wide about the pose the tool is expected at after as many frames again, so that it is
+    /// ready when the current one is spent and no frame pays a whole descent.
+    pub(super) fn tend_near(&mut self, q: &Pose, slice_us: f64, deadline: Instant) {
+        let Some(meshes) = &self.bodies.meshes else {
+            return;
+        };
+        let Some((center, wide)) = self.run.regions.near_at else {
+            return;
+        };
+        if !self.params.heuristics.mesh_near_list {
+            return;
+        }
+        let mut ahead = self.run.regions.near_ahead;
+        if ahead.done {
+            return;
+        }
+        let extra = self.run.regions.near_extra;
+        if ahead.at.is_none() {
+            let used = self.motion_bound(&center, q);
+            if used < 0.5 * extra {
+                return;
+            }
+            let speed = self.run.motion.last_motion.max(1e-9);
+            let frames = (0.5 * extra / speed).min(NEAR_AHEAD_MAX_FRAMES);
+            ahead = NearAhead {
+                at: Some((self.pose_ahead(q, frames), wide)),
+                object: 0,
+                done: false,
+            };
+            self.detector.next_near.clear();
+            TriangleTree::start_descent(&mut self.detector.next_stack);
+        }
+        let Some((at, margin)) = ahead.at else {
+            return;
+        };
+        let end = (Instant::now() + Duration::from_secs_f64(slice_us * 1e-6)).min(deadline);
+        let (rot, t) = (at.rotation_matrix(), at.translation());
+        let detector = &mut self.detector;
+        let mut overflow = false;
+        while ahead.object < meshes.objects.len() && Instant::now() < end {
+            let object = ahead.object;
+            let part_tree = &meshes.objects[object];
+            let tool_tree = &meshes.tool;
+            let list = &mut detector.next_near;
+            let visit = |tools: std::ops::Range<u32>, parts: std::ops::Range<u32>| {
+                for tool in tools {
+                    let tool_tri = PosedTriangle::of(tool_tree, tool, &rot, &t);
+                    for part in parts.clone() {
+                        if tool_tri.separation(part_tree, part) > margin {
+                            continue;
+                        }
+                        if list.len() == list.capacity() {
+                            overflow = true;
+                            return false;
+                        }
+                        list.push(TriPair {
+                            object: object as u32,
+                            tool,
+                            part,
+                        });
+                    }
+                }
+                true
+            };
+            let over = tool_tree.descend(
+                &rot,
+                &t,
+                part_tree,
+                margin,
+                &mut detector.next_stack,
+                NEAR_AHEAD_STEPS,
+                visit,
+            );
+            if overflow {
+                // Too many for the storage: no list ahead this time.
+                self.run.regions.near_ahead = NearAhead::IDLE;
+                return;
+            }
+            if over {
+                ahead.object += 1;
+                TriangleTree::start_descent(&mut detector.next_stack);
+            }
+        }
+        ahead.done = ahead.object >= meshes.objects.len();
+        self.run.regions.near_ahead = ahead;
     }
 
     /// The two triangles of `c` with the tool at `(rot, t)`: the tool's posed, the object's.
@@ -552,14 +663,49 @@ mod tests {
     }
 
     #[test]
+    fn a_list_built_ahead_is_taken_only_for_a_region_it_covers() {
+        let (mut god, _, _) = cube_over_sheet();
+        let far = Instant::now() + Duration::from_secs(1);
+        let (q0, q1) = (
+            Pose::from_array([0.0, 0.0, 2.4, 0.0, 0.0, 0.0]),
+            Pose::from_array([0.3, 0.0, 2.4, 0.0, 0.0, 0.0]),
+        );
+        let ahead_at = |god: &mut GodObject| {
+            god.run.regions.near_at = None;
+            god.run.regions.near_ahead = NearAhead::IDLE;
+            god.detect(&q0, 0.1).unwrap();
+            god.narrow_phase(&q0, 0.1);
+            let (_, wide) = god.run.regions.near_at.unwrap();
+            // Half the extra reach used: the next list, built whole here, is about q1.
+            god.tend_near(&q1, 1e6, far);
+            assert!(god.run.regions.near_ahead.done);
+            wide
+        };
+        let wide = ahead_at(&mut god);
+        // A region wider than the list built ahead: listed in the frame.
+        god.narrow_phase(&q1, wide + 0.05);
+        assert_eq!(god.run.counts.near_taken, 0);
+        // One it covers: taken.
+        ahead_at(&mut god);
+        god.narrow_phase(&q1, 0.1);
+        assert_eq!(god.run.counts.near_taken, 1);
+        assert_eq!(god.run.regions.near_at.unwrap().0, q1);
+    }
+
+    #[test]
     fn the_near_list_gives_every_pair_within_the_margin_as_the_tool_wanders() {
         let (mut god, tool, sheet) = cube_over_sheet();
         // A walk over the sheet, sliding, bobbing and turning, in steps from 1 µm to 0.4 mm,
-        // so that the near list is both reused and listed again.
+        // so that the near list is reused, listed again, and taken from the list built ahead.
         let (mut reused, mut relisted, mut near_pairs) = (0, 0, 0);
         let mut q = [0.0, 0.0, 2.6, 0.0, 0.0, 0.0];
         for k in 0..600 {
-            let step = [1e-3, 0.05, 0.4][k % 3];
+            // Mostly a steady slide, now and then a jump past any list's reach.
+            let step = if k % 37 == 36 {
+                0.4
+            } else {
+                [1e-3, 0.02, 0.05][k % 3]
+            };
             let phase = k as f64 * 0.05;
             q[0] += step * phase.sin();
             q[1] += step * (0.7 * phase).cos();
@@ -567,10 +713,14 @@ mod tests {
             q[3] = 0.1 * phase.sin();
             q[5] += 0.3 * step;
             let pose = Pose::from_array(q);
-            let margin = [0.05, 0.2, 0.6][(k / 3) % 3];
+            let margin = [0.05, 0.2, 0.6][(k / 20) % 3];
             let before = god.run.regions.near_at;
             god.detect(&pose, margin).unwrap();
             god.narrow_phase(&pose, margin);
+            // The next list built ahead in slices of a few µs (one step's speed known).
+            god.run.motion.last_motion = step;
+            let far = Instant::now() + Duration::from_secs(1);
+            god.tend_near(&pose, 5.0, far);
             if before.is_some() && god.run.regions.near_at == before {
                 reused += 1;
             } else {
@@ -598,9 +748,17 @@ mod tests {
                 }
             }
         }
+        let counts = &god.run.counts;
         assert!(
-            reused > 100 && relisted > 50 && near_pairs > 1000,
-            "reused {reused}, listed {relisted}, near pairs {near_pairs}"
+            reused > 100 && relisted > 20 && near_pairs > 1000 && counts.near_taken > 10,
+            "reused {reused}, listed {relisted}, near pairs {near_pairs}, {} lists taken from \
+             ahead and {} listed in the frame",
+            counts.near_taken,
+            counts.near_listed
+        );
+        eprintln!(
+            "reused {reused}, listed {relisted}, taken {}, listed in frame {}",
+            counts.near_taken, counts.near_listed
         );
     }
 

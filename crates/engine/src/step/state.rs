@@ -39,6 +39,9 @@ pub(super) struct Detector {
     /// The mesh mode's triangle pairs within a wider margin ([`super::tuning::NEAR_LIST_MM`])
     /// of a recent pose: the narrow phase filters them while they cover its region.
     pub(super) near: Vec<TriPair>,
+    /// The next near list, built a slice per frame ahead of need, and its descent's stack.
+    pub(super) next_near: Vec<TriPair>,
+    pub(super) next_stack: collide::TreePairStack,
     /// The stack the narrow phase descends the triangle trees on (reserved for the deepest
     /// pair of trees).
     pub(super) tree_stack: collide::TreePairStack,
@@ -132,6 +135,7 @@ impl RunState {
                 near_at: None,
                 contacts_at: None,
                 near_extra: NEAR_LIST_MM,
+                near_ahead: NearAhead::IDLE,
             },
             solve: SolveMemory {
                 warm: [(0, 0, 0); 6],
@@ -161,6 +165,8 @@ impl RunState {
                 frame_scanned: 0,
                 regions_filtered: 0,
                 regions_traversed: 0,
+                near_listed: 0,
+                near_taken: 0,
             },
             friction: FrictionMemory {
                 sliding: false,
@@ -228,11 +234,33 @@ pub(super) struct RegionMemory {
     /// How far beyond the region's margin the next near list reaches, mm: [`NEAR_LIST_MM`],
     /// quartered each time a list overflows its storage and doubled back each time one fits.
     pub(super) near_extra: f64,
+    /// The next near list's building ([`NearAhead`]).
+    pub(super) near_ahead: NearAhead,
     /// The region centre and margin (mm) `detector.contacts` was listed for.
     pub(super) contacts_at: Option<(Pose, f64)>,
 }
 
 /// The solves: the warm start and the time a row costs.
+/// The mesh mode's next near list as it is built, a slice per frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct NearAhead {
+    /// The pose and margin (mm) it lists about (`None`: none under way).
+    pub(super) at: Option<(Pose, f64)>,
+    /// The object whose tree the descent is in.
+    pub(super) object: usize,
+    /// Every object descended: the list is complete.
+    pub(super) done: bool,
+}
+
+impl NearAhead {
+    /// No list under way.
+    pub(super) const IDLE: Self = Self {
+        at: None,
+        object: 0,
+        done: false,
+    };
+}
+
 #[derive(Clone, Debug)]
 pub(super) struct SolveMemory {
     /// The pairs active at the last answer (warm start of the next solve), and their
@@ -298,6 +326,9 @@ pub(super) struct WorkCounts {
     /// traversal, since the last reset.
     pub(super) regions_filtered: u64,
     pub(super) regions_traversed: u64,
+    /// The mesh mode's near lists: listed in a frame's own time, and built ahead and taken.
+    pub(super) near_listed: u64,
+    pub(super) near_taken: u64,
 }
 
 /// Friction's stick or slip, and the contact it acts in.

@@ -368,6 +368,18 @@ pub(super) const NEAR_LIST_MM: f64 = 0.25;
 /// on the next region.
 pub(super) const NEAR_LIST_MIN_MM: f64 = NEAR_LIST_MM / 16.0;
 
+/// The next near list is built ahead in slices of at most this share of the frame's budget
+/// (after the frame's own work, never past its deadline): a whole list of a tight fit's wall
+/// costs a few budgets, so it is spread over the frames the current list still serves.
+pub(super) const NEAR_AHEAD_SHARE: f64 = 0.15;
+
+/// How far ahead (frames at the last frame's speed) the next near list is centred at most: a
+/// slow tool's list centres near it.
+pub(super) const NEAR_AHEAD_MAX_FRAMES: f64 = 50.0;
+
+/// Box pairs tested between two looks at the clock while building a near list ahead (a few µs).
+pub(super) const NEAR_AHEAD_STEPS: usize = 64;
+
 /// Levels of each sphere-tree the mesh mode keeps (grown to hold the triangles) above the
 /// triangles' own box trees. Deeper levels only add pairs: a tool touching the parts sits
 /// inside the leaves' envelope, so every leaf pair within a leaf's overhang is listed. Measured
