@@ -1,6 +1,7 @@
 //! The parallel PQP allocates nothing in a solve, in any thread: once reserved for the largest
 //! `N`, a stream of solves of varying size (threaded and not) makes no allocation in the
-//! caller or in the workers, and spawns no thread.
+//! caller or in the workers, and spawns no thread, whether the entries of `|Q|` are stored or
+//! recomputed.
 //!
 //! The counter here is global (every thread), unlike `devkit::count_allocations` (this
 //! thread only), so the workers' allocations count too; the file holds one test, so no other
@@ -51,6 +52,8 @@ fn warmed_up_parallel_solves_allocate_nothing_in_any_thread() {
         ..PqpParams::paper()
     };
     assert!(s.pqp_parallel.threads() >= 1);
+    // Frames up to 700 rows store the entries of |Q|, larger ones recompute them.
+    s.pqp_parallel.max_stored_rows = 700;
     s.reserve(1500);
     s.solve(&frames[0].problem(), &[0.0; 6]);
     let before = ALLOCATIONS.load(Ordering::SeqCst);
