@@ -8,17 +8,27 @@
 //!
 //! - `Q = N N^T` has rank 6 (`N` the scaled rows), so `Q y = N (N^T y)` costs O(12 N);
 //! - `Q^+ y` and `Q^- y` are `(|Q| y ± Q y) / 2 + r .* y`, so the one O(N²) product left is
-//!   `|Q| y`, with `|Q|` symmetric: only its strict upper triangle is stored and read, each
-//!   entry used twice (`acc_a += |q_ab| y_b` and `col_b += |q_ab| y_a`), which halves both the
-//!   memory read per iteration and the `O(6 N²)` work of forming it;
-//! - the triangle is stored in **panels** of 4 rows × 8 columns, laid out `[chunk][row][lane]`
+//!   `|Q| y`, with `|Q|` symmetric: only its strict upper triangle is read, each entry used
+//!   twice (`acc_a += |q_ab| y_b` and `col_b += |q_ab| y_a`), which halves both the work per
+//!   iteration and the `O(6 N²)` work of forming it;
+//! - the triangle is cut in **panels** of 4 rows × 8 columns. Up to
+//!   [`ParallelPqpWorkspace::max_stored_rows`] rows (default [`MAX_STORED_ROWS`], a 16 MB
+//!   triangle) the entries are formed once per solve and stored, laid out `[chunk][row][lane]`
 //!   and padded with zeros (below the diagonal, past the last row), so the inner loop is
-//!   `chunks_exact` over 32 numbers with no branch and no remainder: the compiler turns it
-//!   into 4-wide fused multiply-adds (AVX2 + FMA, chosen at run time on x86-64; the same
-//!   code compiled without them elsewhere);
-//! - the panels are split between the calling thread and persistent workers by equal area of
-//!   the triangle; each part keeps its own panels, row sums and column sums, and the caller
-//!   adds the column sums after each iteration (O(N)).
+//!   `chunks_exact` over 32 numbers with no branch and no remainder. Above it the stored
+//!   triangle no longer fits the caches and streaming it from memory bounds the product, so
+//!   every iteration **recomputes** the entries from the scaled rows packed `[chunk][component]
+//!   [lane]` (`q_ab` a 6-term multiply-add, then `|q_ab|`; the working set is the rows, `y` and
+//!   the column sums, `8 N` numbers): twice the work of the stored product, no memory
+//!   traffic, no `N²` memory. Both paths form each entry by the same multiply-adds in the same
+//!   order, so they give the same iterates bit for bit (tested);
+//! - the compiler turns the loops into fused multiply-adds of 8 lanes (AVX-512) or 4 (AVX2),
+//!   chosen at run time on x86-64 (the same code compiled for the baseline elsewhere); both
+//!   give the same numbers bit for bit (tested);
+//! - the panels are split into blocks of equal area of the triangle, 4 per thread, which the
+//!   calling thread and persistent workers claim until none is left; each block keeps its
+//!   own panels, row sums and column sums, and the caller adds them in block order after each
+//!   iteration (O(N) per block), so the sums do not depend on which thread ran which block.
 //!
 //! **Threads.** Workers are spawned when the workspace is created with
 //! [`ParallelPqpWorkspace::with_threads`] (or on the first reserve or solve of one made with
@@ -27,8 +37,8 @@
 //! dropped. Below [`ParallelPqpWorkspace::min_parallel_rows`] rows the caller does the whole
 //! product alone (waking a worker costs more than it saves).
 //!
-//! Memory: `N²/2` numbers of panels (a serial [`crate::PqpWorkspace`] holds `N²`) plus
-//! O(N) per thread.
+//! Memory: `N²/2` numbers of panels up to [`ParallelPqpWorkspace::max_stored_rows`] rows (a
+//! serial [`crate::PqpWorkspace`] holds `N²`), none above; plus O(N) per block.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, RwLock};
@@ -49,9 +59,11 @@ const SPINS: u32 = 20_000;
 /// Blocks of the triangle per thread in a parallel product: each thread claims blocks until
 /// none is left, so a thread the system deschedules delays the others by one block at most.
 const BLOCKS_PER_THREAD: usize = 4;
-/// Default of [`ParallelPqpWorkspace::max_stored_rows`]: where recomputing the entries
-/// overtakes streaming the stored triangle (measured, `examples/pqp_iteration.rs`).
-pub const MAX_STORED_ROWS: usize = 3000;
+/// Default of [`ParallelPqpWorkspace::max_stored_rows`], in rows: the stored triangle is then
+/// 16 MB (half the L3 cache of the machine measured); from 2 500 rows recomputing the entries
+/// was faster than streaming them on it (`cargo run --release -p qp --example
+/// pqp_iteration`).
+pub const MAX_STORED_ROWS: usize = 2000;
 
 /// What the parts compute when the caller posts a job.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -355,8 +367,9 @@ impl ParallelPqpWorkspace {
         &self.y
     }
 
-    /// Reserves room for problems of up to `n` rows (about `n²/2` numbers of panels over all
-    /// threads) and spawns the workers if they are not running.
+    /// Reserves room for problems of up to `n` rows (about `m²/2` numbers of panels over all
+    /// threads, `m = min(n, max_stored_rows)`: set [`Self::max_stored_rows`] first) and spawns
+    /// the workers if they are not running.
     pub fn reserve(&mut self, n: usize) {
         self.spawn();
         fn grow<T>(v: &mut Vec<T>, n: usize) {
@@ -414,8 +427,9 @@ impl ParallelPqpWorkspace {
     /// # Real-time
     /// Allocates only if `p.len()` exceeds every earlier `N` (see
     /// [`ParallelPqpWorkspace::reserve`]), in no thread; spawns nothing once the workers run;
-    /// never panics; O(3 N²) to form the panels, then at most `params.max_iterations`
-    /// iterations of O(N²/2), both split over the threads.
+    /// never panics; O(4 N²) to form the panels (or the row sums of `max(-Q, 0)` when the
+    /// entries are recomputed), then at most `params.max_iterations` iterations of O(N²)
+    /// (O(4 N²) recomputed), both split over the threads.
     pub fn solve(&mut self, p: &Problem<'_>) -> Solution {
         self.spawn();
         let n = p.len();
