@@ -408,7 +408,13 @@ impl ParallelPqpWorkspace {
             let m = padded(n.min(self.min_parallel_rows));
             triangle_chunks(m / R, m / LANES) * R * LANES
         };
-        let blocks = self.shared.parts.len();
+        // The blocks of the largest product: one thread (whose `spawn` settled) alone takes
+        // the whole triangle.
+        let blocks = if self.threads() > 1 {
+            self.threads() * BLOCKS_PER_THREAD
+        } else {
+            1
+        };
         for (t, slot) in self.shared.parts.iter().enumerate() {
             let mut part = lock(&slot.part);
             let mut need = total / blocks + slack;
