@@ -382,6 +382,12 @@ fn measure(q: &StudyQp, variant: &str, budget: f64) -> Result<PqpScalingRow> {
 /// stands against the dual active set.
 pub fn pqp_markdown(rows: &[PqpScalingRow]) -> String {
     let mut s = String::new();
+    let w = ParallelPqpWorkspace::new();
+    s.push_str(&format!(
+        "pqp-simd and pqp-parallel: {} code; the entries of |Q| stored up to {} rows, recomputed every iteration above.\n\n",
+        w.simd_name(),
+        w.max_stored_rows
+    ));
     s.push_str(
         "| QP | N | solver | threads | iterations | solve µs p50 / p99 | iteration µs p50 / p99 | per-iteration speed-up vs pqp |\n",
     );

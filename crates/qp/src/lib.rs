@@ -37,8 +37,9 @@
 //!     paper's stop ([`PqpParams::paper`]) or a KKT stop ([`PqpParams::tight`]). See [`pqp`]
 //!     for the dual problem and the derivation of its signs.
 //!   - [`ParallelPqpWorkspace`] (`pqp-parallel`): the same PQP iteration with its update
-//!     vectorized (AVX2 + FMA where the CPU has it) and split over persistent worker
-//!     threads; the serial iterates up to rounding. See [`pqp_parallel`].
+//!     vectorized (AVX-512 or AVX2 with FMA where the CPU has it), the entries of `|Q|`
+//!     recomputed from the rows past 2 000 rows, and split over persistent worker threads;
+//!     the serial iterates up to rounding. See [`pqp_parallel`].
 //!
 //! # Example
 //!

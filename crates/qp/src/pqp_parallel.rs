@@ -8,17 +8,27 @@
 //!
 //! - `Q = N N^T` has rank 6 (`N` the scaled rows), so `Q y = N (N^T y)` costs O(12 N);
 //! - `Q^+ y` and `Q^- y` are `(|Q| y ± Q y) / 2 + r .* y`, so the one O(N²) product left is
-//!   `|Q| y`, with `|Q|` symmetric: only its strict upper triangle is stored and read, each
-//!   entry used twice (`acc_a += |q_ab| y_b` and `col_b += |q_ab| y_a`), which halves both the
-//!   memory read per iteration and the `O(6 N²)` work of forming it;
-//! - the triangle is stored in **panels** of 4 rows × 8 columns, laid out `[chunk][row][lane]`
+//!   `|Q| y`, with `|Q|` symmetric: only its strict upper triangle is read, each entry used
+//!   twice (`acc_a += |q_ab| y_b` and `col_b += |q_ab| y_a`), which halves both the work per
+//!   iteration and the `O(6 N²)` work of forming it;
+//! - the triangle is cut in **panels** of 4 rows × 8 columns. Up to
+//!   [`ParallelPqpWorkspace::max_stored_rows`] rows (default [`MAX_STORED_ROWS`], a 16 MB
+//!   triangle) the entries are formed once per solve and stored, laid out `[chunk][row][lane]`
 //!   and padded with zeros (below the diagonal, past the last row), so the inner loop is
-//!   `chunks_exact` over 32 numbers with no branch and no remainder: the compiler turns it
-//!   into 4-wide fused multiply-adds (AVX2 + FMA, chosen at run time on x86-64; the same
-//!   code compiled without them elsewhere);
-//! - the panels are split between the calling thread and persistent workers by equal area of
-//!   the triangle; each part keeps its own panels, row sums and column sums, and the caller
-//!   adds the column sums after each iteration (O(N)).
+//!   `chunks_exact` over 32 numbers with no branch and no remainder. Above it the stored
+//!   triangle no longer fits the caches and streaming it from memory bounds the product, so
+//!   every iteration **recomputes** the entries from the scaled rows packed `[chunk][component]
+//!   [lane]` (`q_ab` a 6-term multiply-add, then `|q_ab|`; the working set is the rows, `y` and
+//!   the column sums, `8 N` numbers): twice the work of the stored product, no memory
+//!   traffic, no `N²` memory. Both paths form each entry by the same multiply-adds in the same
+//!   order, so they give the same iterates bit for bit (tested);
+//! - the compiler turns the loops into fused multiply-adds of 8 lanes (AVX-512) or 4 (AVX2),
+//!   chosen at run time on x86-64 (the same code compiled for the baseline elsewhere); both
+//!   give the same numbers bit for bit (tested);
+//! - the panels are split into blocks of equal area of the triangle, 4 per thread, which the
+//!   calling thread and persistent workers claim until none is left; each block keeps its
+//!   own panels, row sums and column sums, and the caller adds them in block order after each
+//!   iteration (O(N) per block), so the sums do not depend on which thread ran which block.
 //!
 //! **Threads.** Workers are spawned when the workspace is created with
 //! [`ParallelPqpWorkspace::with_threads`] (or on the first reserve or solve of one made with
@@ -27,10 +37,10 @@
 //! dropped. Below [`ParallelPqpWorkspace::min_parallel_rows`] rows the caller does the whole
 //! product alone (waking a worker costs more than it saves).
 //!
-//! Memory: `N²/2` numbers of panels (a serial [`crate::PqpWorkspace`] holds `N²`) plus
-//! O(N) per thread.
+//! Memory: `N²/2` numbers of panels up to [`ParallelPqpWorkspace::max_stored_rows`] rows (a
+//! serial [`crate::PqpWorkspace`] holds `N²`), none above; plus O(N) per block.
 
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, RwLock};
 use std::thread::JoinHandle;
 
@@ -46,6 +56,14 @@ const R: usize = 4;
 pub const LANES: usize = 8;
 /// Spins of a worker waiting for the next iteration before it parks (a few tens of µs).
 const SPINS: u32 = 20_000;
+/// Blocks of the triangle per thread in a parallel product: each thread claims blocks until
+/// none is left, so a thread the system deschedules delays the others by one block at most.
+const BLOCKS_PER_THREAD: usize = 4;
+/// Default of [`ParallelPqpWorkspace::max_stored_rows`], in rows: the stored triangle is then
+/// 16 MB (half the L3 cache of the machine measured); from 2 500 rows recomputing the entries
+/// was faster than streaming them on it (`cargo run --release -p qp --example
+/// pqp_iteration`).
+pub const MAX_STORED_ROWS: usize = 2000;
 
 /// What the parts compute when the caller posts a job.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -66,12 +84,28 @@ struct Input {
     /// The scaled rows, structure of arrays: `cols[i][k]` is component `i` of row `k`;
     /// zero past `n`.
     cols: [Vec<f64>; DIM],
+    /// The same rows packed by chunk, `[chunk][component][lane]` (`DIM * LANES` numbers a
+    /// chunk), read when the entries are recomputed; zero past `n`.
+    packed: Vec<f64>,
     /// The multipliers, zero past `n`.
     y: Vec<f64>,
     /// What to compute.
     phase: Phase,
-    /// Use the AVX2 + FMA code.
-    simd: bool,
+    /// The instruction set of the kernels.
+    isa: Isa,
+    /// The entries of `|Q|` are kept in the parts' panels (else recomputed every product).
+    stored: bool,
+}
+
+/// Instruction set the kernels are compiled for (chosen at run time).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Isa {
+    /// The build's baseline (SSE2 on x86-64).
+    Base,
+    /// AVX2 + FMA: 4 lanes an instruction.
+    Avx2,
+    /// AVX-512 (F, VL) + FMA: 8 lanes an instruction, 32 registers.
+    Avx512,
 }
 
 /// One thread's share: the panels of rows `[blo, bhi) * R` and its sums.
@@ -110,6 +144,10 @@ impl Slot {
 struct Shared {
     input: RwLock<Input>,
     parts: Vec<Slot>,
+    /// Blocks of the posted job (the first `blocks` of `parts`).
+    blocks: AtomicUsize,
+    /// Threads in all (the caller's included).
+    threads: usize,
     /// Jobs posted so far.
     epoch: AtomicU64,
     stop: AtomicBool,
@@ -131,9 +169,19 @@ pub struct ParallelPqpWorkspace {
     pub params: PqpParams,
     /// Below this many rows the calling thread computes the whole product alone.
     pub min_parallel_rows: usize,
-    /// Use the AVX2 + FMA code when the CPU has it (default `true`; `false` runs the same
-    /// code compiled for the baseline instruction set).
+    /// Up to this many rows the entries of `|Q|` are formed once per solve and stored
+    /// (`N²/2` numbers, 8 bytes each); above it they are recomputed from the scaled rows in
+    /// every iteration (no `N²` memory: the stored triangle no longer fits the caches there
+    /// and streaming it from memory costs more than the 6 multiply-adds of an entry). Both
+    /// give the same numbers, bit for bit.
+    pub max_stored_rows: usize,
+    /// Use the vector code (AVX-512 or AVX2, with FMA) when the CPU has it (default `true`;
+    /// `false` runs the same code compiled for the baseline instruction set).
     pub simd: bool,
+    /// Allow the AVX-512 code when the CPU has it (default `true`; `false` stops at AVX2).
+    /// Both compute the same numbers, bit for bit (the same multiply-adds in the same order,
+    /// 8 lanes an instruction instead of 4).
+    pub avx512: bool,
     threads: usize,
     shared: Arc<Shared>,
     workers: Vec<JoinHandle<()>>,
@@ -157,7 +205,9 @@ impl std::fmt::Debug for ParallelPqpWorkspace {
             .field("threads", &self.threads)
             .field("workers_running", &self.workers.len())
             .field("min_parallel_rows", &self.min_parallel_rows)
+            .field("max_stored_rows", &self.max_stored_rows)
             .field("simd", &self.simd)
+            .field("avx512", &self.avx512)
             .finish_non_exhaustive()
     }
 }
@@ -168,7 +218,9 @@ impl Clone for ParallelPqpWorkspace {
     fn clone(&self) -> Self {
         let mut w = Self::inert(self.params, self.threads);
         w.min_parallel_rows = self.min_parallel_rows;
+        w.max_stored_rows = self.max_stored_rows;
         w.simd = self.simd;
+        w.avx512 = self.avx512;
         if !self.workers.is_empty() {
             w.spawn();
         }
@@ -223,11 +275,17 @@ impl ParallelPqpWorkspace {
                 n: 0,
                 np: 0,
                 cols: Default::default(),
+                packed: Vec::new(),
                 y: Vec::new(),
                 phase: Phase::Product,
-                simd: false,
+                isa: Isa::Base,
+                stored: true,
             }),
-            parts: (0..threads).map(|_| Slot::default()).collect(),
+            parts: (0..threads * BLOCKS_PER_THREAD)
+                .map(|_| Slot::default())
+                .collect(),
+            blocks: AtomicUsize::new(1),
+            threads,
             epoch: AtomicU64::new(0),
             stop: AtomicBool::new(false),
             started: AtomicU64::new(0),
@@ -235,7 +293,9 @@ impl ParallelPqpWorkspace {
         Self {
             params,
             min_parallel_rows: 384,
+            max_stored_rows: MAX_STORED_ROWS,
             simd: true,
+            avx512: true,
             threads,
             shared,
             workers: Vec::new(),
@@ -247,7 +307,7 @@ impl ParallelPqpWorkspace {
             absy: Vec::new(),
             qp: Vec::new(),
             qm: Vec::new(),
-            bounds: vec![(0, 0); threads],
+            bounds: vec![(0, 0); threads * BLOCKS_PER_THREAD],
         }
     }
 
@@ -278,9 +338,28 @@ impl ParallelPqpWorkspace {
         1 + self.workers.len().min(self.threads - 1)
     }
 
-    /// True when this build and CPU run the AVX2 + FMA code (and [`Self::simd`] allows it).
+    /// True when this build and CPU run vector code (AVX-512 or AVX2, with FMA) and
+    /// [`Self::simd`] allows it.
     pub fn simd_active(&self) -> bool {
-        self.simd && simd_available()
+        self.isa() != Isa::Base
+    }
+
+    /// The widest vector code this CPU runs: `"avx512"`, `"avx2"` or `"base"` (the build's
+    /// baseline, also when [`Self::simd`] is off).
+    pub fn simd_name(&self) -> &'static str {
+        match self.isa() {
+            Isa::Avx512 => "avx512",
+            Isa::Avx2 => "avx2",
+            Isa::Base => "base",
+        }
+    }
+
+    fn isa(&self) -> Isa {
+        match (self.simd, detect_isa()) {
+            (false, _) => Isa::Base,
+            (true, Isa::Avx512) if !self.avx512 => Isa::Avx2,
+            (true, isa) => isa,
+        }
     }
 
     /// The multipliers `y` (one per row, all `> 0`) of the last solve.
@@ -288,8 +367,9 @@ impl ParallelPqpWorkspace {
         &self.y
     }
 
-    /// Reserves room for problems of up to `n` rows (about `n²/2` numbers of panels over all
-    /// threads) and spawns the workers if they are not running.
+    /// Reserves room for problems of up to `n` rows (about `m²/2` numbers of panels over all
+    /// threads, `m = min(n, max_stored_rows)`: set [`Self::max_stored_rows`] first) and spawns
+    /// the workers if they are not running.
     pub fn reserve(&mut self, n: usize) {
         self.spawn();
         fn grow<T>(v: &mut Vec<T>, n: usize) {
@@ -312,11 +392,14 @@ impl ParallelPqpWorkspace {
             for c in &mut input.cols {
                 grow(c, np);
             }
+            grow(&mut input.packed, np * DIM);
             grow(&mut input.y, np);
         }
         // Each part: its equal-area share at `n` plus two full-width panels of slack (the
         // share of a smaller `N` is never larger), and the caller's part the whole triangle
-        // below the parallel threshold.
+        // below the parallel threshold; panels only up to the largest stored `N`.
+        let np_all = np;
+        let np = padded(n.min(self.max_stored_rows));
         let nb = np / R;
         let chunks = np / LANES;
         let total = triangle_chunks(nb, chunks) * R * LANES;
@@ -325,15 +408,22 @@ impl ParallelPqpWorkspace {
             let m = padded(n.min(self.min_parallel_rows));
             triangle_chunks(m / R, m / LANES) * R * LANES
         };
+        // The blocks of the largest product: one thread (whose `spawn` settled) alone takes
+        // the whole triangle.
+        let blocks = if self.threads() > 1 {
+            self.threads() * BLOCKS_PER_THREAD
+        } else {
+            1
+        };
         for (t, slot) in self.shared.parts.iter().enumerate() {
             let mut part = lock(&slot.part);
-            let mut need = total / self.threads + slack;
+            let mut need = total / blocks + slack;
             if t == 0 {
                 need = need.max(serial_max);
             }
             grow(&mut part.panels, need.min(total));
-            grow(&mut part.acc, np);
-            grow(&mut part.col, np);
+            grow(&mut part.acc, np_all);
+            grow(&mut part.col, np_all);
         }
     }
 
@@ -343,8 +433,9 @@ impl ParallelPqpWorkspace {
     /// # Real-time
     /// Allocates only if `p.len()` exceeds every earlier `N` (see
     /// [`ParallelPqpWorkspace::reserve`]), in no thread; spawns nothing once the workers run;
-    /// never panics; O(3 N²) to form the panels, then at most `params.max_iterations`
-    /// iterations of O(N²/2), both split over the threads.
+    /// never panics; O(4 N²) to form the panels (or the row sums of `max(-Q, 0)` when the
+    /// entries are recomputed), then at most `params.max_iterations` iterations of O(N²)
+    /// (O(4 N²) recomputed), both split over the threads.
     pub fn solve(&mut self, p: &Problem<'_>) -> Solution {
         self.spawn();
         let n = p.len();
@@ -368,9 +459,10 @@ impl ParallelPqpWorkspace {
         let (j, d) = (p.j(), p.d());
         let isg = inv_sqrt(p.g());
         let np = padded(n);
-        let simd = self.simd_active();
+        let isa = self.isa();
         let parallel = n >= self.min_parallel_rows && self.threads() > 1;
-        self.assign(np, parallel);
+        let stored = n <= self.max_stored_rows;
+        self.assign(np, parallel, stored);
 
         // The scaled rows (structure of arrays), their norms, the diagonal of Q.
         self.norms.clear();
@@ -379,16 +471,21 @@ impl ParallelPqpWorkspace {
             let mut input = self.shared.input.write().unwrap_or_else(|e| e.into_inner());
             input.n = n;
             input.np = np;
-            input.simd = simd;
+            input.isa = isa;
+            input.stored = stored;
             input.phase = Phase::Form;
             for c in &mut input.cols {
                 c.clear();
                 c.resize(np, 0.0);
             }
+            input.packed.clear();
+            input.packed.resize(np * DIM, 0.0);
             for (k, row) in j.iter().enumerate() {
                 let v = scaled(row, &isg);
+                let base = (k / LANES) * DIM * LANES + k % LANES;
                 for i in 0..DIM {
                     input.cols[i][k] = v[i];
+                    input.packed[base + i * LANES] = v[i];
                 }
                 let qq = dot6(&v, &v);
                 self.diag.push(qq);
@@ -514,15 +611,21 @@ impl ParallelPqpWorkspace {
     }
 
     /// Splits the `np / R` panels between the parts by equal area of the triangle (all to
-    /// the caller's part unless `parallel`) and sizes every part's buffers.
-    fn assign(&mut self, np: usize, parallel: bool) {
+    /// the caller's part unless `parallel`) and sizes every part's buffers (its panels only
+    /// when `stored`).
+    fn assign(&mut self, np: usize, parallel: bool, stored: bool) {
         let nb = np / R;
         let chunks = np / LANES;
-        let parts = if parallel { self.threads() } else { 1 };
+        let parts = if parallel {
+            self.threads() * BLOCKS_PER_THREAD
+        } else {
+            1
+        };
+        self.shared.blocks.store(parts, Ordering::Relaxed);
         let total = triangle_chunks(nb, chunks);
         let mut start = 0usize;
         let mut cost = 0usize;
-        for t in 0..self.threads {
+        for t in 0..self.bounds.len() {
             if t >= parts {
                 self.bounds[t] = (nb, nb);
                 continue;
@@ -541,8 +644,11 @@ impl ParallelPqpWorkspace {
             let (blo, bhi) = self.bounds[t];
             part.blo = blo;
             part.bhi = bhi;
-            let len: usize =
-                (blo..bhi).map(|b| chunks - (b * R) / LANES).sum::<usize>() * R * LANES;
+            let len: usize = if stored {
+                (blo..bhi).map(|b| chunks - (b * R) / LANES).sum::<usize>() * R * LANES
+            } else {
+                0
+            };
             part.panels.clear();
             part.panels.resize(len, 0.0);
             part.acc.clear();
@@ -552,36 +658,33 @@ impl ParallelPqpWorkspace {
         }
     }
 
-    /// Runs the posted phase: the workers' parts (when `parallel`) and the caller's.
+    /// Runs the posted phase: every block, claimed by the caller and (when `parallel`) the
+    /// workers.
     fn run(&mut self, parallel: bool) {
         let helpers = if parallel { self.workers.len() } else { 0 };
-        if helpers > 0 {
-            self.posted += 1;
-            self.shared.epoch.store(self.posted, Ordering::Release);
-            for w in &self.workers {
-                w.thread().unpark();
-            }
+        if helpers == 0 {
+            let input = self.shared.input.read().unwrap_or_else(|e| e.into_inner());
+            compute(&input, &mut lock(&self.shared.parts[0].part));
+            return;
+        }
+        self.posted += 1;
+        self.shared.epoch.store(self.posted, Ordering::Release);
+        for w in &self.workers {
+            w.thread().unpark();
         }
         let e = self.posted;
+        let blocks = self.shared.blocks.load(Ordering::Relaxed);
         let input = self.shared.input.read().unwrap_or_else(|e| e.into_inner());
-        compute(&input, &mut lock(&self.shared.parts[0].part));
-        if helpers > 0 {
-            // Parts whose worker has not started yet: the caller computes them.
-            for slot in &self.shared.parts[1..=helpers] {
-                if slot.claim(e) {
-                    compute(&input, &mut lock(&slot.part));
-                    slot.finished.store(e, Ordering::Release);
-                }
-            }
-            for slot in &self.shared.parts[1..=helpers] {
-                let mut spins = 0u32;
-                while slot.finished.load(Ordering::Acquire) != e {
-                    spins = spins.saturating_add(1);
-                    if spins < SPINS {
-                        std::hint::spin_loop();
-                    } else {
-                        std::thread::yield_now();
-                    }
+        // Blocks no worker has claimed yet: the caller computes them.
+        claim_and_compute(&self.shared, &input, e, 0, blocks);
+        for slot in &self.shared.parts[..blocks] {
+            let mut spins = 0u32;
+            while slot.finished.load(Ordering::Acquire) != e {
+                spins = spins.saturating_add(1);
+                if spins < SPINS {
+                    std::hint::spin_loop();
+                } else {
+                    std::thread::yield_now();
                 }
             }
         }
@@ -634,15 +737,19 @@ fn triangle_chunks(nb: usize, chunks: usize) -> usize {
     (0..nb).map(|b| chunks - (b * R) / LANES).sum()
 }
 
-fn simd_available() -> bool {
+/// The widest kernels this CPU runs.
+fn detect_isa() -> Isa {
     #[cfg(target_arch = "x86_64")]
     {
-        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        use std::arch::is_x86_feature_detected as has;
+        if has!("avx512f") && has!("avx512vl") && has!("avx2") && has!("fma") {
+            return Isa::Avx512;
+        }
+        if has!("avx2") && has!("fma") {
+            return Isa::Avx2;
+        }
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    Isa::Base
 }
 
 fn worker(shared: Arc<Shared>, t: usize, mut seen: u64) {
@@ -667,12 +774,21 @@ fn worker(shared: Arc<Shared>, t: usize, mut seen: u64) {
         if shared.stop.load(Ordering::Acquire) {
             return;
         }
-        let slot = &shared.parts[t];
-        if slot.claim(epoch) {
-            let input = shared.input.read().unwrap_or_else(|e| e.into_inner());
-            compute(&input, &mut lock(&slot.part));
-            drop(input);
-            slot.finished.store(epoch, Ordering::Release);
+        let input = shared.input.read().unwrap_or_else(|e| e.into_inner());
+        let blocks = shared.blocks.load(Ordering::Relaxed);
+        claim_and_compute(&shared, &input, epoch, t * blocks / shared.threads, blocks);
+        drop(input);
+    }
+}
+
+/// Claims and computes the blocks of job `e` that no other thread has claimed, going round
+/// from block `first`.
+fn claim_and_compute(shared: &Shared, input: &Input, e: u64, first: usize, blocks: usize) {
+    for k in 0..blocks {
+        let slot = &shared.parts[(first + k) % blocks];
+        if slot.claim(e) {
+            compute(input, &mut lock(&slot.part));
+            slot.finished.store(e, Ordering::Release);
         }
     }
 }
@@ -683,10 +799,11 @@ fn compute(input: &Input, part: &mut Part) {
         return;
     }
     #[cfg(target_arch = "x86_64")]
-    if input.simd {
-        // SAFETY: `input.simd` is set only when the CPU reports AVX2 and FMA.
-        unsafe { compute_avx2(input, part) };
-        return;
+    match input.isa {
+        // SAFETY: `input.isa` is set from `detect_isa`, which checked these features.
+        Isa::Avx512 => return unsafe { compute_avx512(input, part) },
+        Isa::Avx2 => return unsafe { compute_avx2(input, part) },
+        Isa::Base => {}
     }
     compute_body::<false>(input, part);
 }
@@ -694,6 +811,12 @@ fn compute(input: &Input, part: &mut Part) {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn compute_avx2(input: &Input, part: &mut Part) {
+    compute_body::<true>(input, part);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+unsafe fn compute_avx512(input: &Input, part: &mut Part) {
     compute_body::<true>(input, part);
 }
 
@@ -727,6 +850,61 @@ fn fma_vs<const FMA: bool>(acc: [f64; LANES], a: &[f64; LANES], s: f64) -> [f64;
     out
 }
 
+/// `q_ab` for the `R` rows `rows` and the chunk `cb` of `LANES` columns (`[component][lane]`),
+/// each a 6-term dot product in a fixed order (the same in the stored and recomputed paths).
+#[inline(always)]
+fn dots<const FMA: bool>(rows: &[[f64; DIM]; R], cb: &[f64; DIM * LANES]) -> [[f64; LANES]; R] {
+    let mut out = [[0.0f64; LANES]; R];
+    for r in 0..R {
+        for l in 0..LANES {
+            let mut q = rows[r][0] * cb[l];
+            for i in 1..DIM {
+                q = madd::<FMA>(rows[r][i], cb[i * LANES + l], q);
+            }
+            out[r][l] = q;
+        }
+    }
+    out
+}
+
+/// `|q_ab|`, as [`dots`].
+#[inline(always)]
+fn entries<const FMA: bool>(rows: &[[f64; DIM]; R], cb: &[f64; DIM * LANES]) -> [[f64; LANES]; R] {
+    dots::<FMA>(rows, cb).map(|row| row.map(f64::abs))
+}
+
+/// 1 on the strict upper triangle of the real rows, else 0, for rows `a0 ..` and the chunk
+/// of columns from `base`.
+#[inline(always)]
+fn keep_mask(a0: usize, base: usize, n: usize) -> [[f64; LANES]; R] {
+    std::array::from_fn(|r| {
+        std::array::from_fn(|l| {
+            let bcol = base + l;
+            f64::from(u8::from((bcol > a0 + r) & (bcol < n)))
+        })
+    })
+}
+
+/// Adds one chunk's entries `p` to the row sums `s` (`s_r += p_r .* y_c`) and to the column
+/// sums `cc` (`cc += p_r y_a` for `r` in order).
+#[inline(always)]
+fn accumulate<const FMA: bool>(
+    s: &mut [[f64; LANES]; R],
+    cc: &mut [f64; LANES],
+    p: &[[f64; LANES]; R],
+    yc: &[f64; LANES],
+    ya: &[f64; R],
+) {
+    for r in 0..R {
+        s[r] = fma_vv::<FMA>(s[r], &p[r], yc);
+    }
+    let mut cv = *cc;
+    for r in 0..R {
+        cv = fma_vs::<FMA>(cv, &p[r], ya[r]);
+    }
+    *cc = cv;
+}
+
 #[inline(always)]
 fn compute_body<const FMA: bool>(input: &Input, part: &mut Part) {
     let (n, np) = (input.n, input.np);
@@ -739,69 +917,68 @@ fn compute_body<const FMA: bool>(input: &Input, part: &mut Part) {
         col,
         ..
     } = part;
-    col.iter_mut().for_each(|v| *v = 0.0);
+    // Columns receive sums from the part's rows on (what `gather` reads).
+    let from = (*blo * R) / LANES * LANES;
+    col[from.min(np)..np].iter_mut().for_each(|v| *v = 0.0);
     let mut offset = 0usize;
     for b in *blo..*bhi {
         let a0 = b * R;
         let c0 = a0 / LANES;
         let len = (chunks - c0) * R * LANES;
-        let panel = &mut panels[offset..offset + len];
-        offset += len;
         let mut s = [[0.0f64; LANES]; R];
+        let rows: [[f64; DIM]; R] =
+            std::array::from_fn(|r| std::array::from_fn(|i| input.cols[i][a0 + r]));
+        let packed = input.packed[c0 * DIM * LANES..np * DIM].chunks_exact(DIM * LANES);
+        let cols = col[c0 * LANES..np].chunks_exact_mut(LANES);
         match input.phase {
             Phase::Form => {
-                let rows: [[f64; DIM]; R] =
-                    std::array::from_fn(|r| std::array::from_fn(|i| input.cols[i][a0 + r]));
-                for (k, (pc, cc)) in panel
-                    .chunks_exact_mut(R * LANES)
-                    .zip(col[c0 * LANES..].chunks_exact_mut(LANES))
-                    .enumerate()
-                {
-                    let base = (c0 + k) * LANES;
+                // The panel to fill, or none when the entries are recomputed.
+                let panel: &mut [f64] = if input.stored {
+                    let p = &mut panels[offset..offset + len];
+                    offset += len;
+                    p
+                } else {
+                    &mut []
+                };
+                let mut out = panel.chunks_exact_mut(R * LANES);
+                for (k, (cb, cc)) in packed.zip(cols).enumerate() {
                     // Fixed-size views (the lengths hold by construction), so the compiler
                     // sees whole vectors and no bounds checks.
-                    let (Ok(pc), Ok(cc)) = (
-                        <&mut [f64; R * LANES]>::try_from(pc),
+                    let (Ok(cb), Ok(cc)) = (
+                        <&[f64; DIM * LANES]>::try_from(cb),
                         <&mut [f64; LANES]>::try_from(cc),
                     ) else {
                         continue;
                     };
-                    let cb: [[f64; LANES]; DIM] = std::array::from_fn(|i| {
-                        <[f64; LANES]>::try_from(&input.cols[i][base..base + LANES])
-                            .unwrap_or([0.0; LANES])
-                    });
+                    let base = (c0 + k) * LANES;
+                    let keep = keep_mask(a0, base, n);
+                    let q = dots::<FMA>(&rows, cb);
                     let mut cv = *cc;
+                    let mut p = [[0.0f64; LANES]; R];
                     for r in 0..R {
-                        let a = a0 + r;
-                        // 1 on the strict upper triangle of the real rows, else 0.
-                        let keep: [f64; LANES] = std::array::from_fn(|l| {
-                            let bcol = base + l;
-                            f64::from(u8::from((bcol > a) & (bcol < n)))
-                        });
                         for l in 0..LANES {
-                            let mut q = rows[r][0] * cb[0][l];
-                            for i in 1..DIM {
-                                q = madd::<FMA>(rows[r][i], cb[i][l], q);
-                            }
-                            let neg = (-q).max(0.0) * keep[l];
-                            pc[r * LANES + l] = q.abs() * keep[l];
+                            let neg = (-q[r][l]).max(0.0) * keep[r][l];
+                            p[r][l] = q[r][l].abs() * keep[r][l];
                             s[r][l] += neg;
                             cv[l] += neg;
                         }
                     }
                     *cc = cv;
+                    if let Some(pc) = out.next() {
+                        for r in 0..R {
+                            pc[r * LANES..(r + 1) * LANES].copy_from_slice(&p[r]);
+                        }
+                    }
                 }
             }
-            Phase::Product => {
+            Phase::Product if input.stored => {
+                let panel = &panels[offset..offset + len];
+                offset += len;
                 let ya: [f64; R] = std::array::from_fn(|r| input.y[a0 + r]);
-                // One accumulator vector per row, whole-vector operations only: the loop body
-                // is 8 packed multiply-adds of 4 lanes for the rows and 8 for the columns.
-                let [mut s0, mut s1, mut s2, mut s3] = s;
-                for (pc, (yc, cc)) in panel.chunks_exact(R * LANES).zip(
-                    input.y[c0 * LANES..]
-                        .chunks_exact(LANES)
-                        .zip(col[c0 * LANES..].chunks_exact_mut(LANES)),
-                ) {
+                for (pc, (yc, cc)) in panel
+                    .chunks_exact(R * LANES)
+                    .zip(input.y[c0 * LANES..np].chunks_exact(LANES).zip(cols))
+                {
                     let (Ok(p0), Ok(p1), Ok(p2), Ok(p3), Ok(yc), Ok(cc)) = (
                         <&[f64; LANES]>::try_from(&pc[..LANES]),
                         <&[f64; LANES]>::try_from(&pc[LANES..2 * LANES]),
@@ -812,18 +989,45 @@ fn compute_body<const FMA: bool>(input: &Input, part: &mut Part) {
                     ) else {
                         continue;
                     };
-                    s0 = fma_vv::<FMA>(s0, p0, yc);
-                    s1 = fma_vv::<FMA>(s1, p1, yc);
-                    s2 = fma_vv::<FMA>(s2, p2, yc);
-                    s3 = fma_vv::<FMA>(s3, p3, yc);
-                    let mut cv = *cc;
-                    cv = fma_vs::<FMA>(cv, p0, ya[0]);
-                    cv = fma_vs::<FMA>(cv, p1, ya[1]);
-                    cv = fma_vs::<FMA>(cv, p2, ya[2]);
-                    cv = fma_vs::<FMA>(cv, p3, ya[3]);
-                    *cc = cv;
+                    accumulate::<FMA>(&mut s, cc, &[*p0, *p1, *p2, *p3], yc, &ya);
                 }
-                s = [s0, s1, s2, s3];
+            }
+            Phase::Product => {
+                // The entries recomputed from the packed rows (the same numbers the stored
+                // path keeps): the working set is the rows, the multipliers and the column
+                // sums from `c0` on, `8 N` numbers, which stay in the caches.
+                let ya: [f64; R] = std::array::from_fn(|r| input.y[a0 + r]);
+                let mut it = packed.zip(input.y[c0 * LANES..np].chunks_exact(LANES).zip(cols));
+                // The first chunk holds the diagonal: masked.
+                if let Some((cb, (yc, cc))) = it.next() {
+                    if let (Ok(cb), Ok(yc), Ok(cc)) = (
+                        <&[f64; DIM * LANES]>::try_from(cb),
+                        <&[f64; LANES]>::try_from(yc),
+                        <&mut [f64; LANES]>::try_from(cc),
+                    ) {
+                        let keep = keep_mask(a0, c0 * LANES, n);
+                        let mut p = entries::<FMA>(&rows, cb);
+                        for r in 0..R {
+                            for l in 0..LANES {
+                                p[r][l] *= keep[r][l];
+                            }
+                        }
+                        accumulate::<FMA>(&mut s, cc, &p, yc, &ya);
+                    }
+                }
+                // The rest lie above the diagonal; past `n` the rows are zero, so are the
+                // entries.
+                for (cb, (yc, cc)) in it {
+                    let (Ok(cb), Ok(yc), Ok(cc)) = (
+                        <&[f64; DIM * LANES]>::try_from(cb),
+                        <&[f64; LANES]>::try_from(yc),
+                        <&mut [f64; LANES]>::try_from(cc),
+                    ) else {
+                        continue;
+                    };
+                    let p = entries::<FMA>(&rows, cb);
+                    accumulate::<FMA>(&mut s, cc, &p, yc, &ya);
+                }
             }
         }
         for r in 0..R {
@@ -831,5 +1035,4 @@ fn compute_body<const FMA: bool>(input: &Input, part: &mut Part) {
             acc[a0 + r] = ((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7]));
         }
     }
-    let _ = n;
 }

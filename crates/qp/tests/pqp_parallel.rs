@@ -1,8 +1,10 @@
 //! The parallel PQP's iterates against the serial PQP's: same status, same iteration count,
 //! multipliers and `dq` equal to `1e-12` relative (to the largest multiplier and to `|dq|`),
 //! on random, haptic-like, infeasible and degenerate problems of 1 to 20 000 rows, with the
-//! vectorized and the baseline code, on 1, 2 and 3 threads, after a fixed number of
-//! iterations and at the paper's and the KKT stop.
+//! vectorized and the baseline code, on 1, 2 and 3 threads, with the entries of `|Q|`
+//! stored and recomputed in every iteration, after a fixed number of iterations and at the
+//! paper's and the KKT stop. Stored and recomputed entries give the same iterates bit for
+//! bit.
 //!
 //! The two compute `Q^+ y` and `Q^- y` with different roundings. A few solves amplify
 //! rounding: the serial solver itself, given `d` moved by one ulp, then changes by more than
@@ -30,13 +32,37 @@ fn rel(a: &[f64], b: &[f64]) -> f64 {
     }
 }
 
-/// (threads, simd): three threads (more than this machine's cores) on small problems only.
-fn configs(n: usize) -> Vec<(usize, bool)> {
-    let mut c = vec![(1, true), (2, true), (2, false)];
-    if n <= 64 {
-        c.push((3, true));
+/// The instruction sets of a run: the widest the CPU has, AVX2 at most, the baseline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Isa {
+    Widest,
+    Avx2,
+    Base,
+}
+
+/// (threads, instruction set, stored): three threads (more than this machine's cores) on
+/// small problems only.
+fn configs(n: usize) -> Vec<(usize, Isa, bool)> {
+    let mut c = vec![];
+    for stored in [true, false] {
+        c.extend([
+            (1, Isa::Widest, stored),
+            (2, Isa::Widest, stored),
+            (2, Isa::Avx2, stored),
+            (2, Isa::Base, stored),
+        ]);
+        if n <= 64 {
+            c.push((3, Isa::Widest, stored));
+        }
     }
     c
+}
+
+/// A parallel workspace of `threads` threads whose entries are stored (or recomputed).
+fn parallel(params: PqpParams, threads: usize, stored: bool) -> ParallelPqpWorkspace {
+    let mut par = ParallelPqpWorkspace::with_threads(params, threads);
+    par.max_stored_rows = if stored { usize::MAX } else { 0 };
+    par
 }
 
 /// `inst` with every right-hand side moved by one ulp.
@@ -64,14 +90,32 @@ fn agree(inst: &Instance, params: PqpParams, what: &str) -> Solution {
     let mut other = PqpWorkspace::with_params(params);
     let t = other.solve(&near.problem());
     let bound = bounds(&s, serial.multipliers(), &t, other.multipliers());
-    for (threads, simd) in configs(p.len()) {
-        let mut par = ParallelPqpWorkspace::with_threads(params, threads);
-        par.simd = simd;
+    // Per thread count, the first run's multipliers and dq: the vector runs (AVX-512 or
+    // AVX2, stored or recomputed) all give the same numbers, bit for bit.
+    let mut first: Vec<(usize, Vec<f64>, [f64; 6])> = Vec::new();
+    for (threads, isa, stored) in configs(p.len()) {
+        let mut par = parallel(params, threads, stored);
+        par.simd = isa != Isa::Base;
+        par.avx512 = isa == Isa::Widest;
         // Exercise the threads even on small problems.
         par.min_parallel_rows = 1;
         let q = par.solve(&p);
-        let tag = format!("{what}, N = {}, {threads} threads, simd {simd}", p.len());
+        let tag = format!(
+            "{what}, N = {}, {threads} threads, {} ({isa:?}), stored {stored}",
+            p.len(),
+            par.simd_name()
+        );
         check(&s, serial.multipliers(), &q, par.multipliers(), bound, &tag);
+        if isa == Isa::Base || !par.simd_active() {
+            continue;
+        }
+        match first.iter().find(|r| r.0 == threads) {
+            Some((_, y, dq)) => {
+                assert_eq!(y.as_slice(), par.multipliers(), "{tag}: bit for bit");
+                assert_eq!(dq, &q.dq, "{tag}: dq bit for bit");
+            }
+            None => first.push((threads, par.multipliers().to_vec(), q.dq)),
+        }
     }
     s
 }
@@ -222,10 +266,12 @@ fn iterates_equal_the_serial_ones_on_large_problems() {
         let ys = serial.multipliers().to_vec();
         drop(serial);
         for threads in [1, 2] {
-            let mut par = ParallelPqpWorkspace::with_threads(iterate(k), threads);
-            let q = par.solve(&p);
-            let tag = format!("haptic, N = {n}, {threads} threads");
-            check(&s, &ys, &q, par.multipliers(), STRICT, &tag);
+            for stored in [true, false] {
+                let mut par = parallel(iterate(k), threads, stored);
+                let q = par.solve(&p);
+                let tag = format!("haptic, N = {n}, {threads} threads, stored {stored}");
+                check(&s, &ys, &q, par.multipliers(), STRICT, &tag);
+            }
         }
     }
 }
@@ -246,6 +292,8 @@ fn warm_starts_and_changing_sizes_match_the_serial_stream() {
     let mut other = PqpWorkspace::with_params(params);
     let mut par = ParallelPqpWorkspace::with_threads(params, 2);
     par.min_parallel_rows = 32;
+    // Frames of 700 rows recompute their entries, the others store them.
+    par.max_stored_rows = 100;
     let mut strict = 0;
     for (f, inst) in frames.iter().enumerate() {
         let p = inst.problem();

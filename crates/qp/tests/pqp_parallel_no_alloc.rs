@@ -1,6 +1,7 @@
 //! The parallel PQP allocates nothing in a solve, in any thread: once reserved for the largest
 //! `N`, a stream of solves of varying size (threaded and not) makes no allocation in the
-//! caller or in the workers, and spawns no thread.
+//! caller or in the workers, and spawns no thread, whether the entries of `|Q|` are stored or
+//! recomputed.
 //!
 //! The counter here is global (every thread), unlike `devkit::count_allocations` (this
 //! thread only), so the workers' allocations count too; the file holds one test, so no other
@@ -11,7 +12,7 @@ mod common;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use qp::{PqpParams, Solver, SolverKind, Status};
+use qp::{ParallelPqpWorkspace, PqpParams, Solver, SolverKind, Status};
 
 struct Counting;
 
@@ -51,6 +52,8 @@ fn warmed_up_parallel_solves_allocate_nothing_in_any_thread() {
         ..PqpParams::paper()
     };
     assert!(s.pqp_parallel.threads() >= 1);
+    // Frames up to 700 rows store the entries of |Q|, larger ones recompute them.
+    s.pqp_parallel.max_stored_rows = 700;
     s.reserve(1500);
     s.solve(&frames[0].problem(), &[0.0; 6]);
     let before = ALLOCATIONS.load(Ordering::SeqCst);
@@ -64,4 +67,21 @@ fn warmed_up_parallel_solves_allocate_nothing_in_any_thread() {
     let n = ALLOCATIONS.load(Ordering::SeqCst) - before;
     assert_eq!(n, 0, "{n} allocations in 240 warmed-up solves");
     assert!(solved > 200, "only {solved} solved");
+
+    // One thread and two, each reserved for the largest frame only, entries stored (the
+    // caller's block then holds the whole triangle) and recomputed.
+    for (threads, stored) in [(1, usize::MAX), (1, 0), (2, usize::MAX), (2, 0)] {
+        let mut w = ParallelPqpWorkspace::with_threads(PqpParams::paper(), threads);
+        w.max_stored_rows = stored;
+        w.reserve(1500);
+        let before = ALLOCATIONS.load(Ordering::SeqCst);
+        for inst in &frames {
+            w.solve(&inst.problem());
+        }
+        let n = ALLOCATIONS.load(Ordering::SeqCst) - before;
+        assert_eq!(
+            n, 0,
+            "{n} allocations in 120 solves after reserve, {threads} threads, max_stored_rows {stored}"
+        );
+    }
 }
