@@ -95,7 +95,16 @@ impl GodObject {
             self.run.counts.near_listed += 1;
             if wide && dropped == 0 {
                 self.run.regions.near_at = Some((*center, margin + extra));
-                self.run.regions.near_extra = (2.0 * extra).min(NEAR_LIST_MM);
+                // Every region it serves filters the whole list: a long one reaches less far
+                // next time, a short one farther.
+                let len = self.detector.near.len();
+                self.run.regions.near_extra = if len > NEAR_LIST_PAIRS {
+                    0.5 * extra
+                } else if 4 * len < NEAR_LIST_PAIRS {
+                    (2.0 * extra).min(NEAR_LIST_MM)
+                } else {
+                    extra
+                };
             } else {
                 self.run.regions.near_at = None;
                 let dropped = if wide {
