@@ -1,7 +1,7 @@
 //! `haptic6d bench [--quick] [--out DIR] [--studies replay,scaling,speed,contact,friction,peer,zoo,ablation,fit]
-//! [--peer]`: the paper's experiments, every solver on identical input, plus scaling,
-//! hand-speed, contact and friction studies, and the comparison with the rapier3d
-//! virtual-coupling peer.
+//! [--peer [rapier,mujoco]]`: the paper's experiments, every solver on identical input, plus
+//! scaling, hand-speed, contact and friction studies, and the comparison with the
+//! virtual-coupling peers (rapier3d, and MuJoCo when its Python environment is installed).
 //!
 //! 1. **Replay.** For each scene (`bunny`, `spline`) the scene's device trajectory is recorded
 //!    once and replayed into a fresh god-object per solver (`pqp` as in the paper, the
@@ -16,9 +16,10 @@
 //!    plate and slid at 50–1000 mm/s or turned at 1–10 rad/s ([`crate::bench_speed`]).
 //! 5. **Contact.** Flat on flat and the spline's phases: pairs, times, degraded frames
 //!    ([`crate::bench_contact`]).
-//! 6. **Peer.** haptic6d against virtual coupling on rapier3d on the same device input: frame
-//!    time, mesh-level penetration, tunnelling, drag, jitter, insertion
-//!    ([`crate::bench_peer`]; `--peer` runs it alone).
+//! 6. **Peer.** haptic6d against virtual coupling on rapier3d and on MuJoCo on the same device
+//!    input: frame time, mesh-level penetration, tunnelling, drag, jitter, insertion
+//!    ([`crate::bench_peer`]; `--peer` runs it alone, `--peer-setup` installs MuJoCo's
+//!    environment).
 //! 7. **Zoo.** Every scene of the scene zoo with the shipped settings: frame times, degraded
 //!    frames, drag, penetration (the engine's and mesh-level), pairs ([`crate::bench_zoo`];
 //!    four scenes with `--quick`; also written to `DIR/zoo.md`).
@@ -114,13 +115,34 @@ pub struct BenchArgs {
     /// is replayed once per mode, every row naming its mode.
     #[arg(long, value_delimiter = ',', default_value = "spheres")]
     pub geometry: Vec<String>,
-    /// Only the comparison with the rapier3d virtual-coupling peer (same as `--studies peer`).
-    #[arg(long, conflicts_with = "studies")]
-    pub peer: bool,
-    /// The peer's tuning search instead of the studies: writes peer_tune.md and
-    /// peer_tune.json (minutes).
-    #[arg(long, conflicts_with_all = ["studies", "peer"])]
-    pub peer_tune: bool,
+    /// Only the comparison with the virtual-coupling peers (as `--studies peer`). Alone, it runs
+    /// rapier, and MuJoCo when its environment is installed (`--peer-setup`); `--peer rapier`,
+    /// `--peer mujoco` or `--peer rapier,mujoco` choose (MuJoCo's environment is then installed
+    /// first if missing).
+    #[arg(
+        long,
+        conflicts_with = "studies",
+        num_args = 0..=1,
+        value_delimiter = ',',
+        default_missing_value = "",
+        value_name = "ENGINES"
+    )]
+    pub peer: Option<Vec<String>>,
+    /// The peer's tuning search instead of the studies, for `rapier` (alone, the default) or
+    /// `mujoco`: writes peer_tune.md and peer_tune.json, or peer_tune_mujoco.md and
+    /// peer_tune_mujoco.json (minutes).
+    #[arg(
+        long,
+        conflicts_with_all = ["studies", "peer"],
+        num_args = 0..=1,
+        default_missing_value = "rapier",
+        value_name = "ENGINE"
+    )]
+    pub peer_tune: Option<String>,
+    /// Installs MuJoCo's Python environment for the peer study and exits: a venv in the cache
+    /// folder (`<cache>/mujoco-<version>`) with the pinned `mujoco` and `numpy` from PyPI.
+    #[arg(long, conflicts_with_all = ["studies", "peer", "peer_tune"])]
+    pub peer_setup: bool,
     /// Skip the PNG plots.
     #[arg(long)]
     pub no_plots: bool,
@@ -143,7 +165,17 @@ const QUICK_FRAMES: usize = 1500;
 /// Runs `haptic6d bench`.
 pub fn run(mut args: BenchArgs) -> Result<()> {
     let t0 = Instant::now();
-    if args.peer {
+    // The peer engines asked for by name (none: every engine available).
+    let mut peer_engines = Vec::new();
+    if let Some(names) = &args.peer {
+        for name in names.iter().filter(|n| !n.is_empty()) {
+            let Ok(engine) = crate::bench_peer::PeerEngine::parse(name) else {
+                crate::usage_bail!("--peer: no peer engine `{name}` (engines: rapier, mujoco)");
+            };
+            if !peer_engines.contains(&engine) {
+                peer_engines.push(engine);
+            }
+        }
         args.studies = vec!["peer".into()];
     }
     for name in &args.scenes {
@@ -192,12 +224,30 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     let scenes: &[String] = if wants("replay") { &args.scenes } else { &[] };
     prepare_out_dir(&args.out)?;
     let cache = TreeCache::from_env();
-    if args.peer_tune {
-        let rows = crate::bench_peer::peer_tune(&cache)?;
-        let md = crate::bench_peer::tune_markdown(&rows);
-        scene::io::write_atomic(&args.out.join("peer_tune.md"), md.as_bytes())?;
-        let json = serde_json::to_string_pretty(&rows)?;
-        scene::io::write_atomic(&args.out.join("peer_tune.json"), json.as_bytes())?;
+    if args.peer_setup {
+        let env = crate::bench_peer::mujoco_env(&cache, true)?;
+        println!("bench: MuJoCo peer ready in {}", env.venv.display());
+        return Ok(());
+    }
+    if let Some(engine) = &args.peer_tune {
+        let Ok(engine) = crate::bench_peer::PeerEngine::parse(engine) else {
+            crate::usage_bail!("--peer-tune: no peer engine `{engine}` (engines: rapier, mujoco)");
+        };
+        let (md, json, stem) = match engine {
+            crate::bench_peer::PeerEngine::Rapier => {
+                let rows = crate::bench_peer::peer_tune(&cache)?;
+                let md = crate::bench_peer::tune_markdown(&rows);
+                (md, serde_json::to_string_pretty(&rows)?, "peer_tune")
+            }
+            crate::bench_peer::PeerEngine::Mujoco => {
+                let env = crate::bench_peer::mujoco_env(&cache, true)?;
+                let rows = crate::bench_peer::peer_tune_mujoco(&cache, &env)?;
+                let md = crate::bench_peer::tune_mujoco_markdown(&rows);
+                (md, serde_json::to_string_pretty(&rows)?, "peer_tune_mujoco")
+            }
+        };
+        scene::io::write_atomic(&args.out.join(format!("{stem}.md")), md.as_bytes())?;
+        scene::io::write_atomic(&args.out.join(format!("{stem}.json")), json.as_bytes())?;
         print!("{md}");
         return Ok(());
     }
@@ -311,8 +361,30 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     }
     let mut peer_traces = Vec::new();
     if wants("peer") {
-        eprintln!("bench: peer study (virtual coupling on rapier3d)");
-        (report.peer, peer_traces) = crate::bench_peer::peer_study(&cache, args.quick)?;
+        use crate::bench_peer::PeerEngine;
+        // Asked by name: MuJoCo's environment is installed when missing; by default MuJoCo runs
+        // when its environment is there, and one line says why not otherwise.
+        let mut engines = peer_engines.clone();
+        let mut env = None;
+        if engines.is_empty() {
+            engines.push(PeerEngine::Rapier);
+            match crate::bench_peer::mujoco_env(&cache, false) {
+                Ok(e) => {
+                    engines.push(PeerEngine::Mujoco);
+                    env = Some(e);
+                }
+                Err(why) => eprintln!("bench: MuJoCo peer skipped: {why:#}"),
+            }
+        } else if engines.contains(&PeerEngine::Mujoco) {
+            env = Some(crate::bench_peer::mujoco_env(&cache, true)?);
+        }
+        let names: Vec<&str> = engines.iter().map(|e| e.name()).collect();
+        eprintln!(
+            "bench: peer study (virtual coupling on {})",
+            names.join(" and ")
+        );
+        (report.peer, peer_traces) =
+            crate::bench_peer::peer_study(&cache, args.quick, &engines, env.as_ref())?;
     }
     if wants("zoo") {
         eprintln!("bench: zoo study (every zoo scene, shipped settings)");
@@ -723,7 +795,7 @@ pub fn markdown(r: &BenchReport) -> String {
     if !r.peer.is_empty() {
         let _ = writeln!(
             s,
-            "\n## haptic6d against virtual coupling on rapier3d (same device input)\n"
+            "\n## haptic6d against virtual coupling on rapier3d and MuJoCo (same device input)\n"
         );
         s.push_str(&crate::bench_peer::peer_markdown(&r.peer));
     }

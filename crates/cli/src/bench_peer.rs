@@ -1,6 +1,7 @@
 //! The `peer` study of `haptic6d bench` (`haptic6d bench --peer`): haptic6d side by side with
-//! what users pick instead, 6-DoF virtual coupling on rapier3d ([`peer`]), on the same recorded
-//! device input in the same run.
+//! what users pick instead, 6-DoF virtual coupling on a physics engine, on the same recorded
+//! device input in the same run: rapier3d ([`peer::PeerTool`]) and MuJoCo
+//! ([`peer::mujoco`], its Python package in a venv of its own, when installed).
 //!
 //! Cases (each the device trajectory of a built-in scene or of the plate study):
 //! - **bunny**: the bunny scene's script (slide on the back, the deep base-on-base push);
@@ -9,8 +10,9 @@
 //! - **thin plate**: the ball pushed at 100 and 2000 mm/s onto a 1 mm plate, the hand going
 //!   10 or 40 mm below it ([`THIN_PUSH_MM`]; the tunnelling case).
 //!
-//! Per case and engine (haptic6d with the dual solver, the peer with [`PeerParams::tuned`]):
-//! frame time p50 / p99 / max (one thread, frames back to back), the **mesh-level**
+//! Per case and engine (haptic6d with the dual solver, rapier with [`PeerParams::tuned`],
+//! MuJoCo with [`MujocoOptions::tuned`]): frame time p50 / p99 / max (one thread, frames back
+//! to back; MuJoCo's is the time of its `mj_step` calls, measured in Python), the **mesh-level**
 //! penetration ([`peer::MeshPenetration`]: tool and object meshes, the same query for both
 //! engines, so haptic6d's sphere-tree approximation shows too), tunnelling events (thin plate),
 //! drag while sliding (plate), force jitter (p99 of the frame-to-frame |ΔF| in the case's
@@ -23,7 +25,11 @@ use collide::Pose;
 use engine::step::GodObject;
 use engine::SolverKind;
 use mesh::TriMesh;
-use peer::{MeshPenetration, ObjectShape, PeerParams, PeerScene, PeerTool, ToolShape};
+use peer::mujoco::{MujocoCase, MujocoEnv, MujocoOptions};
+use peer::{
+    convex_pieces, MeshPenetration, ObjectShape, PeerFrame, PeerParams, PeerScene, PeerTool,
+    ToolShape,
+};
 use scene::cache::TreeCache;
 use scene::scenes::plate::{self, PlateTool, SpeedMotion};
 use scene::stats::Summary;
@@ -44,6 +50,38 @@ const PENETRATION_SAMPLES: usize = 2000;
 /// Voxel resolution of the peer's convex decomposition of the tool (parry's default).
 const TOOL_DECOMPOSITION_RESOLUTION: u32 = 64;
 
+/// Voxel resolution of the convex decomposition of a non-convex object for MuJoCo, whose mesh
+/// geoms collide as their convex hulls (parry's default, as for the tool).
+const OBJECT_DECOMPOSITION_RESOLUTION: u32 = 64;
+
+/// An engine of the peer study beside haptic6d.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PeerEngine {
+    /// rapier3d-f64 ([`peer::PeerTool`]).
+    Rapier,
+    /// MuJoCo's Python package ([`peer::mujoco`]).
+    Mujoco,
+}
+
+impl PeerEngine {
+    /// The engine's name in the tables and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Rapier => "rapier",
+            Self::Mujoco => "mujoco",
+        }
+    }
+
+    /// The engine called `name` (`rapier` or `mujoco`).
+    pub fn parse(name: &str) -> Result<Self> {
+        match name {
+            "rapier" => Ok(Self::Rapier),
+            "mujoco" => Ok(Self::Mujoco),
+            _ => bail!("no peer engine `{name}` (engines: rapier, mujoco)"),
+        }
+    }
+}
+
 /// Frames replayed of the bunny script with `--quick` (approach and the start of the slide).
 const QUICK_BUNNY_FRAMES: usize = 1500;
 
@@ -52,15 +90,17 @@ const QUICK_BUNNY_FRAMES: usize = 1500;
 pub struct PeerRow {
     /// The case: scene and motion.
     pub case: String,
-    /// `haptic6d` or `peer`.
+    /// `haptic6d`, `rapier` or `mujoco`.
     pub engine: String,
     /// Frames replayed.
     pub frames: usize,
-    /// Frame time, µs (haptic6d: the whole step; peer: the coupling force and one rapier step).
+    /// Frame time, µs (haptic6d: the whole step; rapier: the coupling force and one step;
+    /// MuJoCo: its `mj_step` calls of the frame, timed in Python).
     pub step_us: Summary,
-    /// Contact rows (haptic6d: leaf pairs of the first pass) or contact points (peer) per frame.
+    /// Contact rows (haptic6d: leaf pairs of the first pass) or contact points (rapier's solver
+    /// contacts, MuJoCo's `ncon`) per frame.
     pub contacts: Summary,
-    /// Mesh-level penetration per frame, mm.
+    /// Mesh-level penetration per frame, mm (infinite from the frame a run blew up).
     pub penetration_mm: Summary,
     /// Times the tool went through the thin plate (its centre below the plate's underside).
     pub tunnelling_events: Option<usize>,
@@ -138,6 +178,30 @@ fn ours(scene: &Scene, frames: usize) -> Result<Track> {
     Ok(track)
 }
 
+/// MuJoCo's environment in the cache folder, checked by importing MuJoCo in it; with `install`,
+/// made first when it does not run (the network is needed once).
+pub fn mujoco_env(cache: &TreeCache, install: bool) -> Result<MujocoEnv> {
+    let dir = cache
+        .dir()
+        .context("no cache folder for MuJoCo's environment (set HAPTIC6D_CACHE)")?;
+    let env = MujocoEnv::in_cache(dir);
+    match env.probe() {
+        Ok(_) => Ok(env),
+        Err(why) if install => {
+            eprintln!(
+                "bench: installing MuJoCo {} into {} ({why})",
+                peer::mujoco::MUJOCO_VERSION,
+                env.venv.display()
+            );
+            env.install()?;
+            env.probe()
+                .map_err(|e| anyhow::anyhow!("MuJoCo's environment does not run: {e}"))?;
+            Ok(env)
+        }
+        Err(why) => bail!("{why} (`haptic6d bench --peer-setup` installs it)"),
+    }
+}
+
 /// The scene's meshes as the peer's shapes: the tool as its convex hull when it is convex
 /// (puck, ball) or decomposed into convex parts (bunny, spline shaft), the objects as fixed
 /// triangle meshes with fixed internal edges.
@@ -183,6 +247,66 @@ pub fn peer_params(scene: &Scene) -> PeerParams {
     }
 }
 
+/// MuJoCo's pieces of a scene: the tool's as rapier's collider (its hull or its VHACD parts),
+/// each object as its hull when convex, else its VHACD parts (MuJoCo collides a mesh geom as
+/// its convex hull), with the objects' poses.
+type MujocoPieces = (Vec<TriMesh>, Vec<(Vec<TriMesh>, Pose)>);
+
+fn mujoco_pieces(scene: &Scene, shapes: &PeerScene) -> Result<MujocoPieces> {
+    let (_, objects) = meshes(scene)?;
+    let mut out = Vec::new();
+    for (i, (mesh, pose)) in objects.iter().enumerate() {
+        let pieces = convex_pieces(
+            mesh,
+            OBJECT_DECOMPOSITION_RESOLUTION,
+            &format!("object {i}"),
+        )
+        .with_context(|| format!("{}: object {i}", scene.name))?;
+        out.push((pieces, *pose));
+    }
+    Ok((shapes.tool_pieces(), out))
+}
+
+/// The tracks of MuJoCo runs of `scene` (one per option set) on its first `frames` frames,
+/// the case written into a temporary folder.
+fn mujoco_tracks(
+    scene: &Scene,
+    pieces: &MujocoPieces,
+    coupling: PeerParams,
+    frames: usize,
+    env: &MujocoEnv,
+    runs: &[MujocoOptions],
+) -> Result<Vec<Track>> {
+    let traj = scene.trajectory();
+    let samples: Vec<_> = traj.samples.iter().take(frames).collect();
+    let hand: Vec<Pose> = samples.iter().map(|s| Pose::from_array(s.q)).collect();
+    let dir = tempfile::Builder::new()
+        .prefix("haptic6d-mujoco-")
+        .tempdir()
+        .context("a temporary folder for the MuJoCo case")?;
+    let case = MujocoCase {
+        tool: &pieces.0,
+        objects: &pieces.1,
+        hand: &hand,
+        coupling,
+    };
+    let results = case
+        .run(env, dir.path(), runs)
+        .with_context(|| format!("{}: MuJoCo peer", scene.name))?;
+    Ok(results
+        .into_iter()
+        .map(|frames| track_of(samples.iter().map(|s| s.t), &frames))
+        .collect())
+}
+
+fn track_of(times: impl Iterator<Item = f64>, frames: &[PeerFrame]) -> Track {
+    let mut track = Track::default();
+    for (t, out) in times.zip(frames) {
+        track.push(t, out.q_tool, out.wrench, out.step_us, out.contacts);
+    }
+    track
+}
+
 fn theirs(scene: &Scene, shapes: &PeerScene, params: PeerParams, frames: usize) -> Result<Track> {
     let traj = scene.trajectory();
     let first = traj.samples.first().map(|s| Pose::from_array(s.q));
@@ -211,12 +335,24 @@ fn measure(
     track: &Track,
     depth: &MeshPenetration,
 ) -> (PeerRow, Vec<f64>) {
+    // A run that blew up (MuJoCo's state went non-finite) is infinitely deep from then on.
+    let finite = |q: &[f64; 6]| q.iter().all(|x| x.is_finite());
+    let blew_up = !track.q_tool.iter().all(finite);
     let penetration: Vec<f64> = track
         .q_tool
         .iter()
-        .map(|q| depth.depth_mm(&Pose::from_array(*q)))
+        .map(|q| {
+            if finite(q) {
+                depth.depth_mm(&Pose::from_array(*q))
+            } else {
+                f64::INFINITY
+            }
+        })
         .collect();
     let jitter = (!c.steady.is_empty()).then(|| {
+        if blew_up {
+            return f64::INFINITY;
+        }
         let steps = (1..track.t.len())
             .filter(|&k| {
                 in_windows(track.t[k], &c.steady).is_some()
@@ -425,9 +561,15 @@ fn cases(cache: &TreeCache, quick: bool) -> Result<Vec<Case>> {
     Ok(out)
 }
 
-/// Runs the study: every case with haptic6d (dual) and the peer (shorter runs with `quick`):
-/// the rows and, per case, the series for the plots.
-pub fn peer_study(cache: &TreeCache, quick: bool) -> Result<(Vec<PeerRow>, Vec<PeerTrace>)> {
+/// Runs the study: every case with haptic6d (dual) and each of `engines` (shorter runs with
+/// `quick`; `mujoco` is the environment MuJoCo runs in, needed when `engines` holds it): the
+/// rows and, per case, the series for the plots.
+pub fn peer_study(
+    cache: &TreeCache,
+    quick: bool,
+    engines: &[PeerEngine],
+    mujoco: Option<&MujocoEnv>,
+) -> Result<(Vec<PeerRow>, Vec<PeerTrace>)> {
     let mut rows = Vec::new();
     let mut traces = Vec::new();
     for case in cases(cache, quick)? {
@@ -437,20 +579,43 @@ pub fn peer_study(cache: &TreeCache, quick: bool) -> Result<(Vec<PeerRow>, Vec<P
         let shapes = peer_scene(&case.scene)?;
         let setup = t0.elapsed().as_secs_f64();
         let a = ours(&case.scene, case.frames)?;
-        let b = theirs(&case.scene, &shapes, peer_params(&case.scene), case.frames)?;
-        if a.t.len() != b.t.len() {
-            bail!("{}: the two replays differ in length", case.name);
-        }
         let (ours_row, ours_pen) = measure(&case.name, &case.checks, "haptic6d", &a, &depth);
-        let (peer_row, peer_pen) = measure(&case.name, &case.checks, "peer", &b, &depth);
         rows.push(ours_row);
-        rows.push(peer_row);
+        let mut engines_traces = vec![("haptic6d".to_string(), trace_of(&a, &ours_pen))];
+        for &engine in engines {
+            let track = match engine {
+                PeerEngine::Rapier => {
+                    theirs(&case.scene, &shapes, peer_params(&case.scene), case.frames)?
+                }
+                PeerEngine::Mujoco => {
+                    let env = mujoco.context("the MuJoCo peer needs its Python environment")?;
+                    let pieces = mujoco_pieces(&case.scene, &shapes)?;
+                    let coupling = peer_params(&case.scene);
+                    let mut tracks = mujoco_tracks(
+                        &case.scene,
+                        &pieces,
+                        coupling,
+                        case.frames,
+                        env,
+                        &[MujocoOptions::tuned()],
+                    )?;
+                    tracks.pop().context("MuJoCo returned no run")?
+                }
+            };
+            if a.t.len() != track.t.len() {
+                bail!(
+                    "{}: the replays of haptic6d and {} differ in length",
+                    case.name,
+                    engine.name()
+                );
+            }
+            let (row, pen) = measure(&case.name, &case.checks, engine.name(), &track, &depth);
+            rows.push(row);
+            engines_traces.push((engine.name().to_string(), trace_of(&track, &pen)));
+        }
         traces.push(PeerTrace {
             case: case.name.clone(),
-            engines: vec![
-                ("haptic6d".into(), trace_of(&a, &ours_pen)),
-                ("peer (rapier3d)".into(), trace_of(&b, &peer_pen)),
-            ],
+            engines: engines_traces,
         });
         eprintln!(
             "bench: peer: {}: {} frames, {} convex parts, {:.1} s (setup {setup:.1} s)",
@@ -485,18 +650,22 @@ pub struct TuneRow {
     pub rows: Vec<PeerRow>,
 }
 
-impl TuneRow {
-    /// Deepest mesh penetration over the cases, mm.
-    pub fn worst_penetration_mm(&self) -> f64 {
-        self.rows
+/// The score of a point of a tuning search, from its rows on the tuning cases.
+pub trait TuneScore {
+    /// The rows of the point on the tuning cases.
+    fn tune_rows(&self) -> &[PeerRow];
+
+    /// Deepest mesh penetration over the cases, mm (infinite when a run blew up).
+    fn worst_penetration_mm(&self) -> f64 {
+        self.tune_rows()
             .iter()
             .map(|r| r.penetration_mm.max)
             .fold(0.0, f64::max)
     }
 
     /// Largest force jitter over the cases, N (infinite when a run blew up).
-    pub fn worst_jitter_n(&self) -> f64 {
-        self.rows
+    fn worst_jitter_n(&self) -> f64 {
+        self.tune_rows()
             .iter()
             .filter_map(|r| r.jitter_p99_n)
             .map(|j| if j.is_finite() { j } else { f64::INFINITY })
@@ -504,19 +673,22 @@ impl TuneRow {
     }
 
     /// Whether the spline insertion succeeded.
-    pub fn inserted(&self) -> bool {
-        self.rows
+    fn inserted(&self) -> bool {
+        self.tune_rows()
             .iter()
             .any(|r| r.insertion.is_some_and(|(_, ok)| ok))
     }
 
     /// Tunnelling events over the cases.
-    pub fn tunnels(&self) -> usize {
-        self.rows.iter().filter_map(|r| r.tunnelling_events).sum()
+    fn tunnels(&self) -> usize {
+        self.tune_rows()
+            .iter()
+            .filter_map(|r| r.tunnelling_events)
+            .sum()
     }
 
     /// Task failures: the spline not inserted, plus tunnelling events.
-    pub fn failures(&self) -> usize {
+    fn failures(&self) -> usize {
         usize::from(!self.inserted()) + self.tunnels()
     }
 
@@ -531,19 +703,23 @@ impl TuneRow {
     }
 }
 
+impl TuneScore for TuneRow {
+    fn tune_rows(&self) -> &[PeerRow] {
+        &self.rows
+    }
+}
+
 /// A tuning point whose force jitter (p99 of |ΔF| per frame in steady contact) exceeds this on
 /// some case is unstable for a user's hand, N (haptic6d's own is below 0.6 N on every case).
 pub const TUNE_JITTER_LIMIT_N: f64 = 1.0;
 
-/// The tuning search of the peer (`haptic6d bench --peer-tune`): the peer alone on the bunny
-/// (first 1500 frames), the spline, the ball slid at 1000 mm/s and the thin plate (2000 mm/s
-/// to 10 mm below, 100 mm/s to 40 mm below); stage 1 is a grid over mass × contact frequency × length unit (damping ratio 1,
-/// 4 iterations), stage 2 varies damping, iterations and CCD around stage 1's best.
-pub fn peer_tune(cache: &TreeCache) -> Result<Vec<TuneRow>> {
+/// The cases of both tuning searches: the bunny (first 1500 frames), the spline, the ball slid
+/// at 1000 mm/s and the thin plate (2000 mm/s to 10 mm below, 100 mm/s to 40 mm below).
+fn tune_cases(cache: &TreeCache) -> Result<Vec<Case>> {
     let spline = scene::scenes::builtin("spline", cache)?;
     let goal = spline.goal;
     let bunny = scene::scenes::builtin("bunny", cache)?;
-    let cases = vec![
+    Ok(vec![
         Case {
             name: "bunny".into(),
             scene: bunny,
@@ -566,7 +742,15 @@ pub fn peer_tune(cache: &TreeCache) -> Result<Vec<TuneRow>> {
         plate_case(cache, PlateTool::Ball, 1000.0, true)?,
         thin_plate_case(cache, 2000.0, THIN_PUSH_MM[0])?,
         thin_plate_case(cache, 100.0, THIN_PUSH_MM[1])?,
-    ];
+    ])
+}
+
+/// The tuning search of the peer (`haptic6d bench --peer-tune`): the peer alone on the bunny
+/// (first 1500 frames), the spline, the ball slid at 1000 mm/s and the thin plate (2000 mm/s
+/// to 10 mm below, 100 mm/s to 40 mm below); stage 1 is a grid over mass × contact frequency × length unit (damping ratio 1,
+/// 4 iterations), stage 2 varies damping, iterations and CCD around stage 1's best.
+pub fn peer_tune(cache: &TreeCache) -> Result<Vec<TuneRow>> {
+    let cases = tune_cases(cache)?;
     let mut prepared = Vec::new();
     for case in &cases {
         let (tool, objects) = meshes(&case.scene)?;
@@ -584,7 +768,7 @@ pub fn peer_tune(cache: &TreeCache) -> Result<Vec<TuneRow>> {
                 ..p
             };
             let track = theirs(&case.scene, shapes, params, case.frames)?;
-            rows.push(measure(&case.name, &case.checks, "peer", &track, depth).0);
+            rows.push(measure(&case.name, &case.checks, "rapier", &track, depth).0);
         }
         let row = TuneRow {
             stage,
@@ -670,6 +854,212 @@ pub fn peer_tune(cache: &TreeCache) -> Result<Vec<TuneRow>> {
     Ok(out)
 }
 
+/// One point of MuJoCo's tuning search: its options and its rows on the tuning cases.
+#[derive(Serialize, Clone, Debug)]
+pub struct MujocoTuneRow {
+    /// 1: the grid over substeps, `solref` time constant and `solimp`; 2: solver, iterations,
+    /// damping ratio, margin, integrator, cone and noslip around the best of stage 1.
+    pub stage: u32,
+    /// MuJoCo's options.
+    pub options: MujocoOptions,
+    /// MuJoCo's rows on the tuning cases.
+    pub rows: Vec<PeerRow>,
+}
+
+impl TuneScore for MujocoTuneRow {
+    fn tune_rows(&self) -> &[PeerRow] {
+        &self.rows
+    }
+}
+
+/// `solimp` with a narrow transition (0.1 mm) to a stiffer impedance (0.95 … 0.99).
+const SOLIMP_STIFF: [f64; 5] = [0.95, 0.99, 0.0001, 0.5, 2.0];
+
+/// MuJoCo's tuning search (`haptic6d bench --peer-tune mujoco`) on the cases of
+/// [`peer_tune`], the coupling as rapier's ([`PeerParams::tuned`]: the same mass and damping):
+/// stage 1 is a grid over substeps per frame (1, 2, 4, 8) × `solref` time constant (MuJoCo's
+/// 20 ms, 5 ms, and twice the timestep, the stiffest MuJoCo accepts) × `solimp` (MuJoCo's
+/// default, [`SOLIMP_STIFF`]), frictionless (condim 1); stage 2 varies, around stage 1's best,
+/// the solver (CG, PGS), the iterations (10), the `solref` damping ratio (0.5, 2), a 0.5 mm
+/// margin, the implicitfast integrator, and friction's settings (condim 3 with the least
+/// friction MuJoCo keeps, pyramidal and elliptic cones, 10 noslip iterations).
+pub fn peer_tune_mujoco(cache: &TreeCache, env: &MujocoEnv) -> Result<Vec<MujocoTuneRow>> {
+    let cases = tune_cases(cache)?;
+    let mut points: Vec<(u32, MujocoOptions)> = Vec::new();
+    let base = MujocoOptions::defaults();
+    for substeps in [1, 2, 4, 8] {
+        let dt = 1e-3 / f64::from(substeps);
+        for timeconst in [0.02, 0.005, 2.0 * dt] {
+            for solimp in [base.solimp, SOLIMP_STIFF] {
+                points.push((
+                    1,
+                    MujocoOptions {
+                        substeps,
+                        solref: [timeconst, 1.0],
+                        solimp,
+                        ..base
+                    },
+                ));
+            }
+        }
+    }
+    let mut out = run_mujoco_points(&cases, env, &points)?;
+    let best = out
+        .iter()
+        .min_by(|a, b| {
+            a.rank()
+                .partial_cmp(&b.rank())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .map_or(base, |r| r.options);
+    let stage2 = [
+        MujocoOptions {
+            solver: "CG",
+            ..best
+        },
+        MujocoOptions {
+            solver: "PGS",
+            ..best
+        },
+        MujocoOptions {
+            iterations: 10,
+            ..best
+        },
+        MujocoOptions {
+            solref: [best.solref[0], 0.5],
+            ..best
+        },
+        MujocoOptions {
+            solref: [best.solref[0], 2.0],
+            ..best
+        },
+        MujocoOptions {
+            margin_m: 0.0005,
+            ..best
+        },
+        MujocoOptions {
+            integrator: "implicitfast",
+            ..best
+        },
+        MujocoOptions {
+            condim: 3,
+            friction: 1e-5,
+            ..best
+        },
+        MujocoOptions {
+            condim: 3,
+            friction: 1e-5,
+            cone: "elliptic",
+            ..best
+        },
+        MujocoOptions {
+            condim: 3,
+            friction: 1e-5,
+            noslip_iterations: 10,
+            ..best
+        },
+    ];
+    let points: Vec<(u32, MujocoOptions)> = stage2.into_iter().map(|o| (2, o)).collect();
+    out.extend(run_mujoco_points(&cases, env, &points)?);
+    Ok(out)
+}
+
+/// Every point of `points` on every case (one MuJoCo process per case, all points in it).
+fn run_mujoco_points(
+    cases: &[Case],
+    env: &MujocoEnv,
+    points: &[(u32, MujocoOptions)],
+) -> Result<Vec<MujocoTuneRow>> {
+    let options: Vec<MujocoOptions> = points.iter().map(|p| p.1).collect();
+    let mut out: Vec<MujocoTuneRow> = points
+        .iter()
+        .map(|&(stage, options)| MujocoTuneRow {
+            stage,
+            options,
+            rows: Vec::new(),
+        })
+        .collect();
+    for case in cases {
+        let t0 = Instant::now();
+        let (tool, objects) = meshes(&case.scene)?;
+        let depth = MeshPenetration::new(tool, &objects, PENETRATION_SAMPLES);
+        let shapes = peer_scene(&case.scene)?;
+        let pieces = mujoco_pieces(&case.scene, &shapes)?;
+        let tracks = mujoco_tracks(
+            &case.scene,
+            &pieces,
+            peer_params(&case.scene),
+            case.frames,
+            env,
+            &options,
+        )?;
+        for (row, track) in out.iter_mut().zip(&tracks) {
+            row.rows
+                .push(measure(&case.name, &case.checks, "mujoco", track, &depth).0);
+        }
+        eprintln!(
+            "bench: peer tune (MuJoCo): {}: {} points, {:.1} s",
+            case.name,
+            points.len(),
+            t0.elapsed().as_secs_f64()
+        );
+    }
+    Ok(out)
+}
+
+/// MuJoCo's tuning search as a markdown table, best first.
+pub fn tune_mujoco_markdown(rows: &[MujocoTuneRow]) -> String {
+    use std::fmt::Write as _;
+    let mut sorted: Vec<&MujocoTuneRow> = rows.iter().collect();
+    sorted.sort_by(|a, b| {
+        a.rank()
+            .partial_cmp(&b.rank())
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    let cases: Vec<&str> = rows
+        .first()
+        .map(|r| r.rows.iter().map(|c| c.case.as_str()).collect())
+        .unwrap_or_default();
+    let mut s = String::new();
+    let _ = write!(
+        s,
+        "| stage | substeps | solref s, ratio | solimp | solver | iterations | integrator | margin mm | condim | cone | noslip | worst pen. mm | worst jitter N | spline inserted | tunnels |"
+    );
+    for c in &cases {
+        let _ = write!(s, " {c}: pen. mm / step µs p50 |");
+    }
+    let _ = writeln!(s);
+    let _ = writeln!(s, "|{}", "---|".repeat(15 + cases.len()));
+    for r in sorted {
+        let o = &r.options;
+        let _ = write!(
+            s,
+            "| {} | {} | {}, {} | {:?} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {:.3} | {} | {} |",
+            r.stage,
+            o.substeps,
+            o.solref[0],
+            o.solref[1],
+            o.solimp,
+            o.solver,
+            o.iterations,
+            o.integrator,
+            o.margin_m * 1e3,
+            o.condim,
+            o.cone,
+            o.noslip_iterations,
+            r.worst_penetration_mm(),
+            r.worst_jitter_n(),
+            if r.inserted() { "yes" } else { "no" },
+            r.tunnels(),
+        );
+        for c in &r.rows {
+            let _ = write!(s, " {:.3} / {:.0} |", c.penetration_mm.max, c.step_us.p50);
+        }
+        let _ = writeln!(s);
+    }
+    s
+}
+
 /// The tuning search as a markdown table, best first.
 pub fn tune_markdown(rows: &[TuneRow]) -> String {
     use std::fmt::Write as _;
@@ -718,12 +1108,16 @@ pub fn tune_markdown(rows: &[TuneRow]) -> String {
 }
 
 /// Writes `bench_peer_<case>.png` per case into `dir`: mesh penetration (top) and the force on
-/// the hand (bottom) against time, both engines.
+/// the hand (bottom) against time, every engine.
 pub fn write_peer_plots(dir: &std::path::Path, traces: &[PeerTrace]) -> Result<()> {
     use crate::plot::{chart, register_font, render_png, Series};
     use plotters::prelude::*;
     register_font();
-    let colors = [RGBColor(44, 160, 44), RGBColor(214, 39, 40)];
+    let colors = [
+        RGBColor(44, 160, 44),
+        RGBColor(214, 39, 40),
+        RGBColor(31, 119, 180),
+    ];
     for trace in traces {
         let slug: String = trace
             .case

@@ -18,9 +18,9 @@ use collide::{
     PackedTree, Pose,
 };
 use criterion::{BenchmarkId, Criterion};
-use parry3d_f64::math::{Isometry, Point, Real};
-use parry3d_f64::partitioning::Qbvh;
-use parry3d_f64::query::visitors::BoundingVolumeIntersectionsSimultaneousVisitor;
+use parry3d_f64::bounding_volume::BoundingVolume;
+use parry3d_f64::math::{Pose as ParryPose, Rotation as ParryRotation, Vector as ParryVector};
+use parry3d_f64::partitioning::BvhNode;
 use parry3d_f64::shape::{Compound, SharedShape};
 use spheretree::build::{build_tree, BuildParams};
 use spheretree::SphereTree;
@@ -159,16 +159,15 @@ impl Brute {
     }
 }
 
-/// parry3d-f64: each tree's leaves as a `Compound` of `Ball`s (parry builds its own QBVH over
-/// their AABBs); the query is parry's simultaneous BVH traversal (`Qbvh::traverse_bvtt_with_stack`
-/// with its `BoundingVolumeIntersectionsSimultaneousVisitor`, which transforms the tool's AABBs by
-/// the relative pose), followed by the exact ball-ball test on each AABB-overlapping leaf pair.
+/// parry3d-f64: each tree's leaves as a `Compound` of `Ball`s (parry builds its own BVH over
+/// their AABBs); the query is parry's simultaneous BVH traversal (`Bvh::leaf_pairs`, each tool
+/// node's AABB transformed by the relative pose, as parry's own composite-composite contacts do),
+/// followed by the exact ball-ball test on each AABB-overlapping leaf pair.
 struct Parry {
     tool: Compound,
     obj: Compound,
     tool_balls: Vec<[f64; 4]>,
     obj_balls: Vec<[f64; 4]>,
-    stack: Vec<(u32, u32)>,
 }
 
 impl Parry {
@@ -179,7 +178,7 @@ impl Parry {
                     .iter()
                     .map(|b| {
                         (
-                            Isometry::translation(b[0], b[1], b[2]),
+                            ParryPose::translation(b[0], b[1], b[2]),
                             SharedShape::ball(b[3]),
                         )
                     })
@@ -191,7 +190,6 @@ impl Parry {
             obj: compound(&brute.obj),
             tool_balls: brute.tool.clone(),
             obj_balls: brute.obj.clone(),
-            stack: Vec::with_capacity(1024),
         }
     }
 
@@ -205,29 +203,34 @@ impl Parry {
         pose: &Pose,
         mut visit: impl FnMut(u32, u32, f64),
     ) -> (usize, usize) {
-        let world_from_tool: Isometry<Real> = pose.to_isometry();
+        let world_from_tool = pose.to_isometry();
+        let (t, q) = (world_from_tool.translation.vector, world_from_tool.rotation);
+        let relative = ParryPose::from_parts(
+            ParryVector::new(t.x, t.y, t.z),
+            ParryRotation::from_xyzw(q.i, q.j, q.k, q.w),
+        );
         let (tb, ob) = (&self.tool_balls, &self.obj_balls);
         let mut n = 0;
         let mut candidates = 0;
         // Left: the object (world); right: the tool, AABBs mapped by world_from_tool.
-        let mut visitor = BoundingVolumeIntersectionsSimultaneousVisitor::with_relative_pos(
-            world_from_tool,
-            |&o: &u32, &t: &u32| {
-                candidates += 1;
-                let a = tb[t as usize];
-                let c = world_from_tool * Point::new(a[0], a[1], a[2]);
-                let b = ob[o as usize];
-                let d2 = (c.x - b[0]).powi(2) + (c.y - b[1]).powi(2) + (c.z - b[2]).powi(2);
-                let s = a[3] + b[3];
-                if d2 <= s * s {
-                    visit(t, o, d2);
-                    n += 1;
-                }
-                true
-            },
-        );
-        let q_obj: &Qbvh<u32> = self.obj.qbvh();
-        q_obj.traverse_bvtt_with_stack(self.tool.qbvh(), &mut visitor, &mut self.stack);
+        let pairs = self
+            .obj
+            .bvh()
+            .leaf_pairs(self.tool.bvh(), |o: &BvhNode, t: &BvhNode| {
+                o.aabb().intersects(&t.aabb().transform_by(&relative))
+            });
+        for (o, t) in pairs {
+            candidates += 1;
+            let a = tb[t as usize];
+            let c = world_from_tool * nalgebra::Point3::new(a[0], a[1], a[2]);
+            let b = ob[o as usize];
+            let d2 = (c.x - b[0]).powi(2) + (c.y - b[1]).powi(2) + (c.z - b[2]).powi(2);
+            let s = a[3] + b[3];
+            if d2 <= s * s {
+                visit(t, o, d2);
+                n += 1;
+            }
+        }
         (n, candidates)
     }
 }

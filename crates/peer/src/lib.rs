@@ -19,8 +19,11 @@
 //!
 //! Nothing in the real-time crates depends on this crate: only the bench does.
 
+pub mod mujoco;
 mod penetration;
 mod tool;
 
 pub use penetration::MeshPenetration;
-pub use tool::{ObjectShape, PeerError, PeerFrame, PeerParams, PeerScene, PeerTool, ToolShape};
+pub use tool::{
+    convex_pieces, ObjectShape, PeerError, PeerFrame, PeerParams, PeerScene, PeerTool, ToolShape,
+};

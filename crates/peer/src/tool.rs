@@ -1,11 +1,14 @@
 //! The coupled tool: a rapier3d rigid body pulled by a 6-DoF spring-damper toward the device.
+//!
+//! rapier speaks glam (`DVec3`, `DQuat`, its `Pose`); haptic6d speaks nalgebra: the two meet
+//! in [`to_rapier`] and [`from_rapier`] only.
 
-use std::num::NonZeroUsize;
 use std::time::Instant;
 
 use collide::{rotation_log, Pose};
 use mesh::TriMesh;
-use nalgebra::{Isometry3, Point3, Translation3, Vector3};
+use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use rapier3d_f64::math::{Pose as RPose, Rotation as RRotation, Vector as RVector};
 use rapier3d_f64::parry::shape::TriMeshFlags;
 use rapier3d_f64::parry::transformation::vhacd::VHACDParameters;
 use rapier3d_f64::prelude::*;
@@ -21,6 +24,14 @@ pub enum PeerError {
     EmptyMesh {
         /// Which mesh (`tool`, `object 0`, ...).
         what: String,
+    },
+    /// rapier refused a triangle mesh.
+    #[error("{what}: {why}")]
+    BadMesh {
+        /// Which mesh.
+        what: String,
+        /// rapier's reason.
+        why: String,
     },
     /// The convex hull of a mesh is degenerate (flat or a single point).
     #[error("{what}: degenerate convex hull")]
@@ -198,9 +209,17 @@ impl PeerParams {
 #[derive(Clone)]
 pub struct PeerScene {
     tool: SharedShape,
-    objects: Vec<(SharedShape, Isometry3<f64>)>,
+    objects: Vec<(SharedShape, RPose)>,
     /// Convex parts of the tool (1 for a hull, triangles for a trimesh).
     pub tool_parts: usize,
+}
+
+impl PeerScene {
+    /// The tool's collider as convex meshes in the tool frame, mm: its parts (a decomposition),
+    /// its hull, or its triangle mesh (one piece).
+    pub fn tool_pieces(&self) -> Vec<TriMesh> {
+        part_meshes(&self.tool)
+    }
 }
 
 impl std::fmt::Debug for PeerScene {
@@ -219,6 +238,43 @@ fn points_si(mesh: &TriMesh) -> Vec<Point3<f64>> {
         .collect()
 }
 
+/// A mesh's vertices in SI as rapier's vectors, m.
+fn vectors_si(mesh: &TriMesh) -> Vec<RVector> {
+    mesh.vertices
+        .iter()
+        .map(|v| RVector::new(v[0], v[1], v[2]) * M_PER_MM)
+        .collect()
+}
+
+/// An nalgebra isometry as rapier's pose (same units).
+fn to_rapier(iso: &Isometry3<f64>) -> RPose {
+    let t = iso.translation.vector;
+    let q = iso.rotation;
+    RPose::from_parts(
+        RVector::new(t.x, t.y, t.z),
+        RRotation::from_xyzw(q.i, q.j, q.k, q.w),
+    )
+}
+
+/// rapier's pose as an nalgebra isometry (same units).
+fn from_rapier(pose: &RPose) -> Isometry3<f64> {
+    let (t, q) = (pose.translation, pose.rotation);
+    Isometry3::from_parts(
+        Translation3::new(t.x, t.y, t.z),
+        UnitQuaternion::from_quaternion(Quaternion::new(q.w, q.x, q.y, q.z)),
+    )
+}
+
+/// A rapier vector as an nalgebra one.
+fn vec_na(v: RVector) -> Vector3<f64> {
+    Vector3::new(v.x, v.y, v.z)
+}
+
+/// An nalgebra vector as a rapier one.
+fn vec_rapier(v: &Vector3<f64>) -> RVector {
+    RVector::new(v.x, v.y, v.z)
+}
+
 fn check_mesh(mesh: &TriMesh, what: &str) -> Result<(), PeerError> {
     if mesh.vertices.is_empty() || mesh.triangles.is_empty() {
         return Err(PeerError::EmptyMesh { what: what.into() });
@@ -231,16 +287,21 @@ fn decomposition(mesh: &TriMesh, resolution: u32) -> SharedShape {
         resolution,
         ..VHACDParameters::default()
     };
-    SharedShape::convex_decomposition_with_params(&points_si(mesh), &mesh.triangles, &params)
+    SharedShape::convex_decomposition_with_params(&vectors_si(mesh), &mesh.triangles, &params)
 }
 
-fn trimesh(mesh: &TriMesh, fix_internal_edges: bool) -> SharedShape {
+fn trimesh(mesh: &TriMesh, fix_internal_edges: bool, what: &str) -> Result<SharedShape, PeerError> {
     let flags = if fix_internal_edges {
         TriMeshFlags::FIX_INTERNAL_EDGES
     } else {
         TriMeshFlags::empty()
     };
-    SharedShape::trimesh_with_flags(points_si(mesh), mesh.triangles.clone(), flags)
+    SharedShape::trimesh_with_flags(vectors_si(mesh), mesh.triangles.clone(), flags).map_err(|e| {
+        PeerError::BadMesh {
+            what: what.into(),
+            why: e.to_string(),
+        }
+    })
 }
 
 /// Volume enclosed by a closed, outward-oriented mesh, m³ (the divergence theorem over its
@@ -275,6 +336,65 @@ fn pose_mm(iso: &Isometry3<f64>) -> Pose {
     Pose::from_isometry(&scaled)
 }
 
+/// The convex pieces of a shape as meshes in its own frame, mm: each part of a compound (at its
+/// place in the compound), a convex polyhedron's faces, a triangle mesh as it is.
+fn part_meshes(shape: &SharedShape) -> Vec<TriMesh> {
+    let as_mesh = |points: &[RVector], triangles: Vec<[u32; 3]>, at: &RPose| TriMesh {
+        vertices: points
+            .iter()
+            .map(|&p| {
+                let w = at.transform_point(p) / M_PER_MM;
+                [w.x, w.y, w.z]
+            })
+            .collect(),
+        triangles,
+    };
+    let one = |shape: &SharedShape, at: &RPose| -> Option<TriMesh> {
+        if let Some(hull) = shape.as_convex_polyhedron() {
+            let (points, triangles) = hull.to_trimesh();
+            Some(as_mesh(&points, triangles, at))
+        } else {
+            shape
+                .as_trimesh()
+                .map(|t| as_mesh(t.vertices(), t.indices().to_vec(), at))
+        }
+    };
+    match shape.as_compound() {
+        Some(compound) => compound
+            .shapes()
+            .iter()
+            .filter_map(|(at, part)| one(part, at))
+            .collect(),
+        None => one(shape, &RPose::IDENTITY).into_iter().collect(),
+    }
+}
+
+/// The convex pieces a user of an engine without concave collision gives it for `mesh` (mm):
+/// the mesh's convex hull when the mesh is convex (its hull holds no more than 0.1 % more
+/// volume), else the VHACD parts at this voxel resolution, as meshes in the mesh's frame, mm
+/// (the same rule as [`ToolShape::HullIfConvex`]).
+pub fn convex_pieces(
+    mesh: &TriMesh,
+    resolution: u32,
+    what: &str,
+) -> Result<Vec<TriMesh>, PeerError> {
+    check_mesh(mesh, what)?;
+    Ok(part_meshes(&hull_if_convex(mesh, resolution, what)?))
+}
+
+/// The hull of a convex mesh, else its VHACD decomposition at `resolution`.
+fn hull_if_convex(mesh: &TriMesh, resolution: u32, what: &str) -> Result<SharedShape, PeerError> {
+    let hull = SharedShape::convex_hull(&vectors_si(mesh));
+    let hull_volume = hull
+        .as_ref()
+        .map_or(f64::INFINITY, |h| h.mass_properties(1.0).mass());
+    if hull_volume <= enclosed_volume_m3(mesh) * 1.001 {
+        hull.ok_or_else(|| PeerError::DegenerateHull { what: what.into() })
+    } else {
+        Ok(decomposition(mesh, resolution))
+    }
+}
+
 impl PeerScene {
     /// The tool (its own frame, mm) and the objects (each mesh in its own frame, mm, placed
     /// at its pose) as rapier shapes.
@@ -292,7 +412,7 @@ impl PeerScene {
                 (shape, parts)
             }
             ToolShape::ConvexHull => (
-                SharedShape::convex_hull(&points_si(tool)).ok_or_else(|| {
+                SharedShape::convex_hull(&vectors_si(tool)).ok_or_else(|| {
                     PeerError::DegenerateHull {
                         what: "tool".into(),
                     }
@@ -300,33 +420,23 @@ impl PeerScene {
                 1,
             ),
             ToolShape::HullIfConvex { resolution } => {
-                let hull = SharedShape::convex_hull(&points_si(tool));
-                let hull_volume = hull
-                    .as_ref()
-                    .map_or(f64::INFINITY, |h| h.mass_properties(1.0).mass());
-                if hull_volume <= enclosed_volume_m3(tool) * 1.001 {
-                    (
-                        hull.ok_or_else(|| PeerError::DegenerateHull {
-                            what: "tool".into(),
-                        })?,
-                        1,
-                    )
-                } else {
-                    let shape = decomposition(tool, resolution);
-                    let parts = shape.as_compound().map_or(1, |c| c.shapes().len());
-                    (shape, parts)
-                }
+                let shape = hull_if_convex(tool, resolution, "tool")?;
+                let parts = shape.as_compound().map_or(1, |c| c.shapes().len());
+                (shape, parts)
             }
-            ToolShape::TriMesh => (trimesh(tool, true), tool.triangles.len()),
+            ToolShape::TriMesh => (trimesh(tool, true, "tool")?, tool.triangles.len()),
         };
         let mut shapes = Vec::with_capacity(objects.len());
         for (i, (mesh, pose)) in objects.iter().enumerate() {
             check_mesh(mesh, &format!("object {i}"))?;
+            let what = format!("object {i}");
             let shape = match object_shape {
-                ObjectShape::TriMesh { fix_internal_edges } => trimesh(mesh, fix_internal_edges),
+                ObjectShape::TriMesh { fix_internal_edges } => {
+                    trimesh(mesh, fix_internal_edges, &what)?
+                }
                 ObjectShape::ConvexDecomposition { resolution } => decomposition(mesh, resolution),
             };
-            shapes.push((shape, iso_si(pose)));
+            shapes.push((shape, to_rapier(&iso_si(pose))));
         }
         Ok(Self {
             tool: tool_collider,
@@ -355,16 +465,8 @@ pub struct PeerTool {
     params: PeerParams,
     /// Translational (N·s/m) and rotational (N·m·s/rad) damping.
     damping: (f64, f64),
-    integration: IntegrationParameters,
-    pipeline: PhysicsPipeline,
-    islands: IslandManager,
-    broad_phase: DefaultBroadPhase,
-    narrow_phase: NarrowPhase,
-    bodies: RigidBodySet,
-    colliders: ColliderSet,
-    impulse_joints: ImpulseJointSet,
-    multibody_joints: MultibodyJointSet,
-    ccd_solver: CCDSolver,
+    /// rapier's world: the fixed objects and the tool body, no gravity.
+    world: PhysicsWorld,
     tool: RigidBodyHandle,
     tool_collider: ColliderHandle,
     /// The device pose of the previous frame (SI), for the hand's velocity.
@@ -376,59 +478,51 @@ impl PeerTool {
     /// at rest.
     pub fn new(scene: &PeerScene, params: PeerParams, start: &Pose) -> Result<Self, PeerError> {
         params.validate()?;
-        let integration = IntegrationParameters {
-            dt: 1.0 / params.rate_hz,
-            length_unit: params.length_unit,
-            num_solver_iterations: NonZeroUsize::new(params.solver_iterations)
-                .unwrap_or(NonZeroUsize::MIN),
-            contact_natural_frequency: params.contact_natural_frequency_hz,
-            ..IntegrationParameters::default()
-        };
-        let mut bodies = RigidBodySet::new();
-        let mut colliders = ColliderSet::new();
+        let mut world = PhysicsWorld::new();
+        world.gravity = RVector::ZERO;
+        let p = &mut world.integration_parameters;
+        p.dt = 1.0 / params.rate_hz;
+        p.length_unit = params.length_unit;
+        p.num_solver_iterations = params.solver_iterations;
+        // The tool only ever touches fixed objects: rapier's contacts with a fixed body use
+        // `static_contact_softness` (twice `contact_softness`'s frequency by default); both get
+        // the chosen frequency, with rapier's default damping ratio.
+        p.contact_softness.natural_frequency = params.contact_natural_frequency_hz;
+        p.static_contact_softness.natural_frequency = params.contact_natural_frequency_hz;
         for (shape, pose) in &scene.objects {
-            colliders.insert(
+            world.insert_collider(
                 ColliderBuilder::new(shape.clone())
                     .position(*pose)
                     .friction(params.friction)
                     .restitution(0.0),
+                None,
             );
         }
         let inertia = params.inertia_kg_m2();
         let body = RigidBodyBuilder::dynamic()
-            .position(iso_si(start))
+            .pose(to_rapier(&iso_si(start)))
             .additional_mass_properties(MassProperties::new(
-                Point3::origin(),
+                RVector::ZERO,
                 params.mass_kg,
-                Vector3::repeat(inertia),
+                RVector::splat(inertia),
             ))
             .can_sleep(false)
             .ccd_enabled(params.ccd)
             .build();
-        let tool = bodies.insert(body);
+        let tool = world.insert_body(body);
         // Density 0: the body's mass and inertia are the coupling's choice above, not the
         // collider's volume.
-        let tool_collider = colliders.insert_with_parent(
+        let tool_collider = world.insert_collider(
             ColliderBuilder::new(scene.tool.clone())
                 .density(0.0)
                 .friction(params.friction)
                 .restitution(0.0),
-            tool,
-            &mut bodies,
+            Some(tool),
         );
         Ok(Self {
             params,
             damping: params.dampings(),
-            integration,
-            pipeline: PhysicsPipeline::new(),
-            islands: IslandManager::new(),
-            broad_phase: DefaultBroadPhase::new(),
-            narrow_phase: NarrowPhase::new(),
-            bodies,
-            colliders,
-            impulse_joints: ImpulseJointSet::new(),
-            multibody_joints: MultibodyJointSet::new(),
-            ccd_solver: CCDSolver::new(),
+            world,
             tool,
             tool_collider,
             last_hand: None,
@@ -445,7 +539,7 @@ impl PeerTool {
     pub fn step(&mut self, q_hand: &Pose) -> PeerFrame {
         let t0 = Instant::now();
         let hand = iso_si(q_hand);
-        let dt = self.integration.dt;
+        let dt = self.world.integration_parameters.dt;
         // The hand's velocity by finite difference (zero on the first frame).
         let (hand_v, hand_w) = match &self.last_hand {
             Some(prev) => (
@@ -462,42 +556,29 @@ impl PeerTool {
         let (c, cr) = self.damping;
         let kt = self.params.kt_si();
         let kr = self.params.kr_si();
-        let body = &mut self.bodies[self.tool];
-        let at = *body.position();
-        let force =
-            kt * (hand.translation.vector - at.translation.vector) + c * (hand_v - body.linvel());
+        let body = &mut self.world.bodies[self.tool];
+        let at = from_rapier(body.position());
+        let force = kt * (hand.translation.vector - at.translation.vector)
+            + c * (hand_v - vec_na(body.linvel()));
         let turn = (hand.rotation * at.rotation.inverse())
             .to_rotation_matrix()
             .into_inner();
-        let torque = kr * rotation_log(&turn) + cr * (hand_w - body.angvel());
+        let torque = kr * rotation_log(&turn) + cr * (hand_w - vec_na(body.angvel()));
         // Forces and torques persist in rapier until reset: this frame's coupling only.
         body.reset_forces(true);
         body.reset_torques(true);
-        body.add_force(force, true);
-        body.add_torque(torque, true);
-        self.pipeline.step(
-            &Vector3::zeros(),
-            &self.integration,
-            &mut self.islands,
-            &mut self.broad_phase,
-            &mut self.narrow_phase,
-            &mut self.bodies,
-            &mut self.colliders,
-            &mut self.impulse_joints,
-            &mut self.multibody_joints,
-            &mut self.ccd_solver,
-            None,
-            &(),
-            &(),
-        );
+        body.add_force(vec_rapier(&force), true);
+        body.add_torque(vec_rapier(&torque), true);
+        self.world.step();
         let contacts = self
+            .world
             .narrow_phase
             .contact_pairs_with(self.tool_collider)
-            .flat_map(|pair| pair.manifolds.iter())
+            .flat_map(|pair| pair.manifolds().iter())
             .map(|m| m.data.solver_contacts.len())
             .sum::<usize>();
         let step_us = t0.elapsed().as_secs_f64() * 1e6;
-        let q_tool = pose_mm(self.bodies[self.tool].position()).to_array();
+        let q_tool = pose_mm(&from_rapier(self.world.bodies[self.tool].position())).to_array();
         // The hand feels the reaction of the coupling force: N, and N·m to N·mm.
         PeerFrame {
             q_tool,
