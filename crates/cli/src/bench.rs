@@ -798,6 +798,8 @@ pub fn markdown(r: &BenchReport) -> String {
             "\n## haptic6d against virtual coupling on rapier3d and MuJoCo (same device input)\n"
         );
         s.push_str(&crate::bench_peer::peer_markdown(&r.peer));
+        let _ = writeln!(s, "\nPer measure, engine by engine:\n");
+        s.push_str(&crate::bench_peer::peer_columns_markdown(&r.peer));
     }
     if !r.zoo.is_empty() {
         let _ = writeln!(s, "\n## Scene zoo (dual, shipped settings)\n");

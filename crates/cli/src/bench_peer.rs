@@ -857,7 +857,7 @@ pub fn peer_tune(cache: &TreeCache) -> Result<Vec<TuneRow>> {
 /// One point of MuJoCo's tuning search: its options and its rows on the tuning cases.
 #[derive(Serialize, Clone, Debug)]
 pub struct MujocoTuneRow {
-    /// 1: the grid over substeps, `solref` time constant and `solimp`; 2: solver, iterations,
+    /// 1: the grid over substeps, `solref` time constant, `solimp` and `multiccd`; 2: solver, iterations,
     /// damping ratio, margin, integrator, cone and noslip around the best of stage 1.
     pub stage: u32,
     /// MuJoCo's options.
@@ -887,19 +887,22 @@ pub fn peer_tune_mujoco(cache: &TreeCache, env: &MujocoEnv) -> Result<Vec<Mujoco
     let cases = tune_cases(cache)?;
     let mut points: Vec<(u32, MujocoOptions)> = Vec::new();
     let base = MujocoOptions::defaults();
-    for substeps in [1, 2, 4, 8] {
+    for substeps in [1, 4, 8] {
         let dt = 1e-3 / f64::from(substeps);
         for timeconst in [0.02, 0.005, 2.0 * dt] {
             for solimp in [base.solimp, SOLIMP_STIFF] {
-                points.push((
-                    1,
-                    MujocoOptions {
-                        substeps,
-                        solref: [timeconst, 1.0],
-                        solimp,
-                        ..base
-                    },
-                ));
+                for multiccd in [false, true] {
+                    points.push((
+                        1,
+                        MujocoOptions {
+                            substeps,
+                            solref: [timeconst, 1.0],
+                            solimp,
+                            multiccd,
+                            ..base
+                        },
+                    ));
+                }
             }
         }
     }
@@ -1023,23 +1026,24 @@ pub fn tune_mujoco_markdown(rows: &[MujocoTuneRow]) -> String {
     let mut s = String::new();
     let _ = write!(
         s,
-        "| stage | substeps | solref s, ratio | solimp | solver | iterations | integrator | margin mm | condim | cone | noslip | worst pen. mm | worst jitter N | spline inserted | tunnels |"
+        "| stage | substeps | solref s, ratio | solimp | multiccd | solver | iterations | integrator | margin mm | condim | cone | noslip | worst pen. mm | worst jitter N | spline inserted | tunnels |"
     );
     for c in &cases {
         let _ = write!(s, " {c}: pen. mm / step µs p50 |");
     }
     let _ = writeln!(s);
-    let _ = writeln!(s, "|{}", "---|".repeat(15 + cases.len()));
+    let _ = writeln!(s, "|{}", "---|".repeat(16 + cases.len()));
     for r in sorted {
         let o = &r.options;
         let _ = write!(
             s,
-            "| {} | {} | {}, {} | {:?} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {:.3} | {} | {} |",
+            "| {} | {} | {}, {} | {:?} | {} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {:.3} | {} | {} |",
             r.stage,
             o.substeps,
             o.solref[0],
             o.solref[1],
             o.solimp,
+            if o.multiccd { "on" } else { "off" },
             o.solver,
             o.iterations,
             o.integrator,
@@ -1201,6 +1205,120 @@ pub fn peer_markdown(rows: &[PeerRow]) -> String {
     s
 }
 
+/// The engines of `rows` in their order of appearance.
+fn engines_of(rows: &[PeerRow]) -> Vec<&str> {
+    let mut engines: Vec<&str> = Vec::new();
+    for r in rows {
+        if !engines.contains(&r.engine.as_str()) {
+            engines.push(&r.engine);
+        }
+    }
+    engines
+}
+
+/// Who did best on one measure: the engines whose score (lower is better) is the lowest, as
+/// printed (`digits` decimals), or `tie` when all share it.
+fn best_of(scores: &[(&str, Option<f64>)], digits: usize) -> String {
+    let shown: Vec<(&str, f64)> = scores
+        .iter()
+        .filter_map(|&(e, v)| v.map(|v| (e, format!("{v:.digits$}").parse().unwrap_or(v))))
+        .collect();
+    let Some(best) = shown.iter().map(|s| s.1).min_by(|a, b| a.total_cmp(b)) else {
+        return "–".into();
+    };
+    let winners: Vec<&str> = shown.iter().filter(|s| s.1 == best).map(|s| s.0).collect();
+    if winners.len() == shown.len() && shown.len() > 1 {
+        "tie".into()
+    } else {
+        winners.join(", ")
+    }
+}
+
+/// The study as one table per measure row with a column per engine (haptic6d, rapier,
+/// MuJoCo) and the engine that did best (lowest p99 frame time, shallowest deepest
+/// penetration, fewest tunnellings, drag nearest zero, lowest jitter, insertion reached).
+pub fn peer_columns_markdown(rows: &[PeerRow]) -> String {
+    use std::fmt::Write as _;
+    let engines = engines_of(rows);
+    let mut s = String::new();
+    let _ = writeln!(s, "| case | measure | {} | best |", engines.join(" | "));
+    let _ = writeln!(s, "|---|---|{}---|", "---|".repeat(engines.len()));
+    let mut cases: Vec<&str> = Vec::new();
+    for r in rows {
+        if !cases.contains(&r.case.as_str()) {
+            cases.push(&r.case);
+        }
+    }
+    for case in cases {
+        let of: Vec<&PeerRow> = engines
+            .iter()
+            .filter_map(|e| rows.iter().find(|r| r.case == case && r.engine == *e))
+            .collect();
+        let mut line = |measure: &str, cell: &dyn Fn(&PeerRow) -> String, best: String| {
+            let cells: Vec<String> = of.iter().map(|r| cell(r)).collect();
+            let _ = writeln!(s, "| {case} | {measure} | {} | {best} |", cells.join(" | "));
+        };
+        let score = |f: &dyn Fn(&PeerRow) -> Option<f64>| -> Vec<(&str, Option<f64>)> {
+            of.iter().map(|r| (r.engine.as_str(), f(r))).collect()
+        };
+        line(
+            "frame µs p50 / p99 / max",
+            &|r| {
+                format!(
+                    "{:.1} / {:.1} / {:.0}",
+                    r.step_us.p50, r.step_us.p99, r.step_us.max
+                )
+            },
+            best_of(&score(&|r| Some(r.step_us.p99)), 1),
+        );
+        line(
+            "mesh pen. mm p99 / max",
+            &|r| format!("{:.4} / {:.4}", r.penetration_mm.p99, r.penetration_mm.max),
+            best_of(&score(&|r| Some(r.penetration_mm.max)), 4),
+        );
+        if of.iter().any(|r| r.tunnelling_events.is_some()) {
+            line(
+                "tunnelling",
+                &|r| {
+                    r.tunnelling_events
+                        .map_or_else(|| "–".into(), |n| n.to_string())
+                },
+                best_of(&score(&|r| r.tunnelling_events.map(|n| n as f64)), 0),
+            );
+        }
+        if of.iter().any(|r| r.drag_n.is_some()) {
+            line(
+                "drag N",
+                &|r| opt(r.drag_n, 4),
+                best_of(&score(&|r| r.drag_n.map(f64::abs)), 4),
+            );
+        }
+        if of.iter().any(|r| r.jitter_p99_n.is_some()) {
+            line(
+                "jitter p99 N",
+                &|r| opt(r.jitter_p99_n, 4),
+                best_of(&score(&|r| r.jitter_p99_n), 4),
+            );
+        }
+        if of.iter().any(|r| r.insertion.is_some()) {
+            line(
+                "inserted (deepest z mm)",
+                &|r| {
+                    r.insertion.map_or_else(
+                        || "–".into(),
+                        |(z, ok)| format!("{} ({z:.2})", if ok { "yes" } else { "no" }),
+                    )
+                },
+                best_of(
+                    &score(&|r| r.insertion.map(|(_, ok)| if ok { 0.0 } else { 1.0 })),
+                    0,
+                ),
+            );
+        }
+    }
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1247,6 +1365,65 @@ mod tests {
             ..peer_params(&case.scene)
         });
         assert_eq!(soft.tunnelling_events, Some(1), "{soft:?}");
+    }
+
+    /// MuJoCo's peer (where its environment is installed: `haptic6d bench --peer-setup`): the
+    /// puck, free, follows the hand; pressed 1 mm into the plate it rests on it and the hand
+    /// feels about kt × 1 mm; the case's files and the script's output go through the same
+    /// path as the study's.
+    #[test]
+    fn mujoco_peer_follows_the_hand_and_rests_on_the_plate() {
+        let env = match mujoco_env(&TreeCache::from_env(), false) {
+            Ok(env) => env,
+            Err(why) => {
+                println!("MuJoCo peer test skipped: {why:#}");
+                return;
+            }
+        };
+        let plate = plate::box_mesh([-60.0, -60.0, -10.0], [60.0, 60.0, 0.0]);
+        let puck = plate::box_mesh([-20.0, -20.0, 0.0], [20.0, 20.0, 10.0]);
+        let objects = [(
+            convex_pieces(&plate, OBJECT_DECOMPOSITION_RESOLUTION, "plate").unwrap(),
+            Pose::identity(),
+        )];
+        let tool = convex_pieces(&puck, TOOL_DECOMPOSITION_RESOLUTION, "puck").unwrap();
+        assert_eq!((tool.len(), objects[0].0.len()), (1, 1));
+        let above = Pose::from_array([0.0, 0.0, 2.0, 0.0, 0.0, 0.0]);
+        let free = Pose::from_array([5.0, -3.0, 20.0, 0.1, -0.05, 0.2]);
+        let pressed = Pose::from_array([0.0, 0.0, -1.0, 0.0, 0.0, 0.0]);
+        let mut hand = vec![above];
+        hand.extend(std::iter::repeat_n(free, 1000));
+        hand.extend(std::iter::repeat_n(pressed, 1000));
+        let case = MujocoCase {
+            tool: &tool,
+            objects: &objects,
+            hand: &hand,
+            coupling: PeerParams::tuned(),
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let runs = case
+            .run(&env, dir.path(), &[MujocoOptions::tuned()])
+            .unwrap();
+        let frames = &runs[0];
+        assert_eq!(frames.len(), hand.len());
+        let followed = &frames[1000];
+        for k in 0..6 {
+            assert!(
+                (followed.q_tool[k] - free.q[k]).abs() < 1e-3,
+                "axis {k}: {:?}",
+                followed.q_tool
+            );
+        }
+        assert_eq!(followed.contacts, 0);
+        let rest = frames.last().unwrap();
+        assert!(
+            rest.q_tool[2] < 0.01 && rest.q_tool[2] > -0.2,
+            "{:?}",
+            rest.q_tool
+        );
+        assert!((rest.wrench[2] - 1.0).abs() < 0.2, "{:?}", rest.wrench);
+        assert!(rest.contacts > 0);
+        assert!(rest.step_us > 0.0);
     }
 
     #[test]

@@ -42,7 +42,7 @@ enum Command {
     Tree(tree::TreeCommand),
     /// Run the haptic pipeline on a scene and write frames.csv, summary.json and plots.
     Run(run::RunArgs),
-    /// The paper's experiments: every solver on identical recorded input, plus scaling, hand-speed, contact and friction studies, and the rapier3d peer.
+    /// The paper's experiments: every solver on identical recorded input, plus scaling, hand-speed, contact and friction studies, and the rapier3d and MuJoCo peers.
     Bench(bench::BenchArgs),
     /// Interactive viewer: the haptic loop at 1 kHz, a web page and a UDP device bridge.
     Serve(serve::ServeArgs),

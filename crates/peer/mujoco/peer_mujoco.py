@@ -19,7 +19,7 @@ CASE_DIR/case.json (written by `haptic6d bench`):
   runs                [{options}, ...]: one run per entry, on the same input
     substeps, iterations, solver ("Newton", "CG", "PGS"), cone ("pyramidal", "elliptic"),
     noslip_iterations, condim, friction, solref [timeconst s, dampratio],
-    solimp [dmin, dmax, width m, midpoint, power], margin m, integrator
+    solimp [dmin, dmax, width m, midpoint, power], margin m, integrator, multiccd (bool)
 CASE_DIR/hand.bin   frames x 7 float64 (little-endian): x, y, z m, qw, qx, qy, qz
 CASE_DIR/out_<k>.bin, one per run: frames x 16 float64:
   x, y, z m, qw, qx, qy, qz (the tool after the frame), wrench on the hand (F N, T N·m, world
@@ -111,7 +111,9 @@ def model_xml(case, run):
   <option timestep="{timestep!r}" gravity="0 0 0" iterations="{int(run.get("iterations", 100))}"
           solver="{run.get("solver", "Newton")}" cone="{run.get("cone", "pyramidal")}"
           noslip_iterations="{int(run.get("noslip_iterations", 0))}"
-          integrator="{run.get("integrator", "Euler")}"/>
+          integrator="{run.get("integrator", "Euler")}">
+    <flag multiccd="{"enable" if run.get("multiccd", False) else "disable"}"/>
+  </option>
   <default>
     <geom condim="{int(run.get("condim", 1))}" friction="{friction!r} 0.005 0.0001"
           solref="{fmt(run.get("solref", [0.02, 1.0]))}"

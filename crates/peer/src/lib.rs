@@ -1,5 +1,6 @@
-//! The baseline haptic6d is compared with: 6-DoF **virtual coupling** on the rapier3d physics
-//! engine, as CHAI3D's ODE/Bullet tool examples, iMSTK and OpenSurgSim's tool coupler do it.
+//! The baselines haptic6d is compared with: 6-DoF **virtual coupling** on a physics engine, as
+//! CHAI3D's ODE/Bullet tool examples, iMSTK and OpenSurgSim's tool coupler do it, on rapier3d
+//! (in Rust, below) and on MuJoCo ([`mujoco`]: its Python package, run in a venv of its own).
 //!
 //! The tool is a dynamic rigid body with the tool mesh as its collider; the objects are fixed
 //! colliders; every haptic frame the device pose pulls the tool through a 6-DoF spring-damper
@@ -11,8 +12,10 @@
 //! - [`PeerTool`]: one run of the coupled tool ([`PeerTool::step`] per device frame).
 //! - [`PeerParams`]: the tuned parameters, [`PeerParams::tuned`] the defaults that the tuning
 //!   search in docs/BENCHMARKS.md chose.
-//! - [`MeshPenetration`]: the independent, mesh-level penetration measure applied to both
-//!   haptic6d's graphic tool and the peer's tool.
+//! - [`MeshPenetration`]: the independent, mesh-level penetration measure applied to
+//!   haptic6d's graphic tool and to each peer's tool.
+//! - [`convex_pieces`]: a mesh as the convex pieces an engine without concave collision gets
+//!   (MuJoCo's mesh geoms).
 //!
 //! Units: the public API speaks haptic6d's units (mm, rad, N, N·mm, s); inside, rapier works
 //! in SI (m, kg, N, N·m), as its users set it up.

@@ -94,6 +94,9 @@ pub struct MujocoOptions {
     pub margin_m: f64,
     /// Integrator: `Euler` (MuJoCo's default), `implicitfast`, `implicit` or `RK4`.
     pub integrator: &'static str,
+    /// MuJoCo's `multiccd` flag: several contact points per pair of convex meshes instead of
+    /// one (off by default).
+    pub multiccd: bool,
 }
 
 impl MujocoOptions {
@@ -111,6 +114,7 @@ impl MujocoOptions {
             solimp: [0.9, 0.95, 0.001, 0.5, 2.0],
             margin_m: 0.0,
             integrator: "Euler",
+            multiccd: false,
         }
     }
 
@@ -282,6 +286,7 @@ impl MujocoCase<'_> {
                 "solimp": r.solimp,
                 "margin": r.margin_m,
                 "integrator": r.integrator,
+                "multiccd": r.multiccd,
             })).collect::<Vec<_>>(),
         });
         let path = dir.join("case.json");

@@ -113,7 +113,8 @@ pub struct PeerParams {
     pub length_unit: f64,
     /// Rapier's solver iterations per step (its default is 4).
     pub solver_iterations: usize,
-    /// Natural frequency of rapier's soft contacts, Hz (its default is 30).
+    /// Natural frequency of rapier's soft contacts with the fixed objects, Hz (rapier's
+    /// `static_contact_softness`, its default 60; set in `contact_softness` too, default 30).
     pub contact_natural_frequency_hz: f64,
     /// Continuous collision detection on the tool body.
     pub ccd: bool,
@@ -132,8 +133,8 @@ impl PeerParams {
             mass_kg: 0.05,
             rate_hz: 1000.0,
             length_unit: 0.01,
-            solver_iterations: 8,
-            contact_natural_frequency_hz: 300.0,
+            solver_iterations: 4,
+            contact_natural_frequency_hz: 100.0,
             ccd: false,
             friction: 0.0,
         }
