@@ -692,11 +692,18 @@ pub trait TuneScore {
         usize::from(!self.inserted()) + self.tunnels()
     }
 
+    /// Whether the point holds the tool off the surface by design (a contact margin): its
+    /// penetration then says nothing of the gap it leaves, which no measure here sees.
+    fn standoff(&self) -> bool {
+        false
+    }
+
     /// The order of preference: a stable run (jitter below [`TUNE_JITTER_LIMIT_N`]) first,
-    /// then fewer task failures, then the shallower worst penetration.
-    fn rank(&self) -> (bool, usize, f64) {
+    /// then no standoff, then fewer task failures, then the shallower worst penetration.
+    fn rank(&self) -> (bool, bool, usize, f64) {
         (
             self.worst_jitter_n() > TUNE_JITTER_LIMIT_N,
+            self.standoff(),
             self.failures(),
             self.worst_penetration_mm(),
         )
@@ -869,6 +876,10 @@ pub struct MujocoTuneRow {
 impl TuneScore for MujocoTuneRow {
     fn tune_rows(&self) -> &[PeerRow] {
         &self.rows
+    }
+
+    fn standoff(&self) -> bool {
+        self.options.margin_m > 0.0
     }
 }
 

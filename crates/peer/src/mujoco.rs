@@ -94,8 +94,8 @@ pub struct MujocoOptions {
     pub margin_m: f64,
     /// Integrator: `Euler` (MuJoCo's default), `implicitfast`, `implicit` or `RK4`.
     pub integrator: &'static str,
-    /// MuJoCo's `multiccd` flag: several contact points per pair of convex meshes instead of
-    /// one (off by default).
+    /// MuJoCo's `multiccd`: several contact points per pair of convex meshes instead of one
+    /// (on by default since MuJoCo 4, where it became a disable flag).
     pub multiccd: bool,
 }
 
@@ -114,16 +114,20 @@ impl MujocoOptions {
             solimp: [0.9, 0.95, 0.001, 0.5, 2.0],
             margin_m: 0.0,
             integrator: "Euler",
-            multiccd: false,
+            multiccd: true,
         }
     }
 
-    /// The options the tuning search chose (docs/BENCHMARKS.md, the peer section).
+    /// The options the tuning search chose (docs/BENCHMARKS.md, the peer section): 8 steps
+    /// per frame, the stiffest `solref` MuJoCo accepts at that step (time constant twice the
+    /// timestep) with a damping ratio of 0.5, a stiff narrow `solimp`, one contact point per
+    /// convex pair (`multiccd` off); frictionless.
     pub fn tuned() -> Self {
         Self {
-            substeps: 4,
-            solref: [0.0005, 1.0],
+            substeps: 8,
+            solref: [0.00025, 0.5],
             solimp: [0.95, 0.99, 0.0001, 0.5, 2.0],
+            multiccd: false,
             ..Self::defaults()
         }
     }

@@ -455,7 +455,8 @@ pub struct PeerFrame {
     /// Coupling wrench on the hand `[F; T]`: N and N·mm (world axes), the spring-damper force
     /// of this frame (the force a device would be sent).
     pub wrench: [f64; 6],
-    /// Contact points rapier's solver held this frame (within its prediction distance).
+    /// Contact points rapier's solver held this frame (within its prediction distance; its
+    /// solver manifolds, which are the contact clusters when rapier clusters a pair's points).
     pub contacts: u32,
     /// Time of the frame: the coupling force and one rapier step, µs.
     pub step_us: f64,
@@ -575,7 +576,7 @@ impl PeerTool {
             .world
             .narrow_phase
             .contact_pairs_with(self.tool_collider)
-            .flat_map(|pair| pair.manifolds().iter())
+            .flat_map(|pair| pair.solver_manifolds().iter())
             .map(|m| m.data.solver_contacts.len())
             .sum::<usize>();
         let step_us = t0.elapsed().as_secs_f64() * 1e6;
