@@ -113,7 +113,7 @@ pub struct BenchReport {
     pub contact: Vec<crate::bench_contact::ContactRow>,
     /// Coulomb friction: pushes, cost, the spline.
     pub friction: Option<crate::bench_friction::FrictionStudy>,
-    /// haptic6d against the rapier3d virtual-coupling peer, per case and engine.
+    /// haptic6d against the virtual-coupling peers (rapier3d, MuJoCo), per case and engine.
     pub peer: Vec<crate::bench_peer::PeerRow>,
     /// The scene zoo, one row per scene.
     pub zoo: Vec<crate::bench_zoo::ZooRow>,

@@ -361,3 +361,21 @@ fn error_lines_are_short_and_clean() {
     let line = one_line_failure(&haptic6d(&["serve", "--port", &port]));
     assert_eq!(line.matches("os error").count(), 1, "{line}");
 }
+
+/// `bench --peer` and `--peer-tune` take engine names (rapier, mujoco); another name is a usage
+/// error (exit 2) that names the flag, the name and the engines, before anything runs.
+#[test]
+fn bench_refuses_an_unknown_peer_engine() {
+    let dir = Dir::new("peer-engine");
+    let out = dir.path("out");
+    for flag in ["--peer=bullet", "--peer-tune=bullet"] {
+        let o = haptic6d(&["bench", flag, "--out", &out]);
+        let line = one_line_failure(&o);
+        assert_eq!(o.status.code(), Some(2), "{line}");
+        assert!(
+            line.contains("no peer engine `bullet` (engines: rapier, mujoco)"),
+            "{line}"
+        );
+        assert!(line.contains(flag.split('=').next().unwrap()), "{line}");
+    }
+}
