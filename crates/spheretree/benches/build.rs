@@ -2,9 +2,10 @@
 //!
 //! `cargo bench -p spheretree --bench build`
 
-use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use criterion::{criterion_group, criterion_main, Criterion};
 use spheretree::build::{build_tree, BuildMethod, BuildParams};
 use spheretree::eval::{evaluate_fit, FitParams};
+use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Duration;
 
