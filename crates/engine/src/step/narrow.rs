@@ -150,23 +150,14 @@ impl GodObject {
         for (object, part_tree) in meshes.objects.iter().enumerate() {
             let tool_tree = &meshes.tool;
             let visit = |tools: std::ops::Range<u32>, parts: std::ops::Range<u32>| {
-                for tool in tools {
-                    let tool_tri = PosedTriangle::of(tool_tree, tool, &rot, &t);
-                    for part in parts.clone() {
-                        if tool_tri.separation(part_tree, part) > margin {
-                            continue;
-                        }
-                        if near.len() < near.capacity() {
-                            near.push(TriPair {
-                                object: object as u32,
-                                tool,
-                                part,
-                            });
-                        } else {
-                            dropped += 1;
-                        }
-                    }
-                }
+                let leaves = LeafTriangles {
+                    tool_tree,
+                    part_tree,
+                    object,
+                    tools,
+                    parts,
+                };
+                dropped += leaves.push_near(&rot, &t, margin, near);
                 true
             };
             tool_tree.near_leaf_pairs(&rot, &t, part_tree, margin, &mut detector.tree_stack, visit);
@@ -239,24 +230,15 @@ impl GodObject {
             let tool_tree = &meshes.tool;
             let list = &mut detector.next_near;
             let visit = |tools: std::ops::Range<u32>, parts: std::ops::Range<u32>| {
-                for tool in tools {
-                    let tool_tri = PosedTriangle::of(tool_tree, tool, &rot, &t);
-                    for part in parts.clone() {
-                        if tool_tri.separation(part_tree, part) > margin {
-                            continue;
-                        }
-                        if list.len() == list.capacity() {
-                            overflow = true;
-                            return false;
-                        }
-                        list.push(TriPair {
-                            object: object as u32,
-                            tool,
-                            part,
-                        });
-                    }
-                }
-                true
+                let leaves = LeafTriangles {
+                    tool_tree,
+                    part_tree,
+                    object,
+                    tools,
+                    parts,
+                };
+                overflow = leaves.push_near(&rot, &t, margin, list) > 0;
+                !overflow
             };
             let over = tool_tree.descend(
                 &rot,
@@ -492,6 +474,47 @@ fn plane_gap(a: &Triangle, b: &Triangle) -> f64 {
     side_gap(a, &n, d)
 }
 
+/// The triangles of a leaf pair of the triangle trees: the tool leaf's and object `object`'s.
+struct LeafTriangles<'a> {
+    tool_tree: &'a TriangleTree,
+    part_tree: &'a TriangleTree,
+    object: usize,
+    tools: std::ops::Range<u32>,
+    parts: std::ops::Range<u32>,
+}
+
+impl LeafTriangles<'_> {
+    /// Pushes onto `list` its triangle pairs that neither plane bound puts farther apart than
+    /// `margin` (mm) with the tool at `(rot, t)`; returns how many did not fit in its storage.
+    fn push_near(
+        self,
+        rot: &Matrix3<f64>,
+        t: &Vector3<f64>,
+        margin: f64,
+        list: &mut Vec<TriPair>,
+    ) -> usize {
+        let mut dropped = 0;
+        for tool in self.tools {
+            let tool_tri = PosedTriangle::of(self.tool_tree, tool, rot, t);
+            for part in self.parts.clone() {
+                if tool_tri.separation(self.part_tree, part) > margin {
+                    continue;
+                }
+                if list.len() < list.capacity() {
+                    list.push(TriPair {
+                        object: self.object as u32,
+                        tool,
+                        part,
+                    });
+                } else {
+                    dropped += 1;
+                }
+            }
+        }
+        dropped
+    }
+}
+
 /// A triangle of the tool posed in the world: corners and plane (unit normal, offset), mm.
 pub(super) struct PosedTriangle {
     pub(super) corners: Triangle,
@@ -581,8 +604,19 @@ mod tests {
     /// A 4 mm cube tool (its centre at the tool origin) over a 40 x 40 x 2 mm plate whose top is
     /// at z = 0, in the mesh mode.
     fn cube_on_plate() -> (GodObject, Vec<Triangle>, Vec<Triangle>) {
+        let plate = box_mesh([0.0, 0.0, -1.0], [20.0, 20.0, 1.0]);
+        cube_over(&plate, one_leaf([0.0, 0.0, -1.0], 28.3))
+    }
+
+    /// The 4 mm cube tool (one leaf about its centre, the tool origin) over `object` (its
+    /// vertices and triangles, world; `tree` its one-leaf tree), in the mesh mode: the god
+    /// object and both meshes' triangles.
+    fn cube_over(
+        object: &(Vec<[f64; 3]>, Vec<[u32; 3]>),
+        tree: SphereTree,
+    ) -> (GodObject, Vec<Triangle>, Vec<Triangle>) {
         let (tv, tt) = box_mesh([0.0; 3], [2.0; 3]);
-        let (pv, pt) = box_mesh([0.0, 0.0, -1.0], [20.0, 20.0, 1.0]);
+        let (pv, pt) = object;
         let params = EngineConfig {
             geometry: Geometry::Mesh,
             ..EngineConfig::default()
@@ -593,10 +627,10 @@ mod tests {
                 vertices: &tv,
                 triangles: &tt,
             }),
-            &[(one_leaf([0.0, 0.0, -1.0], 28.3), Pose::identity())],
+            &[(tree, Pose::identity())],
             &[Some(MeshRef {
-                vertices: &pv,
-                triangles: &pt,
+                vertices: pv,
+                triangles: pt,
             })],
             params,
         )
@@ -604,7 +638,7 @@ mod tests {
         let tris = |v: &[[f64; 3]], t: &[[u32; 3]]| -> Vec<Triangle> {
             t.iter().map(|t| t.map(|i| v[i as usize])).collect()
         };
-        (god, tris(&tv, &tt), tris(&pv, &pt))
+        (god, tris(&tv, &tt), tris(pv, pt))
     }
 
     /// The least distance between the tool's triangles at `q` and the plate's, over every pair
@@ -628,7 +662,6 @@ mod tests {
     /// The 4 mm cube tool over a wavy 40 x 40 mm sheet of 2 x 2 mm cells (800 triangles), so
     /// that which pairs are near changes as the tool slides.
     fn cube_over_sheet() -> (GodObject, Vec<Triangle>, Vec<Triangle>) {
-        let (tv, tt) = box_mesh([0.0; 3], [2.0; 3]);
         let n = 20u32;
         let sv: Vec<[f64; 3]> = (0..=n)
             .flat_map(|i| (0..=n).map(move |j| (i, j)))
@@ -647,28 +680,7 @@ mod tests {
                 ]
             })
             .collect();
-        let params = EngineConfig {
-            geometry: Geometry::Mesh,
-            ..EngineConfig::default()
-        };
-        let god = GodObject::with_meshes(
-            &one_leaf([0.0; 3], 3.5),
-            Some(MeshRef {
-                vertices: &tv,
-                triangles: &tt,
-            }),
-            &[(one_leaf([0.0; 3], 28.3), Pose::identity())],
-            &[Some(MeshRef {
-                vertices: &sv,
-                triangles: &st,
-            })],
-            params,
-        )
-        .unwrap();
-        let tris = |v: &[[f64; 3]], t: &[[u32; 3]]| -> Vec<Triangle> {
-            t.iter().map(|t| t.map(|i| v[i as usize])).collect()
-        };
-        (god, tris(&tv, &tt), tris(&sv, &st))
+        cube_over(&(sv, st), one_leaf([0.0; 3], 28.3))
     }
 
     #[test]
