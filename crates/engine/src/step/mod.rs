@@ -422,6 +422,8 @@ impl GodObject {
                 contacts: Vec::with_capacity(contacts_cap),
                 near: Vec::with_capacity(contacts_cap),
                 next_near: Vec::with_capacity(contacts_cap),
+                contact_nearest: Vec::with_capacity(contacts_cap),
+                nearest_at: None,
                 next_stack: tree_stack.clone(),
                 contact_gaps: vec![0.0; contacts_cap],
                 tree_stack,

@@ -74,6 +74,8 @@ impl GodObject {
             return;
         }
         self.detector.contacts.clear();
+        self.detector.contact_nearest.clear();
+        self.detector.nearest_at = None;
         self.run.regions.contacts_at = Some((*center, margin));
         if self.detector.pairs.is_empty() {
             return;
@@ -126,13 +128,17 @@ impl GodObject {
         for c in &detector.near {
             let tool = PosedTriangle::of(&meshes.tool, c.tool, &rot, &t);
             let part_tree = &meshes.objects[c.object as usize];
-            if tool.separation(part_tree, c.part) <= margin
-                && triangle_distance(&tool.corners, part_tree.triangle(c.part)).distance <= margin
-            {
+            if tool.separation(part_tree, c.part) > margin {
+                continue;
+            }
+            let d = triangle_distance(&tool.corners, part_tree.triangle(c.part));
+            if d.distance <= margin {
                 // The near list is no longer than the contacts' storage.
                 detector.contacts.push(*c);
+                detector.contact_nearest.push(d);
             }
         }
+        detector.nearest_at = Some((rot, t));
     }
 
     /// Lists into `detector.near` the triangle pairs within `margin` (mm) with the tool at
@@ -313,9 +319,19 @@ impl GodObject {
             .map_or(f64::INFINITY, |(c, m)| {
                 self.motion_bound(&q, &c) + m + target
             });
+        // At the pose the narrow phase measured them at (a region's first pass), its exact
+        // distances are the rows' own.
+        let measured = self.detector.nearest_at == Some((rot, t));
         let mut n = 0;
         for c in &self.detector.contacts {
-            let (bound, tool, part) = self.posed_separation(meshes, c, &rot, &t);
+            let (bound, tool, part, d) = if measured {
+                let d = self.detector.contact_nearest[n];
+                let (tool, part) = self.posed_pair(meshes, c, &rot, &t);
+                (d.distance, tool, part, Some(d))
+            } else {
+                let (bound, tool, part) = self.posed_separation(meshes, c, &rot, &t);
+                (bound, tool, part, None)
+            };
             if self.params.heuristics.mesh_far_rows && bound > reach {
                 self.detector.contact_gaps[n] = bound;
                 self.qp.rows[n] = [0.0; 6];
@@ -323,7 +339,7 @@ impl GodObject {
                 n += 1;
                 continue;
             }
-            let d = triangle_distance(&tool, &part);
+            let d = d.unwrap_or_else(|| triangle_distance(&tool, &part));
             self.detector.contact_gaps[n] = d.distance;
             let (a, b) = (Vector3::from(d.on_a), Vector3::from(d.on_b));
             let normal = if d.distance > 0.0 {

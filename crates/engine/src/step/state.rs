@@ -39,6 +39,11 @@ pub(super) struct Detector {
     /// The mesh mode's triangle pairs within a wider margin ([`super::tuning::NEAR_LIST_MM`])
     /// of a recent pose: the narrow phase filters them while they cover its region.
     pub(super) near: Vec<TriPair>,
+    /// The exact distances the narrow phase measured for `contacts` (same order), and the tool
+    /// pose (rotation, translation) it measured them at: the first rows at that pose reuse
+    /// them.
+    pub(super) contact_nearest: Vec<collide::TriangleDistance>,
+    pub(super) nearest_at: Option<(Matrix3<f64>, Vector3<f64>)>,
     /// The next near list, built a slice per frame ahead of need, and its descent's stack.
     pub(super) next_near: Vec<TriPair>,
     pub(super) next_stack: collide::TreePairStack,
