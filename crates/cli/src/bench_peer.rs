@@ -861,6 +861,21 @@ pub fn peer_tune(cache: &TreeCache) -> Result<Vec<TuneRow>> {
     Ok(out)
 }
 
+/// Writes a tuning table's header: the `columns`, then one "pen. mm / step µs p50" column per
+/// case of `cases` (the first point's rows), and the separator line.
+fn tune_header(s: &mut String, columns: &[&str], cases: &[PeerRow]) {
+    use std::fmt::Write as _;
+    let _ = write!(s, "|");
+    for c in columns {
+        let _ = write!(s, " {c} |");
+    }
+    for c in cases {
+        let _ = write!(s, " {}: pen. mm / step µs p50 |", c.case);
+    }
+    let _ = writeln!(s);
+    let _ = writeln!(s, "|{}", "---|".repeat(columns.len() + cases.len()));
+}
+
 /// One point of MuJoCo's tuning search: its options and its rows on the tuning cases.
 #[derive(Serialize, Clone, Debug)]
 pub struct MujocoTuneRow {
@@ -1030,20 +1045,29 @@ pub fn tune_mujoco_markdown(rows: &[MujocoTuneRow]) -> String {
             .partial_cmp(&b.rank())
             .unwrap_or(std::cmp::Ordering::Equal)
     });
-    let cases: Vec<&str> = rows
-        .first()
-        .map(|r| r.rows.iter().map(|c| c.case.as_str()).collect())
-        .unwrap_or_default();
     let mut s = String::new();
-    let _ = write!(
-        s,
-        "| stage | substeps | solref s, ratio | solimp | multiccd | solver | iterations | integrator | margin mm | condim | cone | noslip | worst pen. mm | worst jitter N | spline inserted | tunnels |"
+    tune_header(
+        &mut s,
+        &[
+            "stage",
+            "substeps",
+            "solref s, ratio",
+            "solimp",
+            "multiccd",
+            "solver",
+            "iterations",
+            "integrator",
+            "margin mm",
+            "condim",
+            "cone",
+            "noslip",
+            "worst pen. mm",
+            "worst jitter N",
+            "spline inserted",
+            "tunnels",
+        ],
+        rows.first().map(|r| r.rows.as_slice()).unwrap_or_default(),
     );
-    for c in &cases {
-        let _ = write!(s, " {c}: pen. mm / step µs p50 |");
-    }
-    let _ = writeln!(s);
-    let _ = writeln!(s, "|{}", "---|".repeat(16 + cases.len()));
     for r in sorted {
         let o = &r.options;
         let _ = write!(
@@ -1085,19 +1109,23 @@ pub fn tune_markdown(rows: &[TuneRow]) -> String {
             .unwrap_or(std::cmp::Ordering::Equal)
     });
     let mut s = String::new();
-    let cases: Vec<&str> = rows
-        .first()
-        .map(|r| r.rows.iter().map(|c| c.case.as_str()).collect())
-        .unwrap_or_default();
-    let _ = write!(
-        s,
-        "| stage | mass kg | ζ | length unit | contact Hz | iterations | CCD | worst pen. mm | worst jitter N | spline inserted | tunnels |"
+    tune_header(
+        &mut s,
+        &[
+            "stage",
+            "mass kg",
+            "ζ",
+            "length unit",
+            "contact Hz",
+            "iterations",
+            "CCD",
+            "worst pen. mm",
+            "worst jitter N",
+            "spline inserted",
+            "tunnels",
+        ],
+        rows.first().map(|r| r.rows.as_slice()).unwrap_or_default(),
     );
-    for c in &cases {
-        let _ = write!(s, " {c}: pen. mm / step µs p50 |");
-    }
-    let _ = writeln!(s);
-    let _ = writeln!(s, "|{}", "---|".repeat(11 + cases.len()));
     for r in sorted {
         let _ = write!(
             s,
