@@ -213,6 +213,7 @@ impl H6dConfig {
             helper_thread: EngineConfig::default().helper_thread,
             face_caps: EngineConfig::default().face_caps,
             heuristics: EngineConfig::default().heuristics,
+            tuning: EngineConfig::default().tuning,
             geometry: EngineConfig::default().geometry,
             safety: SafetyParams {
                 max_force_n: self.max_force_n,

@@ -32,6 +32,10 @@
 //!    force, degraded frames, frame times, mesh-level penetration, per geometry mode
 //!    ([`crate::bench_fit`]; four rows with `--quick`; also written to `DIR/fit.md`).
 //!
+//! **Tuning** (`--studies tuning`, not in the default set): each of the frame step's tuned
+//! values halved and doubled over the built-ins and the zoo ([`crate::bench_tuning`];
+//! `--tuning-values` chooses some; `DIR/tuning.md`).
+//!
 //! **PQP scaling** (`--studies pqp-scaling`, not in the default set): the paper's PQP serial,
 //! vectorized and on two threads against the active sets on QPs of real frames and generated
 //! ones of 50 … 20 000 rows ([`crate::bench_pqp`]; `DIR/pqp_scaling.md`).
@@ -102,7 +106,8 @@ pub struct BenchArgs {
     pub no_scaling: bool,
     /// Studies to run (comma-separated): replay, scaling, speed, contact, friction, peer, zoo,
     /// pqp-scaling (not by default: the serial, vectorized and threaded PQP on 50 to 20 000
-    /// rows, minutes),
+    /// rows, minutes), tuning (not by default: each tuned value of the step halved and doubled
+    /// over the built-ins and the zoo, about an hour),
     /// ablation, fit (with --quick, a reduced zoo of four scenes and four fit rows).
     #[arg(
         long,
@@ -110,6 +115,14 @@ pub struct BenchArgs {
         default_value = "replay,scaling,speed,contact,friction,peer,zoo,ablation,fit"
     )]
     pub studies: Vec<String>,
+    /// The tuned values the tuning study scales (comma-separated names of `engine::Tuning`,
+    /// e.g. `pair-target,list-payoff`); all when not given.
+    #[arg(long, value_delimiter = ',')]
+    pub tuning_values: Vec<String>,
+    /// Values the tuning study starts from instead of the shipped ones (comma-separated
+    /// `name=value`, e.g. `near-ahead-share=0.3`), to compare a candidate with its neighbours.
+    #[arg(long, value_delimiter = ',', value_name = "NAME=VALUE")]
+    pub tuning_base: Vec<String>,
     /// What the tool touches in the zoo and fit studies (comma-separated): spheres (the
     /// trees' leaf spheres, the default), mesh (the parts' own triangles), or both; each scene
     /// is replayed once per mode, every row naming its mode.
@@ -198,10 +211,11 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
             "ablation",
             "fit",
             "pqp-scaling",
+            "tuning",
         ]
         .contains(&study.as_str())
         {
-            crate::usage_bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact, friction, peer, zoo, ablation, fit, pqp-scaling)");
+            crate::usage_bail!("--studies: no study `{study}` (studies: replay, scaling, speed, contact, friction, peer, zoo, ablation, fit, pqp-scaling, tuning)");
         }
     }
     let mut geometries = Vec::new();
@@ -418,6 +432,40 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
             crate::bench_ablation::ablation_markdown(&report.ablation)
         );
         scene::io::write_atomic(&args.out.join("ablation.md"), md.as_bytes())?;
+    }
+    if wants("tuning") {
+        for name in &args.tuning_values {
+            if !engine::Tuning::NAMES.contains(&name.as_str()) {
+                crate::usage_bail!(
+                    "--tuning-values: no tuned value `{name}` (values: {})",
+                    engine::Tuning::NAMES.join(", ")
+                );
+            }
+        }
+        let mut base = engine::Tuning::DEFAULT;
+        for pair in &args.tuning_base {
+            let parsed = pair
+                .split_once('=')
+                .and_then(|(name, v)| Some((name, v.trim().parse::<f64>().ok()?)));
+            let Some(next) = parsed.and_then(|(name, v)| base.with(name.trim(), v)) else {
+                crate::usage_bail!(
+                    "--tuning-base: `{pair}` is not NAME=NUMBER with NAME one of {}",
+                    engine::Tuning::NAMES.join(", ")
+                );
+            };
+            next.validate().context("--tuning-base")?;
+            base = next;
+        }
+        eprintln!("bench: tuning study (each tuned value of the step halved and doubled)");
+        report.tuning =
+            crate::bench_tuning::tuning_study(&cache, args.quick, base, &args.tuning_values)?;
+        let md = format!(
+            "# haptic6d bench: the step's tuned values ({}), {}\n\n{}",
+            report.mode,
+            report.machine,
+            crate::bench_tuning::tuning_markdown(&report.tuning)
+        );
+        scene::io::write_atomic(&args.out.join("tuning.md"), md.as_bytes())?;
     }
     if wants("fit") {
         eprintln!("bench: fit study (pegs into holes at 0.5-0.02 mm clearance, shipped settings)");
@@ -804,6 +852,10 @@ pub fn markdown(r: &BenchReport) -> String {
     if !r.zoo.is_empty() {
         let _ = writeln!(s, "\n## Scene zoo (dual, shipped settings)\n");
         s.push_str(&crate::bench_zoo::zoo_markdown(&r.zoo));
+    }
+    if !r.tuning.shipped.is_empty() {
+        let _ = writeln!(s, "\n## The step's tuned values, halved and doubled\n");
+        s.push_str(&crate::bench_tuning::tuning_markdown(&r.tuning));
     }
     if !r.ablation.is_empty() {
         let _ = writeln!(s, "\n## Heuristics ablation (dual, shipped settings)\n");

@@ -55,6 +55,8 @@ pub struct AblationRow {
     pub degraded: usize,
     /// Geometric mean over the scenes of p99 / the shipped step's p99.
     pub p99_ratio: f64,
+    /// Geometric mean over the scenes of the mean frame time / the shipped step's.
+    pub mean_ratio: f64,
     /// The largest p99 (µs) and its scene.
     pub worst_p99_us: f64,
     pub worst_scene: String,
@@ -126,7 +128,7 @@ pub fn ablation_study(cache: &TreeCache, quick: bool) -> Result<Vec<AblationRow>
     Ok(rows)
 }
 
-fn scene_result(
+pub(crate) fn scene_result(
     name: &str,
     times: &[f64],
     frames: &[FrameOutput],
@@ -145,18 +147,21 @@ fn scene_result(
     }
 }
 
-fn summarize(
+pub(crate) fn summarize(
     config: String,
     scenes: Vec<AblationScene>,
     shipped: Option<&AblationRow>,
 ) -> AblationRow {
     let base = shipped.map_or(&scenes, |r| &r.scenes);
     let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 1.0 };
-    let log_sum: f64 = scenes
-        .iter()
-        .zip(base)
-        .map(|(s, b)| ratio(s.total_us.p99, b.total_us.p99).max(1e-9).ln())
-        .sum();
+    let geo_mean = |f: fn(&AblationScene) -> f64| {
+        let log_sum: f64 = scenes
+            .iter()
+            .zip(base)
+            .map(|(s, b)| ratio(f(s), f(b)).max(1e-9).ln())
+            .sum();
+        (log_sum / scenes.len().max(1) as f64).exp()
+    };
     let worst = scenes
         .iter()
         .max_by(|a, b| a.total_us.p99.total_cmp(&b.total_us.p99));
@@ -167,7 +172,8 @@ fn summarize(
         config,
         over_1ms: scenes.iter().map(|s| s.over_1ms).sum(),
         degraded: scenes.iter().map(|s| s.degraded).sum(),
-        p99_ratio: (log_sum / scenes.len().max(1) as f64).exp(),
+        p99_ratio: geo_mean(|s| s.total_us.p99),
+        mean_ratio: geo_mean(|s| s.total_us.mean),
         worst_p99_us: worst.map_or(0.0, |w| w.total_us.p99),
         worst_scene: worst.map_or_else(String::new, |w| w.scene.clone()),
         splits_ratio: ratio(total(&scenes, |s| s.splits), total(base, |s| s.splits)),

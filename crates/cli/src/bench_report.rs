@@ -119,6 +119,8 @@ pub struct BenchReport {
     pub zoo: Vec<crate::bench_zoo::ZooRow>,
     /// The frame step's heuristics off one at a time, over the built-ins and the zoo.
     pub ablation: Vec<crate::bench_ablation::AblationRow>,
+    /// The tuning study (`--studies tuning`).
+    pub tuning: crate::bench_tuning::TuningStudy,
     /// The PQP scaling study: serial, vectorized and threaded PQP against the active sets.
     pub pqp_scaling: Vec<crate::bench_pqp::PqpScalingRow>,
     /// Pegs lowered into holes by clearance, per case and geometry mode.

@@ -15,6 +15,7 @@ mod bench_plot;
 mod bench_pqp;
 mod bench_report;
 mod bench_speed;
+mod bench_tuning;
 mod bench_zoo;
 mod plot;
 mod progress;

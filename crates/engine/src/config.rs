@@ -305,6 +305,7 @@ impl EngineConfig {
         MAX_MARGIN_MM.check(self.max_margin_mm)?;
         BUDGET_US.check(self.budget_us)?;
         MAX_PAIRS.check(self.max_pairs as u64)?;
+        self.tuning.validate()?;
         self.safety.validate()
     }
 }

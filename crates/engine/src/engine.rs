@@ -5,7 +5,9 @@ use qp::SolverKind;
 use spheretree::SphereTree;
 
 use crate::safety::{Safety, SafetyEvents, SafetyParams};
-use crate::step::{FrameOutput, FrameStatus, Friction, FrictionState, GodObject, Heuristics};
+use crate::step::{
+    FrameOutput, FrameStatus, Friction, FrictionState, GodObject, Heuristics, Tuning,
+};
 use crate::{EngineError, Geometry, MeshRef};
 
 /// Every setting of the engine, checked once by [`Engine::new`] against the ranges in
@@ -67,6 +69,9 @@ pub struct EngineConfig {
     /// The frame step's heuristics, each switchable ([`Heuristics`]; all on by default). For
     /// measuring and testing the step: not a scene-file setting.
     pub heuristics: Heuristics,
+    /// The frame step's tuned values ([`Tuning`]; measured across the scene zoo). For
+    /// measuring and testing the step: not a scene-file setting.
+    pub tuning: Tuning,
 }
 
 impl Default for EngineConfig {
@@ -89,6 +94,7 @@ impl Default for EngineConfig {
             safety: SafetyParams::default(),
             geometry: Geometry::Spheres,
             heuristics: Heuristics::ALL,
+            tuning: Tuning::DEFAULT,
         }
     }
 }

@@ -63,7 +63,7 @@ pub use collide::{ConstraintForm, LeafPair, Pose, RotationCoordinates};
 pub use engine::{Counters, Engine, EngineConfig, Frame};
 pub use geometry::{Geometry, MeshRef};
 pub use qp::SolverKind;
-pub use step::{FrameStatus, Friction, FrictionState, Heuristics};
+pub use step::{FrameStatus, Friction, FrictionState, Heuristics, Tuning};
 
 /// Errors of the engine. Each message says what to fix; the cause is kept as the source.
 #[derive(Debug, thiserror::Error)]

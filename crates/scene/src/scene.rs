@@ -181,6 +181,10 @@ pub struct SolverSpec {
     /// ablation study and the tests, not a key of the scene file.
     #[serde(skip)]
     pub heuristics: engine::Heuristics,
+    /// The frame step's tuned values ([`engine::Tuning`], the shipped ones): for the bench's
+    /// tuning study and the tests, not a key of the scene file.
+    #[serde(skip)]
+    pub tuning: engine::Tuning,
 }
 
 impl Default for SolverSpec {
@@ -198,6 +202,7 @@ impl Default for SolverSpec {
             face_caps: false,
             geometry: engine::Geometry::Spheres,
             heuristics: engine::Heuristics::ALL,
+            tuning: engine::Tuning::DEFAULT,
         }
     }
 }
@@ -560,6 +565,7 @@ impl Scene {
             face_caps: self.solver.face_caps,
             geometry: self.solver.geometry,
             heuristics: self.solver.heuristics,
+            tuning: self.solver.tuning,
             safety: self.safety,
             ..EngineConfig::default()
         }

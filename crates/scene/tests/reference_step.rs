@@ -18,7 +18,7 @@
 mod common;
 
 use collide::{rotation_log, Pose};
-use engine::{FrameStatus, Geometry, Heuristics};
+use engine::{FrameStatus, Geometry, Heuristics, Tuning};
 
 /// How far apart (mm, largest tool-sphere motion) two answers count as the same: a few times
 /// the convergence tolerance (0.005 mm of open rows) plus the penetration tolerance.
@@ -73,15 +73,22 @@ fn energy(w: &[f64; 6], kt: f64, kr: f64) -> f64 {
     (0..3).map(|i| w[i] * w[i] / kt).sum::<f64>() + (3..6).map(|i| w[i] * w[i] / kr).sum::<f64>()
 }
 
-/// Replays `name` in `geometry` with `heuristics`, comparing every `stride`-th frame with the
-/// reference.
-fn compare(name: &str, geometry: Geometry, heuristics: Heuristics, stride: usize) -> Agreement {
+/// Replays `name` in `geometry` with `heuristics` and `tuning`, comparing every `stride`-th
+/// frame with the reference.
+fn compare(
+    name: &str,
+    geometry: Geometry,
+    heuristics: Heuristics,
+    tuning: Tuning,
+    stride: usize,
+) -> Agreement {
     let cache = common::test_cache();
     let mut s = scene::scenes::builtin(name, &cache).unwrap();
     s.solver.budget_us = engine::config::BUDGET_US.hi;
     s.solver.geometry = geometry;
     assert_eq!(s.geometry(), geometry, "{name}");
     s.solver.heuristics = heuristics;
+    s.solver.tuning = tuning;
     let (tol, kt, kr) = (s.solver.penetration_tol_mm, s.coupling.kt, s.coupling.kr);
     let traj = s.trajectory();
     let mut shipped = s.god_object().unwrap();
@@ -143,8 +150,19 @@ fn check(scenes: &[&str], heuristics: Heuristics, stride: usize) {
 
 /// Checks every scene of `scenes` in `geometry` with `heuristics`.
 fn check_in(scenes: &[&str], geometry: Geometry, heuristics: Heuristics, stride: usize) {
+    check_tuned(scenes, geometry, heuristics, Tuning::DEFAULT, stride);
+}
+
+/// Checks every scene of `scenes` in `geometry` with `heuristics` and `tuning`.
+fn check_tuned(
+    scenes: &[&str],
+    geometry: Geometry,
+    heuristics: Heuristics,
+    tuning: Tuning,
+    stride: usize,
+) {
     for name in scenes {
-        let a = compare(name, geometry, heuristics, stride);
+        let a = compare(name, geometry, heuristics, tuning, stride);
         eprintln!("{name}: {a:?}");
         if geometry == Geometry::Mesh {
             assert!(
@@ -220,6 +238,28 @@ fn in_the_mesh_mode_the_shipped_step_and_each_mesh_switch_off_answer_as_the_refe
         (without("mesh-far-rows"), 8),
     ] {
         check_in(MESH_SCENES, Geometry::Mesh, heuristics, stride);
+    }
+}
+
+/// Every tuned value scaled by `factor` at once.
+fn all_scaled(factor: f64) -> Tuning {
+    let mut t = Tuning::DEFAULT;
+    for name in Tuning::NAMES {
+        t = t.with(name, factor * t.get(name).unwrap()).unwrap();
+    }
+    t.validate().unwrap();
+    t
+}
+
+/// The tuned values set how much work a frame does, not what it answers: every one halved,
+/// or every one doubled, the step still answers as the reference on both geometries.
+#[test]
+fn every_tuned_value_halved_or_doubled_stays_exact_and_safe() {
+    for factor in [0.5, 2.0] {
+        let tuning = all_scaled(factor);
+        assert_ne!(tuning, Tuning::DEFAULT);
+        check_tuned(SCENES, Geometry::Spheres, Heuristics::ALL, tuning, 4);
+        check_tuned(MESH_SCENES, Geometry::Mesh, Heuristics::ALL, tuning, 8);
     }
 }
 

@@ -1,6 +1,6 @@
 //! How a region's leaf-pair count grows with its margin near the tool, as last seen: sizes the
-//! next region so that it holds about its target count ([`BALL_PAIR_TARGET`](super::BALL_PAIR_TARGET)
-//! pairs for a ball region, [`PAIR_TARGET`](super::PAIR_TARGET) for a path or a probe).
+//! next region so that it holds about its target count ([`Tuning::ball_pair_target`]
+//! pairs for a ball region, [`Tuning::pair_target`] for a path or a probe).
 //!
 //! Over a curved or sparse contact the count grows about linearly with the margin; over two
 //! bumpy flat faces pressed together, or a shaft's keys landing in its hub's grooves, it grows

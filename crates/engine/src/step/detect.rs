@@ -182,7 +182,7 @@ impl GodObject {
 
     /// Where this frame's answer is expected, as a motion from `q_lin`: the hand keeps last
     /// frame's offset from the graphic tool (`hand_offset`), so the tool moves as the hand
-    /// did. `None` when that motion is shorter than [`MIN_SWEEP_MM`]; scaled down to `cap` mm.
+    /// did. `None` when that motion is shorter than [`Tuning::min_sweep_mm`]; scaled down to `cap` mm.
     /// Returns the sweep and its largest sphere motion (mm).
     pub(super) fn predicted_sweep(
         &self,
@@ -201,11 +201,13 @@ impl GodObject {
             )
         };
         let length = v.norm() + w.norm() * self.bodies.reach;
-        if length.is_nan() || length < MIN_SWEEP_MM {
+        if length.is_nan() || length < self.params.tuning.min_sweep_mm {
             return None;
         }
-        // At least PATH_MIN_MM long, so a slow hand's next frames reuse the region.
-        let scale = (PATH_MIN_MM / length).max(1.0).min(cap / length);
+        // At least `Tuning::path_min_mm` long, so a slow hand's next frames reuse the region.
+        let scale = (self.params.tuning.path_min_mm / length)
+            .max(1.0)
+            .min(cap / length);
         let sweep = Sweep {
             translation: (v * scale).into(),
             rotation: (w * scale).into(),
@@ -260,8 +262,8 @@ impl GodObject {
     /// The widths of a slab region (mm: across the face, along it) for a tool held by one
     /// flat face (`run.regions.contact_face`), or `None` where a ball serves as well: the
     /// slide along the face as a ball region would take it (`need`, `allow`, `cap`), at least
-    /// [`SLAB_SLIDE_MM`]; across it 1.5 times last frame's motion across plus
-    /// [`SLAB_ACROSS_MIN_MM`], within the pair density's allowance `dense_cap` (the face's
+    /// [`Tuning::slab_slide_mm`]; across it 1.5 times last frame's motion across plus
+    /// [`Tuning::slab_across_min_mm`], within the pair density's allowance `dense_cap` (the face's
     /// pairs grow with this margin, not the slide's). Only where the face's margin is at most
     /// half the slide's, and not while slabs rest after a failure ([`SLAB_REST_FRAMES`]).
     pub(super) fn slab_widths(
@@ -278,16 +280,21 @@ impl GodObject {
         let step = Vector3::from(self.run.motion.last_step);
         let turn = Vector3::from(self.run.motion.last_turn);
         let across = n.dot(&step).abs() + n.cross(&turn).norm() * self.bodies.reach;
-        let slide = need.min(allow.max(SLAB_SLIDE_MM)).min(cap);
-        let face = (1.5 * across + SLAB_ACROSS_MIN_MM)
-            .min(dense_cap.max(SLAB_ACROSS_MIN_MM))
+        let slide = need
+            .min(allow.max(self.params.tuning.slab_slide_mm))
+            .min(cap);
+        let face = (1.5 * across + self.params.tuning.slab_across_min_mm)
+            .min(dense_cap.max(self.params.tuning.slab_across_min_mm))
             .min(slide);
         (face <= 0.5 * slide).then_some((n, face, slide))
     }
 
     /// Width (mm) of a path region: twice the recent prediction error, within bounds.
     pub(super) fn path_width(&self) -> f64 {
-        (2.0 * self.run.motion.prediction_error).clamp(PATH_WIDTH_MIN_MM, PATH_WIDTH_MAX_MM)
+        (2.0 * self.run.motion.prediction_error).clamp(
+            self.params.tuning.path_width_min_mm,
+            self.params.tuning.path_width_max_mm,
+        )
     }
 
     /// Where the graphic tool is expected for the device pose `q_h`: at last frame's offset
@@ -523,9 +530,9 @@ impl GodObject {
 
     /// Keeps the free-space proofs ahead of the tool without a long traversal in any one frame,
     /// for a frame that needs `used` mm at `q`. When the proofs cover fewer frames ahead (at
-    /// the tool's last motion per frame) than the next probe needs at [`PROBE_SLICE_SPLITS`]
+    /// the tool's last motion per frame) than the next probe needs at [`Tuning::probe_slice_splits`]
     /// per frame, a probe starts where the tool will be when they run out, plus
-    /// [`PROBE_AHEAD`] of a proof's usable radius; each frame runs one slice of it, sized to
+    /// [`Tuning::probe_ahead`] of a proof's usable radius; each frame runs one slice of it, sized to
     /// finish in time. A finished free probe replaces the proof that runs out first.
     pub(super) fn tend_probe(&mut self, q: &Pose, used: f64, deadline: Instant) {
         if !self.params.heuristics.probes() {
@@ -551,7 +558,7 @@ impl GodObject {
                 let (_, pose, radius) = self.ahead.probe.take();
                 self.add_free_proof(pose, path, radius, q, used);
                 self.run.proofs.probe_margin =
-                    (PROBE_MARGIN_GROWTH * radius).min(BACKGROUND_PROBE_MM);
+                    (PROBE_MARGIN_GROWTH * radius).min(self.params.tuning.background_probe_mm);
             }
             ProbeStatus::Touching => {
                 // Something lies within the margin asked: the next probe asks for less.
@@ -630,17 +637,22 @@ impl GodObject {
         // it runs out is cheaper than probing ahead; not where a neighbour list
         // renewed the proofs (the tight gap it was built in costs a long traversal
         // once it runs out).
-        let worth_it = self.run.proofs.probe_splits > PROBE_SLICE_SPLITS || list_frames > 0.0;
+        let worth_it = self.run.proofs.probe_splits > self.params.tuning.probe_slice_splits
+            || list_frames > 0.0;
         let (estimate, pace, ahead) = if sliding {
             (
                 self.path_probe_estimate(),
                 PATH_PROBE_SLICE_SPLITS,
-                PATH_PROBE_LEAD,
+                self.params.tuning.path_probe_lead,
             )
         } else {
-            (self.run.proofs.probe_splits as f64, PROBE_SLICE_SPLITS, 1.5)
+            (
+                self.run.proofs.probe_splits as f64,
+                self.params.tuning.probe_slice_splits,
+                1.5,
+            )
         };
-        let lead = (ahead * estimate / pace as f64 + 2.0).max(PROBE_LEAD_FRAMES);
+        let lead = (ahead * estimate / pace as f64 + 2.0).max(self.params.tuning.probe_lead_frames);
         let margin = self.run.proofs.probe_margin;
         let lasts = margin - used >= PROBE_MIN_USABLE_FRAMES * speed;
         // A tool at rest in free space has time to spare: a wider proof about it,
@@ -655,8 +667,8 @@ impl GodObject {
             if sliding {
                 // The probe goes along the tool's way from where the proofs run out
                 // (a frame early), for many frames of the same motion.
-                let length =
-                    (PATH_PROBE_FRAMES * step.norm()).clamp(PATH_PROBE_MIN_MM, PATH_PROBE_MAX_MM);
+                let length = (self.params.tuning.path_probe_frames * step.norm())
+                    .clamp(PATH_PROBE_MIN_MM, PATH_PROBE_MAX_MM);
                 let mut from = *q;
                 for k in 0..3 {
                     from.q[k] += (horizon - 1.0).max(0.0) * step[k];
@@ -671,7 +683,7 @@ impl GodObject {
                 // proof's ball is centred past the point where the current ones run
                 // out, so that it takes over a little before and lasts well after.
                 let usable = (margin - used).max(0.0);
-                let ahead_frames = horizon + PROBE_AHEAD * usable / speed;
+                let ahead_frames = horizon + self.params.tuning.probe_ahead * usable / speed;
                 let ahead = self.pose_ahead(q, ahead_frames);
                 let _ = self.ahead.probe.start(&self.bodies.tool, &ahead, margin);
             }
@@ -704,10 +716,11 @@ impl GodObject {
             self.run.lists.list_yield =
                 (self.run.lists.list_yield * LIST_YIELD_RECOVERY).min(LIST_FIRST_YIELD);
         }
-        let pays = self.run.lists.splits_per_region >= LIST_MIN_REGION_SPLITS
+        let pays = self.run.lists.splits_per_region >= self.params.tuning.list_min_region_splits
             && (self.detector.team.is_some()
                 || self.run.lists.idle_given
-                || (costs <= LIST_PAYOFF * spared && self.run.lists.list_yield >= LIST_MIN_YIELD));
+                || (costs <= self.params.tuning.list_payoff * spared
+                    && self.run.lists.list_yield >= self.params.tuning.list_min_yield));
         // A list holds leaf pairs without the faces' merging and pruning: with face caps its
         // build costs the whole-sphere traversal the faces spare, so none is kept (measured on
         // the spline with caps: p99 579 µs without lists, 727 µs with).
@@ -736,7 +749,7 @@ impl GodObject {
         let pace = if self.detector.team.is_some() {
             LIST_HELPER_WORK_PER_FRAME
         } else {
-            PROBE_SLICE_SPLITS
+            self.params.tuning.probe_slice_splits
         };
         if self.ahead.next_neighbours.status() == ListStatus::Building && Instant::now() < deadline
         {
@@ -813,8 +826,9 @@ impl GodObject {
             let n = self.ahead.neighbours.len().max(1) as f64;
             let (_, built) = self.ahead.neighbours.question();
             // Pairs grow about as the margin cubed over a bumpy flat contact.
-            self.run.lists.list_margin =
-                (built * (LIST_TARGET_PAIRS / n).cbrt()).clamp(LIST_MIN_MM, LIST_MAX_MM);
+            self.run.lists.list_margin = (built
+                * (self.params.tuning.list_target_pairs / n).cbrt())
+            .clamp(LIST_MIN_MM, LIST_MAX_MM);
         }
     }
 
@@ -873,17 +887,17 @@ impl GodObject {
 
     /// The near part of the tool ([`Lever`]) at `q` for a ball region of margin `margin` (mm),
     /// or `None` where it is most of the tool (then the whole tool's bound serves). The box is
-    /// found [`LEVER_SPARE_MM`] wider than needed and kept while the tool stays within that of
+    /// found [`Tuning::lever_spare_mm`] wider than needed and kept while the tool stays within that of
     /// where it was found: a leaf outside it, farther than `M` from the objects there, is
     /// farther than `M - b` at a pose the motion bound `b` away.
     pub(super) fn lever_at(&mut self, q: &Pose, margin: f64) -> Option<Lever> {
-        let need = margin + LEVER_MARGIN_MM;
+        let need = margin + self.params.tuning.lever_margin_mm;
         if let Some((at, found, lever)) = self.run.regions.lever_cache {
             if found - self.motion_bound(&at, q) >= need {
                 return lever;
             }
         }
-        let found = need + LEVER_SPARE_MM;
+        let found = need + self.params.tuning.lever_spare_mm;
         let lever = collide::near_box(
             &self.bodies.tool,
             q,
@@ -908,14 +922,14 @@ impl GodObject {
 
     /// How far (mm) the pose `q` is from the ball region `region` with the near part `lever`:
     /// the near leaves' motion bound (translation plus the turn times their arm about its
-    /// axis), or the whole tool's less [`LEVER_MARGIN_MM`] where that is larger (every other
+    /// axis), or the whole tool's less [`Tuning::lever_margin_mm`] where that is larger (every other
     /// leaf was that much farther from the objects at the centre).
     pub(super) fn lever_bound(&self, lever: &Lever, region: &Region, q: &Pose) -> f64 {
         let (r_a, r_b) = (region.center.rotation_matrix(), q.rotation_matrix());
         let dt = (q.translation() - region.center.translation()).norm();
         let near = lever.near.turn_bound(&r_a, &r_b);
         let all = dt + self.turn_bound(&r_a, &r_b);
-        (dt + near).max(all - LEVER_MARGIN_MM)
+        (dt + near).max(all - self.params.tuning.lever_margin_mm)
     }
 
     /// The motion bound (mm) of any tool leaf centre between `a` and `b`: the translation
@@ -1070,7 +1084,7 @@ pub(super) mod tests {
             EngineConfig::default(),
         )
         .unwrap();
-        g.run.proofs.probe_splits = 10 * PROBE_SLICE_SPLITS;
+        g.run.proofs.probe_splits = 10 * Tuning::DEFAULT.probe_slice_splits;
         g
     }
 
@@ -1115,7 +1129,7 @@ pub(super) mod tests {
         assert_eq!(g.region_counts(), (2, 1));
     }
 
-    /// A neighbour list that answered less than [`LIST_MIN_YIELD`] times its build's work
+    /// A neighbour list that answered less than [`Tuning::list_min_yield`] times its build's work
     /// brings the yield below it when the next list replaces it (no list is then built on the
     /// frame's own thread); frames with no list building let the yield recover, up to the
     /// first list's, and a list that answered well brings it back at once.
@@ -1155,7 +1169,7 @@ pub(super) mod tests {
         // 1 region: 0.125.
         let y = replace_after(&mut g, 1);
         assert!((y - 0.5625).abs() < 1e-12, "{y}");
-        assert!(g.run.lists.list_yield < LIST_MIN_YIELD);
+        assert!(g.run.lists.list_yield < Tuning::DEFAULT.list_min_yield);
         assert_eq!(g.run.lists.list_served, 0);
         // Frames with no list building (free space here: no pair) recover it, 2 % a frame:
         // past the floor after ln(2 / 0.5625) / ln(1.02) = 64.1 frames, capped at the first.
@@ -1166,13 +1180,13 @@ pub(super) mod tests {
             g.tend_neighbours(&q, 0.05, deadline);
         }
         assert!(
-            g.run.lists.list_yield < LIST_MIN_YIELD,
+            g.run.lists.list_yield < Tuning::DEFAULT.list_min_yield,
             "{}",
             g.run.lists.list_yield
         );
         g.tend_neighbours(&q, 0.05, deadline);
         assert!(
-            g.run.lists.list_yield >= LIST_MIN_YIELD,
+            g.run.lists.list_yield >= Tuning::DEFAULT.list_min_yield,
             "{}",
             g.run.lists.list_yield
         );
@@ -1241,7 +1255,7 @@ pub(super) mod tests {
             proven < 0.2 && proven > used,
             "{proven} (margins {margins:?})"
         );
-        assert_eq!(margins[0], BACKGROUND_PROBE_MM);
+        assert_eq!(margins[0], Tuning::DEFAULT.background_probe_mm);
         assert!(margins.len() >= 3, "{margins:?}");
     }
 

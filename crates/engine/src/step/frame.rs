@@ -22,7 +22,7 @@ pub(super) enum Flow {
 pub(super) struct FrameClock {
     /// When the frame started.
     pub(super) start: Instant,
-    /// No traversal runs past this ([`DETECT_RESERVE`] of the budget is kept for the last
+    /// No traversal runs past this ([`Tuning::detect_reserve`] of the budget is kept for the last
     /// pass's rows, solve and check).
     pub(super) deadline: Instant,
     /// When the current pass started.
@@ -35,8 +35,8 @@ pub(super) struct FrameClock {
 }
 
 impl FrameClock {
-    fn new(start: Instant, budget_us: f64) -> Self {
-        let reserve = Duration::from_secs_f64((1.0 - DETECT_RESERVE) * budget_us.max(0.0) * 1e-6);
+    fn new(start: Instant, budget_us: f64, detect_reserve: f64) -> Self {
+        let reserve = Duration::from_secs_f64((1.0 - detect_reserve) * budget_us.max(0.0) * 1e-6);
         Self {
             start,
             deadline: start + reserve,
@@ -47,11 +47,11 @@ impl FrameClock {
         }
     }
 
-    /// Whether another pass fits in `budget_us`: the time so far plus [`PASS_HEADROOM`] times
+    /// Whether another pass fits in `budget_us`: the time so far plus [`Tuning::pass_headroom`] times
     /// the longest pass (a new region's traversal may cost more than any pass so far; the
     /// deadline stops one that overruns).
-    pub(super) fn room_for_pass(&self, budget_us: f64) -> bool {
-        self.elapsed_us() + PASS_HEADROOM * self.longest_pass_us <= budget_us
+    pub(super) fn room_for_pass(&self, budget_us: f64, pass_headroom: f64) -> bool {
+        self.elapsed_us() + pass_headroom * self.longest_pass_us <= budget_us
     }
 
     /// Time since the frame started, µs.
@@ -118,7 +118,7 @@ pub(super) struct Course {
     /// such path (a turning tool's path is measured at the whole tool's reach, a ball's turn
     /// at its near part's).
     pub(super) min_path_len: f64,
-    /// Where the last pass started, when it crept (its answer within [`CREEP_SHARE`] of its
+    /// Where the last pass started, when it crept (its answer within [`Tuning::creep_share`] of its
     /// region's width).
     pub(super) crept_from: Option<Pose>,
 }
@@ -161,7 +161,7 @@ impl GodObject {
             cap,
             tol: p.penetration_tol_mm,
             max_passes,
-            clock: FrameClock::new(start, p.budget_us),
+            clock: FrameClock::new(start, p.budget_us, p.tuning.detect_reserve),
             progress: Progress {
                 q_safe: q_g,
                 pen_safe: 0.0,
@@ -182,7 +182,7 @@ impl GodObject {
                 allow: if max_passes == 1 {
                     cap
                 } else {
-                    (1.5 * self.run.motion.last_motion + MIN_ALLOW_MM).min(cap)
+                    (1.5 * self.run.motion.last_motion + self.params.tuning.min_allow_mm).min(cap)
                 },
                 path_regions: p.relinearize > 0
                     && p.rotation == RotationCoordinates::RotationVector,
@@ -198,11 +198,11 @@ impl GodObject {
     /// Reuse: last frame's region, while the tool is well inside it (no traversal in the first
     /// pass). Its trust region keeps the answer inside; one that binds starts a new region (a
     /// wrong guess costs a small solve, not a traversal). A large list costs more to solve
-    /// again than a small region to detect ([`REUSE_MAX_PAIRS`]).
+    /// again than a small region to detect ([`Tuning::reuse_max_pairs`]).
     pub(super) fn reuse_region(&mut self, f: &mut FrameWork, out: &mut FrameOutput) {
         let reusable = self.params.heuristics.region_reuse
             && f.course.path_regions
-            && self.detector.pairs.len() <= REUSE_MAX_PAIRS;
+            && self.detector.pairs.len() <= self.params.tuning.reuse_max_pairs;
         let Some((cached, trust)) = self.run.regions.cached.filter(|_| reusable) else {
             return;
         };
@@ -377,7 +377,9 @@ impl GodObject {
             // reused from an earlier frame was sized for that frame's motion: this frame's
             // allowance instead).
             if !c.reused {
-                c.allow = (2.0 * region.extent()).max(MIN_ALLOW_MM).min(f.cap);
+                c.allow = (2.0 * region.extent())
+                    .max(self.params.tuning.min_allow_mm)
+                    .min(f.cap);
             }
             c.reused_bound = c.reused;
             if region.sweep.is_some() {
@@ -387,7 +389,7 @@ impl GodObject {
             c.detect_now = true;
         }
         // Penetrating or undershooting: re-linearise at q_new (same pairs).
-        c.crept_from = (moved < CREEP_SHARE * region.width).then_some(q_lin);
+        c.crept_from = (moved < self.params.tuning.creep_share * region.width).then_some(q_lin);
         c.q_lin = q_new;
         Flow::Go
     }
@@ -457,11 +459,11 @@ impl GodObject {
             rotation_log(&(goal.rotation_matrix() * q_safe.rotation_matrix().transpose())),
         );
         // In contact, the next frames' regions come from a neighbour list kept ahead.
-        let used = out.margin_mm.max(MIN_ALLOW_MM + f.skin);
+        let used = out.margin_mm.max(self.params.tuning.min_allow_mm + f.skin);
         self.tend_neighbours(&q_safe, used, f.clock.deadline);
         self.tend_near(
             &q_safe,
-            NEAR_AHEAD_SHARE * self.params.budget_us,
+            self.params.tuning.near_ahead_share * self.params.budget_us,
             f.clock.deadline,
         );
         self.run.lists.idle_given = false;

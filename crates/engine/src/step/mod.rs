@@ -79,6 +79,7 @@ use frame::Flow;
 pub use friction::{Friction, FrictionState};
 pub use heuristics::Heuristics;
 pub use solve::ReductionAudit;
+pub use tuning::Tuning;
 
 use measure::rotation_angle;
 pub use measure::spring_wrench;
@@ -204,9 +205,9 @@ struct Region {
 }
 
 /// The part of the tool near the objects at a ball region's centre: the box (tool frame, mm)
-/// of every leaf centre within `width + skin + LEVER_MARGIN_MM` of an object
+/// of every leaf centre within `width + skin +` [`Tuning::lever_margin_mm`] of an object
 /// ([`collide::near_box`]). A pose is in the region while those leaves move at most
-/// `width + skin` and every other leaf at most that plus [`LEVER_MARGIN_MM`]
+/// `width + skin` and every other leaf at most that plus [`Tuning::lever_margin_mm`]
 /// ([`GodObject::distance_from_region`]).
 #[derive(Clone, Copy, Debug)]
 struct Lever {
@@ -220,10 +221,10 @@ struct Lever {
 impl Lever {
     /// The reach (mm) a ball region's trust box takes for its rotation part, allowing a motion
     /// of `allowed` mm (skin `skin`): the near leaves' reach, or more where the whole tool
-    /// (`tool_reach`) turned that far would move more than [`LEVER_MARGIN_MM`] plus the skin.
-    fn trust_reach(&self, tool_reach: f64, allowed: f64, skin: f64) -> f64 {
+    /// (`tool_reach`) turned that far would move more than [`Tuning::lever_margin_mm`] plus the skin.
+    fn trust_reach(&self, tool_reach: f64, allowed: f64, skin: f64, lever_margin_mm: f64) -> f64 {
         self.reach
-            .max(allowed * tool_reach / (LEVER_MARGIN_MM + skin))
+            .max(allowed * tool_reach / (lever_margin_mm + skin))
             .min(tool_reach)
     }
 }
@@ -445,7 +446,7 @@ impl GodObject {
                 tool_friction: None,
                 friction_on: true,
             },
-            run: RunState::fresh(),
+            run: RunState::fresh(&params.tuning),
         })
     }
 
@@ -592,7 +593,7 @@ impl GodObject {
     /// place (their capacity kept: a reset does not allocate). Settings (friction, the
     /// reduction audit) and the trees stay.
     fn forget_run(&mut self) {
-        self.run = RunState::fresh();
+        self.run = RunState::fresh(&self.params.tuning);
         self.detector.pairs.clear();
         self.ahead.probe.cancel();
         self.ahead.neighbours.clear();
@@ -638,7 +639,11 @@ impl GodObject {
         self.reuse_region(&mut f, &mut out);
         for pass in 0..f.max_passes {
             f.clock.pass_start = Instant::now();
-            if pass > 0 && !f.clock.room_for_pass(self.params.budget_us) {
+            if pass > 0
+                && !f
+                    .clock
+                    .room_for_pass(self.params.budget_us, self.params.tuning.pass_headroom)
+            {
                 break;
             }
             out.passes = pass + 1;

@@ -92,7 +92,8 @@ impl GodObject {
         if listed.is_none() {
             // A list no wider than the region's own margin is not kept for later regions.
             let extra = self.run.regions.near_extra;
-            let wide = self.params.heuristics.mesh_near_list && extra >= NEAR_LIST_MIN_MM;
+            let wide = self.params.heuristics.mesh_near_list
+                && extra >= NEAR_LIST_MIN_SHARE * self.params.tuning.near_list_mm;
             let dropped = self.list_near(center, margin + if wide { extra } else { 0.0 });
             self.run.counts.near_listed += 1;
             if wide && dropped == 0 {
@@ -100,10 +101,10 @@ impl GodObject {
                 // Every region it serves filters the whole list: a long one reaches less far
                 // next time, a short one farther.
                 let len = self.detector.near.len();
-                self.run.regions.near_extra = if len > NEAR_LIST_PAIRS {
+                self.run.regions.near_extra = if len > self.params.tuning.near_list_pairs {
                     0.5 * extra
-                } else if 4 * len < NEAR_LIST_PAIRS {
-                    (2.0 * extra).min(NEAR_LIST_MM)
+                } else if 4 * len < self.params.tuning.near_list_pairs {
+                    (2.0 * extra).min(self.params.tuning.near_list_mm)
                 } else {
                     extra
                 };
@@ -113,7 +114,8 @@ impl GodObject {
                     self.run.regions.near_extra = 0.25 * extra;
                     self.list_near(center, margin)
                 } else {
-                    self.run.regions.near_extra = (2.0 * extra).min(NEAR_LIST_MM);
+                    self.run.regions.near_extra =
+                        (2.0 * extra).min(self.params.tuning.near_list_mm);
                     dropped
                 };
                 // Past the storage: the region shrinks.

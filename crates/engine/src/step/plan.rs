@@ -14,7 +14,7 @@ pub(super) struct RegionPlan {
     need_t: f64,
     need_r: f64,
     need: f64,
-    /// The ball allowance that keeps the pair count near [`BALL_PAIR_TARGET`], mm.
+    /// The ball allowance that keeps the pair count near [`Tuning::ball_pair_target`], mm.
     dense_cap: f64,
     /// How far the tool may move inside the neighbour list in use, mm.
     list_room: f64,
@@ -79,18 +79,22 @@ impl GodObject {
         // count near the target by taking smaller regions (more passes).
         let h = self.params.heuristics;
         let dense_cap = if h.density_sizing {
-            self.run.regions.density.margin_for(BALL_PAIR_TARGET) - skin
+            self.run
+                .regions
+                .density
+                .margin_for(self.params.tuning.ball_pair_target)
+                - skin
         } else {
             f64::INFINITY
         };
         let mut allowed = need
             .min(f.course.allow)
             .min(cap)
-            .min(dense_cap.max(DENSE_MIN_ALLOW_MM));
+            .min(dense_cap.max(self.params.tuning.dense_min_allow_mm));
         // Inside a neighbour list a region costs a filter, not a traversal: one that stays
         // inside it (and a trust region) beats a wider one traversed.
         let list_room = self.ahead.neighbours.slack(&q_lin, None, skin);
-        if list_room >= MIN_ALLOW_MM {
+        if list_room >= self.params.tuning.min_allow_mm {
             allowed = allowed.min(list_room);
         }
         let mut trust = need > allowed;
@@ -135,15 +139,20 @@ impl GodObject {
 
     /// A path region for a hand in motion that the ball cannot follow: the pairs along the
     /// motion predicted for the tool (a sliding contact holds far fewer along its path than
-    /// within the path's length all around). Within [`PATH_DENSITY_FACTOR`] times the
+    /// within the path's length all around). Within [`Tuning::path_density_factor`] times the
     /// pair-density cap of a path, length and width together (a wide path through a dense
     /// contact costs more than a second pass). Returns the path's width (mm).
     fn plan_path(&self, f: &FrameWork, plan: &mut RegionPlan) -> f64 {
         let (q_lin, goal) = (f.course.q_lin, f.goal);
         let h = self.params.heuristics;
         let path_cap = if h.density_sizing {
-            (self.run.regions.density.path_margin_for(PAIR_TARGET) - f.skin)
-                .max(MIN_ALLOW_MM)
+            (self
+                .run
+                .regions
+                .density
+                .path_margin_for(self.params.tuning.pair_target)
+                - f.skin)
+                .max(self.params.tuning.min_allow_mm)
                 .min(f.cap)
         } else {
             f.cap
@@ -158,7 +167,7 @@ impl GodObject {
                 && step.dot(&way) >= FALL_MIN_COS * step.norm() * way.norm()
         };
         let path_width = if falling {
-            PATH_WIDTH_MIN_MM
+            self.params.tuning.path_width_min_mm
         } else {
             self.path_width()
         };
@@ -169,8 +178,8 @@ impl GodObject {
             plan.sweep = self
                 .predicted_sweep(&q_lin, &goal, length_cap, falling)
                 .filter(|&(_, len)| {
-                    path_width <= plan.dense_cap.max(MIN_ALLOW_MM)
-                        && len + path_width <= PATH_DENSITY_FACTOR * length_cap
+                    path_width <= plan.dense_cap.max(self.params.tuning.min_allow_mm)
+                        && len + path_width <= self.params.tuning.path_density_factor * length_cap
                         && (falling || len >= f.course.min_path_len)
                 });
         }
@@ -188,7 +197,7 @@ impl GodObject {
         let own_room = match self.run.regions.pairs_question {
             Some((c, m))
                 if plan.sweep.is_none()
-                    && plan.list_room < MIN_ALLOW_MM
+                    && plan.list_room < self.params.tuning.min_allow_mm
                     && !self.detector.pairs.is_empty() =>
             {
                 m - f.skin - self.motion_bound(&c, &q_lin)
@@ -199,9 +208,12 @@ impl GodObject {
             && plan.slab.is_none()
             && !f.course.recentred_in_frame
             && f.course.reused_bound
-            && own_room >= (RECENTRE_SHARE * plan.allowed).max(DENSE_MIN_ALLOW_MM)
             && own_room
-                >= RECENTRE_MOTION_SPARE * self.motion_bound(&q_lin, &self.predicted_pose(&f.goal));
+                >= (self.params.tuning.recentre_share * plan.allowed)
+                    .max(self.params.tuning.dense_min_allow_mm)
+            && own_room
+                >= self.params.tuning.recentre_motion_spare
+                    * self.motion_bound(&q_lin, &self.predicted_pose(&f.goal));
         if plan.recentred {
             plan.allowed = plan.allowed.min(own_room);
             plan.trust = plan.need > plan.allowed;
@@ -259,7 +271,7 @@ impl GodObject {
     }
 
     /// A traversal for the region: in free space a little wider, so that an empty answer
-    /// proves free space for several frames ([`FREE_PROBE_MM`]).
+    /// proves free space for several frames ([`Tuning::free_probe_mm`]).
     fn traverse_region(
         &mut self,
         f: &FrameWork,
@@ -271,11 +283,14 @@ impl GodObject {
         let probe = if in_free_space {
             // No wider than a dense contact just left allows.
             let dense = if h.density_sizing {
-                self.run.regions.density.probe_margin_for(PAIR_TARGET)
+                self.run
+                    .regions
+                    .density
+                    .probe_margin_for(self.params.tuning.pair_target)
             } else {
                 f64::INFINITY
             };
-            let wide = (allowed + skin).max(FREE_PROBE_MM.min(dense));
+            let wide = (allowed + skin).max(self.params.tuning.free_probe_mm.min(dense));
             // Within a neighbour list, no wider than it reaches (a filter, not a traversal:
             // its proof goes as far anyway), short of its edge by a rounding so that the list
             // covers it.
@@ -311,14 +326,15 @@ impl GodObject {
             // The background probes ask for what the surfaces allow here: a proof short of the
             // widest asked met a pair (asking for more would come back touching); one as wide
             // as asked found room.
-            self.run.proofs.probe_margin = if proven < FREE_PROBE_MM - PROOF_ROUNDING_MM {
-                proven.max(BACKGROUND_PROBE_MIN_MM)
-            } else {
-                self.run
-                    .proofs
-                    .probe_margin
-                    .max(proven.min(BACKGROUND_PROBE_MM))
-            };
+            self.run.proofs.probe_margin =
+                if proven < self.params.tuning.free_probe_mm - PROOF_ROUNDING_MM {
+                    proven.max(BACKGROUND_PROBE_MIN_MM)
+                } else {
+                    self.run
+                        .proofs
+                        .probe_margin
+                        .max(proven.min(self.params.tuning.background_probe_mm))
+                };
         } else if h.probes() && d.is_ok() && self.detector.pairs.is_empty() {
             // Stopped before an answer: the same question goes to the background probe, which
             // the next frames finish (the tool waits here meanwhile).
@@ -465,7 +481,12 @@ impl GodObject {
         };
         // The trust region's rotation is bounded by the near leaves' arm.
         let lever_reach = region.lever.map_or(self.bodies.reach, |l| {
-            l.trust_reach(self.bodies.reach, plan.allowed, skin)
+            l.trust_reach(
+                self.bodies.reach,
+                plan.allowed,
+                skin,
+                self.params.tuning.lever_margin_mm,
+            )
         });
         let trust = plan
             .trust

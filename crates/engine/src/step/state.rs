@@ -36,7 +36,7 @@ pub(super) struct Detector {
     /// distances at the last linearisation pose (mm).
     pub(super) contacts: Vec<TriPair>,
     pub(super) contact_gaps: Vec<f64>,
-    /// The mesh mode's triangle pairs within a wider margin ([`super::tuning::NEAR_LIST_MM`])
+    /// The mesh mode's triangle pairs within a wider margin ([`Tuning::near_list_mm`])
     /// of a recent pose: the narrow phase filters them while they cover its region.
     pub(super) near: Vec<TriPair>,
     /// The exact distances the narrow phase measured for `contacts` (same order), and the tool
@@ -113,7 +113,7 @@ pub(super) struct RunState {
 
 impl RunState {
     /// The state before any frame.
-    pub(super) fn fresh() -> Self {
+    pub(super) fn fresh(tuning: &Tuning) -> Self {
         Self {
             motion: Motion {
                 q_g: Pose::identity(),
@@ -139,7 +139,7 @@ impl RunState {
                 slab_next_rest: SLAB_REST_FRAMES,
                 near_at: None,
                 contacts_at: None,
-                near_extra: NEAR_LIST_MM,
+                near_extra: tuning.near_list_mm,
                 near_ahead: NearAhead::IDLE,
             },
             solve: SolveMemory {
@@ -152,10 +152,10 @@ impl RunState {
                 free: [FreeProof::none(); 2],
                 probe_splits: 0,
                 path_probe_splits: 0,
-                probe_margin: BACKGROUND_PROBE_MM,
+                probe_margin: tuning.background_probe_mm,
             },
             lists: ListPacing {
-                list_margin: LIST_MARGIN_MM,
+                list_margin: tuning.list_margin_mm,
                 list_work: LIST_FIRST_WORK,
                 list_splits: LIST_FIRST_SPLITS,
                 list_served: 0,
@@ -236,7 +236,7 @@ pub(super) struct RegionMemory {
     /// The mesh mode's near list: the tool pose and margin (mm) `detector.near` was listed at
     /// (`None`: no list).
     pub(super) near_at: Option<(Pose, f64)>,
-    /// How far beyond the region's margin the next near list reaches, mm: [`NEAR_LIST_MM`],
+    /// How far beyond the region's margin the next near list reaches, mm: [`Tuning::near_list_mm`],
     /// quartered each time a list overflows its storage and doubled back each time one fits.
     pub(super) near_extra: f64,
     /// The next near list's building ([`NearAhead`]).
@@ -289,7 +289,7 @@ pub(super) struct ProofMemory {
     /// size the next one's slices).
     pub(super) probe_splits: usize,
     pub(super) path_probe_splits: usize,
-    /// Margin (mm) of the next background probe: [`BACKGROUND_PROBE_MM`], shrunk after a
+    /// Margin (mm) of the next background probe: [`Tuning::background_probe_mm`], shrunk after a
     /// probe that touched ([`PROBE_MARGIN_SHRINK`]), grown back after one that proved free
     /// space ([`PROBE_MARGIN_GROWTH`]).
     pub(super) probe_margin: f64,
@@ -302,11 +302,11 @@ pub(super) struct ListPacing {
     pub(super) list_margin: f64,
     /// Work of the last finished list (node pairs split plus pairs listed: its cost, to size
     /// the next one's slices), and the node pairs it split (its cost against the traversals
-    /// it spares, as [`LIST_PAYOFF`] was measured).
+    /// it spares, as [`Tuning::list_payoff`] was measured).
     pub(super) list_work: usize,
     pub(super) list_splits: usize,
     /// Regions the neighbour list in use has answered since it was taken, and what the last
-    /// lists spared against their build's work (running mean; [`LIST_MIN_YIELD`]).
+    /// lists spared against their build's work (running mean; [`Tuning::list_min_yield`]).
     pub(super) list_served: u32,
     pub(super) list_yield: f64,
     /// Node pairs a region's traversal splits in the current contact (running mean), and

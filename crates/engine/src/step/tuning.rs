@@ -1,9 +1,21 @@
-//! The frame step's tuning constants, grouped by the heuristic (switch) they belong to.
+//! The frame step's numbers, of three kinds:
 //!
-//! Each says what it is and why it has its value: derived from the geometry, the budget or
-//! the tolerances where it can be; otherwise tuned, with the trade-off it sets and where the
-//! measurement that chose it is recorded (docs/design-notes.md). What each heuristic pays
-//! across the scene zoo is the ablation table in docs/BENCHMARKS.md.
+//! - **Tolerances and definitions** (`TOUCH_MM`, `CONVERGED_MM`, …): what the step promises,
+//!   set from the penetration and convergence tolerances, not tuned.
+//! - **Slices of the budget** (`IDLE_*`, `*_SLICE_*`, `*_SHARE`, `*_STEPS`): how much work runs
+//!   between two looks at the clock, or what share of the 1 ms budget a background task may
+//!   take; each is a time (written next to it) turned into units of work at their measured
+//!   cost, so that no slice overruns the frame.
+//! - **Tuned trade-offs** ([`Tuning`]): how much work a region, a list or a probe takes on
+//!   against how long it serves. They change how much work frames do, never what they answer
+//!   (tested: every one halved, or doubled, the step still answers as the reference step).
+//!   Each is measured across the built-ins and the scene zoo by halving and doubling it
+//!   (`haptic6d bench --studies tuning`; the table in docs/BENCHMARKS.md §The step's tuned
+//!   values), and its comment gives what that measured.
+//!
+//! Constants are grouped by the heuristic (switch, [`Heuristics`](super::Heuristics)) they
+//! belong to. What each heuristic pays across the zoo is the ablation table in
+//! docs/BENCHMARKS.md.
 
 // ---- Convergence, contact and start ----
 
@@ -24,17 +36,6 @@ pub(super) const RESET_SEARCH_PASSES: usize = 100;
 
 // ---- The budget: passes, deadline, the paced loop's wait ----
 
-/// A pass starts only if the frame's time so far plus this many times its longest pass stays
-/// within `budget_us` (a new region's traversal may cost more than any pass so far; the
-/// deadline stops one that overruns). Tuned between 1.0 and 1.5 on a fast slide and a tight
-/// insertion (design-notes §Regions, trust boxes and passes).
-pub(super) const PASS_HEADROOM: f64 = 1.25;
-
-/// Share of the frame budget kept after the last traversal may run for that pass's rows,
-/// solve and check: a traversal still running at `(1 - DETECT_RESERVE) · budget_us` stops,
-/// and the frame ends lagging at its last proven pose.
-pub(super) const DETECT_RESERVE: f64 = 0.15;
-
 /// Node pairs (probe) or units of list work a paced loop's wait runs between clock reads
 /// ([`GodObject::idle`](super::GodObject::idle)): ~10–40 µs, so the wait ends within that of its limit.
 pub(super) const IDLE_SLICE_SPLITS: usize = 128;
@@ -49,65 +50,10 @@ pub(super) const IDLE_FOR_LISTS_US: u64 = 200;
 
 // ---- Region size (`density-sizing`, overflow) ----
 
-/// Leaf pairs a detected region aims at: a dense contact takes smaller regions (more passes)
-/// rather than one region of tens of thousands of rows.
-pub(super) const PAIR_TARGET: f64 = 1500.0;
-
-/// Leaf pairs a ball region aims at in a dense contact (paths and free-space probes keep
-/// [`PAIR_TARGET`]). A ball region in a turning or pressed contact is detected again every few
-/// frames, and a dense one's cost grows faster than its life: a smaller target trades more
-/// passes for cheaper ones. Tuned on a dense turning contact (the cost model fitted to measured
-/// frames; design-notes §Regions, trust boxes and passes).
-pub(super) const BALL_PAIR_TARGET: f64 = 500.0;
-
-/// Least allowance (mm) the pair density may give a ball region: a dense contact's regions
-/// may be thinner than [`MIN_ALLOW_MM`] (two bumpy faces hold ~1 500 pairs within ~0.1 mm;
-/// design-notes §Regions, trust boxes and passes).
-pub(super) const DENSE_MIN_ALLOW_MM: f64 = 0.03;
-
-/// Smallest motion allowance of a detected region, mm.
-pub(super) const MIN_ALLOW_MM: f64 = 0.1;
-
 /// Below this allowance (mm) an overflowing pair list ends the frame (lagging, safe).
 pub(super) const MIN_OVERFLOW_ALLOW_MM: f64 = 0.005;
 
-// ---- Reuse and re-centring (`region-reuse`, `recentre`) ----
-
-/// Largest pair list reused from an earlier frame: a list about [`PAIR_TARGET`] costs ~20 µs to
-/// solve again, ~150 µs to find again (design-notes §Regions, trust boxes and passes).
-/// (Deterministic: a rule on measured times would make frames depend on the machine.)
-pub(super) const REUSE_MAX_PAIRS: usize = 2000;
-
-/// A ball region's own pairs serve the next region about a pose it still covers by at least
-/// this share of the allowance wanted (else a fresh detection pays).
-pub(super) const RECENTRE_SHARE: f64 = 0.5;
-
-/// … and by at least this many times the motion predicted for the tool this frame (a tool
-/// about to move farther, e.g. dropping into a hole, needs a detection anyway).
-pub(super) const RECENTRE_MOTION_SPARE: f64 = 2.0;
-
 // ---- Path regions (`path-regions`) ----
-
-/// A predicted motion shorter than this (mm, largest sphere motion) takes a ball region: a
-/// path region pays off only for a hand in motion.
-pub(super) const MIN_SWEEP_MM: f64 = 0.1;
-
-/// A path region is taken only while its length plus width stays within this many times the
-/// allowance that keeps a ball region near [`PAIR_TARGET`] pairs: 1 made fast slides lag, 3
-/// let a tight insertion's worst frame over 1 ms (design-notes §Regions, trust boxes and
-/// passes).
-pub(super) const PATH_DENSITY_FACTOR: f64 = 2.0;
-
-/// A path region reaches at least this far ahead (mm, largest sphere motion; at most
-/// `max_margin_mm`), so that a slow hand's next frames reuse it.
-pub(super) const PATH_MIN_MM: f64 = 0.2;
-
-/// How far (mm) the iterates of a path region may stray from the predicted path: twice the
-/// recent prediction error, within these bounds (a tool riding over the bumps of a sphere-tree
-/// surface strays by a few tenths of a millimetre).
-pub(super) const PATH_WIDTH_MIN_MM: f64 = 0.1;
-
-pub(super) const PATH_WIDTH_MAX_MM: f64 = 0.4;
 
 /// A tool left behind that moved at least this far (mm) in its last frame is falling toward
 /// the hand: its path region is the straight way there.
@@ -117,23 +63,7 @@ pub(super) const FALL_MIN_STEP_MM: f64 = 0.1;
 /// is at least this (a tool sliding across a face the hand presses into is not falling).
 pub(super) const FALL_MIN_COS: f64 = 0.9;
 
-// ---- Turned trust boxes (`turned-trust`) ----
-
-/// A pass whose answer stayed within this share of its region's width (its motion bound from
-/// the region's centre) crept: its trust box or the contact stopped it well inside its ball,
-/// and the next region's trust box is turned to that pass's motion.
-pub(super) const CREEP_SHARE: f64 = 0.5;
-
 // ---- Slab regions (`slab-regions`) ----
-
-/// A slab region (a tool held by one flat face) allows a slide along the face of at least this
-/// much (mm): its face's pairs do not grow with it, only with the margin across (1 mm against
-/// 0.5 mm: p50 3–4 µs against 16–23 for a fast slide and turn; 2 mm no better).
-pub(super) const SLAB_SLIDE_MM: f64 = 1.0;
-
-/// Least margin (mm) across the face of a slab region, over 1.5 times last frame's motion
-/// across it.
-pub(super) const SLAB_ACROSS_MIN_MM: f64 = 0.03;
 
 /// Frames without slab regions after one that failed (stopped at the deadline, overflowed, or
 /// listed more than [`SLAB_MAX_PAIRS`] pairs or split more than [`SLAB_MAX_SPLITS`] node
@@ -151,19 +81,9 @@ pub(super) const SLAB_MAX_SPLITS: usize = 8_000;
 
 // ---- The near part of the tool (`lever`) ----
 
-/// How much farther (mm) than a ball region's margin the rest of the tool is from the objects
-/// ([`Lever`](super::Lever)): a turn about the contact (a long tool spinning and rocking on its tip) is
-/// bounded by the near leaves' lever arm, not the far end's reach, while the far end moves
-/// less than this.
-pub(super) const LEVER_MARGIN_MM: f64 = 0.8;
-
 /// Tool and object levels at which the near part of the tool is decided ([`Lever`](super::Lever)): 512
 /// nodes of a tree of branching 8 (a long tool on a face: ~5 500 sphere tests).
 pub(super) const LEVER_LEVEL: u32 = 3;
-
-/// A near part of the tool is found this much (mm) wider than a region needs, and kept for
-/// later regions while the tool stays within it of where it was found ([`Lever`](super::Lever)).
-pub(super) const LEVER_SPARE_MM: f64 = 0.5;
 
 /// Most sphere tests spent finding the near part of the tool (~7 ns each with the descent:
 /// ~37 µs, once every ~15 regions).
@@ -175,19 +95,9 @@ pub(super) const LEVER_MIN_PAIRS: usize = 100;
 
 // ---- Free-space proofs and background probes (`free-space-proofs`, `background-probes`) ----
 
-/// Margin (mm) of a detection made in free space: an empty result proves free space this far,
-/// and later frames near the same pose skip their traversals.
-pub(super) const FREE_PROBE_MM: f64 = 0.3;
-
 /// How much less than the proven gap (mm) a free-space proof from a proving traversal claims:
 /// a pair may lie at the gap itself.
 pub(super) const PROOF_ROUNDING_MM: f64 = 1e-6;
-
-/// Margin (mm) of a background probe: wider than a frame's own proof, since its cost is spread
-/// over frames and a wider proof lasts longer per node pair split (measured in a tight hole:
-/// 0.4 mm costs ~20 % more than 0.3 mm and covers ~40 % more of the way; design-notes
-/// §Free-space proofs and background probes).
-pub(super) const BACKGROUND_PROBE_MM: f64 = 0.4;
 
 /// Least margin (mm) of a background probe. A probe that finds a pair within its margin (a
 /// tool turning in a tight groove, 0.1–0.4 mm from its flanks) proves nothing; the next one
@@ -198,10 +108,6 @@ pub(super) const BACKGROUND_PROBE_MIN_MM: f64 = 0.05;
 /// need, or it is not started (a proof that lasts fewer frames than its slices take is no
 /// use: fresh traversals serve).
 pub(super) const PROBE_MIN_USABLE_FRAMES: f64 = 2.0;
-
-/// Node pairs a background free-space probe aims to split per frame (~15–25 µs): it starts
-/// early enough to finish at this pace before the current proof runs out.
-pub(super) const PROBE_SLICE_SPLITS: usize = 800;
 
 /// A running background probe at a pose is paced to finish this many frames before the
 /// free-space proofs run out (at the tool's last motion); one along a path within
@@ -250,12 +156,6 @@ pub(super) const PROBE_MAX_SLICE_SPLITS: usize = 5000;
 /// along its way ([`collide::FreeSpaceProbe::start_along`]) instead of at a pose.
 pub(super) const PATH_PROBE_MIN_STEP_MM: f64 = 0.005;
 
-/// Frames of the tool's steady motion a background probe's path covers, within
-/// [`PATH_PROBE_MIN_MM`, `PATH_PROBE_MAX_MM`]: where walls run along the motion a path costs
-/// 1.7–3.9 times a probe at a pose and covers 11–21 times the way (design-notes §Free-space
-/// proofs and background probes).
-pub(super) const PATH_PROBE_FRAMES: f64 = 150.0;
-
 pub(super) const PATH_PROBE_MIN_MM: f64 = 0.5;
 
 pub(super) const PATH_PROBE_MAX_MM: f64 = 10.0;
@@ -265,21 +165,6 @@ pub(super) const PATH_PROBE_MAX_MM: f64 = 10.0;
 pub(super) const PATH_PROBE_SLICE_SPLITS: usize = 350;
 
 pub(super) const PATH_PROBE_MIN_SLICE_SPLITS: usize = 150;
-
-/// A probe along a path starts when the proofs have this many times its expected slices of
-/// frames left (a path's cost varies more with where it runs than a ball's: one that starts
-/// late ends in long slices). Tuned between 1.5 and 8 in a tight hole (design-notes
-/// §Free-space proofs and background probes).
-pub(super) const PATH_PROBE_LEAD: f64 = 5.0;
-
-/// A background probe starts at the latest when the free-space proof has this many frames of
-/// slack left (earlier when the last probe needed more slices).
-pub(super) const PROBE_LEAD_FRAMES: f64 = 8.0;
-
-/// How far past the pose where the current free-space proofs run out a probe is placed, as a
-/// share of a proof's usable radius: a tool moving on as it did crosses the new proof's ball
-/// instead of leaving it from its centre (a proof covers ~1.7 times as much of the way).
-pub(super) const PROBE_AHEAD: f64 = 0.7;
 
 /// A background probe that proved free space lets the next one ask for this many times its
 /// margin (up to [`BACKGROUND_PROBE_MM`]): a tool that left a tight gap gets its wide proofs
@@ -299,30 +184,10 @@ pub(super) const PROBE_MARGIN_SHRINK: f64 = 0.7;
 
 // ---- Neighbour lists (`neighbour-lists`) ----
 
-/// First margin (mm) of a neighbour list; later ones follow the pairs the last one held.
-pub(super) const LIST_MARGIN_MM: f64 = 0.6;
-
 /// Bounds (mm) of a neighbour list's margin.
 pub(super) const LIST_MIN_MM: f64 = 0.3;
 
 pub(super) const LIST_MAX_MM: f64 = 2.0;
-
-/// On the frame's own thread a neighbour list is built only when its cost per frame of its
-/// life is at most this many times the traversals it would spare (a list also spares the
-/// second regions of a frame and keeps later frames cheap, which the count does not see; the
-/// limit only keeps lists out where they clearly cost more; design-notes §Neighbour lists).
-pub(super) const LIST_PAYOFF: f64 = 1.5;
-
-/// Neighbour lists are kept only where a region's traversal splits at least this many node
-/// pairs (~30 µs): where regions are cheap (60–170 splits) a list costs more than it spares
-/// (design-notes §Neighbour lists).
-pub(super) const LIST_MIN_REGION_SPLITS: f64 = 800.0;
-
-/// On the frame's own thread, a neighbour list is built only while the last ones answered at
-/// least this many times their build's work in regions (regions answered times a region's
-/// node pairs; running mean over the lists taken). [`LIST_PAYOFF`]'s prediction misses that a
-/// list in use shrinks the regions to fit inside it (design-notes §Neighbour lists).
-pub(super) const LIST_MIN_YIELD: f64 = 2.0;
 
 /// The yield assumed before any list has been used: a contact's first list is tried.
 pub(super) const LIST_FIRST_YIELD: f64 = 10.0;
@@ -330,9 +195,6 @@ pub(super) const LIST_FIRST_YIELD: f64 = 10.0;
 /// Per frame with no list building, the yield recovers by this factor (2 from 0.8 in ~46
 /// frames), so a contact whose lists did not pay tries one again soon.
 pub(super) const LIST_YIELD_RECOVERY: f64 = 1.02;
-
-/// Pairs a neighbour list aims at (filtering them costs ~1 ns each).
-pub(super) const LIST_TARGET_PAIRS: f64 = 3000.0;
 
 /// Most pairs a neighbour list holds; a build past it is dropped and the margin shrunk.
 pub(super) const LIST_MAX_PAIRS: usize = 8192;
@@ -357,30 +219,12 @@ pub(super) const LIST_MAX_SLICE_WORK: usize = 1280;
 /// (~300 µs of the helper's time): the list is then ready a frame or two after it starts.
 pub(super) const LIST_HELPER_WORK_PER_FRAME: usize = 8192;
 
-/// The mesh mode's near list reaches this much (mm) beyond the region's margin: listed once,
-/// it serves the narrow phase of every region it covers (the tool moving up to this much from
-/// where it was listed), so the trees are descended once in several frames.
-pub(super) const NEAR_LIST_MM: f64 = 0.25;
-
-/// Near-list length aimed at: every region the list serves filters all of it (its plane
-/// bounds, ~30 ns a pair on the bench machine), so 3 000 pairs cost about a tenth of the 1 ms
-/// budget a region; a longer list halves the next one's extra reach, one under a quarter of
-/// this doubles it (up to [`NEAR_LIST_MM`]). Measured in the mesh mode at 1 000, 3 000 and
-/// 8 000 on the r10 peg at 0.1 mm, the keyed shaft, the probe over bumps and the sphere field:
-/// 1 000 left the sphere field 188 frames over 1 ms (3 000: 7), 8 000 the keyed shaft 190 (3 000:
-/// 95); the peg was 894–1 384 either way.
-pub(super) const NEAR_LIST_PAIRS: usize = 3000;
-
-/// The narrowest reach (mm) beyond the region's margin worth a near list: after lists that
-/// overflowed their storage (a tight fit, its whole wall near) quartered the reach below this,
+/// The narrowest reach beyond the region's margin worth a near list, as a share of
+/// [`Tuning::near_list_mm`] (two quarterings): after lists that overflowed their storage (a
+/// tight fit, its whole wall near) quartered the reach below this,
 /// the narrow phase lists the region's own margin only, and tries a wider list again (doubled)
 /// on the next region.
-pub(super) const NEAR_LIST_MIN_MM: f64 = NEAR_LIST_MM / 16.0;
-
-/// The next near list is built ahead in slices of at most this share of the frame's budget
-/// (after the frame's own work, never past its deadline): a whole list of a tight fit's wall
-/// costs a few budgets, so it is spread over the frames the current list still serves.
-pub(super) const NEAR_AHEAD_SHARE: f64 = 0.15;
+pub(super) const NEAR_LIST_MIN_SHARE: f64 = 1.0 / 16.0;
 
 /// How far ahead (frames at the last frame's speed) the next near list is centred at most: a
 /// slow tool's list centres near it.
@@ -396,3 +240,389 @@ pub(super) const NEAR_AHEAD_STEPS: usize = 64;
 /// the mean detection and solve times were the least or equal on every scene (e.g. the big tool
 /// 31 and 97 µs a frame against 149 and 355 with two and 104 and 264 with three).
 pub(super) const MESH_SPHERE_LEVELS: u32 = 1;
+
+/// The frame step's tuned values: trade-offs of work against work, set by measurement
+/// across the scene zoo (`haptic6d bench --studies tuning`: each halved and doubled in turn; the
+/// table is in docs/BENCHMARKS.md §Tuning). For measuring and testing the step, like
+/// [`Heuristics`](super::Heuristics): not a scene-file setting. The values change how much work a frame does, never
+/// what it answers beyond the convergence tolerance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tuning {
+    /// A pass starts only if the frame's time so far plus this many times its longest pass stays
+    /// within `budget_us` (a new region's traversal may cost more than any pass so far; the
+    /// deadline stops one that overruns). Tuned between 1.0 and 1.5 on a fast slide and a tight
+    /// insertion (design-notes §Regions, trust boxes and passes).
+    pub pass_headroom: f64,
+    /// Share of the frame budget kept after the last traversal may run for that pass's rows,
+    /// solve and check: a traversal still running at `(1 - DETECT_RESERVE) · budget_us` stops,
+    /// and the frame ends lagging at its last proven pose.
+    pub detect_reserve: f64,
+    /// Leaf pairs a detected region aims at: a dense contact takes smaller regions (more passes)
+    /// rather than one region of tens of thousands of rows.
+    pub pair_target: f64,
+    /// Leaf pairs a ball region aims at in a dense contact (paths and free-space probes keep
+    /// [`PAIR_TARGET`]). A ball region in a turning or pressed contact is detected again every few
+    /// frames, and a dense one's cost grows faster than its life: a smaller target trades more
+    /// passes for cheaper ones. Tuned on a dense turning contact (the cost model fitted to measured
+    /// frames; design-notes §Regions, trust boxes and passes).
+    pub ball_pair_target: f64,
+    /// Least allowance (mm) the pair density may give a ball region: a dense contact's regions
+    /// may be thinner than [`MIN_ALLOW_MM`] (two bumpy faces hold ~1 500 pairs within ~0.1 mm;
+    /// design-notes §Regions, trust boxes and passes).
+    pub dense_min_allow_mm: f64,
+    /// Smallest motion allowance of a detected region, mm.
+    pub min_allow_mm: f64,
+    /// Largest pair list reused from an earlier frame: a list about [`PAIR_TARGET`] costs ~20 µs to
+    /// solve again, ~150 µs to find again (design-notes §Regions, trust boxes and passes).
+    /// (Deterministic: a rule on measured times would make frames depend on the machine.)
+    pub reuse_max_pairs: usize,
+    /// A ball region's own pairs serve the next region about a pose it still covers by at least
+    /// this share of the allowance wanted (else a fresh detection pays).
+    pub recentre_share: f64,
+    /// … and by at least this many times the motion predicted for the tool this frame (a tool
+    /// about to move farther, e.g. dropping into a hole, needs a detection anyway).
+    pub recentre_motion_spare: f64,
+    /// A predicted motion shorter than this (mm, largest sphere motion) takes a ball region: a
+    /// path region pays off only for a hand in motion.
+    pub min_sweep_mm: f64,
+    /// A path region is taken only while its length plus width stays within this many times the
+    /// allowance that keeps a ball region near [`PAIR_TARGET`] pairs: 1 made fast slides lag, 3
+    /// let a tight insertion's worst frame over 1 ms (design-notes §Regions, trust boxes and
+    /// passes).
+    pub path_density_factor: f64,
+    /// A path region reaches at least this far ahead (mm, largest sphere motion; at most
+    /// `max_margin_mm`), so that a slow hand's next frames reuse it.
+    pub path_min_mm: f64,
+    /// How far (mm) the iterates of a path region may stray from the predicted path: twice the
+    /// recent prediction error, within these bounds (a tool riding over the bumps of a sphere-tree
+    /// surface strays by a few tenths of a millimetre).
+    pub path_width_min_mm: f64,
+    pub path_width_max_mm: f64,
+    /// A pass whose answer stayed within this share of its region's width (its motion bound from
+    /// the region's centre) crept: its trust box or the contact stopped it well inside its ball,
+    /// and the next region's trust box is turned to that pass's motion.
+    pub creep_share: f64,
+    /// A slab region (a tool held by one flat face) allows a slide along the face of at least this
+    /// much (mm): its face's pairs do not grow with it, only with the margin across (1 mm against
+    /// 0.5 mm: p50 3–4 µs against 16–23 for a fast slide and turn; 2 mm no better).
+    pub slab_slide_mm: f64,
+    /// Least margin (mm) across the face of a slab region, over 1.5 times last frame's motion
+    /// across it.
+    pub slab_across_min_mm: f64,
+    /// How much farther (mm) than a ball region's margin the rest of the tool is from the objects
+    /// ([`Lever`](super::Lever)): a turn about the contact (a long tool spinning and rocking on its tip) is
+    /// bounded by the near leaves' lever arm, not the far end's reach, while the far end moves
+    /// less than this.
+    pub lever_margin_mm: f64,
+    /// A near part of the tool is found this much (mm) wider than a region needs, and kept for
+    /// later regions while the tool stays within it of where it was found ([`Lever`](super::Lever)).
+    pub lever_spare_mm: f64,
+    /// Margin (mm) of a detection made in free space: an empty result proves free space this far,
+    /// and later frames near the same pose skip their traversals.
+    pub free_probe_mm: f64,
+    /// Margin (mm) of a background probe: wider than a frame's own proof, since its cost is spread
+    /// over frames and a wider proof lasts longer per node pair split (measured in a tight hole:
+    /// 0.4 mm costs ~20 % more than 0.3 mm and covers ~40 % more of the way; design-notes
+    /// §Free-space proofs and background probes).
+    pub background_probe_mm: f64,
+    /// Node pairs a background free-space probe aims to split per frame (~15–25 µs): it starts
+    /// early enough to finish at this pace before the current proof runs out.
+    pub probe_slice_splits: usize,
+    /// Frames of the tool's steady motion a background probe's path covers, within
+    /// [`PATH_PROBE_MIN_MM`, `PATH_PROBE_MAX_MM`]: where walls run along the motion a path costs
+    /// 1.7–3.9 times a probe at a pose and covers 11–21 times the way (design-notes §Free-space
+    /// proofs and background probes).
+    pub path_probe_frames: f64,
+    /// A probe along a path starts when the proofs have this many times its expected slices of
+    /// frames left (a path's cost varies more with where it runs than a ball's: one that starts
+    /// late ends in long slices). Tuned between 1.5 and 8 in a tight hole (design-notes
+    /// §Free-space proofs and background probes).
+    pub path_probe_lead: f64,
+    /// A background probe starts at the latest when the free-space proof has this many frames of
+    /// slack left (earlier when the last probe needed more slices).
+    pub probe_lead_frames: f64,
+    /// How far past the pose where the current free-space proofs run out a probe is placed, as a
+    /// share of a proof's usable radius: a tool moving on as it did crosses the new proof's ball
+    /// instead of leaving it from its centre (a proof covers ~1.7 times as much of the way).
+    pub probe_ahead: f64,
+    /// First margin (mm) of a neighbour list; later ones follow the pairs the last one held.
+    pub list_margin_mm: f64,
+    /// On the frame's own thread a neighbour list is built only when its cost per frame of its
+    /// life is at most this many times the traversals it would spare (a list also spares the
+    /// second regions of a frame and keeps later frames cheap, which the count does not see; the
+    /// limit only keeps lists out where they clearly cost more; design-notes §Neighbour lists).
+    pub list_payoff: f64,
+    /// Neighbour lists are kept only where a region's traversal splits at least this many node
+    /// pairs (~30 µs): where regions are cheap (60–170 splits) a list costs more than it spares
+    /// (design-notes §Neighbour lists).
+    pub list_min_region_splits: f64,
+    /// On the frame's own thread, a neighbour list is built only while the last ones answered at
+    /// least this many times their build's work in regions (regions answered times a region's
+    /// node pairs; running mean over the lists taken). [`LIST_PAYOFF`]'s prediction misses that a
+    /// list in use shrinks the regions to fit inside it (design-notes §Neighbour lists).
+    pub list_min_yield: f64,
+    /// Pairs a neighbour list aims at (filtering them costs ~1 ns each).
+    pub list_target_pairs: f64,
+    /// The mesh mode's near list reaches this much (mm) beyond the region's margin: listed once,
+    /// it serves the narrow phase of every region it covers (the tool moving up to this much from
+    /// where it was listed), so the trees are descended once in several frames.
+    pub near_list_mm: f64,
+    /// Near-list length aimed at: every region the list serves filters all of it (its plane
+    /// bounds, ~30 ns a pair on the bench machine), so 3 000 pairs cost about a tenth of the 1 ms
+    /// budget a region; a longer list halves the next one's extra reach, one under a quarter of
+    /// this doubles it (up to [`NEAR_LIST_MM`]). Measured in the mesh mode at 1 000, 3 000 and
+    /// 8 000 on the r10 peg at 0.1 mm, the keyed shaft, the probe over bumps and the sphere field:
+    /// 1 000 left the sphere field 188 frames over 1 ms (3 000: 7), 8 000 the keyed shaft 190 (3 000:
+    /// 95); the peg was 894–1 384 either way.
+    pub near_list_pairs: usize,
+    /// The next near list is built ahead in slices of at most this share of the frame's budget
+    /// (after the frame's own work, never past its deadline): a whole list of a tight fit's wall
+    /// costs a few budgets, so it is spread over the frames the current list still serves.
+    pub near_ahead_share: f64,
+}
+
+impl Tuning {
+    /// The shipped values.
+    pub const DEFAULT: Self = Self {
+        pass_headroom: 1.25,
+        detect_reserve: 0.15,
+        pair_target: 1500.0,
+        ball_pair_target: 500.0,
+        dense_min_allow_mm: 0.03,
+        min_allow_mm: 0.1,
+        reuse_max_pairs: 2000,
+        recentre_share: 0.5,
+        recentre_motion_spare: 2.0,
+        min_sweep_mm: 0.1,
+        path_density_factor: 2.0,
+        path_min_mm: 0.2,
+        path_width_min_mm: 0.1,
+        path_width_max_mm: 0.4,
+        creep_share: 0.5,
+        slab_slide_mm: 1.0,
+        slab_across_min_mm: 0.03,
+        lever_margin_mm: 0.8,
+        lever_spare_mm: 0.5,
+        free_probe_mm: 0.3,
+        background_probe_mm: 0.4,
+        probe_slice_splits: 800,
+        path_probe_frames: 150.0,
+        path_probe_lead: 5.0,
+        probe_lead_frames: 8.0,
+        probe_ahead: 0.7,
+        list_margin_mm: 0.6,
+        list_payoff: 1.5,
+        list_min_region_splits: 800.0,
+        list_min_yield: 2.0,
+        list_target_pairs: 3000.0,
+        near_list_mm: 0.25,
+        near_list_pairs: 3000,
+        near_ahead_share: 0.15,
+    };
+
+    /// A field's value by its name in [`Tuning::NAMES`] (counts as `f64`).
+    pub fn get(&self, name: &str) -> Option<f64> {
+        Some(match name {
+            "pass-headroom" => self.pass_headroom,
+            "detect-reserve" => self.detect_reserve,
+            "pair-target" => self.pair_target,
+            "ball-pair-target" => self.ball_pair_target,
+            "dense-min-allow-mm" => self.dense_min_allow_mm,
+            "min-allow-mm" => self.min_allow_mm,
+            "reuse-max-pairs" => self.reuse_max_pairs as f64,
+            "recentre-share" => self.recentre_share,
+            "recentre-motion-spare" => self.recentre_motion_spare,
+            "min-sweep-mm" => self.min_sweep_mm,
+            "path-density-factor" => self.path_density_factor,
+            "path-min-mm" => self.path_min_mm,
+            "path-width-min-mm" => self.path_width_min_mm,
+            "path-width-max-mm" => self.path_width_max_mm,
+            "creep-share" => self.creep_share,
+            "slab-slide-mm" => self.slab_slide_mm,
+            "slab-across-min-mm" => self.slab_across_min_mm,
+            "lever-margin-mm" => self.lever_margin_mm,
+            "lever-spare-mm" => self.lever_spare_mm,
+            "free-probe-mm" => self.free_probe_mm,
+            "background-probe-mm" => self.background_probe_mm,
+            "probe-slice-splits" => self.probe_slice_splits as f64,
+            "path-probe-frames" => self.path_probe_frames,
+            "path-probe-lead" => self.path_probe_lead,
+            "probe-lead-frames" => self.probe_lead_frames,
+            "probe-ahead" => self.probe_ahead,
+            "list-margin-mm" => self.list_margin_mm,
+            "list-payoff" => self.list_payoff,
+            "list-min-region-splits" => self.list_min_region_splits,
+            "list-min-yield" => self.list_min_yield,
+            "list-target-pairs" => self.list_target_pairs,
+            "near-list-mm" => self.near_list_mm,
+            "near-list-pairs" => self.near_list_pairs as f64,
+            "near-ahead-share" => self.near_ahead_share,
+            _ => return None,
+        })
+    }
+
+    /// These values with one field set by its name in [`Tuning::NAMES`] (a count rounded to
+    /// the nearest); `None` for an unknown name. [`Tuning::validate`] checks the result.
+    pub fn with(mut self, name: &str, value: f64) -> Option<Self> {
+        match name {
+            "pass-headroom" => self.pass_headroom = value,
+            "detect-reserve" => self.detect_reserve = value,
+            "pair-target" => self.pair_target = value,
+            "ball-pair-target" => self.ball_pair_target = value,
+            "dense-min-allow-mm" => self.dense_min_allow_mm = value,
+            "min-allow-mm" => self.min_allow_mm = value,
+            "reuse-max-pairs" => self.reuse_max_pairs = value.round() as usize,
+            "recentre-share" => self.recentre_share = value,
+            "recentre-motion-spare" => self.recentre_motion_spare = value,
+            "min-sweep-mm" => self.min_sweep_mm = value,
+            "path-density-factor" => self.path_density_factor = value,
+            "path-min-mm" => self.path_min_mm = value,
+            "path-width-min-mm" => self.path_width_min_mm = value,
+            "path-width-max-mm" => self.path_width_max_mm = value,
+            "creep-share" => self.creep_share = value,
+            "slab-slide-mm" => self.slab_slide_mm = value,
+            "slab-across-min-mm" => self.slab_across_min_mm = value,
+            "lever-margin-mm" => self.lever_margin_mm = value,
+            "lever-spare-mm" => self.lever_spare_mm = value,
+            "free-probe-mm" => self.free_probe_mm = value,
+            "background-probe-mm" => self.background_probe_mm = value,
+            "probe-slice-splits" => self.probe_slice_splits = value.round() as usize,
+            "path-probe-frames" => self.path_probe_frames = value,
+            "path-probe-lead" => self.path_probe_lead = value,
+            "probe-lead-frames" => self.probe_lead_frames = value,
+            "probe-ahead" => self.probe_ahead = value,
+            "list-margin-mm" => self.list_margin_mm = value,
+            "list-payoff" => self.list_payoff = value,
+            "list-min-region-splits" => self.list_min_region_splits = value,
+            "list-min-yield" => self.list_min_yield = value,
+            "list-target-pairs" => self.list_target_pairs = value,
+            "near-list-mm" => self.near_list_mm = value,
+            "near-list-pairs" => self.near_list_pairs = value.round() as usize,
+            "near-ahead-share" => self.near_ahead_share = value,
+            _ => return None,
+        }
+        Some(self)
+    }
+
+    /// Checks that every value is finite and positive, every share at most 1 (the detection
+    /// reserve below it) and the path width's bounds in order; the first bad one is named.
+    pub fn validate(&self) -> Result<(), crate::config::SettingError> {
+        let bad = |name: &str, v: f64, expected: &str| crate::config::SettingError {
+            key: format!("tuning {name}"),
+            value: format!("{v}"),
+            expected: expected.to_string(),
+        };
+        for name in Self::NAMES {
+            let v = self.get(name).unwrap_or(f64::NAN);
+            if !(v.is_finite() && v > 0.0) {
+                return Err(bad(name, v, "must be a finite number above 0"));
+            }
+            if name.ends_with("-share") && v > 1.0 {
+                return Err(bad(name, v, "must be a share in (0, 1]"));
+            }
+        }
+        if self.detect_reserve >= 1.0 {
+            return Err(bad(
+                "detect-reserve",
+                self.detect_reserve,
+                "must be below 1",
+            ));
+        }
+        if self.path_width_min_mm > self.path_width_max_mm {
+            return Err(bad(
+                "path-width-min-mm",
+                self.path_width_min_mm,
+                "must be at most path-width-max-mm",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Every field's name: the field's with dashes, as the tuning study names it.
+    pub const NAMES: [&'static str; 34] = [
+        "pass-headroom",
+        "detect-reserve",
+        "pair-target",
+        "ball-pair-target",
+        "dense-min-allow-mm",
+        "min-allow-mm",
+        "reuse-max-pairs",
+        "recentre-share",
+        "recentre-motion-spare",
+        "min-sweep-mm",
+        "path-density-factor",
+        "path-min-mm",
+        "path-width-min-mm",
+        "path-width-max-mm",
+        "creep-share",
+        "slab-slide-mm",
+        "slab-across-min-mm",
+        "lever-margin-mm",
+        "lever-spare-mm",
+        "free-probe-mm",
+        "background-probe-mm",
+        "probe-slice-splits",
+        "path-probe-frames",
+        "path-probe-lead",
+        "probe-lead-frames",
+        "probe-ahead",
+        "list-margin-mm",
+        "list-payoff",
+        "list-min-region-splits",
+        "list-min-yield",
+        "list-target-pairs",
+        "near-list-mm",
+        "near-list-pairs",
+        "near-ahead-share",
+    ];
+}
+
+impl Default for Tuning {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_name_reads_and_sets_its_own_field() {
+        for name in Tuning::NAMES {
+            let v = Tuning::DEFAULT.get(name).unwrap();
+            let t = Tuning::DEFAULT.with(name, 2.0 * v).unwrap();
+            assert_eq!(t.get(name), Some(2.0 * v), "{name}");
+            // No other field moved.
+            for other in Tuning::NAMES.iter().filter(|o| **o != name) {
+                assert_eq!(
+                    t.get(other),
+                    Tuning::DEFAULT.get(other),
+                    "{name} moved {other}"
+                );
+            }
+        }
+        assert_eq!(Tuning::DEFAULT.get("pair_target"), None);
+        assert_eq!(Tuning::DEFAULT.with("no-such-value", 1.0), None);
+    }
+
+    #[test]
+    fn bad_values_are_refused_by_name() {
+        assert!(Tuning::DEFAULT.validate().is_ok());
+        for (name, value, says) in [
+            ("pair-target", 0.0, "above 0"),
+            ("lever-margin-mm", f64::NAN, "above 0"),
+            ("creep-share", 1.5, "share"),
+            ("detect-reserve", 1.0, "below 1"),
+            ("path-width-min-mm", 0.5, "at most path-width-max-mm"),
+        ] {
+            let e = Tuning::DEFAULT
+                .with(name, value)
+                .unwrap()
+                .validate()
+                .unwrap_err();
+            let text = e.to_string();
+            assert!(text.contains(name) && text.contains(says), "{text}");
+        }
+    }
+}
