@@ -8,7 +8,9 @@
 //!   (`mu_s N rho`, with the contact's torsional radius `rho`) and while sliding against
 //!   `mu_k N` (`mu_k N rho`). On the **tree plate** (the plate's own sphere-tree, a layer of
 //!   bumps) the same push shows what the hand feels along the motion on a surface made of
-//!   spheres: the bumps' slopes add to and take from the friction.
+//!   spheres: the bumps' slopes add to and take from the friction. On the **mesh plate** the
+//!   puck's and the plate's own box meshes touch (the mesh geometry mode): two flat faces, so
+//!   any departure from the law comes from how the contact's triangle pairs make its patch.
 //! - **cost**: frame time with friction against the same run frictionless, on the bunny and on
 //!   the puck sliding over the tree plate at 200 mm/s.
 //! - **spline**: the splined shaft with friction on the hub: whether the insertion still reaches
@@ -37,7 +39,7 @@ pub const PLATE_FRICTION: Friction = Friction {
 /// One push of the friction study.
 #[derive(Serialize, Clone, Debug)]
 pub struct PushRow {
-    /// `ideal flat` or `tree plate`.
+    /// `ideal flat`, `tree plate` or `mesh plate`.
     pub surface: String,
     /// `slide` or `turn`.
     pub motion: String,
@@ -109,7 +111,7 @@ pub struct SplineRow {
 /// The whole study.
 #[derive(Serialize, Clone, Debug, Default)]
 pub struct FrictionStudy {
-    /// Pushes on the ideal flat and the tree plate.
+    /// Pushes on the ideal flat, the tree plate and the mesh plate.
     pub pushes: Vec<PushRow>,
     /// Frame time with friction against without.
     pub cost: Vec<CostRow>,
@@ -148,16 +150,16 @@ pub fn friction_study(cache: &TreeCache, quick: bool) -> Result<FrictionStudy> {
     };
     let turns: &[f64] = if quick { &[3.0] } else { &[1.0, 3.0, 10.0] };
     let mut study = FrictionStudy::default();
-    for (surface, flat) in [("ideal flat", true), ("tree plate", false)] {
+    for surface in [Surface::IdealFlat, Surface::TreePlate, Surface::MeshPlate] {
         let motions = slides
             .iter()
             .map(|&v| SpeedMotion::Slide(v))
             .chain(turns.iter().map(|&w| SpeedMotion::Turn(w)));
         for motion in motions {
-            if !flat && matches!(motion, SpeedMotion::Turn(_)) {
+            if surface == Surface::TreePlate && matches!(motion, SpeedMotion::Turn(_)) {
                 continue;
             }
-            study.pushes.push(push(cache, surface, flat, motion)?);
+            study.pushes.push(push(cache, surface, motion)?);
         }
     }
     // Cost: the same runs with friction on and off.
@@ -213,13 +215,42 @@ fn count(frames: &[FrameOutput], state: FrictionState) -> usize {
     frames.iter().filter(|o| o.friction == state).count()
 }
 
-fn push(cache: &TreeCache, surface: &str, flat: bool, motion: SpeedMotion) -> Result<PushRow> {
+/// What the puck is pushed on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Surface {
+    /// A one-sphere plate: the friction law alone.
+    IdealFlat,
+    /// The plate's sphere-tree (default trees, the leaf spheres).
+    TreePlate,
+    /// The plate's and the puck's own box meshes (the mesh geometry mode).
+    MeshPlate,
+}
+
+impl Surface {
+    fn name(self) -> &'static str {
+        match self {
+            Surface::IdealFlat => "ideal flat",
+            Surface::TreePlate => "tree plate",
+            Surface::MeshPlate => "mesh plate",
+        }
+    }
+}
+
+fn push(cache: &TreeCache, surface: Surface, motion: SpeedMotion) -> Result<PushRow> {
     let (script, (t0, t1)) = plate::push_script(motion);
-    let mut sc = if flat {
+    let mut sc = if surface == Surface::IdealFlat {
         plate::flat_scene(cache, PlateTool::Puck, script)?
     } else {
         plate::scene(cache, PlateTool::Puck, script)?
     };
+    if surface == Surface::MeshPlate {
+        sc.solver.geometry = engine::Geometry::Mesh;
+        anyhow::ensure!(
+            sc.geometry() == engine::Geometry::Mesh,
+            "{}: the mesh plate needs the puck's and the plate's meshes",
+            sc.name
+        );
+    }
     sc.object_friction = vec![PLATE_FRICTION];
     let (times, out, rho) = replay(&sc)?;
     let turn = matches!(motion, SpeedMotion::Turn(_));
@@ -262,7 +293,7 @@ fn push(cache: &TreeCache, surface: &str, flat: bool, motion: SpeedMotion) -> Re
         SpeedMotion::Turn(w) => ("turn", w),
     };
     Ok(PushRow {
-        surface: surface.into(),
+        surface: surface.name().into(),
         motion: name.into(),
         speed,
         normal_n,
