@@ -81,7 +81,10 @@ pub use traverse::{
     overlap_tree_trees, overlap_until, CollideWorkspace, FaceCut, FacePlane, FaceSlab, LeafPair,
     StandIn, Sweep, Traversal, TraversalStats,
 };
-pub use triangle::{closest_on_triangle, triangle_distance, Triangle, TriangleDistance};
+pub use triangle::{
+    closest_on_triangle, triangle_distance, triangle_distance_all_features, Triangle,
+    TriangleDistance,
+};
 pub use triangle_tree::{TreePairStack, TriangleTree, LEAF_TRIANGLES};
 
 /// Errors of this crate.
