@@ -51,6 +51,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod constraint;
+mod contact_area;
 mod mesh_leaves;
 mod near;
 mod neighbours;
@@ -66,6 +67,7 @@ pub use constraint::{
     constraint_value, fill_constraints, pair_constraint_value, ConstraintForm, Linearization,
     RotationCoordinates, DEGENERATE_DISTANCE,
 };
+pub use contact_area::{flat_overlap, AreaMoment};
 pub use mesh_leaves::{MeshLeaves, MeshLeavesError};
 pub use near::near_box;
 pub use neighbours::{BackgroundList, ListStatus, NeighbourList};

@@ -249,6 +249,20 @@ impl GodObject {
         }
         let n = resultant / resultant.norm();
         let centre = centre / total;
+        // Faces lying flat on each other (the mesh mode): the patch is the area they share,
+        // under a uniform pressure.
+        if let Some((area, moment)) = self.flat_contact_area(q, &n, &centre) {
+            self.run.friction.patch = Some(Patch {
+                normal: n,
+                centroid: centre,
+                rho: moment / area,
+                friction: Friction {
+                    static_mu: mu_s / total,
+                    kinetic_mu: mu_k / total,
+                },
+            });
+            return;
+        }
         let (mut spread, mut count) = (0.0, 0usize);
         for i in 0..self.listed_rows() {
             let Some((c, gap, _)) = point(i) else {

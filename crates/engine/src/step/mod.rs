@@ -427,6 +427,7 @@ impl GodObject {
                 nearest_at: None,
                 next_stack: tree_stack.clone(),
                 contact_gaps: vec![0.0; contacts_cap],
+                contact_points: vec![[0.0; 3]; contacts_cap],
                 tree_stack,
             },
             ahead: Ahead {

@@ -29,6 +29,12 @@ pub(super) struct Meshes {
     pub(super) objects: Vec<TriangleTree>,
 }
 
+/// Two faces count as lying flat on each other when both are within this angle's cosine of the
+/// contact plane (1°): a face tilted more lifts a 1 mm facet's far edge past the touch
+/// distance ([`TOUCH_MM`], 0.01 mm; `sin 1° · 1 mm` = 0.017 mm), so it touches along an edge or
+/// a corner, not over an area.
+const FLAT_CONTACT_COS: f64 = 0.999_847_695_156_391_2;
+
 /// Bisections of a step whose end has meeting triangles, toward the last free pose on it.
 const BACKTRACK_STEPS: u32 = 8;
 
@@ -336,6 +342,8 @@ impl GodObject {
             };
             if self.params.heuristics.mesh_far_rows && bound > reach {
                 self.detector.contact_gaps[n] = bound;
+                // Never binding: no force acts here.
+                self.detector.contact_points[n] = (rot.transpose() * (centroid(&tool) - t)).into();
                 self.qp.rows[n] = [0.0; 6];
                 self.qp.rhs[n] = -1.0;
                 n += 1;
@@ -352,6 +360,7 @@ impl GodObject {
                 face_normal_toward(&part, &centroid(&tool))
             };
             let p_in_tool: [f64; 3] = (rot.transpose() * (a - t)).into();
+            self.detector.contact_points[n] = p_in_tool;
             let (value, j) =
                 lin.face_value_gradient(&p_in_tool, 0.0, &normal.into(), normal.dot(&b) + target);
             let jd: f64 = j.iter().zip(&lin.delta()).map(|(x, y)| x * y).sum();
@@ -450,8 +459,36 @@ impl GodObject {
         })
     }
 
-    /// The nearest point on the tool (world, mm) and the distance (mm) of listed triangle pair
-    /// `i` with the tool at `(rot, t)`.
+    /// In the mesh mode, the area (mm²) the touching triangle pairs share where their faces lie
+    /// flat in the contact plane (normal `n`, within [`FLAT_CONTACT_COS`]) with the tool at `q`,
+    /// and `∫|r - centre| dA` over it (mm³); `None` when no pair does (sphere mode, or contacts
+    /// at edges and corners only).
+    pub(super) fn flat_contact_area(
+        &self,
+        q: &Pose,
+        n: &Vector3<f64>,
+        centre: &Vector3<f64>,
+    ) -> Option<(f64, f64)> {
+        let meshes = self.bodies.meshes.as_ref()?;
+        let (rot, t) = (q.rotation_matrix(), q.translation());
+        let (mut area, mut moment) = (0.0, 0.0);
+        for c in &self.detector.contacts {
+            let (tool, part) = self.posed_pair(meshes, c, &rot, &t);
+            let Some(m) = collide::flat_overlap(&tool, &part, n, centre, FLAT_CONTACT_COS) else {
+                continue;
+            };
+            if m.area > 0.0 && triangle_distance(&tool, &part).distance <= TOUCH_MM {
+                area += m.area;
+                moment += m.abs_moment;
+            }
+        }
+        (area > 0.0).then_some((area, moment))
+    }
+
+    /// The point row `i` holds (world, mm: the tool point it was linearised at, posed at
+    /// `(rot, t)`) and its triangle pair's distance there (mm). The row's own point, not the
+    /// pair's nearest point at the pose: where faces lie flat on each other the nearest points
+    /// are not unique, and a force must act where its row does.
     pub(super) fn mesh_contact_point(
         &self,
         i: usize,
@@ -462,7 +499,8 @@ impl GodObject {
         let c = self.detector.contacts.get(i)?;
         let (tool, part) = self.posed_pair(meshes, c, rot, t);
         let d = triangle_distance(&tool, &part);
-        Some((Vector3::from(d.on_a), d.distance))
+        let at = rot * Vector3::from(*self.detector.contact_points.get(i)?) + t;
+        Some((at, d.distance))
     }
 }
 

@@ -36,6 +36,9 @@ pub(super) struct Detector {
     /// distances at the last linearisation pose (mm).
     pub(super) contacts: Vec<TriPair>,
     pub(super) contact_gaps: Vec<f64>,
+    /// The tool point (tool frame, mm) each of those rows holds off the object: where its
+    /// multiplier's force acts (friction's centre of pressure).
+    pub(super) contact_points: Vec<[f64; 3]>,
     /// The mesh mode's triangle pairs within a wider margin ([`Tuning::near_list_mm`])
     /// of a recent pose: the narrow phase filters them while they cover its region.
     pub(super) near: Vec<TriPair>,

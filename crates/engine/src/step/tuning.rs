@@ -81,7 +81,7 @@ pub(super) const SLAB_MAX_SPLITS: usize = 8_000;
 
 // ---- The near part of the tool (`lever`) ----
 
-/// Tool and object levels at which the near part of the tool is decided ([`Lever`](super::Lever)): 512
+/// Tool and object levels at which the near part of the tool is decided (the `lever` heuristic's near part of the tool): 512
 /// nodes of a tree of branching 8 (a long tool on a face: ~5 500 sphere tests).
 pub(super) const LEVER_LEVEL: u32 = 3;
 
@@ -249,32 +249,30 @@ pub(super) const MESH_SPHERE_LEVELS: u32 = 1;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tuning {
     /// A pass starts only if the frame's time so far plus this many times its longest pass stays
-    /// within `budget_us` (a new region's traversal may cost more than any pass so far; the
-    /// deadline stops one that overruns). Tuned between 1.0 and 1.5 on a fast slide and a tight
-    /// insertion (design-notes §Regions, trust boxes and passes).
+    /// within `budget_us`: a new region's traversal may cost more than any pass so far (the
+    /// deadline stops one that overruns).
     pub pass_headroom: f64,
     /// Share of the frame budget kept after the last traversal may run for that pass's rows,
-    /// solve and check: a traversal still running at `(1 - DETECT_RESERVE) · budget_us` stops,
+    /// solve and check: a traversal still running at `(1 - detect_reserve) · budget_us` stops,
     /// and the frame ends lagging at its last proven pose.
     pub detect_reserve: f64,
-    /// Leaf pairs a detected region aims at: a dense contact takes smaller regions (more passes)
-    /// rather than one region of tens of thousands of rows.
+    /// Leaf pairs a path region or a free-space probe aims at: a dense contact takes smaller
+    /// regions (more passes) rather than one region of tens of thousands of rows.
     pub pair_target: f64,
-    /// Leaf pairs a ball region aims at in a dense contact (paths and free-space probes keep
-    /// [`PAIR_TARGET`]). A ball region in a turning or pressed contact is detected again every few
-    /// frames, and a dense one's cost grows faster than its life: a smaller target trades more
-    /// passes for cheaper ones. Tuned on a dense turning contact (the cost model fitted to measured
-    /// frames; design-notes §Regions, trust boxes and passes).
+    /// Leaf pairs a ball region aims at in a dense contact. A ball region in a turning or
+    /// pressed contact is detected again every few frames, and a dense one's cost grows faster
+    /// than its life: a smaller target than [`Tuning::pair_target`] trades more passes for
+    /// cheaper ones.
     pub ball_pair_target: f64,
     /// Least allowance (mm) the pair density may give a ball region: a dense contact's regions
-    /// may be thinner than [`MIN_ALLOW_MM`] (two bumpy faces hold ~1 500 pairs within ~0.1 mm;
-    /// design-notes §Regions, trust boxes and passes).
+    /// may be thinner than [`Tuning::min_allow_mm`] (two bumpy faces hold ~1 500 pairs within
+    /// ~0.1 mm).
     pub dense_min_allow_mm: f64,
     /// Smallest motion allowance of a detected region, mm.
     pub min_allow_mm: f64,
-    /// Largest pair list reused from an earlier frame: a list about [`PAIR_TARGET`] costs ~20 µs to
-    /// solve again, ~150 µs to find again (design-notes §Regions, trust boxes and passes).
-    /// (Deterministic: a rule on measured times would make frames depend on the machine.)
+    /// Largest pair list reused from an earlier frame: a list of [`Tuning::pair_target`] pairs
+    /// costs ~20 µs to solve again against ~150 µs to find again. (A count, not a rule on
+    /// measured times, which would make frames depend on the machine.)
     pub reuse_max_pairs: usize,
     /// A ball region's own pairs serve the next region about a pose it still covers by at least
     /// this share of the allowance wanted (else a fresh detection pays).
@@ -286,80 +284,75 @@ pub struct Tuning {
     /// path region pays off only for a hand in motion.
     pub min_sweep_mm: f64,
     /// A path region is taken only while its length plus width stays within this many times the
-    /// allowance that keeps a ball region near [`PAIR_TARGET`] pairs: 1 made fast slides lag, 3
-    /// let a tight insertion's worst frame over 1 ms (design-notes §Regions, trust boxes and
-    /// passes).
+    /// allowance that keeps a ball region near [`Tuning::pair_target`] pairs.
     pub path_density_factor: f64,
     /// A path region reaches at least this far ahead (mm, largest sphere motion; at most
     /// `max_margin_mm`), so that a slow hand's next frames reuse it.
     pub path_min_mm: f64,
-    /// How far (mm) the iterates of a path region may stray from the predicted path: twice the
-    /// recent prediction error, within these bounds (a tool riding over the bumps of a sphere-tree
-    /// surface strays by a few tenths of a millimetre).
+    /// Least width (mm) of a path region about the predicted path: twice the recent prediction
+    /// error, at least this.
     pub path_width_min_mm: f64,
+    /// Largest width (mm) of a path region about the predicted path (a tool riding over the
+    /// bumps of a sphere-tree surface strays by a few tenths of a millimetre).
     pub path_width_max_mm: f64,
     /// A pass whose answer stayed within this share of its region's width (its motion bound from
     /// the region's centre) crept: its trust box or the contact stopped it well inside its ball,
     /// and the next region's trust box is turned to that pass's motion.
     pub creep_share: f64,
     /// A slab region (a tool held by one flat face) allows a slide along the face of at least this
-    /// much (mm): its face's pairs do not grow with it, only with the margin across (1 mm against
-    /// 0.5 mm: p50 3–4 µs against 16–23 for a fast slide and turn; 2 mm no better).
+    /// much (mm): its face's pairs do not grow with it, only with the margin across.
     pub slab_slide_mm: f64,
     /// Least margin (mm) across the face of a slab region, over 1.5 times last frame's motion
     /// across it.
     pub slab_across_min_mm: f64,
     /// How much farther (mm) than a ball region's margin the rest of the tool is from the objects
-    /// ([`Lever`](super::Lever)): a turn about the contact (a long tool spinning and rocking on its tip) is
-    /// bounded by the near leaves' lever arm, not the far end's reach, while the far end moves
-    /// less than this.
+    /// (the `lever` heuristic's near part of the tool): a turn about the contact (a long tool spinning and rocking on
+    /// its tip) is bounded by the near leaves' lever arm, not the far end's reach, while the far
+    /// end moves less than this.
     pub lever_margin_mm: f64,
     /// A near part of the tool is found this much (mm) wider than a region needs, and kept for
-    /// later regions while the tool stays within it of where it was found ([`Lever`](super::Lever)).
+    /// later regions while the tool stays within it of where it was found (the `lever`
+    /// heuristic's near part of the tool).
     pub lever_spare_mm: f64,
     /// Margin (mm) of a detection made in free space: an empty result proves free space this far,
     /// and later frames near the same pose skip their traversals.
     pub free_probe_mm: f64,
-    /// Margin (mm) of a background probe: wider than a frame's own proof, since its cost is spread
-    /// over frames and a wider proof lasts longer per node pair split (measured in a tight hole:
-    /// 0.4 mm costs ~20 % more than 0.3 mm and covers ~40 % more of the way; design-notes
-    /// §Free-space proofs and background probes).
+    /// Margin (mm) of a background probe: wider than a frame's own proof
+    /// ([`Tuning::free_probe_mm`]), since its cost is spread over frames and a wider proof lasts
+    /// longer per node pair split.
     pub background_probe_mm: f64,
     /// Node pairs a background free-space probe aims to split per frame (~15–25 µs): it starts
     /// early enough to finish at this pace before the current proof runs out.
     pub probe_slice_splits: usize,
     /// Frames of the tool's steady motion a background probe's path covers, within
-    /// [`PATH_PROBE_MIN_MM`, `PATH_PROBE_MAX_MM`]: where walls run along the motion a path costs
-    /// 1.7–3.9 times a probe at a pose and covers 11–21 times the way (design-notes §Free-space
-    /// proofs and background probes).
+    /// [`PATH_PROBE_MIN_MM`, `PATH_PROBE_MAX_MM`]: where walls run along the motion a path
+    /// costs a few times a probe at a pose and covers ten or twenty times the way.
     pub path_probe_frames: f64,
     /// A probe along a path starts when the proofs have this many times its expected slices of
     /// frames left (a path's cost varies more with where it runs than a ball's: one that starts
-    /// late ends in long slices). Tuned between 1.5 and 8 in a tight hole (design-notes
-    /// §Free-space proofs and background probes).
+    /// late ends in long slices).
     pub path_probe_lead: f64,
     /// A background probe starts at the latest when the free-space proof has this many frames of
     /// slack left (earlier when the last probe needed more slices).
     pub probe_lead_frames: f64,
     /// How far past the pose where the current free-space proofs run out a probe is placed, as a
     /// share of a proof's usable radius: a tool moving on as it did crosses the new proof's ball
-    /// instead of leaving it from its centre (a proof covers ~1.7 times as much of the way).
+    /// instead of leaving it from its centre.
     pub probe_ahead: f64,
     /// First margin (mm) of a neighbour list; later ones follow the pairs the last one held.
     pub list_margin_mm: f64,
     /// On the frame's own thread a neighbour list is built only when its cost per frame of its
     /// life is at most this many times the traversals it would spare (a list also spares the
     /// second regions of a frame and keeps later frames cheap, which the count does not see; the
-    /// limit only keeps lists out where they clearly cost more; design-notes §Neighbour lists).
+    /// limit only keeps lists out where they clearly cost more).
     pub list_payoff: f64,
     /// Neighbour lists are kept only where a region's traversal splits at least this many node
-    /// pairs (~30 µs): where regions are cheap (60–170 splits) a list costs more than it spares
-    /// (design-notes §Neighbour lists).
+    /// pairs (~30 µs): where regions are cheap a list costs more than it spares.
     pub list_min_region_splits: f64,
     /// On the frame's own thread, a neighbour list is built only while the last ones answered at
     /// least this many times their build's work in regions (regions answered times a region's
-    /// node pairs; running mean over the lists taken). [`LIST_PAYOFF`]'s prediction misses that a
-    /// list in use shrinks the regions to fit inside it (design-notes §Neighbour lists).
+    /// node pairs; running mean over the lists taken): [`Tuning::list_payoff`]'s prediction
+    /// misses that a list in use shrinks the regions to fit inside it.
     pub list_min_yield: f64,
     /// Pairs a neighbour list aims at (filtering them costs ~1 ns each).
     pub list_target_pairs: f64,
@@ -368,12 +361,9 @@ pub struct Tuning {
     /// where it was listed), so the trees are descended once in several frames.
     pub near_list_mm: f64,
     /// Near-list length aimed at: every region the list serves filters all of it (its plane
-    /// bounds, ~30 ns a pair on the bench machine), so 3 000 pairs cost about a tenth of the 1 ms
-    /// budget a region; a longer list halves the next one's extra reach, one under a quarter of
-    /// this doubles it (up to [`NEAR_LIST_MM`]). Measured in the mesh mode at 1 000, 3 000 and
-    /// 8 000 on the r10 peg at 0.1 mm, the keyed shaft, the probe over bumps and the sphere field:
-    /// 1 000 left the sphere field 188 frames over 1 ms (3 000: 7), 8 000 the keyed shaft 190 (3 000:
-    /// 95); the peg was 894–1 384 either way.
+    /// bounds, ~30 ns a pair), so 3 000 pairs cost about a tenth of the 1 ms budget a region; a
+    /// longer list halves the next one's extra reach, one under a quarter of this doubles it (up
+    /// to [`Tuning::near_list_mm`]).
     pub near_list_pairs: usize,
     /// The next near list is built ahead in slices of at most this share of the frame's budget
     /// (after the frame's own work, never past its deadline): a whole list of a tight fit's wall
