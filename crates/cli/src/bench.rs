@@ -470,11 +470,13 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
     if wants("fit") {
         eprintln!("bench: fit study (pegs into holes at 0.5-0.02 mm clearance, shipped settings)");
         report.fit = crate::bench_fit::fit_study(&cache, args.quick, &geometries)?;
+        report.edge = crate::bench_fit::edge_study(&cache, args.quick, &geometries)?;
         let md = format!(
-            "# haptic6d bench: pegs and holes ({}), {}\n\n{}",
+            "# haptic6d bench: pegs and holes ({}), {}\n\n{}\n## A cylinder over a sharp edge\n\n{}",
             report.mode,
             report.machine,
-            crate::bench_fit::fit_markdown(&report.fit)
+            crate::bench_fit::fit_markdown(&report.fit),
+            crate::bench_fit::edge_markdown(&report.edge)
         );
         scene::io::write_atomic(&args.out.join("fit.md"), md.as_bytes())?;
     }
@@ -867,6 +869,13 @@ pub fn markdown(r: &BenchReport) -> String {
             "\n## Pegs and holes by clearance (dual, shipped settings)\n"
         );
         s.push_str(&crate::bench_fit::fit_markdown(&r.fit));
+    }
+    if !r.edge.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n## A cylinder over a sharp edge (dual, shipped settings)\n"
+        );
+        s.push_str(&crate::bench_fit::edge_markdown(&r.edge));
     }
     let _ = writeln!(s, "\nbench wall time: {:.1} s", r.wall_s);
     s

@@ -245,3 +245,125 @@ pub fn fit_markdown(rows: &[FitRow]) -> String {
     }
     s
 }
+
+/// The sharp-edge case's hand speeds, mm/s.
+pub const EDGE_SPEEDS_MM_S: [f64; 2] = [50.0, 200.0];
+
+/// The sharp-edge case ([`fit::sharp_edge_scene`]) at one speed in one geometry mode.
+#[derive(Serialize, Clone, Debug)]
+pub struct EdgeRow {
+    /// Hand speed along the slide, mm/s.
+    pub speed_mm_s: f64,
+    /// The geometry mode the engine used.
+    pub geometry: String,
+    /// Largest change of the force between frames outside contact onsets, N.
+    pub max_force_jump_n: f64,
+    /// When it happened, s, and where the hand was along the slide then (mm, the edge at 0).
+    pub max_force_jump_t: f64,
+    pub max_force_jump_x_mm: f64,
+    /// Contact onsets (the force from zero).
+    pub contact_onsets: usize,
+    /// Largest force, N.
+    pub max_force_n: f64,
+    /// Farthest the tool trailed the hand along the slide on the way back over the edge, mm (a
+    /// tool caught on the edge trails by the hand's whole travel).
+    pub max_trail_back_mm: f64,
+    /// Lagging, pair-overflow and kept-last-safe frames.
+    pub degraded: usize,
+    /// Whole step per frame, µs; frames over 1 ms.
+    pub total_us: scene::stats::Summary,
+    pub over_1ms: usize,
+    /// Mesh-level penetration of the cylinder into the block at the graphic pose, mm (every
+    /// frame near or in contact).
+    pub mesh_penetration_mm: f64,
+}
+
+/// Replays the sharp-edge case at each speed of [`EDGE_SPEEDS_MM_S`] (the first only with
+/// `quick`) in each geometry mode.
+pub fn edge_study(
+    cache: &TreeCache,
+    quick: bool,
+    geometries: &[engine::Geometry],
+) -> Result<Vec<EdgeRow>> {
+    let speeds = if quick {
+        &EDGE_SPEEDS_MM_S[..1]
+    } else {
+        &EDGE_SPEEDS_MM_S[..]
+    };
+    let mut out = Vec::new();
+    for &speed in speeds {
+        let base = fit::sharp_edge_scene(speed, cache)?;
+        for &mode in geometries {
+            let mut scene = base.clone();
+            scene.solver.geometry = mode;
+            let (times, frames, _) =
+                crate::bench_contact::replay_audited(&scene, SolverKind::Dual, false, false)?;
+            let force = scene::report::force_report_of(times.iter().copied().zip(&frames));
+            let at_jump = times
+                .iter()
+                .position(|&t| t >= force.max_force_jump_t)
+                .map_or(f64::NAN, |k| frames[k].q_h[0]);
+            // On the way back (the hand moving toward -x), the tool trails when it stays at
+            // larger x than the hand.
+            let back = frames.windows(2).filter(|w| w[1].q_h[0] < w[0].q_h[0]);
+            let max_trail_back_mm = back.map(|w| w[1].q_g[0] - w[1].q_h[0]).fold(0.0, f64::max);
+            let poses: Vec<[f64; 6]> = frames
+                .iter()
+                .filter(|fr| crate::run::near_contact(fr))
+                .map(|fr| fr.q_g)
+                .collect();
+            let depths = crate::run::mesh_depths(&scene, &poses).unwrap_or_default();
+            let row = EdgeRow {
+                speed_mm_s: speed,
+                geometry: scene.geometry().setting_name().into(),
+                max_force_jump_n: force.max_force_jump_n,
+                max_force_jump_t: force.max_force_jump_t,
+                max_force_jump_x_mm: at_jump,
+                contact_onsets: force.contact_onsets,
+                max_force_n: force.max_force_n,
+                max_trail_back_mm,
+                degraded: frames.iter().filter(|f| f.status.is_degraded()).count(),
+                total_us: scene::stats::Summary::of(frames.iter().map(|f| f.total_us)),
+                over_1ms: frames.iter().filter(|f| f.total_us > 1000.0).count(),
+                mesh_penetration_mm: depths.iter().copied().fold(0.0, f64::max),
+            };
+            eprintln!(
+                "bench: sharp edge {speed} mm/s ({}): largest force jump {:.3} N at x {:.2} mm, trail {:.2} mm",
+                row.geometry, row.max_force_jump_n, row.max_force_jump_x_mm, row.max_trail_back_mm
+            );
+            out.push(row);
+        }
+    }
+    Ok(out)
+}
+
+/// The sharp-edge rows as a markdown table.
+pub fn edge_markdown(rows: &[EdgeRow]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| speed mm/s | geometry | largest force jump N (hand at x mm) | contact onsets | force max N | trail on the way back mm | degraded | total µs p50 / p99 / max | frames > 1 ms | mesh pen. mm |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.3} ({:.2}) | {} | {:.2} | {:.2} | {} | {:.1} / {:.1} / {:.1} | {} | {:.4} |",
+            r.speed_mm_s,
+            r.geometry,
+            r.max_force_jump_n,
+            r.max_force_jump_x_mm,
+            r.contact_onsets,
+            r.max_force_n,
+            r.max_trail_back_mm,
+            r.degraded,
+            r.total_us.p50,
+            r.total_us.p99,
+            r.total_us.max,
+            r.over_1ms,
+            r.mesh_penetration_mm
+        );
+    }
+    s
+}

@@ -125,6 +125,8 @@ pub struct BenchReport {
     pub pqp_scaling: Vec<crate::bench_pqp::PqpScalingRow>,
     /// Pegs lowered into holes by clearance, per case and geometry mode.
     pub fit: Vec<crate::bench_fit::FitRow>,
+    /// The sharp-edge case of the fit study.
+    pub edge: Vec<crate::bench_fit::EdgeRow>,
     /// Wall time of the bench, s.
     pub wall_s: f64,
 }

@@ -229,11 +229,18 @@ pub struct MeshPenetrationReport {
 
 /// Force extremes and continuity of a run (raw wrench, before safety).
 pub fn force_report(frames: &[FrameRecord]) -> ForceReport {
+    force_report_of(frames.iter().map(|f| (f.t, &f.frame)))
+}
+
+/// [`force_report`] of frames given with their device times (s).
+pub fn force_report_of<'a>(
+    frames: impl IntoIterator<Item = (f64, &'a engine::Frame)>,
+) -> ForceReport {
     let mut r = ForceReport::default();
     let mut prev: Option<[f64; 6]> = None;
-    for f in frames {
-        let w = f.frame.raw_wrench;
-        if !w.iter().all(|v| v.is_finite()) || !f.frame.q_g.iter().all(|v| v.is_finite()) {
+    for (t, frame) in frames {
+        let w = frame.raw_wrench;
+        if !w.iter().all(|v| v.is_finite()) || !frame.q_g.iter().all(|v| v.is_finite()) {
             r.non_finite_frames += 1;
             continue;
         }
@@ -247,7 +254,7 @@ pub fn force_report(frames: &[FrameRecord]) -> ForceReport {
                 r.contact_onsets += 1;
             } else if jump > r.max_force_jump_n {
                 r.max_force_jump_n = jump;
-                r.max_force_jump_t = f.t;
+                r.max_force_jump_t = t;
             }
         }
         prev = Some(w);

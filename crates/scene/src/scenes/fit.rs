@@ -491,6 +491,74 @@ pub fn fit_scene(p: &FitParams, cache: &TreeCache) -> Result<FitScene, SceneErro
     })
 }
 
+/// Radius of the sharp-edge case's cylinder, mm.
+pub const EDGE_CYLINDER_RADIUS_MM: f64 = 5.0;
+/// How far below the block's top the hand holds the cylinder's lowest line, mm.
+pub const EDGE_PRESS_MM: f64 = 0.5;
+/// Where the sharp-edge case's hand slides from and to along `x` (the edge at `x = 0`), mm.
+pub const EDGE_SLIDE_FROM_MM: f64 = -30.0;
+/// … and the far end of the slide, past the edge, mm.
+pub const EDGE_SLIDE_TO_MM: f64 = 15.0;
+
+/// The sharp-edge case: a cylinder (radius [`EDGE_CYLINDER_RADIUS_MM`], 20 mm long, 64 sides,
+/// lying along `y`) pressed [`EDGE_PRESS_MM`] into the flat top of a meshed block (its top at
+/// `z = 0`, a 90° edge along `y` at `x = 0`), slid at `speed_mm_s` over the edge and off it,
+/// and back over it. The hand keeps its height: past the edge the cylinder leaves the block,
+/// and on the way back it meets the edge below its axis and rides up over it. What the hand
+/// feels should turn with the contact, without jumps.
+pub fn sharp_edge_scene(speed_mm_s: f64, cache: &TreeCache) -> Result<Scene, SceneError> {
+    if speed_mm_s.is_nan() || speed_mm_s <= 0.0 || speed_mm_s.is_infinite() {
+        return Err(SceneError::scene(
+            "sharp edge",
+            format!("speed {speed_mm_s} mm/s must be a positive number"),
+        ));
+    }
+    let r = EDGE_CYLINDER_RADIUS_MM;
+    let ring: Vec<(f64, f64)> = (0..64)
+        .map(|i| (2.0 * PI * f64::from(i) / 64.0, r))
+        .collect();
+    let cylinder = solid_of_rings(&[-10.0, 10.0], &[ring.clone(), ring]);
+    let block = super::plate::box_mesh([-60.0, -20.0, -30.0], [0.0, 20.0, 0.0]);
+    let name = format!("sharp edge, {speed_mm_s} mm/s");
+    let mut log = Vec::new();
+    let tool = crate::tree_for_mesh(&cylinder, tight(4), cache, "sharp-edge cylinder", &mut log)?;
+    let block_tree =
+        crate::object_tree_for_mesh(&block, tight(4), cache, "sharp-edge block", &mut log)?;
+    // Turned a quarter about x: the cylinder's axis (z in its own frame) along y.
+    let at = |x: f64, z: f64| [x, 0.0, z, std::f64::consts::FRAC_PI_2, 0.0, 0.0];
+    let pressed = r - EDGE_PRESS_MM;
+    let slide_s = (EDGE_SLIDE_TO_MM - EDGE_SLIDE_FROM_MM) / speed_mm_s;
+    let script = Script::starting_at(at(EDGE_SLIDE_FROM_MM, r + 10.0))
+        .hold(0.2)
+        .then(0.5, at(EDGE_SLIDE_FROM_MM, pressed), Ease::Smooth)
+        .hold(0.2)
+        .then(slide_s, at(EDGE_SLIDE_TO_MM, pressed), Ease::Linear)
+        .hold(0.2)
+        .then(slide_s, at(EDGE_SLIDE_FROM_MM, pressed), Ease::Linear)
+        .hold(0.2)
+        .then(0.5, at(EDGE_SLIDE_FROM_MM, r + 10.0), Ease::Smooth);
+    let scene = Scene {
+        name,
+        tool,
+        tool_mesh: Some(cylinder),
+        objects: vec![(block_tree, Pose::identity())],
+        object_meshes: vec![Some(block)],
+        coupling: Coupling::default(),
+        solver: SolverSpec::default(),
+        safety: SafetyParams::default(),
+        start: Pose::from_array(at(EDGE_SLIDE_FROM_MM, r + 10.0)),
+        rate_hz: 1000.0,
+        motion: Motion::Script(script),
+        goal: None,
+        device: Default::default(),
+        load_log: log,
+        object_friction: Vec::new(),
+        tool_friction: None,
+    };
+    scene.validate()?;
+    Ok(scene)
+}
+
 /// What a replay of a fit scene did.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct FitOutcome {
