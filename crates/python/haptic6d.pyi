@@ -123,6 +123,7 @@ class Engine:
         solver: Optional[str] = ...,
         form: Optional[str] = ...,
         rotation: Optional[str] = ...,
+        geometry: Optional[str] = ...,
         relinearize: Optional[int] = ...,
         penetration_tol_mm: Optional[float] = ...,
         skin_mm: Optional[float] = ...,
@@ -149,6 +150,7 @@ class Engine:
         solver: Optional[str] = ...,
         form: Optional[str] = ...,
         rotation: Optional[str] = ...,
+        geometry: Optional[str] = ...,
         relinearize: Optional[int] = ...,
         penetration_tol_mm: Optional[float] = ...,
         skin_mm: Optional[float] = ...,
@@ -210,6 +212,9 @@ class Engine:
     @property
     def load_log(self) -> List[str]:
         """How each tree was obtained, one line each."""
+    @property
+    def geometry(self) -> str:
+        """What the tool touches: 'mesh' (the parts' own triangles) or 'spheres' (the leaf spheres)."""
 
 def build_tree(
     mesh: Path,

@@ -5,6 +5,7 @@ use std::path::Path;
 
 use collide::Pose;
 use engine::Engine;
+use mesh::TriMesh;
 use scene::cache::TreeCache;
 use scene::trajectory::Trajectory;
 use scene::{load_scene_file, Scene};
@@ -66,6 +67,8 @@ pub fn from_scene(scene: Scene, options: &EngineOptions) -> Result<Made, Failure
         settings.config,
     )
     .map_err(|e| engine_error(&scene.name, e))?;
+    let mut load_log = scene.load_log.clone();
+    note_geometry(&engine, &settings, &mut load_log);
     scene.apply_friction(&mut engine).map_err(Failure::from)?;
     engine
         .reset(&scene.start)
@@ -74,19 +77,34 @@ pub fn from_scene(scene: Scene, options: &EngineOptions) -> Result<Made, Failure
         engine,
         settings,
         trajectory: Some(scene.trajectory()),
-        load_log: scene.load_log.clone(),
+        load_log,
         label: scene.name,
     })
 }
 
-/// The engine of `tool` against `objects` (trees in mm, each object with its fixed pose),
-/// with `options` over [`engine::EngineConfig::default`] at 1 kHz, reset at `start`.
+/// Says in the load log when the mesh geometry was asked for and the leaf spheres are used
+/// (a body without its mesh: a `Tree` or a `.sph` file), as `haptic6d run` says it.
+fn note_geometry(engine: &Engine, settings: &Settings, log: &mut Vec<String>) {
+    if settings.config.geometry == engine::Geometry::Mesh
+        && engine.geometry() != engine::Geometry::Mesh
+    {
+        log.push(
+            "geometry: mesh asked, but a body has no mesh (a Tree or a .sph file): the leaf spheres are used"
+                .into(),
+        );
+    }
+}
+
+/// The engine of `tool` against `objects` (trees in mm, each object with its fixed pose, and
+/// the meshes they were built from where known, for the mesh geometry mode), with `options`
+/// over [`engine::EngineConfig::default`] at 1 kHz, reset at `start`.
 pub fn from_trees(
-    tool: &SphereTree,
+    (tool, tool_mesh): (&SphereTree, Option<&TriMesh>),
     objects: &[(SphereTree, Pose)],
+    object_meshes: &[Option<TriMesh>],
     start: [f64; 6],
     options: &EngineOptions,
-    load_log: Vec<String>,
+    mut load_log: Vec<String>,
 ) -> Result<Made, Failure> {
     let settings = options.apply(engine::EngineConfig::default(), 1000.0)?;
     if objects.is_empty() {
@@ -98,8 +116,25 @@ pub fn from_trees(
         check_pose(&format!("objects[{i}] pose"), &pose.to_array())?;
     }
     check_pose("start", &start)?;
-    let mut engine = Engine::new(tool, objects, settings.config)
-        .map_err(|e| Failure::chain(FailureKind::Value, &e))?;
+    fn as_ref(m: &TriMesh) -> engine::MeshRef<'_> {
+        engine::MeshRef {
+            vertices: &m.vertices,
+            triangles: &m.triangles,
+        }
+    }
+    let meshes: Vec<Option<engine::MeshRef<'_>>> = object_meshes
+        .iter()
+        .map(|m| m.as_ref().map(as_ref))
+        .collect();
+    let mut engine = Engine::with_meshes(
+        tool,
+        tool_mesh.map(as_ref),
+        objects,
+        &meshes,
+        settings.config,
+    )
+    .map_err(|e| Failure::chain(FailureKind::Value, &e))?;
+    note_geometry(&engine, &settings, &mut load_log);
     engine
         .reset(&Pose::from_array(start))
         .map_err(|e| Failure::chain(FailureKind::Value, &e))?;
@@ -165,14 +200,25 @@ mod tests {
         let tool = SphereTree::from_slots(1, 2, vec![Sphere::new([0.0; 3], 5.0)]).unwrap();
         let object = SphereTree::from_slots(1, 2, vec![Sphere::new([0.0; 3], 20.0)]).unwrap();
         let o = EngineOptions::default();
-        let e = from_trees(&tool, &[], [0.0; 6], &o, vec![]).err().unwrap();
+        let e = from_trees((&tool, None), &[], &[], [0.0; 6], &o, vec![])
+            .err()
+            .unwrap();
         assert!(e.message.starts_with("objects: no object"), "{}", e.message);
         let mut start = [0.0, 0.0, 40.0, 0.0, 0.0, 0.0];
         start[3] = f64::NAN;
         let objs = [(object, Pose::identity())];
-        let e = from_trees(&tool, &objs, start, &o, vec![]).err().unwrap();
+        let e = from_trees((&tool, None), &objs, &[None], start, &o, vec![])
+            .err()
+            .unwrap();
         assert!(e.message.starts_with("start = "), "{}", e.message);
-        let made = from_trees(&tool, &objs, [0.0, 0.0, 40.0, 0.0, 0.0, 0.0], &o, vec![]);
+        let made = from_trees(
+            (&tool, None),
+            &objs,
+            &[None],
+            [0.0, 0.0, 40.0, 0.0, 0.0, 0.0],
+            &o,
+            vec![],
+        );
         assert!(made.is_ok());
     }
 }

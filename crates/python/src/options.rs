@@ -22,6 +22,9 @@ pub struct EngineOptions {
     pub form: Option<String>,
     /// Rotation coordinates name: `rotation-vector`, `euler`.
     pub rotation: Option<String>,
+    /// What the tool touches: `spheres` (the leaf spheres) or `mesh` (the parts' own
+    /// triangles, where every body came from a mesh).
+    pub geometry: Option<String>,
     /// Extra detect + solve passes per frame.
     pub relinearize: Option<i64>,
     /// Penetration tolerated before another pass, mm.
@@ -91,6 +94,9 @@ impl EngineOptions {
         }
         if let Some(s) = &self.rotation {
             c.rotation = parse::<RotationCoordinates>("rotation", s)?;
+        }
+        if let Some(s) = &self.geometry {
+            c.geometry = parse::<engine::Geometry>("geometry", s)?;
         }
         let setting = |e: SettingError| Failure::value(e.to_string());
         // Each given value is checked under its keyword's name first, as the command line

@@ -6,6 +6,7 @@
 use std::path::PathBuf;
 
 use collide::Pose;
+use mesh::TriMesh;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
@@ -184,12 +185,13 @@ fn name(key: &str, v: &Bound<'_, PyAny>) -> PyResult<String> {
 }
 
 /// The keyword settings of the engine constructors, in the order of the stubs.
-const SETTING_KEYS: [&str; 17] = [
+const SETTING_KEYS: [&str; 18] = [
     "kt",
     "kr",
     "solver",
     "form",
     "rotation",
+    "geometry",
     "relinearize",
     "penetration_tol_mm",
     "skin_mm",
@@ -219,6 +221,7 @@ fn engine_options(settings: Option<&Bound<'_, PyDict>>) -> PyResult<EngineOption
             "solver" => o.solver = Some(name(&key, &v)?),
             "form" => o.form = Some(name(&key, &v)?),
             "rotation" => o.rotation = Some(name(&key, &v)?),
+            "geometry" => o.geometry = Some(name(&key, &v)?),
             "relinearize" => o.relinearize = Some(integer(&key, &v)?),
             "penetration_tol_mm" => o.penetration_tol_mm = Some(real(&key, &v)?),
             "skin_mm" => o.skin_mm = Some(real(&key, &v)?),
@@ -414,11 +417,11 @@ fn tree_arg(
     label: &str,
     cache: &TreeCache,
     log: &mut Vec<String>,
-) -> PyResult<SphereTree> {
+) -> PyResult<(SphereTree, Option<TriMesh>)> {
     let py = obj.py();
     if let Ok(t) = obj.cast::<PyTree>() {
         log.push(format!("{label}: tree given ({})", t.get().source));
-        return Ok(t.get().tree.clone());
+        return Ok((t.get().tree.clone(), None));
     }
     let path = obj.extract::<PathBuf>().map_err(|_| {
         input_error(
@@ -429,7 +432,7 @@ fn tree_arg(
             ),
         )
     })?;
-    py.detach(|| trees::tree_for_path(&path, label, cache, log))
+    py.detach(|| trees::body_for_path(&path, label, cache, log))
         .map_err(|f| raise(py, f))
 }
 
@@ -600,8 +603,8 @@ impl PyEngine {
         }
         let cache = TreeCache::from_env();
         let mut log = Vec::new();
-        let tool_tree = tree_arg(tool, "tool", &cache, &mut log)?;
-        let mut objs = Vec::new();
+        let (tool_tree, tool_mesh) = tree_arg(tool, "tool", &cache, &mut log)?;
+        let (mut objs, mut meshes) = (Vec::new(), Vec::new());
         let items = objects.try_iter().map_err(|_| {
             input_error(
                 py,
@@ -618,13 +621,21 @@ impl PyEngine {
                 ),
                 _ => (item, [0.0; 6]),
             };
-            objs.push((
-                tree_arg(&body, &label, &cache, &mut log)?,
-                Pose::from_array(pose),
-            ));
+            let (tree, mesh) = tree_arg(&body, &label, &cache, &mut log)?;
+            objs.push((tree, Pose::from_array(pose)));
+            meshes.push(mesh);
         }
         let made = py
-            .detach(|| engines::from_trees(&tool_tree, &objs, start, &options, log))
+            .detach(|| {
+                engines::from_trees(
+                    (&tool_tree, tool_mesh.as_ref()),
+                    &objs,
+                    &meshes,
+                    start,
+                    &options,
+                    log,
+                )
+            })
             .map_err(|f| raise(py, f))?;
         Ok(Self::new(made))
     }
@@ -834,6 +845,7 @@ impl PyEngine {
         d.set_item("solver", c.solver.setting_name())?;
         d.set_item("form", c.form.setting_name())?;
         d.set_item("rotation", c.rotation.setting_name())?;
+        d.set_item("geometry", c.geometry.setting_name())?;
         d.set_item("relinearize", c.relinearize)?;
         d.set_item("penetration_tol_mm", c.penetration_tol_mm)?;
         d.set_item("skin_mm", c.skin_mm)?;
@@ -865,6 +877,16 @@ impl PyEngine {
     #[getter]
     fn name(&self) -> &str {
         &self.made.label
+    }
+
+    /// What the tool touches: `mesh` (the parts' own triangles) or `spheres` (the leaf
+    /// spheres; also when the mesh was asked for and a body has no mesh, which `load_log` says).
+    #[getter]
+    fn geometry(&self) -> &'static str {
+        match self.made.engine.geometry() {
+            engine::Geometry::Mesh => "mesh",
+            engine::Geometry::Spheres => "spheres",
+        }
     }
 
     /// How each tree was obtained (one line each).

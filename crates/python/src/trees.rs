@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use mesh::{load_mesh, InsideTest, LoadedMesh};
+use mesh::{load_mesh, InsideTest, LoadedMesh, TriMesh};
 use scene::cache::TreeCache;
 use scene::TreeParams;
 use spheretree::build::{build_tree_with_report, BuildMethod, BuildParams};
@@ -50,6 +50,17 @@ pub fn tree_for_path(
     cache: &TreeCache,
     log: &mut Vec<String>,
 ) -> Result<SphereTree, Failure> {
+    body_for_path(path, label, cache, log).map(|(tree, _)| tree)
+}
+
+/// [`tree_for_path`] with the mesh the tree was built from (`None` for a `.sph` file), for the
+/// mesh geometry mode.
+pub fn body_for_path(
+    path: &Path,
+    label: &str,
+    cache: &TreeCache,
+    log: &mut Vec<String>,
+) -> Result<(SphereTree, Option<TriMesh>), Failure> {
     let is_sph = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("sph"));
@@ -60,7 +71,7 @@ pub fn tree_for_path(
     if is_sph {
         let tree = read_tree(path).map_err(prefix)?;
         log.push(format!("{label}: tree read from {}", path.display()));
-        return Ok(tree);
+        return Ok((tree, None));
     }
     let mesh = load_mesh(path).map_err(|e| prefix(e.into()))?.mesh;
     let params = TreeParams {
@@ -68,7 +79,9 @@ pub fn tree_for_path(
         branching: 8,
         method: BuildMethod::default(),
     };
-    scene::tree_for_mesh(&mesh, params, cache, label, log).map_err(|e| prefix(e.into()))
+    let tree =
+        scene::tree_for_mesh(&mesh, params, cache, label, log).map_err(|e| prefix(e.into()))?;
+    Ok((tree, Some(mesh)))
 }
 
 /// Parses an inside-test name: `auto` (`None`: pseudo-normal on a closed mesh, winding number
