@@ -451,6 +451,15 @@ int32_t h6d_engine_frame_work(struct H6dEngine *engine, struct H6dFrameWork *out
 // writable `H6dConfig`.
 int32_t h6d_engine_config(struct H6dEngine *engine, struct H6dConfig *out);
 
+// What the engine's tool touches: writes 0 (the trees' leaf spheres) or 1 (the parts' own
+// meshes: a scene with `[solver] geometry = "mesh"` whose bodies all came from meshes) to
+// `*out`.
+//
+// # Safety
+// `engine` is NULL or a live engine used by no other thread meanwhile; `out` points to a
+// writable `int32_t`.
+int32_t h6d_engine_geometry(struct H6dEngine *engine, int32_t *out);
+
 // Frees an engine. NULL is accepted and ignored (so is a poisoned engine: it is freed).
 //
 // # Safety
@@ -492,7 +501,10 @@ int32_t h6d_scene_rate_hz(const struct H6dScene *scene, double *rate_hz);
 
 // Makes the scene's engine with the settings `config` (NULL: the scene's own), reset at the
 // scene's start pose (or a free pose near it). Allocates: call it before the haptic loop.
-// The engine owns copies of the trees: the scene may be destroyed afterwards.
+// The engine owns copies of the trees and meshes: the scene may be destroyed afterwards.
+// What the tool touches is the scene's `[solver] geometry` either way (`H6dConfig` has no
+// such field): its meshes where it asks for them and every body has one, else the leaf
+// spheres (`h6d_engine_geometry` says which).
 //
 // On success `*out` is the engine (free it with `h6d_engine_destroy`); on failure `*out` is
 // NULL and the message names the setting or what the engine refused.

@@ -567,6 +567,29 @@ pub unsafe extern "C" fn h6d_engine_config(engine: *mut H6dEngine, out: *mut H6d
     }
 }
 
+/// What the engine's tool touches: writes 0 (the trees' leaf spheres) or 1 (the parts' own
+/// meshes: a scene with `[solver] geometry = "mesh"` whose bodies all came from meshes) to
+/// `*out`.
+///
+/// # Safety
+/// `engine` is NULL or a live engine used by no other thread meanwhile; `out` points to a
+/// writable `int32_t`.
+#[no_mangle]
+pub unsafe extern "C" fn h6d_engine_geometry(engine: *mut H6dEngine, out: *mut i32) -> i32 {
+    const CALL: &str = "h6d_engine_geometry";
+    // SAFETY: the caller's contract.
+    unsafe {
+        with_engine(CALL, engine, |e| {
+            non_null(CALL, "out", out)?;
+            out.write(match e.geometry() {
+                engine::Geometry::Spheres => 0,
+                engine::Geometry::Mesh => 1,
+            });
+            Ok(())
+        })
+    }
+}
+
 /// Frees an engine. NULL is accepted and ignored (so is a poisoned engine: it is freed).
 ///
 /// # Safety

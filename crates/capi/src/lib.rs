@@ -10,7 +10,8 @@
 //!   meshes, an [`H6dConfig`]);
 //! - the haptic frame: [`h6d_engine_step`] (pose in; wrench, graphic pose and
 //!   [`H6dFrameInfo`] out), [`h6d_engine_reset`];
-//! - reading: [`h6d_engine_contacts`], [`h6d_engine_counters`], [`h6d_engine_config`];
+//! - reading: [`h6d_engine_contacts`], [`h6d_engine_counters`], [`h6d_engine_config`],
+//!   [`h6d_engine_geometry`];
 //! - [`h6d_engine_destroy`]; errors: [`h6d_last_error_message`], [`h6d_status_name`].
 //!
 //! The contract at the door:
@@ -36,9 +37,9 @@ mod types;
 
 pub use crate::engine::{
     h6d_config_default, h6d_engine_config, h6d_engine_contacts, h6d_engine_counters,
-    h6d_engine_destroy, h6d_engine_frame_work, h6d_engine_from_files, h6d_engine_idle,
-    h6d_engine_reset, h6d_engine_set_friction, h6d_engine_set_friction_enabled, h6d_engine_step,
-    h6d_engine_warm_caches, H6dEngine,
+    h6d_engine_destroy, h6d_engine_frame_work, h6d_engine_from_files, h6d_engine_geometry,
+    h6d_engine_idle, h6d_engine_reset, h6d_engine_set_friction, h6d_engine_set_friction_enabled,
+    h6d_engine_step, h6d_engine_warm_caches, H6dEngine,
 };
 pub use crate::scene::{
     h6d_scene_config, h6d_scene_destroy, h6d_scene_engine, h6d_scene_load, h6d_scene_rate_hz,

@@ -156,7 +156,10 @@ pub unsafe extern "C" fn h6d_scene_rate_hz(scene: *const H6dScene, rate_hz: *mut
 
 /// Makes the scene's engine with the settings `config` (NULL: the scene's own), reset at the
 /// scene's start pose (or a free pose near it). Allocates: call it before the haptic loop.
-/// The engine owns copies of the trees: the scene may be destroyed afterwards.
+/// The engine owns copies of the trees and meshes: the scene may be destroyed afterwards.
+/// What the tool touches is the scene's `[solver] geometry` either way (`H6dConfig` has no
+/// such field): its meshes where it asks for them and every body has one, else the leaf
+/// spheres (`h6d_engine_geometry` says which).
 ///
 /// On success `*out` is the engine (free it with `h6d_engine_destroy`); on failure `*out` is
 /// NULL and the message names the setting or what the engine refused.
@@ -179,15 +182,20 @@ pub unsafe extern "C" fn h6d_scene_engine(
             let config = if config.is_null() {
                 s.engine_config()
             } else {
-                (*config).to_engine().map_err(|f| f.report(CALL))?
+                let mut c = (*config).to_engine().map_err(|f| f.report(CALL))?;
+                c.geometry = s.solver.geometry;
+                c
             };
-            let mut engine = Engine::new(&s.tool, &s.objects, config).map_err(|e| {
-                Failure::new(
-                    engine_failure(&e).status,
-                    format!("{}: {}", s.name, error_chain(&e)),
-                )
-                .report(CALL)
-            })?;
+            let (tool_mesh, object_meshes) = s.mesh_refs();
+            let mut engine =
+                Engine::with_meshes(&s.tool, tool_mesh, &s.objects, &object_meshes, config)
+                    .map_err(|e| {
+                        Failure::new(
+                            engine_failure(&e).status,
+                            format!("{}: {}", s.name, error_chain(&e)),
+                        )
+                        .report(CALL)
+                    })?;
             s.apply_friction(&mut engine).map_err(|e| {
                 Failure::new(H6dStatus::InvalidArgument, error_chain(&e)).report(CALL)
             })?;

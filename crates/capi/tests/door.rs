@@ -577,11 +577,8 @@ fn a_start_in_collision_moves_to_the_nearest_free_pose() {
     }
 }
 
-#[test]
-fn a_mesh_body_builds_its_tree() {
-    let dir = tempfile::tempdir().unwrap();
-    // A 10 mm cube (in cm, scaled by 10) as the object, a sphere tree as the tool.
-    let obj = dir.path().join("cube.obj");
+/// A unit cube as OBJ text (outward faces).
+fn cube_obj() -> String {
     let mut text = String::new();
     for v in 0..8 {
         let (x, y, z) = (v & 1, (v >> 1) & 1, (v >> 2) & 1);
@@ -603,7 +600,70 @@ fn a_mesh_body_builds_its_tree() {
     ] {
         text += &format!("f {} {} {}\n", f[0], f[1], f[2]);
     }
-    std::fs::write(&obj, text).unwrap();
+    text
+}
+
+/// A scene asking for the mesh geometry gets it through the C door (its settings given or
+/// not, since `H6dConfig` has no geometry), and one that does not keeps the leaf spheres;
+/// `h6d_engine_geometry` says which.
+#[test]
+fn a_scene_that_asks_for_the_mesh_geometry_gets_it() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("cube.obj"), cube_obj()).unwrap();
+    for (geometry, want) in [("mesh", 1), ("spheres", 0)] {
+        let file = dir.path().join(format!("{geometry}.toml"));
+        std::fs::write(
+            &file,
+            format!(
+                "[tool]\nmesh = \"cube.obj\"\nscale = 10.0\ndepth = 2\nstart = [0, 0, 40, 0, 0, 0]\n\n\
+                 [[object]]\nmesh = \"cube.obj\"\nscale = 10.0\ndepth = 2\n\n\
+                 [solver]\ngeometry = \"{geometry}\"\n"
+            ),
+        )
+        .unwrap();
+        let mut scene = null_mut();
+        let mut config = std::mem::MaybeUninit::<H6dConfig>::uninit();
+        // SAFETY: valid pointers; the scene and engines are freed below.
+        unsafe {
+            expect(
+                h6d_scene_load(c(file.to_str().unwrap()).as_ptr(), &mut scene),
+                H6dStatus::Ok,
+                &[],
+            );
+            expect(h6d_config_default(config.as_mut_ptr()), H6dStatus::Ok, &[]);
+            for settings in [null(), config.as_ptr()] {
+                let mut engine = null_mut();
+                expect(
+                    h6d_scene_engine(scene, settings, &mut engine),
+                    H6dStatus::Ok,
+                    &[],
+                );
+                let mut got = -1;
+                expect(h6d_engine_geometry(engine, &mut got), H6dStatus::Ok, &[]);
+                assert_eq!(
+                    got,
+                    want,
+                    "{geometry}, settings given: {}",
+                    !settings.is_null()
+                );
+                h6d_engine_destroy(engine);
+            }
+            h6d_scene_destroy(scene);
+            expect(
+                h6d_engine_geometry(null_mut(), &mut 0),
+                H6dStatus::NullArgument,
+                &["h6d_engine_geometry"],
+            );
+        }
+    }
+}
+
+#[test]
+fn a_mesh_body_builds_its_tree() {
+    let dir = tempfile::tempdir().unwrap();
+    // A 10 mm cube (in cm, scaled by 10) as the object, a sphere tree as the tool.
+    let obj = dir.path().join("cube.obj");
+    std::fs::write(&obj, cube_obj()).unwrap();
     let obj = c(obj.to_str().unwrap());
     let tool = sph(dir.path(), "tool.sph", 2.0);
     let mut cube = body(&obj, [0.0; 6]);
