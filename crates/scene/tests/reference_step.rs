@@ -252,14 +252,16 @@ fn all_scaled(factor: f64) -> Tuning {
 }
 
 /// The tuned values set how much work a frame does, not what it answers: every one halved,
-/// or every one doubled, the step still answers as the reference on both geometries.
+/// or every one doubled, the step still answers as the reference on both geometries (at the
+/// shipped step's own strides: on the keyed shaft's non-convex contact a few frames reach
+/// another local optimum, and the share allowed is counted over that many frames).
 #[test]
 fn every_tuned_value_halved_or_doubled_stays_exact_and_safe() {
     for factor in [0.5, 2.0] {
         let tuning = all_scaled(factor);
         assert_ne!(tuning, Tuning::DEFAULT);
         check_tuned(SCENES, Geometry::Spheres, Heuristics::ALL, tuning, 4);
-        check_tuned(MESH_SCENES, Geometry::Mesh, Heuristics::ALL, tuning, 8);
+        check_tuned(MESH_SCENES, Geometry::Mesh, Heuristics::ALL, tuning, 4);
     }
 }
 
