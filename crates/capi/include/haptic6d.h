@@ -466,8 +466,8 @@ int32_t h6d_engine_geometry(struct H6dEngine *engine, int32_t *out);
 // `engine` is NULL or a live engine from this library, not used afterwards.
 int32_t h6d_engine_destroy(struct H6dEngine *engine);
 
-// Loads a scene: a built-in one (`"bunny"`, `"spline"`, `"plate"`) or a scene file (`.toml`,
-// paths inside it relative to the file). Trees are built from meshes or read from the tree
+// Loads a scene: a built-in one (`"bunny"`, `"spline"`, `"plate"`, `"spline-tight"`,
+// `"probe"`) or a scene file (`.toml`, paths inside it relative to the file). Trees are built from meshes or read from the tree
 // cache (`$HAPTIC6D_CACHE`, else `~/.cache/haptic6d`): the first load of a built-in scene
 // takes seconds, later ones milliseconds. Call it before the haptic loop.
 //

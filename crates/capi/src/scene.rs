@@ -54,8 +54,8 @@ unsafe fn with_scene(
     )
 }
 
-/// Loads a scene: a built-in one (`"bunny"`, `"spline"`, `"plate"`) or a scene file (`.toml`,
-/// paths inside it relative to the file). Trees are built from meshes or read from the tree
+/// Loads a scene: a built-in one (`"bunny"`, `"spline"`, `"plate"`, `"spline-tight"`,
+/// `"probe"`) or a scene file (`.toml`, paths inside it relative to the file). Trees are built from meshes or read from the tree
 /// cache (`$HAPTIC6D_CACHE`, else `~/.cache/haptic6d`): the first load of a built-in scene
 /// takes seconds, later ones milliseconds. Call it before the haptic loop.
 ///
