@@ -477,7 +477,8 @@ int32_t h6d_engine_destroy(struct H6dEngine *engine);
 //
 // # Safety
 // `name` is NULL or NUL-terminated; `out` points to a writable pointer.
-int32_t h6d_scene_load(const char *name, struct H6dScene **out);
+int32_t h6d_scene_load(const char *name,
+                       struct H6dScene **out);
 
 // Writes the scene's engine settings (its coupling, solver and safety sections) to `*out`:
 // change fields and pass it to `h6d_scene_engine`.

@@ -46,16 +46,16 @@ pub const START_HEIGHT_MM: f64 = 5.0;
 /// Height of the tip above the mouth where the hand leans it against the tooth, mm.
 pub const ENTRY_HEIGHT_MM: f64 = 0.5;
 
-/// Sides of the probe's cross-section (its facets stand 0.2 % of the radius inside the
-/// circle).
+/// Sides of the probe's cross-section (its flats stand 1.9 % of the radius inside the circle:
+/// 0.245 mm at the default tip).
 pub const PROBE_SEGMENTS: u32 = 16;
 
 /// Largest spacing of the root surface's grid, mm (eight samples a groove at the default
 /// 1 mm period).
 pub const TOOTH_GRID_MM: f64 = 0.125;
 
-/// Largest spacing of the gingiva's grid, mm (the smooth curve sags 0.002 mm between rows at
-/// the default tooth radius).
+/// Largest spacing of the gingiva's grid, mm (the smooth curve sags 0.002 mm between samples
+/// at the default tooth radius).
 pub const GINGIVA_GRID_MM: f64 = 0.25;
 
 /// Depth of the sphere-trees (tight, branching 8): the mesh mode keeps only their roots, the
@@ -127,7 +127,7 @@ impl Default for ProbeParams {
 /// How far below the floor the walls reach (into the floor slab), mm.
 const BELOW_FLOOR_MM: f64 = 1.5;
 
-/// Thickness of the tooth and gingiva blocks behind their faces at `y = 0`, mm.
+/// Least thickness of the tooth and gingiva blocks behind their faces, mm.
 const WALL_MM: f64 = 3.0;
 
 impl ProbeParams {
@@ -274,6 +274,7 @@ impl ProbeParams {
     /// and into both walls, mm.
     pub fn floor_mesh(&self) -> TriMesh {
         let half = 0.5 * self.pocket_length_mm;
+        // 1 mm into each wall beyond the pocket's farthest reach, so no gap is left below it.
         let lo_x = -0.5 * self.pocket_width_mm - self.curve_mm(half) - self.groove_depth_mm - 1.0;
         let hi_x = 0.5 * self.pocket_width_mm + 1.0;
         let top = -self.pocket_depth_mm;
