@@ -102,28 +102,37 @@ fn assert_closed(m: &TriMesh, what: &str) {
 }
 
 #[test]
-fn exactly_the_mesh_built_ins_run_on_the_mesh() {
-    let cache = common::test_cache();
-    for name in BUILTIN_NAMES {
-        let s = scene::scenes::builtin(name, &cache).unwrap();
-        let mesh = MESH_BUILTIN_NAMES.contains(name);
-        let expected = if mesh {
-            Geometry::Mesh
-        } else {
-            Geometry::Spheres
-        };
-        assert_eq!(s.solver.geometry, expected, "{name}");
-        assert_eq!(s.geometry(), expected, "{name}: meshes missing");
-        if mesh {
-            assert!(s.goal.is_some(), "{name} has no goal");
-        }
-    }
+fn the_sphere_mode_built_ins_are_the_others() {
     let spheres: Vec<&str> = scene::scenes::sphere_builtin_names().collect();
     assert_eq!(spheres, ["bunny", "spline", "plate"]);
+    for name in BUILTIN_NAMES {
+        assert_ne!(
+            spheres.contains(name),
+            MESH_BUILTIN_NAMES.contains(name),
+            "{name}"
+        );
+    }
+    // The mesh-mode ones are checked by their own tests below (each tree built once).
+    let cache = common::test_cache();
+    for name in &spheres {
+        let s = scene::scenes::builtin(name, &cache).unwrap();
+        assert_eq!(s.solver.geometry, Geometry::Spheres, "{name}");
+    }
 }
 
+/// The built-in `name` runs on the mesh and has a goal.
+fn assert_mesh_built_in(s: &Scene, name: &str) {
+    assert!(MESH_BUILTIN_NAMES.contains(&name), "{name}");
+    assert_eq!(s.name, name);
+    assert_eq!(s.solver.geometry, Geometry::Mesh, "{name}");
+    assert_eq!(s.geometry(), Geometry::Mesh, "{name}: meshes missing");
+    assert!(s.goal.is_some(), "{name} has no goal");
+}
+
+/// `spline-tight`: the spline's shaft, hand and goal with a hole 0.1 mm wider than the shaft;
+/// its insertion, keys aligned, reaches the goal on the mesh and jams on the spheres.
 #[test]
-fn spline_tight_is_the_spline_at_a_tenth_of_a_millimetre() {
+fn spline_tight_is_the_spline_at_a_tenth_of_a_millimetre_and_goes_in_on_the_mesh() {
     let cache = common::test_cache();
     let spline = scene::scenes::builtin("spline", &cache).unwrap();
     let tight = scene::scenes::builtin("spline-tight", &cache).unwrap();
@@ -162,11 +171,9 @@ fn spline_tight_is_the_spline_at_a_tenth_of_a_millimetre() {
         spline_scene::TREE_DEPTH,
         "hub tree",
     );
-}
+    assert_mesh_built_in(&tight, "spline-tight");
 
-#[test]
-fn spline_tight_inserts_on_the_mesh_and_jams_on_the_spheres() {
-    let mut scene = scene::scenes::builtin("spline-tight", &common::test_cache()).unwrap();
+    let mut scene = tight;
     // The scene's insertion with the keys aligned from the start: 1 mm above the face, down to
     // the goal's depth at 21 mm/s mean, a short hold.
     let at = |z: f64| [0.0, 0.0, z, 0.0, 0.0, 0.0];
@@ -186,8 +193,10 @@ fn spline_tight_inserts_on_the_mesh_and_jams_on_the_spheres() {
     );
 }
 
+/// `probe`: its parts closed and the pocket as wide as stated; the tip reaches the floor on the
+/// mesh and rests on it pressed, and stops short on the spheres.
 #[test]
-fn the_probe_parts_are_closed_and_the_pocket_as_wide_as_stated() {
+fn the_probe_fits_its_pocket_and_reaches_the_floor_on_the_mesh() {
     let p = ProbeParams::default();
     let probe = p.probe_mesh();
     let tooth = p.tooth_mesh();
@@ -269,23 +278,14 @@ fn the_probe_parts_are_closed_and_the_pocket_as_wide_as_stated() {
     assert_eq!(top(&tooth), p.crown_height_mm);
     assert!((3.0..=6.0).contains(&p.pocket_depth_mm));
 
-    let s = probe::probe_scene(&p, &common::test_cache()).unwrap().scene;
-    assert_eq!(s.name, "probe");
-    assert_eq!(s.geometry(), Geometry::Mesh);
-    assert_sane_tree(&s.tool, &probe, probe::TREE_DEPTH, "probe tree");
-    for ((tree, _), (m, what)) in
-        s.objects
-            .iter()
-            .zip([(&tooth, "tooth"), (&gingiva, "gingiva"), (&floor, "floor")])
-    {
+    let ps = probe::probe_scene(&p, &common::test_cache()).unwrap();
+    assert_mesh_built_in(&ps.scene, "probe");
+    assert_sane_tree(&ps.scene.tool, &probe, probe::TREE_DEPTH, "probe tree");
+    let walls = [(&tooth, "tooth"), (&gingiva, "gingiva"), (&floor, "floor")];
+    for ((tree, _), (m, what)) in ps.scene.objects.iter().zip(walls) {
         assert_sane_tree(tree, m, probe::TREE_DEPTH, what);
     }
-}
 
-#[test]
-fn the_probe_reaches_the_floor_on_the_mesh_and_stops_short_on_the_spheres() {
-    let p = ProbeParams::default();
-    let ps = probe::probe_scene(&p, &common::test_cache()).unwrap();
     let (pressed0, pressed1) = ps.phases.pressed_s;
     let (goal, frames) = run_goal(&ps.scene, Geometry::Mesh, pressed1);
     assert!(goal.success, "the probe misses the floor: {goal:?}");
