@@ -1,8 +1,9 @@
 //! The `spline` scene: a splined shaft (tool) inserted into a hub with the matching splined
 //! hole (object), both procedurally generated closed meshes ([`crate::scenes::spline_mesh`]).
-//! The `spline-tight` scene is the same at [`TIGHT_CLEARANCE_MM`] instead of 1 mm, on the
-//! parts' own triangles ([`engine::Geometry::Mesh`]): at that clearance the leaf spheres'
-//! overhang fills the gap and the shaft would jam at the mouth.
+//! The `spline-tight` scene is the same at 0.1 mm clearance
+//! ([`crate::scenes::spline_scene::TIGHT_CLEARANCE_MM`]) instead of 1 mm, on the parts' own
+//! triangles ([`engine::Geometry::Mesh`]): at that clearance the leaf spheres' overhang fills
+//! the gap and the shaft would jam at the mouth.
 //!
 //! Scripted device motion (1 kHz): approach with the keys misaligned by half a pitch, come to
 //! rest on the hub's top face (hand 2 mm below it: ~2 N axial), rotate until the keys align
