@@ -172,9 +172,11 @@ impl ProbeParams {
         if self.shank_radius_mm < self.tip_radius_mm {
             return bad("the shank must be at least as thick as the tip".into());
         }
-        // The shank must stay above the tooth with the tip at the floor.
-        let taper_at_floor = self.working_length_mm - self.pocket_depth_mm - self.crown_height_mm;
-        if taper_at_floor <= 0.0 {
+        // With the tip at the floor, the taper must start above the crown (a thicker shank
+        // would meet the tooth).
+        let taper_above_crown =
+            self.working_length_mm - self.pocket_depth_mm - self.crown_height_mm;
+        if taper_above_crown <= 0.0 {
             return bad(format!(
                 "working_length_mm = {}: must exceed the pocket's depth and the crown ({} mm)",
                 self.working_length_mm,
