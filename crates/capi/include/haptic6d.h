@@ -467,9 +467,10 @@ int32_t h6d_engine_geometry(struct H6dEngine *engine, int32_t *out);
 int32_t h6d_engine_destroy(struct H6dEngine *engine);
 
 // Loads a scene: a built-in one (`"bunny"`, `"spline"`, `"plate"`, `"spline-tight"`,
-// `"probe"`) or a scene file (`.toml`, paths inside it relative to the file). Trees are built from meshes or read from the tree
-// cache (`$HAPTIC6D_CACHE`, else `~/.cache/haptic6d`): the first load of a built-in scene
-// takes seconds, later ones milliseconds. Call it before the haptic loop.
+// `"probe"`) or a scene file (`.toml`, paths inside it relative to the file). Trees are built
+// from meshes or read from the tree cache (`$HAPTIC6D_CACHE`, else `~/.cache/haptic6d`): the
+// first load of a built-in scene takes seconds, later ones milliseconds. Call it before the
+// haptic loop.
 //
 // On success `*out` is the scene (free it with `h6d_scene_destroy`); on failure `*out` is
 // NULL: `H6D_STATUS_IO` for a missing or unreadable file, `H6D_STATUS_SCENE` for a malformed
@@ -477,8 +478,7 @@ int32_t h6d_engine_destroy(struct H6dEngine *engine);
 //
 // # Safety
 // `name` is NULL or NUL-terminated; `out` points to a writable pointer.
-int32_t h6d_scene_load(const char *name,
-                       struct H6dScene **out);
+int32_t h6d_scene_load(const char *name, struct H6dScene **out);
 
 // Writes the scene's engine settings (its coupling, solver and safety sections) to `*out`:
 // change fields and pass it to `h6d_scene_engine`.
