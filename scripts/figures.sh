@@ -34,8 +34,9 @@ trees       haptic6d tree build / tree eval (tight d4, d3,       README "Build a
 run         haptic6d run bunny (cold, then --reps runs),         README "Run a scene" block; docs/benchmarks/render.md
             --trajectory into active-set and pqp,               bunny, other-solver, --realtime, spline and start-up
             --realtime; run spline (dual, active-set)           tables; BENCHMARKS.md 1 kHz period-error row
-frame       haptic6d run bunny|spline, back to back and paced;   BENCHMARKS.md "Current figures" and "Frame time on the
-            --budget-us 1000000 work counts; per_frame_min.py    built-in scenes"; docs/benchmarks/timing_*.png
+frame       haptic6d run bunny|spline, back to back and paced;   BENCHMARKS.md "Current figures", "Frame time on the
+            --budget-us 1000000 work counts; per_frame_min.py;   built-in scenes" and "Tight built-ins on the mesh";
+            run spline-tight|probe (4 runs, no deadline)          docs/benchmarks/timing_*.png
 bench       haptic6d bench --quick --scenes bunny;               README "Reproduce the paper" rows; BENCHMARKS.md
             haptic6d bench (full)                                replay, pairs and depth tables, the peer table and
                                                                   its plots (docs/benchmarks/peer/), friction's cost
@@ -170,6 +171,19 @@ if wanted frame; then
   # Work counts: no deadline, the same on any machine.
   for s in spline bunny plate; do
     fig frame "counts-$s" "$bin" run "$s" --budget-us 1000000 --out "$f/counts-$s" --no-plots
+  done
+  # BENCHMARKS.md "Tight built-ins on the mesh": 3 runs each with the shipped budget, one at
+  # normal priority (no real-time throttling of the back-to-back thread), then one with no
+  # deadline (does the goal need more time than the budget gives?).
+  for i in 1 2 3; do
+    fig frame "spline-tight-$i" "$bin" run spline-tight --out "$f/spline-tight-$i" --no-plots
+    fig frame "probe-$i" "$bin" run probe --out "$f/probe-$i" --no-plots
+  done
+  for s in spline-tight probe; do
+    fig frame "nort-$s" "$bin" run "$s" --no-rt-priority --out "$f/nort-$s" --no-plots
+  done
+  for s in spline-tight probe; do
+    fig frame "nodeadline-$s" "$bin" run "$s" --budget-us 1000000 --out "$f/nodeadline-$s" --no-plots
   done
   # The per-frame minimum over 20 deterministic runs.
   fig frame per-frame-min-spline python3 scripts/per_frame_min.py --runs 20 --bin "$bin" spline

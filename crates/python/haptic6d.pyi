@@ -137,8 +137,9 @@ class Engine:
         soft_start_s: Optional[float] = ...,
         rate_hz: Optional[float] = ...,
     ) -> "Engine":
-        """The engine of a built-in scene ('bunny', 'spline', 'plate') or a scene file
-        (.toml), as ``haptic6d run`` loads it; settings override the scene's."""
+        """The engine of a built-in scene ('bunny', 'spline', 'plate', 'spline-tight',
+        'probe') or a scene file (.toml), as ``haptic6d run`` loads it; settings override the
+        scene's."""
     @staticmethod
     def from_trees(
         tool: TreeLike,

@@ -12,7 +12,8 @@
  *   ./servo_loop bunny runs/bunny/trajectory.csv > wrench.csv
  *
  * Usage: servo_loop SCENE TRAJECTORY.csv [BUDGET_US]
- *   SCENE       a built-in scene (bunny, spline, plate) or a scene file (.toml)
+ *   SCENE       a built-in scene (bunny, spline, plate, spline-tight, probe) or a scene
+ *               file (.toml)
  *   BUDGET_US   the frame's time budget, µs (default: the scene's)
  * Output (stdout): t,fx,fy,fz,tx,ty,tz,xg,yg,zg,gg,bg,ag,status (s, N, N·mm, mm, rad).
  */

@@ -54,10 +54,11 @@ unsafe fn with_scene(
     )
 }
 
-/// Loads a scene: a built-in one (`"bunny"`, `"spline"`, `"plate"`) or a scene file (`.toml`,
-/// paths inside it relative to the file). Trees are built from meshes or read from the tree
-/// cache (`$HAPTIC6D_CACHE`, else `~/.cache/haptic6d`): the first load of a built-in scene
-/// takes seconds, later ones milliseconds. Call it before the haptic loop.
+/// Loads a scene: a built-in one (`"bunny"`, `"spline"`, `"plate"`, `"spline-tight"`,
+/// `"probe"`) or a scene file (`.toml`, paths inside it relative to the file). Trees are built
+/// from meshes or read from the tree cache (`$HAPTIC6D_CACHE`, else `~/.cache/haptic6d`): the
+/// first load of a built-in scene takes seconds, later ones milliseconds. Call it before the
+/// haptic loop.
 ///
 /// On success `*out` is the scene (free it with `h6d_scene_destroy`); on failure `*out` is
 /// NULL: `H6D_STATUS_IO` for a missing or unreadable file, `H6D_STATUS_SCENE` for a malformed

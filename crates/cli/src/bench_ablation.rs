@@ -92,9 +92,8 @@ pub fn ablation_study(cache: &TreeCache, quick: bool) -> Result<Vec<AblationRow>
     let names: Vec<&str> = if quick {
         crate::bench_zoo::QUICK_SCENES.to_vec()
     } else {
-        scene::scenes::BUILTIN_NAMES
-            .iter()
-            .copied()
+        // The sphere-mode built-ins only: the study replays the leaf spheres.
+        scene::scenes::sphere_builtin_names()
             .chain(zoo::names())
             .collect()
     };

@@ -24,7 +24,8 @@ use crate::progress::Progress;
 /// Arguments of `haptic6d run`.
 #[derive(Args, Debug)]
 pub struct RunArgs {
-    /// A built-in scene (`bunny`, `spline`) or a scene file (.toml).
+    /// A built-in scene (`bunny`, `spline`, `plate`, `spline-tight`, `probe`, a zoo scene such
+    /// as `zoo/slot`) or a scene file (.toml).
     pub scene: String,
     /// Device trajectory CSV (`t,x,y,z,gamma,beta,alpha`, one row per frame) to replay instead
     /// of the scene's own motion.

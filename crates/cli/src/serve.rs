@@ -18,7 +18,8 @@ use viewer::{BridgeParams, DeviceBridge, HapticLoop, Pacing, SceneSim, UdpBridge
 /// Arguments of `haptic6d serve`.
 #[derive(Args, Debug)]
 pub struct ServeArgs {
-    /// Built-in scene (`bunny`, `spline`) or a scene file (.toml).
+    /// Built-in scene (`bunny`, `spline`, `plate`, `spline-tight`, `probe`, a zoo scene such as
+    /// `zoo/slot`) or a scene file (.toml).
     #[arg(default_value = "bunny")]
     pub scene: String,
     /// Web server port (0 picks a free one; the URL is printed).

@@ -173,7 +173,7 @@ mod tests {
         assert_eq!(e.kind, FailureKind::File);
         assert_eq!(
             e.message,
-            "no built-in scene or scene file named `nothere.toml` (built-in: bunny, spline, plate; files end in .toml)"
+            "no built-in scene or scene file named `nothere.toml` (built-in: bunny, spline, plate, spline-tight, probe; files end in .toml)"
         );
     }
 

@@ -558,8 +558,9 @@ fn trajectory_array<'py>(py: Python<'py>, t: &Trajectory) -> PyResult<Bound<'py,
 
 #[pymethods]
 impl PyEngine {
-    /// The engine of a built-in scene (`bunny`, `spline`, `plate`) or a scene file (.toml), as
-    /// `haptic6d run` loads it; keyword settings override the scene's.
+    /// The engine of a built-in scene (`bunny`, `spline`, `plate`, `spline-tight`, `probe`) or
+    /// a scene file (.toml), as `haptic6d run` loads it; keyword settings override the
+    /// scene's.
     #[staticmethod]
     #[pyo3(signature = (scene, **settings))]
     fn from_scene(

@@ -4,7 +4,7 @@
 //! Entry points:
 //! - [`SceneSpec`] / [`Scene`]: the TOML scene file and the loaded scene (trees in mm);
 //!   [`Scene::engine`] makes its [`engine::Engine`]; [`scenes::builtin`] gives the built-in
-//!   `bunny`, `spline` and `plate` scenes.
+//!   `bunny`, `spline`, `plate`, `spline-tight` and `probe` scenes.
 //! - [`cache::TreeCache`]: trees built from meshes, cached on disk by content hash.
 //! - [`device::Device`]: trajectory replay and scripted motion.
 //! - [`rt::run_loop`]: the haptic loop of `haptic6d run` on a named thread (one

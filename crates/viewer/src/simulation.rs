@@ -202,7 +202,7 @@ pub struct NamedMesh {
 /// The static scene the page draws once: object meshes and the tool mesh.
 #[derive(Clone, Debug)]
 pub struct SceneGeometry {
-    /// Scene name (`bunny`, `spline`, or the scene file's name).
+    /// Scene name (a built-in's such as `bunny` or `probe`, or the scene file's name).
     pub name: String,
     /// The tool, in the tool frame (mm).
     pub tool: NamedMesh,

@@ -1,8 +1,11 @@
-//! Built-in scenes (`bunny`, `spline`, `plate`) and the mesh loading they share with scene files.
+//! Built-in scenes (`bunny`, `spline`, `plate`, `spline-tight`, `probe`) and the mesh loading
+//! they share with scene files.
 //!
 //! - [`builtin`]: a built-in scene by name, trees built (or fetched from the cache).
 //! - [`bunny`]: bunny tool against a bunny object, depth 4, ~100 mm.
-//! - [`spline_mesh::SplineParams`]: the splined shaft and hub meshes of the `spline` scene.
+//! - [`spline_mesh::SplineParams`]: the splined shaft and hub meshes of the `spline` scene
+//!   (1 mm clearance) and of `spline-tight` (0.1 mm, [`spline_scene::tight_scene`]).
+//! - [`probe`]: a periodontal probe slid down a 0.6 mm pocket to its floor.
 //! - [`plate`]: a puck or ball pressed onto a flat plate and slid or turned at hand speeds.
 //! - [`zoo`]: the scene zoo (`zoo/slot`, `zoo/gears`, ...), scripted strokes on many shapes.
 //! - [`fit`]: generated pegs and holes at a chosen clearance, for clearance studies.
@@ -10,6 +13,7 @@
 pub mod bunny;
 pub mod fit;
 pub mod plate;
+pub mod probe;
 pub mod spline_mesh;
 pub mod zoo;
 
@@ -23,7 +27,20 @@ use crate::Scene;
 use crate::SceneError;
 
 /// Names of the built-in scenes.
-pub const BUILTIN_NAMES: &[&str] = &["bunny", "spline", "plate"];
+pub const BUILTIN_NAMES: &[&str] = &["bunny", "spline", "plate", "spline-tight", "probe"];
+
+/// The built-ins whose geometry is the parts' own triangles (`[solver] geometry = "mesh"`):
+/// fits tighter than the leaf spheres' overhang, on which the spheres jam.
+pub const MESH_BUILTIN_NAMES: &[&str] = &["spline-tight", "probe"];
+
+/// The built-ins whose geometry is the leaf spheres: [`BUILTIN_NAMES`] without
+/// [`MESH_BUILTIN_NAMES`], for studies of the sphere geometry.
+pub fn sphere_builtin_names() -> impl Iterator<Item = &'static str> {
+    BUILTIN_NAMES
+        .iter()
+        .copied()
+        .filter(|n| !MESH_BUILTIN_NAMES.contains(n))
+}
 
 /// Whether `name` names a built-in scene: one of [`BUILTIN_NAMES`] or of the zoo
 /// ([`zoo::ZOO`]).
@@ -31,14 +48,20 @@ pub fn is_builtin(name: &str) -> bool {
     BUILTIN_NAMES.contains(&name) || zoo::is_zoo(name)
 }
 
-/// A built-in scene by name (`bunny`, `spline`, `plate` or a zoo scene such as `zoo/slot`),
+/// A built-in scene by name (one of [`BUILTIN_NAMES`] or a zoo scene such as `zoo/slot`),
 /// trees from `cache` or built.
 pub fn builtin(name: &str, cache: &TreeCache) -> Result<Scene, SceneError> {
     let scene = match name {
         _ if zoo::is_zoo(name) => zoo::zoo_scene(name, cache)?.scene,
         "bunny" => bunny::scene(cache)?,
-        "spline" => spline_scene::scene(cache, &spline_mesh::SplineParams::default(), 5)?,
+        "spline" => spline_scene::scene(
+            cache,
+            &spline_mesh::SplineParams::default(),
+            spline_scene::TREE_DEPTH,
+        )?,
         "plate" => plate::builtin(cache)?,
+        "spline-tight" => spline_scene::tight_scene(cache)?,
+        "probe" => probe::probe_scene(&probe::ProbeParams::default(), cache)?.scene,
         _ => {
             return Err(SceneError::Unknown {
                 what: "scene",
@@ -55,7 +78,8 @@ pub fn builtin(name: &str, cache: &TreeCache) -> Result<Scene, SceneError> {
     Ok(scene)
 }
 
-/// The `spline` scene assembly (meshes from [`spline_mesh`], trees, script).
+/// The `spline` and `spline-tight` scene assembly (meshes from [`spline_mesh`], trees,
+/// script).
 pub mod spline_scene;
 
 /// Loads a mesh file (OBJ, STL, PLY) through the mesh crate's validated loader.
