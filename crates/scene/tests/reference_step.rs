@@ -284,9 +284,7 @@ fn every_switch_is_among_those_tested_off() {
 #[test]
 #[ignore = "the whole zoo, every frame: minutes"]
 fn the_whole_zoo_answers_as_the_reference() {
-    let names: Vec<&str> = scene::scenes::BUILTIN_NAMES
-        .iter()
-        .copied()
+    let names: Vec<&str> = scene::scenes::sphere_builtin_names()
         .chain(scene::scenes::zoo::names())
         .collect();
     check(&names, Heuristics::ALL, 1);
