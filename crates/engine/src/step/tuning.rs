@@ -252,232 +252,232 @@ pub struct Tuning {
     /// within `budget_us`: a new region's traversal may cost more than any pass so far (the
     /// deadline stops one that overruns).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×0.99 /
-    /// ×0.98; doubled: 48 degraded frames against 42 (doubling costs more, halving stays within the
-    /// runs' spread).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.00, p99 ×0.97 /
+    /// ×1.03 (both within the runs' spread: not critical on these scenes).
     pub pass_headroom: f64,
     /// Share of the frame budget kept after the last traversal may run for that pass's rows,
     /// solve and check: a traversal still running at `(1 - detect_reserve) · budget_us` stops,
     /// and the frame ends lagging at its last proven pose.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.10, p99 ×1.00 /
-    /// ×1.15 (doubling costs more, halving stays within the runs' spread).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.99 /
+    /// ×0.98 (both within the runs' spread: not critical on these scenes).
     pub detect_reserve: f64,
     /// Leaf pairs a path region or a free-space probe aims at: a dense contact takes smaller
     /// regions (more passes) rather than one region of tens of thousands of rows.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×0.99 /
-    /// ×0.99 (neither leaves the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×1.00 /
+    /// ×0.99 (both within the runs' spread: not critical on these scenes).
     pub pair_target: f64,
     /// Leaf pairs a ball region aims at in a dense contact. A ball region in a turning or
     /// pressed contact is detected again every few frames, and a dense one's cost grows faster
     /// than its life: a smaller target than [`Tuning::pair_target`] trades more passes for
     /// cheaper ones.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.98 / ×1.03, p99 ×0.96 /
-    /// ×1.06; halved: 48 degraded frames against 42 (both cost more).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.01, p99 ×0.97 /
+    /// ×1.04; halved: 50 degraded frames against 42 (both cost more).
     pub ball_pair_target: f64,
     /// Least allowance (mm) the pair density may give a ball region: a dense contact's regions
     /// may be thinner than [`Tuning::min_allow_mm`] (two bumpy faces hold ~1 500 pairs within
     /// ~0.1 mm).
     ///
     /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×0.99 /
-    /// ×0.98; halved: 7 over 1 ms against 0 (halving costs more, doubling stays within the runs'
-    /// spread).
+    /// ×0.99 (both within the runs' spread: not critical on these scenes).
     pub dense_min_allow_mm: f64,
     /// Smallest motion allowance of a detected region, mm.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.03 / ×1.11, p99 ×0.99 /
-    /// ×1.16 (doubling costs more, halving stays within the runs' spread).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.02 / ×1.11, p99 ×0.97 /
+    /// ×1.14, node pairs ×1.05 / ×1.07, list entries ×1.50 / ×0.51 (halving is at the edge of the
+    /// runs' spread, doubling costs more).
     pub min_allow_mm: f64,
     /// Largest pair list reused from an earlier frame: a list of [`Tuning::pair_target`] pairs
     /// costs ~20 µs to solve again against ~150 µs to find again. (A count, not a rule on
     /// measured times, which would make frames depend on the machine.)
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.04 / ×1.01, p99 ×1.01 /
-    /// ×1.00; halved: 6 over 1 ms against 0; doubled: 48 degraded frames against 42, 6 over 1 ms
-    /// against 0 (both cost more).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.98 /
+    /// ×0.98 (both within the runs' spread: not critical on these scenes).
     pub reuse_max_pairs: usize,
     /// A ball region's own pairs serve the next region about a pose it still covers by at least
     /// this share of the allowance wanted (else a fresh detection pays).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.02, p99 ×1.01 /
-    /// ×1.04 (doubling costs more, halving stays within the runs' spread).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.02, p99 ×1.02 /
+    /// ×1.02, node pairs ×0.97 / ×1.09 (both within the runs' spread: not critical on these
+    /// scenes).
     pub recentre_share: f64,
     /// … and by at least this many times the motion predicted for the tool this frame (a tool
     /// about to move farther, e.g. dropping into a hole, needs a detection anyway).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.09, p99 ×1.01 /
-    /// ×1.10 (doubling costs more, halving stays within the runs' spread).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.00, p99 ×0.99 /
+    /// ×0.99, node pairs ×1.00 / ×1.05 (both within the runs' spread: not critical on these
+    /// scenes).
     pub recentre_motion_spare: f64,
     /// A predicted motion shorter than this (mm, largest sphere motion) takes a ball region: a
     /// path region pays off only for a hand in motion.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.03 / ×1.01, p99 ×1.06 /
-    /// ×1.05 (both cost more).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.02 / ×0.99, p99 ×1.01 /
+    /// ×1.01 (both within the runs' spread: not critical on these scenes).
     pub min_sweep_mm: f64,
     /// A path region is taken only while its length plus width stays within this many times the
     /// allowance that keeps a ball region near [`Tuning::pair_target`] pairs.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.06 / ×1.08, p99 ×1.08 /
-    /// ×1.10 (both cost more).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.98 /
+    /// ×0.99 (both within the runs' spread: not critical on these scenes).
     pub path_density_factor: f64,
     /// A path region reaches at least this far ahead (mm, largest sphere motion; at most
     /// `max_margin_mm`), so that a slow hand's next frames reuse it.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.07 / ×1.03, p99 ×1.11 /
-    /// ×1.03 (both cost more).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×1.01 /
+    /// ×0.98 (both within the runs' spread: not critical on these scenes).
     pub path_min_mm: f64,
     /// Least width (mm) of a path region about the predicted path: twice the recent prediction
     /// error, at least this.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.09 / ×1.01, p99 ×1.15 /
-    /// ×1.02; doubled: 50 degraded frames against 42 (both cost more).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×1.00 /
+    /// ×1.00 (both within the runs' spread: not critical on these scenes).
     pub path_width_min_mm: f64,
     /// Largest width (mm) of a path region about the predicted path (a tool riding over the
     /// bumps of a sphere-tree surface strays by a few tenths of a millimetre).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.02 / ×1.01, p99 ×1.04 /
-    /// ×1.01 (halving costs more, doubling stays within the runs' spread).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.99 /
+    /// ×0.98 (both within the runs' spread: not critical on these scenes).
     pub path_width_max_mm: f64,
     /// A pass whose answer stayed within this share of its region's width (its motion bound from
     /// the region's centre) crept: its trust box or the contact stopped it well inside its ball,
     /// and the next region's trust box is turned to that pass's motion.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.03 / ×1.01, p99 ×1.03 /
-    /// ×1.04 (both cost more).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.98, p99 ×0.96 /
+    /// ×0.99, list entries ×1.01 / ×0.94 (halving is at the edge of the runs' spread).
     pub creep_share: f64,
     /// A slab region (a tool held by one flat face) allows a slide along the face of at least this
     /// much (mm): its face's pairs do not grow with it, only with the margin across.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.05 / ×0.99, p99 ×1.03 /
-    /// ×1.01 (halving costs more, doubling stays within the runs' spread).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×0.99, p99 ×0.99 /
+    /// ×0.99 (both within the runs' spread: not critical on these scenes).
     pub slab_slide_mm: f64,
     /// Least margin (mm) across the face of a slab region, over 1.5 times last frame's motion
     /// across it.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×1.03, p99 ×1.01 /
-    /// ×1.03 (neither leaves the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.00, p99 ×0.99 /
+    /// ×1.00 (both within the runs' spread: not critical on these scenes).
     pub slab_across_min_mm: f64,
     /// How much farther (mm) than a ball region's margin the rest of the tool is from the objects
     /// (the `lever` heuristic's near part of the tool): a turn about the contact (a long tool spinning and rocking on
     /// its tip) is bounded by the near leaves' lever arm, not the far end's reach, while the far
     /// end moves less than this.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×0.99 /
-    /// ×1.00 (neither leaves the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.98 /
+    /// ×0.99 (both within the runs' spread: not critical on these scenes).
     pub lever_margin_mm: f64,
     /// A near part of the tool is found this much (mm) wider than a region needs, and kept for
     /// later regions while the tool stays within it of where it was found (the `lever`
     /// heuristic's near part of the tool).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.07 / ×1.02, p99 ×1.07 /
-    /// ×1.03; doubled: 55 degraded frames against 42 (both cost more).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×0.98, p99 ×1.01 /
+    /// ×0.96 (doubling is at the edge of the runs' spread).
     pub lever_spare_mm: f64,
     /// Margin (mm) of a detection made in free space: an empty result proves free space this far,
     /// and later frames near the same pose skip their traversals.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.02, p99 ×0.99 /
-    /// ×1.01 (neither leaves the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.98 / ×1.00, p99 ×0.98 /
+    /// ×1.02 (both within the runs' spread: not critical on these scenes).
     pub free_probe_mm: f64,
     /// Margin (mm) of a background probe: wider than a frame's own proof
     /// ([`Tuning::free_probe_mm`]), since its cost is spread over frames and a wider proof lasts
     /// longer per node pair split.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×1.09, p99 ×1.03 /
-    /// ×1.11 (doubling costs more, halving stays within the runs' spread).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.00, p99 ×0.98 /
+    /// ×0.99 (both within the runs' spread: not critical on these scenes).
     pub background_probe_mm: f64,
     /// Node pairs a background free-space probe aims to split per frame (~15–25 µs): it starts
     /// early enough to finish at this pace before the current proof runs out.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.14 / ×1.10, p99 ×1.21 /
-    /// ×1.19; doubled: 49 degraded frames against 42 (both cost more).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×0.99 /
+    /// ×1.01, list entries ×0.93 / ×0.99 (both within the runs' spread: not critical on these
+    /// scenes).
     pub probe_slice_splits: usize,
     /// Frames of the tool's steady motion a background probe's path covers, within
     /// [`PATH_PROBE_MIN_MM`, `PATH_PROBE_MAX_MM`]: where walls run along the motion a path
     /// costs a few times a probe at a pose and covers ten or twenty times the way.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.04 / ×1.05, p99 ×1.04 /
-    /// ×1.03; doubled: 10 over 1 ms against 0 (both cost more).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×0.99 /
+    /// ×0.98 (both within the runs' spread: not critical on these scenes).
     pub path_probe_frames: f64,
     /// A probe along a path starts when the proofs have this many times its expected slices of
     /// frames left (a path's cost varies more with where it runs than a ball's: one that starts
     /// late ends in long slices).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.06 / ×1.01, p99 ×1.09 /
-    /// ×1.01; halved: 7 over 1 ms against 0 (halving costs more, doubling stays within the runs'
-    /// spread).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×1.00 /
+    /// ×0.98 (both within the runs' spread: not critical on these scenes).
     pub path_probe_lead: f64,
     /// A background probe starts at the latest when the free-space proof has this many frames of
     /// slack left (earlier when the last probe needed more slices).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.06 / ×1.05, p99 ×1.06 /
-    /// ×1.04; halved: 50 degraded frames against 42, 7 over 1 ms against 0; doubled: 50 degraded
-    /// frames against 42 (both cost more).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.99 /
+    /// ×0.99 (both within the runs' spread: not critical on these scenes).
     pub probe_lead_frames: f64,
     /// How far past the pose where the current free-space proofs run out a probe is placed, as a
     /// share of a proof's usable radius: a tool moving on as it did crosses the new proof's ball
     /// instead of leaving it from its centre.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.03 / ×1.04, p99 ×1.03 /
-    /// ×1.04; halved: 7 over 1 ms against 0 (both cost more).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.98 /
+    /// ×0.99 (both within the runs' spread: not critical on these scenes).
     pub probe_ahead: f64,
     /// First margin (mm) of a neighbour list; later ones follow the pairs the last one held.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×1.06, p99 ×1.02 /
-    /// ×1.09 (doubling costs more, halving stays within the runs' spread).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.00, p99 ×1.00 /
+    /// ×1.00 (both within the runs' spread: not critical on these scenes).
     pub list_margin_mm: f64,
     /// On the frame's own thread a neighbour list is built only when its cost per frame of its
     /// life is at most this many times the traversals it would spare (a list also spares the
     /// second regions of a frame and keeps later frames cheap, which the count does not see; the
     /// limit only keeps lists out where they clearly cost more).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.02 / ×1.00, p99 ×1.02 /
-    /// ×1.00 (neither leaves the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.98 /
+    /// ×0.99, list entries ×0.85 / ×0.99 (both within the runs' spread: not critical on these
+    /// scenes).
     pub list_payoff: f64,
     /// Neighbour lists are kept only where a region's traversal splits at least this many node
     /// pairs (~30 µs): where regions are cheap a list costs more than it spares.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.07 / ×1.00, p99 ×1.05 /
-    /// ×1.03; halved: 48 degraded frames against 42 (both cost more).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.03 / ×0.96, p99 ×1.01 /
+    /// ×0.98, list entries ×1.41 / ×0.56 (doubling is at the edge of the runs' spread).
     pub list_min_region_splits: f64,
     /// On the frame's own thread, a neighbour list is built only while the last ones answered at
     /// least this many times their build's work in regions (regions answered times a region's
     /// node pairs; running mean over the lists taken): [`Tuning::list_payoff`]'s prediction
     /// misses that a list in use shrinks the regions to fit inside it.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.15 / ×1.02, p99 ×1.04 /
-    /// ×1.01; halved: 71 degraded frames against 42, 49 over 1 ms against 0 (halving costs more,
-    /// doubling stays within the runs' spread).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.98, p99 ×0.98 /
+    /// ×0.99, list entries ×1.08 / ×0.89 (both within the runs' spread: not critical on these
+    /// scenes).
     pub list_min_yield: f64,
     /// Pairs a neighbour list aims at (filtering them costs ~1 ns each).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.98 / ×1.12, p99 ×1.00 /
-    /// ×1.15 (doubling costs more, halving stays within the runs' spread).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.97 / ×1.05, p99 ×0.98 /
+    /// ×1.02, node pairs ×0.99 / ×1.10, list entries ×0.49 / ×1.72 (halving is at the edge of the
+    /// runs' spread, doubling costs more).
     pub list_target_pairs: f64,
     /// The mesh mode's near list reaches this much (mm) beyond the region's margin: listed once,
     /// it serves the narrow phase of every region it covers (the tool moving up to this much from
     /// where it was listed), so the trees are descended once in several frames.
     ///
-    /// Halved / doubled over the zoo in the mesh mode: mean frame time ×1.06 / ×1.01, p99 ×1.04 /
-    /// ×1.02; halved: 2086 over 1 ms against 2029; doubled: 3648 degraded frames against 3535 (both
-    /// cost more).
+    /// Halved / doubled over the zoo in the mesh mode: mean frame time ×1.03 / ×0.98, p99 ×1.01 /
+    /// ×1.02; doubled: 3633 degraded frames against 3506 (doubling costs more; halving stays within
+    /// the runs' spread).
     pub near_list_mm: f64,
     /// Near-list length aimed at: every region the list serves filters all of it (its plane
     /// bounds, ~30 ns a pair), so 3 000 pairs cost about a tenth of the 1 ms budget a region; a
     /// longer list halves the next one's extra reach, one under a quarter of this doubles it (up
     /// to [`Tuning::near_list_mm`]).
     ///
-    /// Halved / doubled over the zoo in the mesh mode: mean frame time ×0.97 / ×1.01, p99 ×0.98 /
-    /// ×1.00 (neither leaves the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the zoo in the mesh mode: mean frame time ×0.97 / ×0.98, p99 ×0.98 /
+    /// ×0.99 (halving is at the edge of the runs' spread).
     pub near_list_pairs: usize,
     /// The next near list is built ahead in slices of at most this share of the frame's budget
     /// (after the frame's own work, never past its deadline): a whole list of a tight fit's wall
     /// costs a few budgets, so it is spread over the frames the current list still serves.
     ///
-    /// Halved / doubled over the zoo in the mesh mode: mean frame time ×0.98 / ×0.99, p99 ×0.98 /
-    /// ×1.03; doubled: 3606 degraded frames against 3535 (doubling costs more, halving stays within
-    /// the runs' spread).
+    /// Halved / doubled over the zoo in the mesh mode: mean frame time ×0.97 / ×0.98, p99 ×0.98 /
+    /// ×1.03 (doubling costs more; halving stays within the runs' spread).
     pub near_ahead_share: f64,
 }
 
