@@ -129,7 +129,8 @@ impl Polygon {
 /// `∫|r| dA` over the triangle (origin, `p`, `q`), unsigned: in polar coordinates about the
 /// origin, `∫ ρ(θ)³/3 dθ` with `ρ = h / cos φ` to the edge's line (at distance `h`, `φ` from
 /// its foot), whose primitive is `(h³/6) (sec φ tan φ + ln(sec φ + tan φ))`; with `tan φ = t/h`
-/// along the edge, `F(t) = (h t √(h² + t²) + h³ ln((√(h² + t²) + t)/h)) / 6`.
+/// along the edge, `F(t) = (h t √(h² + t²) + h³ asinh(t/h)) / 6` (`asinh`, not the logarithm
+/// of `√(h² + t²) + t`, which cancels to zero far behind the foot).
 fn edge_abs_moment(p: &V2, q: &V2) -> f64 {
     let d = q - p;
     let len = d.norm();
@@ -144,7 +145,7 @@ fn edge_abs_moment(p: &V2, q: &V2) -> f64 {
     }
     let f = |t: f64| {
         let s = (h * h + t * t).sqrt();
-        (h * t * s + h * h * h * ((s + t) / h).ln()) / 6.0
+        (h * t * s + h * h * h * (t / h).asinh()) / 6.0
     };
     f(tq) - f(tp)
 }
@@ -251,6 +252,31 @@ mod tests {
                 "case {case}: moment {} against {moment}",
                 m.abs_moment
             );
+        }
+    }
+
+    /// A centre far along an edge's line, behind its foot, and just off it: the moment stays
+    /// finite and equals the area times the distance to within the triangle's size.
+    #[test]
+    fn a_far_centre_on_an_edge_line_gives_a_finite_moment() {
+        let t: Triangle = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        for c in [
+            [1000.0, 1e-9],
+            [1000.0, -1e-9],
+            [-1000.0, 1e-12],
+            [0.5, 1e-9],
+        ] {
+            let m =
+                flat_overlap(&t, &t, &Vector3::z(), &Vector3::new(c[0], c[1], 0.0), FLAT).unwrap();
+            assert!(m.abs_moment.is_finite(), "{c:?}: {m:?}");
+            assert!((m.area - 0.5).abs() < 1e-12);
+            if c[0].abs() > 10.0 {
+                let mean = m.abs_moment / m.area;
+                assert!(
+                    (mean - c[0].abs()).abs() < 1.0,
+                    "{c:?}: mean distance {mean}"
+                );
+            }
         }
     }
 

@@ -477,7 +477,10 @@ impl GodObject {
             let Some(m) = collide::flat_overlap(&tool, &part, n, centre, FLAT_CONTACT_COS) else {
                 continue;
             };
-            if m.area > 0.0 && triangle_distance(&tool, &part).distance <= TOUCH_MM {
+            if m.area > 0.0
+                && m.abs_moment.is_finite()
+                && triangle_distance(&tool, &part).distance <= TOUCH_MM
+            {
                 area += m.area;
                 moment += m.abs_moment;
             }
