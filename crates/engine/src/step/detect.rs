@@ -265,7 +265,7 @@ impl GodObject {
     /// [`Tuning::slab_slide_mm`]; across it 1.5 times last frame's motion across plus
     /// [`Tuning::slab_across_min_mm`], within the pair density's allowance `dense_cap` (the face's
     /// pairs grow with this margin, not the slide's). Only where the face's margin is at most
-    /// half the slide's, and not while slabs rest after a failure ([`SLAB_REST_FRAMES`]).
+    /// half the slide's, and not while slabs rest after a failure ([`Tuning::slab_rest_frames`]).
     pub(super) fn slab_widths(
         &self,
         need: f64,
@@ -557,15 +557,15 @@ impl GodObject {
                 let path = Vector3::from(self.ahead.probe.path());
                 let (_, pose, radius) = self.ahead.probe.take();
                 self.add_free_proof(pose, path, radius, q, used);
-                self.run.proofs.probe_margin =
-                    (PROBE_MARGIN_GROWTH * radius).min(self.params.tuning.background_probe_mm);
+                self.run.proofs.probe_margin = (self.params.tuning.probe_margin_growth * radius)
+                    .min(self.params.tuning.background_probe_mm);
             }
             ProbeStatus::Touching => {
                 // Something lies within the margin asked: the next probe asks for less.
                 let (_, radius) = self.ahead.probe.question();
                 self.ahead.probe.take();
-                self.run.proofs.probe_margin =
-                    (PROBE_MARGIN_SHRINK * radius).max(BACKGROUND_PROBE_MIN_MM);
+                self.run.proofs.probe_margin = (self.params.tuning.probe_margin_shrink * radius)
+                    .max(self.params.tuning.background_probe_min_mm);
             }
             ProbeStatus::Idle => self.start_probe(q, used, horizon, list_frames),
             ProbeStatus::Running => {}
@@ -590,18 +590,20 @@ impl GodObject {
         // estimate, the last probe's cost (the spline's withdrawal ran a path probe of
         // 20 300 node pairs on an estimate of 16 300 at the least slice until its last
         // frames, then finished 3 500 of them in one).
-        let left = (PROBE_ESTIMATE_SPARE * estimate - self.ahead.probe.splits() as f64)
+        let left = (self.params.tuning.probe_estimate_spare * estimate
+            - self.ahead.probe.splits() as f64)
             .max(0.25 * estimate);
         let within = if self.ahead.probe.path() != [0.0; 3] {
-            PROBE_FINISH_WITHIN * horizon - PROBE_FINISH_SPARE_FRAMES
+            self.params.tuning.probe_finish_within * horizon
+                - self.params.tuning.probe_finish_spare_frames
         } else {
-            horizon - PROBE_FINISH_SPARE_FRAMES
+            horizon - self.params.tuning.probe_finish_spare_frames
         };
         let mut slice = (left / within.max(1.0)).clamp(least as f64, PROBE_MAX_SLICE_SPLITS as f64);
         // A new probe's first slice meets its part of the trees cold: a smaller one (the
         // later slices make up for it).
         if self.ahead.probe.splits() == 0 && horizon > 2.0 {
-            slice *= PROBE_FIRST_SLICE_SHARE;
+            slice *= self.params.tuning.probe_first_slice_share;
         }
         let tt = Instant::now();
         // A slice's node pairs cost 0.05–0.3 µs each (a path's more, a cold tree's more):
@@ -631,7 +633,7 @@ impl GodObject {
         let speed = self.run.motion.last_motion.max(1e-4);
         // A tool sliding steadily (without turning) is probed along its way.
         let step = Vector3::from(self.run.motion.last_step);
-        let sliding = step.norm() >= PATH_PROBE_MIN_STEP_MM
+        let sliding = step.norm() >= self.params.tuning.path_probe_min_step_mm
             && self.run.motion.last_motion <= 1.25 * step.norm();
         // Where a whole proof costs less than a slice (open space), renewing it when
         // it runs out is cheaper than probing ahead; not where a neighbour list
@@ -654,21 +656,23 @@ impl GodObject {
         };
         let lead = (ahead * estimate / pace as f64 + 2.0).max(self.params.tuning.probe_lead_frames);
         let margin = self.run.proofs.probe_margin;
-        let lasts = margin - used >= PROBE_MIN_USABLE_FRAMES * speed;
+        let lasts = margin - used >= self.params.tuning.probe_min_usable_frames * speed;
         // A tool at rest in free space has time to spare: a wider proof about it,
         // built a slice a frame, serves the first frames of its next motion while the
         // probes ahead of that motion get going (the spline's insertion starts from
         // rest in the hole: ~100 µs traversals without one).
-        let widen = horizon >= REST_HORIZON_FRAMES
-            && self.free_slack(q) + used < PROBE_WIDEN_RATIO * margin;
+        let widen = horizon >= self.params.tuning.rest_horizon_frames
+            && self.free_slack(q) + used < self.params.tuning.probe_widen_ratio * margin;
         if worth_it && widen {
             let _ = self.ahead.probe.start(&self.bodies.tool, q, margin);
         } else if worth_it && horizon < lead && lasts {
             if sliding {
                 // The probe goes along the tool's way from where the proofs run out
                 // (a frame early), for many frames of the same motion.
-                let length = (self.params.tuning.path_probe_frames * step.norm())
-                    .clamp(PATH_PROBE_MIN_MM, PATH_PROBE_MAX_MM);
+                let length = (self.params.tuning.path_probe_frames * step.norm()).clamp(
+                    self.params.tuning.path_probe_min_mm,
+                    self.params.tuning.path_probe_max_mm,
+                );
                 let mut from = *q;
                 for k in 0..3 {
                     from.q[k] += (horizon - 1.0).max(0.0) * step[k];
@@ -691,7 +695,7 @@ impl GodObject {
     }
 
     /// Keeps a neighbour list about the tool while it is in contact and slow enough for one to
-    /// last [`LIST_MIN_LIFE_FRAMES`] (a frame needing `used` mm at `q`): when the list in use
+    /// last [`Tuning::list_min_life_frames`] (a frame needing `used` mm at `q`): when the list in use
     /// covers fewer frames ahead (at the tool's last motion per frame) than the next build
     /// needs at its pace, the next one starts where the tool is expected half-way through its
     /// life, and each frame builds a slice of it (until the `deadline`), sized to finish in
@@ -713,8 +717,8 @@ impl GodObject {
         let spared = self.run.lists.detections_per_frame * self.run.lists.splits_per_region;
         let costs = self.run.lists.list_splits as f64 / life.max(1.0);
         if self.ahead.next_neighbours.status() == ListStatus::Empty {
-            self.run.lists.list_yield =
-                (self.run.lists.list_yield * LIST_YIELD_RECOVERY).min(LIST_FIRST_YIELD);
+            self.run.lists.list_yield = (self.run.lists.list_yield * LIST_YIELD_RECOVERY)
+                .min(self.params.tuning.list_first_yield);
         }
         let pays = self.run.lists.splits_per_region >= self.params.tuning.list_min_region_splits
             && (self.detector.team.is_some()
@@ -725,7 +729,7 @@ impl GodObject {
         // build costs the whole-sphere traversal the faces spare, so none is kept (measured on
         // the spline with caps: p99 579 µs without lists, 727 µs with).
         if self.detector.pairs.is_empty()
-            || life < LIST_MIN_LIFE_FRAMES
+            || life < self.params.tuning.list_min_life_frames
             || !pays
             || self.bodies.faces
         {
@@ -778,7 +782,7 @@ impl GodObject {
             ListStatus::Ready => self.take_next_list(),
             ListStatus::Overflowed => {
                 let (_, built) = self.ahead.next_neighbours.question();
-                self.run.lists.list_margin = (0.6 * built).max(LIST_MIN_MM);
+                self.run.lists.list_margin = (0.6 * built).max(self.params.tuning.list_min_mm);
                 self.run.lists.list_work = self
                     .run
                     .lists
@@ -826,9 +830,11 @@ impl GodObject {
             let n = self.ahead.neighbours.len().max(1) as f64;
             let (_, built) = self.ahead.neighbours.question();
             // Pairs grow about as the margin cubed over a bumpy flat contact.
-            self.run.lists.list_margin = (built
-                * (self.params.tuning.list_target_pairs / n).cbrt())
-            .clamp(LIST_MIN_MM, LIST_MAX_MM);
+            self.run.lists.list_margin =
+                (built * (self.params.tuning.list_target_pairs / n).cbrt()).clamp(
+                    self.params.tuning.list_min_mm,
+                    self.params.tuning.list_max_mm,
+                );
         }
     }
 
@@ -1150,11 +1156,11 @@ pub(super) mod tests {
             assert_eq!(g.ahead.next_neighbours.status(), ListStatus::Ready);
         };
         // The first list: nothing in use before it, so no sample.
-        assert_eq!(g.run.lists.list_yield, LIST_FIRST_YIELD);
+        assert_eq!(g.run.lists.list_yield, Tuning::DEFAULT.list_first_yield);
         ready_next(&mut g);
         g.take_next_list();
         assert_eq!(g.ahead.neighbours.status(), ListStatus::Ready);
-        assert_eq!(g.run.lists.list_yield, LIST_FIRST_YIELD);
+        assert_eq!(g.run.lists.list_yield, Tuning::DEFAULT.list_first_yield);
         // The list in use answered `served` regions of 1 000 node pairs for 8 000 units of
         // work; the next one replaces it, from a yield of 1.
         let replace_after = |g: &mut GodObject, served: u32| {
@@ -1193,7 +1199,7 @@ pub(super) mod tests {
         for _ in 0..200 {
             g.tend_neighbours(&q, 0.05, deadline);
         }
-        assert_eq!(g.run.lists.list_yield, LIST_FIRST_YIELD);
+        assert_eq!(g.run.lists.list_yield, Tuning::DEFAULT.list_first_yield);
         // 40 regions: 5, halfway from 1.
         let y = replace_after(&mut g, 40);
         assert!((y - 3.0).abs() < 1e-12, "{y}");

@@ -222,7 +222,7 @@ impl GodObject {
                 return;
             }
             let speed = self.run.motion.last_motion.max(1e-9);
-            let frames = (0.5 * extra / speed).min(NEAR_AHEAD_MAX_FRAMES);
+            let frames = (0.5 * extra / speed).min(self.params.tuning.near_ahead_max_frames);
             ahead = NearAhead {
                 at: Some((self.pose_ahead(q, frames), wide)),
                 object: 0,

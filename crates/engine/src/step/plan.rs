@@ -163,8 +163,8 @@ impl GodObject {
             let step = Vector3::from(self.run.motion.last_step);
             let way = goal.translation() - q_lin.translation();
             self.run.motion.behind
-                && step.norm() >= FALL_MIN_STEP_MM
-                && step.dot(&way) >= FALL_MIN_COS * step.norm() * way.norm()
+                && step.norm() >= self.params.tuning.fall_min_step_mm
+                && step.dot(&way) >= self.params.tuning.fall_min_cos * step.norm() * way.norm()
         };
         let path_width = if falling {
             self.params.tuning.path_width_min_mm
@@ -328,7 +328,7 @@ impl GodObject {
             // as asked found room.
             self.run.proofs.probe_margin =
                 if proven < self.params.tuning.free_probe_mm - PROOF_ROUNDING_MM {
-                    proven.max(BACKGROUND_PROBE_MIN_MM)
+                    proven.max(self.params.tuning.background_probe_min_mm)
                 } else {
                     self.run
                         .proofs
@@ -352,13 +352,14 @@ impl GodObject {
             let run = &mut self.run.regions;
             if run.interrupted
                 || run.dropped > 0
-                || self.detector.pairs.len() > SLAB_MAX_PAIRS
-                || self.detector.ws.stats().node_pairs_split > SLAB_MAX_SPLITS
+                || self.detector.pairs.len() > self.params.tuning.slab_max_pairs
+                || self.detector.ws.stats().node_pairs_split > self.params.tuning.slab_max_splits
             {
                 run.slab_rest = run.slab_next_rest;
-                run.slab_next_rest = (2 * run.slab_next_rest).min(SLAB_REST_MAX_FRAMES);
+                run.slab_next_rest =
+                    (2 * run.slab_next_rest).min(self.params.tuning.slab_rest_max_frames);
             } else {
-                run.slab_next_rest = SLAB_REST_FRAMES;
+                run.slab_next_rest = self.params.tuning.slab_rest_frames;
             }
         }
         let face = plan
@@ -471,7 +472,7 @@ impl GodObject {
                 lever: if self.params.heuristics.lever
                     && f.course.path_regions
                     && slab_face.is_none()
-                    && self.detector.pairs.len() >= LEVER_MIN_PAIRS
+                    && self.detector.pairs.len() >= self.params.tuning.lever_min_pairs
                 {
                     self.lever_at(&q_lin, plan.allowed + skin)
                 } else {

@@ -139,7 +139,7 @@ impl RunState {
                 contact_face: None,
                 lever_cache: None,
                 slab_rest: 0,
-                slab_next_rest: SLAB_REST_FRAMES,
+                slab_next_rest: tuning.slab_rest_frames,
                 near_at: None,
                 contacts_at: None,
                 near_extra: tuning.near_list_mm,
@@ -159,10 +159,10 @@ impl RunState {
             },
             lists: ListPacing {
                 list_margin: tuning.list_margin_mm,
-                list_work: LIST_FIRST_WORK,
-                list_splits: LIST_FIRST_SPLITS,
+                list_work: tuning.list_first_work,
+                list_splits: tuning.list_first_splits,
                 list_served: 0,
-                list_yield: LIST_FIRST_YIELD,
+                list_yield: tuning.list_first_yield,
                 splits_per_region: 0.0,
                 detections_per_frame: 0.0,
                 frame_detections: 0,
@@ -293,8 +293,8 @@ pub(super) struct ProofMemory {
     pub(super) probe_splits: usize,
     pub(super) path_probe_splits: usize,
     /// Margin (mm) of the next background probe: [`Tuning::background_probe_mm`], shrunk after a
-    /// probe that touched ([`PROBE_MARGIN_SHRINK`]), grown back after one that proved free
-    /// space ([`PROBE_MARGIN_GROWTH`]).
+    /// probe that touched ([`Tuning::probe_margin_shrink`]), grown back after one that proved free
+    /// space ([`Tuning::probe_margin_growth`]).
     pub(super) probe_margin: f64,
 }
 

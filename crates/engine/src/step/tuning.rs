@@ -55,29 +55,7 @@ pub(super) const MIN_OVERFLOW_ALLOW_MM: f64 = 0.005;
 
 // ---- Path regions (`path-regions`) ----
 
-/// A tool left behind that moved at least this far (mm) in its last frame is falling toward
-/// the hand: its path region is the straight way there.
-pub(super) const FALL_MIN_STEP_MM: f64 = 0.1;
-
-/// ... and moved toward the hand: the cosine between its last step and the way to the hand
-/// is at least this (a tool sliding across a face the hand presses into is not falling).
-pub(super) const FALL_MIN_COS: f64 = 0.9;
-
 // ---- Slab regions (`slab-regions`) ----
-
-/// Frames without slab regions after one that failed (stopped at the deadline, overflowed, or
-/// listed more than [`SLAB_MAX_PAIRS`] pairs or split more than [`SLAB_MAX_SPLITS`] node
-/// pairs: the other pairs within the slide, of faces whose discs are too small or of the
-/// tool's own bumps, can be many, and the tool's leaves near a face broken by slots are let
-/// go only one by one), doubled after each failure in a row up to [`SLAB_REST_MAX_FRAMES`].
-pub(super) const SLAB_REST_FRAMES: u32 = 100;
-
-pub(super) const SLAB_REST_MAX_FRAMES: u32 = 12_800;
-
-/// A slab region is small by design (a flat contact's: ~50 pairs); one past these failed to be.
-pub(super) const SLAB_MAX_PAIRS: usize = 500;
-
-pub(super) const SLAB_MAX_SPLITS: usize = 8_000;
 
 // ---- The near part of the tool (`lever`) ----
 
@@ -89,48 +67,11 @@ pub(super) const LEVER_LEVEL: u32 = 3;
 /// ~37 µs, once every ~15 regions).
 pub(super) const LEVER_MAX_TESTS: usize = 8_000;
 
-/// Fewest pairs of a ball region that looks for the near part of the tool: a small contact's
-/// regions are cheap to detect again (a first contact then costs no more than it did).
-pub(super) const LEVER_MIN_PAIRS: usize = 100;
-
 // ---- Free-space proofs and background probes (`free-space-proofs`, `background-probes`) ----
 
 /// How much less than the proven gap (mm) a free-space proof from a proving traversal claims:
 /// a pair may lie at the gap itself.
 pub(super) const PROOF_ROUNDING_MM: f64 = 1e-6;
-
-/// Least margin (mm) of a background probe. A probe that finds a pair within its margin (a
-/// tool turning in a tight groove, 0.1–0.4 mm from its flanks) proves nothing; the next one
-/// asks for less ([`PROBE_MARGIN_SHRINK`]), down to this.
-pub(super) const BACKGROUND_PROBE_MIN_MM: f64 = 0.05;
-
-/// Frames of the tool's motion a background probe's margin must hold beyond the frame's own
-/// need, or it is not started (a proof that lasts fewer frames than its slices take is no
-/// use: fresh traversals serve).
-pub(super) const PROBE_MIN_USABLE_FRAMES: f64 = 2.0;
-
-/// A running background probe at a pose is paced to finish this many frames before the
-/// free-space proofs run out (at the tool's last motion); one along a path within
-/// [`PROBE_FINISH_WITHIN`] of their horizon, less these frames. (Paced over the whole horizon,
-/// a path probe behind a speeding hand fell behind its time-capped slices and finished
-/// thousands of node pairs in one frame; design-notes §Free-space proofs and background
-/// probes.)
-pub(super) const PROBE_FINISH_SPARE_FRAMES: f64 = 2.0;
-
-/// Share of the proofs' horizon (frames) a running background probe along a path is paced to
-/// finish within: the horizon is measured at the last frame's motion, and a hand speeding up
-/// shortens it. Three quarters against a half: 16 % fewer node pairs in a tight hole, no probe
-/// finishing late (design-notes §Free-space proofs and background probes).
-pub(super) const PROBE_FINISH_WITHIN: f64 = 0.75;
-
-/// A new background probe's first slice is this share of its paced slice (when the proofs
-/// last more than 2 frames): it meets its part of the trees out of cache, and its node pairs
-/// cost 2–3 times the next slices' (measured per frame; design-notes §Free-space proofs and
-/// background probes).
-pub(super) const PROBE_FIRST_SLICE_SHARE: f64 = 0.5;
-
-/// A running background probe is paced for this many times its estimated cost.
-pub(super) const PROBE_ESTIMATE_SPARE: f64 = 1.25;
 
 /// Share of the frame's budget a background probe's slice may take while the free-space
 /// proofs still serve the next two frames (30 µs at 1 kHz): its node pairs are counted ahead of
@@ -152,45 +93,13 @@ pub(super) const PROBE_MIN_SLICE_SPLITS: usize = 300;
 /// about to run out.
 pub(super) const PROBE_MAX_SLICE_SPLITS: usize = 5000;
 
-/// A tool sliding at least this far per frame (mm, without turning) gets background probes
-/// along its way ([`collide::FreeSpaceProbe::start_along`]) instead of at a pose.
-pub(super) const PATH_PROBE_MIN_STEP_MM: f64 = 0.005;
-
-pub(super) const PATH_PROBE_MIN_MM: f64 = 0.5;
-
-pub(super) const PATH_PROBE_MAX_MM: f64 = 10.0;
-
 /// Node pairs a probe along a path aims to split per frame, and the fewest it splits (a swept
 /// node pair costs ~70 ns against ~40 for one at a pose: ~25 µs and ~10 µs).
 pub(super) const PATH_PROBE_SLICE_SPLITS: usize = 350;
 
 pub(super) const PATH_PROBE_MIN_SLICE_SPLITS: usize = 150;
 
-/// A background probe that proved free space lets the next one ask for this many times its
-/// margin (up to [`BACKGROUND_PROBE_MM`]): a tool that left a tight gap gets its wide proofs
-/// back within a few probes.
-pub(super) const PROBE_MARGIN_GROWTH: f64 = 1.5;
-
-/// Frames the free-space proofs must serve a tool, at its last motion, for it to count as at
-/// rest (a second at 1 kHz): then a background probe widens its proof.
-pub(super) const REST_HORIZON_FRAMES: f64 = 1000.0;
-
-/// A tool at rest gets a wider proof when the proofs about it reach less than this share of
-/// the next probe's margin.
-pub(super) const PROBE_WIDEN_RATIO: f64 = 0.8;
-
-/// A background probe that touched lets the next one ask for this share of its margin.
-pub(super) const PROBE_MARGIN_SHRINK: f64 = 0.7;
-
 // ---- Neighbour lists (`neighbour-lists`) ----
-
-/// Bounds (mm) of a neighbour list's margin.
-pub(super) const LIST_MIN_MM: f64 = 0.3;
-
-pub(super) const LIST_MAX_MM: f64 = 2.0;
-
-/// The yield assumed before any list has been used: a contact's first list is tried.
-pub(super) const LIST_FIRST_YIELD: f64 = 10.0;
 
 /// Per frame with no list building, the yield recovers by this factor (2 from 0.8 in ~46
 /// frames), so a contact whose lists did not pay tries one again soon.
@@ -198,17 +107,6 @@ pub(super) const LIST_YIELD_RECOVERY: f64 = 1.02;
 
 /// Most pairs a neighbour list holds; a build past it is dropped and the margin shrunk.
 pub(super) const LIST_MAX_PAIRS: usize = 8192;
-
-/// Work (node pairs split plus pairs listed) the first neighbour list is expected to cost
-/// (its slices' size), and the node pairs it is expected to split (its cost as
-/// [`LIST_PAYOFF`] weighs it).
-pub(super) const LIST_FIRST_WORK: usize = 8000;
-
-pub(super) const LIST_FIRST_SPLITS: usize = 5000;
-
-/// A neighbour list is built only when it would serve at least this many frames at the
-/// tool's current motion (a fast tool outruns it: its regions are traversed).
-pub(super) const LIST_MIN_LIFE_FRAMES: f64 = 3.0;
 
 /// Most work (node pairs split plus pairs listed, [`collide::NeighbourList::work`]) a frame
 /// spends building the next neighbour list on its own thread (~50–100 µs): a list late for
@@ -225,10 +123,6 @@ pub(super) const LIST_HELPER_WORK_PER_FRAME: usize = 8192;
 /// the narrow phase lists the region's own margin only, and tries a wider list again (doubled)
 /// on the next region.
 pub(super) const NEAR_LIST_MIN_SHARE: f64 = 1.0 / 16.0;
-
-/// How far ahead (frames at the last frame's speed) the next near list is centred at most: a
-/// slow tool's list centres near it.
-pub(super) const NEAR_AHEAD_MAX_FRAMES: f64 = 50.0;
 
 /// Box pairs tested between two looks at the clock while building a near list ahead (a few µs).
 pub(super) const NEAR_AHEAD_STEPS: usize = 64;
@@ -395,7 +289,7 @@ pub struct Tuning {
     /// scenes).
     pub probe_slice_splits: usize,
     /// Frames of the tool's steady motion a background probe's path covers, within
-    /// [`PATH_PROBE_MIN_MM`, `PATH_PROBE_MAX_MM`]: where walls run along the motion a path
+    /// [`Tuning::path_probe_min_mm`, `Tuning::path_probe_max_mm`]: where walls run along the motion a path
     /// costs a few times a probe at a pose and covers ten or twenty times the way.
     ///
     /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×0.99 /
@@ -479,6 +373,90 @@ pub struct Tuning {
     /// Halved / doubled over the zoo in the mesh mode: mean frame time ×0.97 / ×0.98, p99 ×0.98 /
     /// ×1.03 (doubling costs more; halving stays within the runs' spread).
     pub near_ahead_share: f64,
+    /// A tool left behind that moved at least this far (mm) in its last frame is falling toward
+    /// the hand: its path region is the straight way there.
+    pub fall_min_step_mm: f64,
+    /// ... and moved toward the hand: the cosine between its last step and the way to the hand
+    /// is at least this (a tool sliding across a face the hand presses into is not falling).
+    pub fall_min_cos: f64,
+    /// Frames without slab regions after one that failed (stopped at the deadline, overflowed, or
+    /// listed more than [`Tuning::slab_max_pairs`] pairs or split more than [`Tuning::slab_max_splits`] node
+    /// pairs: the other pairs within the slide, of faces whose discs are too small or of the
+    /// tool's own bumps, can be many, and the tool's leaves near a face broken by slots are let
+    /// go only one by one), doubled after each failure in a row up to [`Tuning::slab_rest_max_frames`].
+    pub slab_rest_frames: u32,
+    /// Most frames slab regions rest after failures in a row (the rest doubling from
+    /// [`Tuning::slab_rest_frames`]).
+    pub slab_rest_max_frames: u32,
+    /// Most pairs a slab region may list: it is small by design (a flat contact's: ~50 pairs),
+    /// and one past this failed to be.
+    pub slab_max_pairs: usize,
+    /// Most node pairs a slab region's traversal may split, likewise.
+    pub slab_max_splits: usize,
+    /// Fewest pairs of a ball region that looks for the near part of the tool: a small contact's
+    /// regions are cheap to detect again (a first contact then costs no more than it did).
+    pub lever_min_pairs: usize,
+    /// Least margin (mm) of a background probe. A probe that finds a pair within its margin (a
+    /// tool turning in a tight groove, 0.1–0.4 mm from its flanks) proves nothing; the next one
+    /// asks for less ([`Tuning::probe_margin_shrink`]), down to this.
+    pub background_probe_min_mm: f64,
+    /// Frames of the tool's motion a background probe's margin must hold beyond the frame's own
+    /// need, or it is not started (a proof that lasts fewer frames than its slices take is no
+    /// use: fresh traversals serve).
+    pub probe_min_usable_frames: f64,
+    /// A running background probe at a pose is paced to finish this many frames before the
+    /// free-space proofs run out (at the tool's last motion); one along a path within
+    /// [`Tuning::probe_finish_within`] of their horizon, less these frames (paced over the whole
+    /// horizon, a path probe behind a speeding hand falls behind its time-capped slices and
+    /// finishes thousands of node pairs in one frame).
+    pub probe_finish_spare_frames: f64,
+    /// Share of the proofs' horizon (frames) a running background probe along a path is paced to
+    /// finish within: the horizon is measured at the last frame's motion, and a hand speeding up
+    /// shortens it.
+    pub probe_finish_within: f64,
+    /// A new background probe's first slice is this share of its paced slice (when the proofs
+    /// last more than 2 frames): it meets its part of the trees out of cache, and its node pairs
+    /// cost 2–3 times the next slices'.
+    pub probe_first_slice_share: f64,
+    /// A running background probe is paced for this many times its estimated cost.
+    pub probe_estimate_spare: f64,
+    /// A tool sliding at least this far per frame (mm, without turning) gets background probes
+    /// along its way ([`collide::FreeSpaceProbe::start_along`]) instead of at a pose.
+    pub path_probe_min_step_mm: f64,
+    /// Shortest path (mm) a probe along the tool's way covers ([`Tuning::path_probe_frames`]).
+    pub path_probe_min_mm: f64,
+    /// Longest path (mm) a probe along the tool's way covers.
+    pub path_probe_max_mm: f64,
+    /// A background probe that proved free space lets the next one ask for this many times its
+    /// margin (up to [`Tuning::background_probe_mm`]): a tool that left a tight gap gets its wide proofs
+    /// back within a few probes.
+    pub probe_margin_growth: f64,
+    /// Frames the free-space proofs must serve a tool, at its last motion, for it to count as at
+    /// rest (a second at 1 kHz): then a background probe widens its proof.
+    pub rest_horizon_frames: f64,
+    /// A tool at rest gets a wider proof when the proofs about it reach less than this share of
+    /// the next probe's margin.
+    pub probe_widen_ratio: f64,
+    /// A background probe that touched lets the next one ask for this share of its margin.
+    pub probe_margin_shrink: f64,
+    /// Least margin (mm) of a neighbour list (later ones follow the pairs the last one held).
+    pub list_min_mm: f64,
+    /// Largest margin (mm) of a neighbour list.
+    pub list_max_mm: f64,
+    /// The yield assumed before any list has been used: a contact's first list is tried.
+    pub list_first_yield: f64,
+    /// Work (node pairs split plus pairs listed) the first neighbour list is expected to cost
+    /// (its slices' size), and the node pairs it is expected to split (its cost as
+    /// [`Tuning::list_payoff`] weighs it).
+    pub list_first_work: usize,
+    /// Node pairs the first neighbour list is expected to split.
+    pub list_first_splits: usize,
+    /// A neighbour list is built only when it would serve at least this many frames at the
+    /// tool's current motion (a fast tool outruns it: its regions are traversed).
+    pub list_min_life_frames: f64,
+    /// How far ahead (frames at the last frame's speed) the next near list is centred at most: a
+    /// slow tool's list centres near it.
+    pub near_ahead_max_frames: f64,
 }
 
 impl Tuning {
@@ -518,6 +496,33 @@ impl Tuning {
         near_list_mm: 0.25,
         near_list_pairs: 3000,
         near_ahead_share: 0.15,
+        fall_min_step_mm: 0.1,
+        fall_min_cos: 0.9,
+        slab_rest_frames: 100,
+        slab_rest_max_frames: 12_800,
+        slab_max_pairs: 500,
+        slab_max_splits: 8_000,
+        lever_min_pairs: 100,
+        background_probe_min_mm: 0.05,
+        probe_min_usable_frames: 2.0,
+        probe_finish_spare_frames: 2.0,
+        probe_finish_within: 0.75,
+        probe_first_slice_share: 0.5,
+        probe_estimate_spare: 1.25,
+        path_probe_min_step_mm: 0.005,
+        path_probe_min_mm: 0.5,
+        path_probe_max_mm: 10.0,
+        probe_margin_growth: 1.5,
+        rest_horizon_frames: 1000.0,
+        probe_widen_ratio: 0.8,
+        probe_margin_shrink: 0.7,
+        list_min_mm: 0.3,
+        list_max_mm: 2.0,
+        list_first_yield: 10.0,
+        list_first_work: 8000,
+        list_first_splits: 5000,
+        list_min_life_frames: 3.0,
+        near_ahead_max_frames: 50.0,
     };
 
     /// A field's value by its name in [`Tuning::NAMES`] (counts as `f64`).
@@ -557,6 +562,33 @@ impl Tuning {
             "near-list-mm" => self.near_list_mm,
             "near-list-pairs" => self.near_list_pairs as f64,
             "near-ahead-share" => self.near_ahead_share,
+            "fall-min-step-mm" => self.fall_min_step_mm,
+            "fall-min-cos" => self.fall_min_cos,
+            "slab-rest-frames" => f64::from(self.slab_rest_frames),
+            "slab-rest-max-frames" => f64::from(self.slab_rest_max_frames),
+            "slab-max-pairs" => self.slab_max_pairs as f64,
+            "slab-max-splits" => self.slab_max_splits as f64,
+            "lever-min-pairs" => self.lever_min_pairs as f64,
+            "background-probe-min-mm" => self.background_probe_min_mm,
+            "probe-min-usable-frames" => self.probe_min_usable_frames,
+            "probe-finish-spare-frames" => self.probe_finish_spare_frames,
+            "probe-finish-within" => self.probe_finish_within,
+            "probe-first-slice-share" => self.probe_first_slice_share,
+            "probe-estimate-spare" => self.probe_estimate_spare,
+            "path-probe-min-step-mm" => self.path_probe_min_step_mm,
+            "path-probe-min-mm" => self.path_probe_min_mm,
+            "path-probe-max-mm" => self.path_probe_max_mm,
+            "probe-margin-growth" => self.probe_margin_growth,
+            "rest-horizon-frames" => self.rest_horizon_frames,
+            "probe-widen-ratio" => self.probe_widen_ratio,
+            "probe-margin-shrink" => self.probe_margin_shrink,
+            "list-min-mm" => self.list_min_mm,
+            "list-max-mm" => self.list_max_mm,
+            "list-first-yield" => self.list_first_yield,
+            "list-first-work" => self.list_first_work as f64,
+            "list-first-splits" => self.list_first_splits as f64,
+            "list-min-life-frames" => self.list_min_life_frames,
+            "near-ahead-max-frames" => self.near_ahead_max_frames,
             _ => return None,
         })
     }
@@ -599,6 +631,33 @@ impl Tuning {
             "near-list-mm" => self.near_list_mm = value,
             "near-list-pairs" => self.near_list_pairs = value.round() as usize,
             "near-ahead-share" => self.near_ahead_share = value,
+            "fall-min-step-mm" => self.fall_min_step_mm = value,
+            "fall-min-cos" => self.fall_min_cos = value,
+            "slab-rest-frames" => self.slab_rest_frames = value.round() as u32,
+            "slab-rest-max-frames" => self.slab_rest_max_frames = value.round() as u32,
+            "slab-max-pairs" => self.slab_max_pairs = value.round() as usize,
+            "slab-max-splits" => self.slab_max_splits = value.round() as usize,
+            "lever-min-pairs" => self.lever_min_pairs = value.round() as usize,
+            "background-probe-min-mm" => self.background_probe_min_mm = value,
+            "probe-min-usable-frames" => self.probe_min_usable_frames = value,
+            "probe-finish-spare-frames" => self.probe_finish_spare_frames = value,
+            "probe-finish-within" => self.probe_finish_within = value,
+            "probe-first-slice-share" => self.probe_first_slice_share = value,
+            "probe-estimate-spare" => self.probe_estimate_spare = value,
+            "path-probe-min-step-mm" => self.path_probe_min_step_mm = value,
+            "path-probe-min-mm" => self.path_probe_min_mm = value,
+            "path-probe-max-mm" => self.path_probe_max_mm = value,
+            "probe-margin-growth" => self.probe_margin_growth = value,
+            "rest-horizon-frames" => self.rest_horizon_frames = value,
+            "probe-widen-ratio" => self.probe_widen_ratio = value,
+            "probe-margin-shrink" => self.probe_margin_shrink = value,
+            "list-min-mm" => self.list_min_mm = value,
+            "list-max-mm" => self.list_max_mm = value,
+            "list-first-yield" => self.list_first_yield = value,
+            "list-first-work" => self.list_first_work = value.round() as usize,
+            "list-first-splits" => self.list_first_splits = value.round() as usize,
+            "list-min-life-frames" => self.list_min_life_frames = value,
+            "near-ahead-max-frames" => self.near_ahead_max_frames = value,
             _ => return None,
         }
         Some(self)
@@ -628,18 +687,48 @@ impl Tuning {
                 "must be below 1",
             ));
         }
-        if self.path_width_min_mm > self.path_width_max_mm {
-            return Err(bad(
+        // Bounds that clamp a value must stay in order.
+        for (low, lo, high, hi) in [
+            (
                 "path-width-min-mm",
                 self.path_width_min_mm,
-                "must be at most path-width-max-mm",
-            ));
+                "path-width-max-mm",
+                self.path_width_max_mm,
+            ),
+            (
+                "path-probe-min-mm",
+                self.path_probe_min_mm,
+                "path-probe-max-mm",
+                self.path_probe_max_mm,
+            ),
+            (
+                "list-min-mm",
+                self.list_min_mm,
+                "list-max-mm",
+                self.list_max_mm,
+            ),
+            (
+                "background-probe-min-mm",
+                self.background_probe_min_mm,
+                "background-probe-mm",
+                self.background_probe_mm,
+            ),
+            (
+                "slab-rest-frames",
+                f64::from(self.slab_rest_frames),
+                "slab-rest-max-frames",
+                f64::from(self.slab_rest_max_frames),
+            ),
+        ] {
+            if lo > hi {
+                return Err(bad(low, lo, &format!("must be at most {high} ({hi})")));
+            }
         }
         Ok(())
     }
 
     /// Every field's name: the field's with dashes, as the tuning study names it.
-    pub const NAMES: [&'static str; 34] = [
+    pub const NAMES: [&'static str; 61] = [
         "pass-headroom",
         "detect-reserve",
         "pair-target",
@@ -674,6 +763,33 @@ impl Tuning {
         "near-list-mm",
         "near-list-pairs",
         "near-ahead-share",
+        "fall-min-step-mm",
+        "fall-min-cos",
+        "slab-rest-frames",
+        "slab-rest-max-frames",
+        "slab-max-pairs",
+        "slab-max-splits",
+        "lever-min-pairs",
+        "background-probe-min-mm",
+        "probe-min-usable-frames",
+        "probe-finish-spare-frames",
+        "probe-finish-within",
+        "probe-first-slice-share",
+        "probe-estimate-spare",
+        "path-probe-min-step-mm",
+        "path-probe-min-mm",
+        "path-probe-max-mm",
+        "probe-margin-growth",
+        "rest-horizon-frames",
+        "probe-widen-ratio",
+        "probe-margin-shrink",
+        "list-min-mm",
+        "list-max-mm",
+        "list-first-yield",
+        "list-first-work",
+        "list-first-splits",
+        "list-min-life-frames",
+        "near-ahead-max-frames",
     ];
 }
 
