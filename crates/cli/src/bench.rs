@@ -107,7 +107,7 @@ pub struct BenchArgs {
     /// Studies to run (comma-separated): replay, scaling, speed, contact, friction, peer, zoo,
     /// pqp-scaling (not by default: the serial, vectorized and threaded PQP on 50 to 20 000
     /// rows, minutes), tuning (not by default: each tuned value of the step halved and doubled
-    /// over the built-ins and the zoo, about an hour),
+    /// over the built-ins and the zoo, some four minutes a pass),
     /// ablation, fit (with --quick, a reduced zoo of four scenes and four fit rows).
     #[arg(
         long,
@@ -123,6 +123,10 @@ pub struct BenchArgs {
     /// `name=value`, e.g. `near-ahead-share=0.3`), to compare a candidate with its neighbours.
     #[arg(long, value_delimiter = ',', value_name = "NAME=VALUE")]
     pub tuning_base: Vec<String>,
+    /// Passes of the tuning study over all its configurations; each scene keeps its quickest
+    /// pass, so a slow spell of a shared machine does not read as a costly value.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=10))]
+    pub tuning_passes: u32,
     /// What the tool touches in the zoo and fit studies (comma-separated): spheres (the
     /// trees' leaf spheres, the default), mesh (the parts' own triangles), or both; each scene
     /// is replayed once per mode, every row naming its mode.
@@ -457,8 +461,13 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
             base = next;
         }
         eprintln!("bench: tuning study (each tuned value of the step halved and doubled)");
-        report.tuning =
-            crate::bench_tuning::tuning_study(&cache, args.quick, base, &args.tuning_values)?;
+        report.tuning = crate::bench_tuning::tuning_study(
+            &cache,
+            args.quick,
+            base,
+            &args.tuning_values,
+            args.tuning_passes as usize,
+        )?;
         let md = format!(
             "# haptic6d bench: the step's tuned values ({}), {}\n\n{}",
             report.mode,

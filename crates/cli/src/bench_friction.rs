@@ -10,7 +10,9 @@
 //!   bumps) the same push shows what the hand feels along the motion on a surface made of
 //!   spheres: the bumps' slopes add to and take from the friction. On the **mesh plate** the
 //!   puck's and the plate's own box meshes touch (the mesh geometry mode): two flat faces, so
-//!   any departure from the law comes from how the contact's triangle pairs make its patch.
+//!   any departure from the law comes from how the contact's triangle pairs make its patch. The
+//!   **tilted mesh plate** is the mesh plate turned 0.3 rad about `(1, 2, 0)` with the pushes
+//!   carried with it ([`plate::tilted_scene`]): no face or edge along a world axis.
 //! - **cost**: frame time with friction against the same run frictionless, on the bunny and on
 //!   the puck sliding over the tree plate at 200 mm/s.
 //! - **spline**: the splined shaft with friction on the hub: whether the insertion still reaches
@@ -22,8 +24,10 @@
 //! deepest penetration and frame time.
 
 use anyhow::{anyhow, Result};
+use collide::rotation_log;
 use engine::step::{FrameOutput, FrictionState};
 use engine::{Friction, Pose};
+use nalgebra::{Matrix3, Vector3};
 use scene::cache::TreeCache;
 use scene::scenes::plate::{self, PlateTool, SpeedMotion};
 use scene::stats::Summary;
@@ -150,7 +154,12 @@ pub fn friction_study(cache: &TreeCache, quick: bool) -> Result<FrictionStudy> {
     };
     let turns: &[f64] = if quick { &[3.0] } else { &[1.0, 3.0, 10.0] };
     let mut study = FrictionStudy::default();
-    for surface in [Surface::IdealFlat, Surface::TreePlate, Surface::MeshPlate] {
+    for surface in [
+        Surface::IdealFlat,
+        Surface::TreePlate,
+        Surface::MeshPlate,
+        Surface::TiltedMeshPlate,
+    ] {
         let motions = slides
             .iter()
             .map(|&v| SpeedMotion::Slide(v))
@@ -224,6 +233,9 @@ enum Surface {
     TreePlate,
     /// The plate's and the puck's own box meshes (the mesh geometry mode).
     MeshPlate,
+    /// The mesh plate tilted ([`plate::plate_tilt`]), the pushes carried with it: the same law
+    /// with no face or edge along a world axis.
+    TiltedMeshPlate,
 }
 
 impl Surface {
@@ -232,18 +244,24 @@ impl Surface {
             Surface::IdealFlat => "ideal flat",
             Surface::TreePlate => "tree plate",
             Surface::MeshPlate => "mesh plate",
+            Surface::TiltedMeshPlate => "tilted mesh plate",
         }
     }
 }
 
 fn push(cache: &TreeCache, surface: Surface, motion: SpeedMotion) -> Result<PushRow> {
     let (script, (t0, t1)) = plate::push_script(motion);
-    let mut sc = if surface == Surface::IdealFlat {
-        plate::flat_scene(cache, PlateTool::Puck, script)?
+    let tilt = if surface == Surface::TiltedMeshPlate {
+        plate::plate_tilt()
     } else {
-        plate::scene(cache, PlateTool::Puck, script)?
+        Matrix3::identity()
     };
-    if surface == Surface::MeshPlate {
+    let mut sc = match surface {
+        Surface::IdealFlat => plate::flat_scene(cache, PlateTool::Puck, script)?,
+        Surface::TreePlate | Surface::MeshPlate => plate::scene(cache, PlateTool::Puck, script)?,
+        Surface::TiltedMeshPlate => plate::tilted_scene(cache, PlateTool::Puck, &script, &tilt)?,
+    };
+    if matches!(surface, Surface::MeshPlate | Surface::TiltedMeshPlate) {
         sc.solver.geometry = engine::Geometry::Mesh;
         anyhow::ensure!(
             sc.geometry() == engine::Geometry::Mesh,
@@ -254,22 +272,33 @@ fn push(cache: &TreeCache, surface: Surface, motion: SpeedMotion) -> Result<Push
     sc.object_friction = vec![PLATE_FRICTION];
     let (times, out, rho) = replay(&sc)?;
     let turn = matches!(motion, SpeedMotion::Turn(_));
-    // The force (torque) against the motion, and the hand's displacement.
+    // The plate's normal and the slide's direction (the plate's own `z` and `x`), the force
+    // (torque) against the motion, and the hand's displacement along (about) them.
+    let (normal, along) = (tilt * Vector3::z(), tilt * Vector3::x());
+    let force = |o: &FrameOutput| Vector3::new(o.raw_wrench[0], o.raw_wrench[1], o.raw_wrench[2]);
+    let torque = |o: &FrameOutput| Vector3::new(o.raw_wrench[3], o.raw_wrench[4], o.raw_wrench[5]);
     let against = |o: &FrameOutput| {
         if turn {
-            -o.raw_wrench[5]
+            -torque(o).dot(&normal)
         } else {
-            -o.raw_wrench[0]
+            -force(o).dot(&along)
         }
     };
-    let moved = |o: &FrameOutput| if turn { o.q_h[5] } else { o.q_h[0] };
+    let moved = |o: &FrameOutput| {
+        let hand = Pose::from_array(o.q_h);
+        if turn {
+            rotation_log(&(tilt.transpose() * hand.rotation_matrix())).z
+        } else {
+            hand.translation().dot(&along)
+        }
+    };
     let moving: Vec<&FrameOutput> = times
         .iter()
         .zip(&out)
         .filter(|(&t, _)| t >= t0 && t < t1)
         .map(|(_, o)| o)
         .collect();
-    let normal_n = Summary::of(moving.iter().map(|o| o.raw_wrench[2])).mean;
+    let normal_n = Summary::of(moving.iter().map(|o| force(o).dot(&normal))).mean;
     let rho_mm = if turn { rho.unwrap_or(0.0) } else { 0.0 };
     let lever = if turn { rho_mm } else { 1.0 };
     let first_slip = moving

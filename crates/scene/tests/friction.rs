@@ -72,22 +72,41 @@ fn zero_friction_and_friction_off_give_the_frictionless_frames() {
 /// A push on the ideal flat: (mean normal force N, largest force against the motion up to the
 /// first slip, mean force against it over the second half of the motion, torsional radius).
 fn push(motion: SpeedMotion) -> (f64, f64, f64, f64) {
-    push_on(motion, false).0
+    push_on(motion, Surface::IdealFlat).0
 }
 
-/// [`push`] on the ideal flat, or with `mesh` on the plate's and the puck's own box meshes (the
-/// mesh geometry mode); with the least force against the motion after the first slip.
-fn push_on(motion: SpeedMotion, mesh: bool) -> ((f64, f64, f64, f64), f64) {
+/// What the puck is pushed on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Surface {
+    /// The one-sphere plate.
+    IdealFlat,
+    /// The plate's and the puck's own box meshes (the mesh geometry mode).
+    Mesh,
+    /// The mesh plate tilted by [`plate::plate_tilt`], the push carried with it.
+    TiltedMesh,
+}
+
+/// [`push`] on `surface`, with the least force against the motion after the first slip; the
+/// forces and torques along (about) the plate's own axes.
+fn push_on(motion: SpeedMotion, surface: Surface) -> ((f64, f64, f64, f64), f64) {
     let (script, (t0, t1)) = plate::push_script(motion);
     let cache = common::test_cache();
-    let mut sc = if mesh {
-        let mut sc = plate::scene(&cache, PlateTool::Puck, script).unwrap();
+    let tilt = if surface == Surface::TiltedMesh {
+        plate::plate_tilt()
+    } else {
+        nalgebra::Matrix3::identity()
+    };
+    let mut sc = match surface {
+        Surface::IdealFlat => plate::flat_scene(&cache, PlateTool::Puck, script).unwrap(),
+        Surface::Mesh => plate::scene(&cache, PlateTool::Puck, script).unwrap(),
+        Surface::TiltedMesh => {
+            plate::tilted_scene(&cache, PlateTool::Puck, &script, &tilt).unwrap()
+        }
+    };
+    if surface != Surface::IdealFlat {
         sc.solver.geometry = engine::Geometry::Mesh;
         assert_eq!(sc.geometry(), engine::Geometry::Mesh);
-        sc
-    } else {
-        plate::flat_scene(&cache, PlateTool::Puck, script).unwrap()
-    };
+    }
     sc.object_friction = vec![ROUGH];
     // No frame budget: the law is checked on the constrained optimum of every frame, whatever
     // else the machine is doing.
@@ -106,14 +125,22 @@ fn push_on(motion: SpeedMotion, mesh: bool) -> ((f64, f64, f64, f64), f64) {
             rho = god.friction_contact().map_or(0.0, |c| c.1);
         }
     }
+    let (normal, along) = (tilt.column(2).into_owned(), tilt.column(0).into_owned());
     let against = |f: &FrameOutput| {
+        let w = &f.raw_wrench;
         if turn {
-            -f.raw_wrench[5]
+            -nalgebra::Vector3::new(w[3], w[4], w[5]).dot(&normal)
         } else {
-            -f.raw_wrench[0]
+            -nalgebra::Vector3::new(w[0], w[1], w[2]).dot(&along)
         }
     };
-    let n = moving.iter().map(|f| f.raw_wrench[2]).sum::<f64>() / moving.len() as f64;
+    let n = moving
+        .iter()
+        .map(|f| {
+            nalgebra::Vector3::new(f.raw_wrench[0], f.raw_wrench[1], f.raw_wrench[2]).dot(&normal)
+        })
+        .sum::<f64>()
+        / moving.len() as f64;
     let slip = moving
         .iter()
         .position(|f| f.friction == FrictionState::Slip)
@@ -134,8 +161,20 @@ fn push_on(motion: SpeedMotion, mesh: bool) -> ((f64, f64, f64, f64), f64) {
 /// (a 40 mm square: 0.3826 × 40 mm), and once sliding no frame lets go of the friction.
 #[test]
 fn on_a_meshed_plate_the_law_holds_sliding_and_turning() {
+    law_holds_on(Surface::Mesh);
+}
+
+/// The same on the mesh plate tilted so that no face or edge runs along a world axis: the
+/// contact's normal, patch and torsional radius come from the parts, not from the axes.
+#[test]
+fn on_a_tilted_meshed_plate_the_law_holds_sliding_and_turning() {
+    law_holds_on(Surface::TiltedMesh);
+}
+
+fn law_holds_on(surface: Surface) {
     for motion in [SpeedMotion::Slide(10.0), SpeedMotion::Turn(1.0)] {
-        let ((n, breakaway, sliding, rho), least) = push_on(motion, true);
+        let ((n, breakaway, sliding, rho), least) = push_on(motion, surface);
+        assert!(n > 0.5, "{motion:?}: pressed with {n} N");
         let turn = matches!(motion, SpeedMotion::Turn(_));
         let lever = if turn { rho } else { 1.0 };
         if turn {

@@ -15,6 +15,7 @@
 
 use collide::Pose;
 use mesh::TriMesh;
+use nalgebra::{Matrix3, Vector3};
 
 use crate::cache::TreeCache;
 use crate::trajectory::{Ease, Script};
@@ -343,6 +344,64 @@ pub fn push_script(motion: SpeedMotion) -> (Script, (f64, f64)) {
     };
     let script = script.then(duration, end, Ease::Linear).hold(0.1);
     (script, (t0, t0 + duration))
+}
+
+/// The tilt of the tilted plate: 0.3 rad (17°) about the axis `(1, 2, 0)`, so neither the
+/// plate's faces nor its edges run along a world axis, and a slide along the plate's own `x`
+/// goes down its slope and across it.
+pub fn plate_tilt() -> Matrix3<f64> {
+    collide::rotation_exp(&(Vector3::new(1.0, 2.0, 0.0).normalize() * 0.3))
+}
+
+/// `script` carried by the rotation `tilt` about the world origin (the plate's top centre):
+/// each pose's position is turned, and its orientation turned after its own. Sampled at
+/// `rate_hz` into linear keyframes: Euler angles interpolated between the script's own far
+/// keyframes would not keep a turn about the plate's normal a turn about the tilted normal.
+pub fn tilted_script(script: &Script, tilt: &Matrix3<f64>, rate_hz: f64) -> Script {
+    let carry = |q: [f64; 6]| {
+        let pose = Pose::from_array(q);
+        let turned = Pose::from_translation_rotation(
+            &(tilt * pose.translation()),
+            &(tilt * pose.rotation_matrix()),
+        );
+        turned.to_array()
+    };
+    let trajectory = script.to_trajectory(rate_hz);
+    let mut samples = trajectory.samples.iter();
+    let Some(first) = samples.next() else {
+        return Script::default();
+    };
+    let mut out = Script::starting_at(carry(first.q));
+    let mut last = (first.t, out.last_q());
+    for s in samples {
+        let mut q = carry(s.q);
+        // Euler angles continuous with the last keyframe's: the conversion picks one of the
+        // equivalent triples, and a jump of 2 pi between two keyframes is no motion.
+        for k in 3..6 {
+            let turns = ((q[k] - last.1[k]) / std::f64::consts::TAU).round();
+            q[k] -= turns * std::f64::consts::TAU;
+        }
+        out = out.then(s.t - last.0, q, Ease::Linear);
+        last = (s.t, q);
+    }
+    out
+}
+
+/// [`scene`] with the plate turned by `tilt` about the world origin and `script` (given as on
+/// the level plate) carried with it ([`tilted_script`]): the same pushes on a plate whose faces
+/// meet no world axis.
+pub fn tilted_scene(
+    cache: &TreeCache,
+    tool: PlateTool,
+    script: &Script,
+    tilt: &Matrix3<f64>,
+) -> Result<Scene, SceneError> {
+    let rate_hz = 1000.0;
+    let mut scene = scene(cache, tool, tilted_script(script, tilt, rate_hz))?;
+    scene.name = format!("tilted plate ({})", tool.name());
+    scene.objects[0].1 = Pose::from_translation_rotation(&Vector3::zeros(), tilt);
+    scene.rate_hz = rate_hz;
+    Ok(scene)
 }
 
 /// The built-in `plate` scene: the puck slid at 200 mm/s, then turned at 3 rad/s.
