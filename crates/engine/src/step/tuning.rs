@@ -146,316 +146,403 @@ pub struct Tuning {
     /// within `budget_us`: a new region's traversal may cost more than any pass so far (the
     /// deadline stops one that overruns).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.00, p99 ×0.97 /
-    /// ×1.03 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×1.00 /
+    /// ×1.01; doubled: 48 degraded frames against 42 (doubling costs more; halving stays within the
+    /// runs' spread).
     pub pass_headroom: f64,
     /// Share of the frame budget kept after the last traversal may run for that pass's rows,
     /// solve and check: a traversal still running at `(1 - detect_reserve) · budget_us` stops,
     /// and the frame ends lagging at its last proven pose.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.99 /
-    /// ×0.98 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×1.00 /
+    /// ×1.00 (both within the runs' spread: not critical on these scenes).
     pub detect_reserve: f64,
     /// Leaf pairs a path region or a free-space probe aims at: a dense contact takes smaller
     /// regions (more passes) rather than one region of tens of thousands of rows.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×1.00 /
-    /// ×0.99 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×1.00 /
+    /// ×1.01 (both within the runs' spread: not critical on these scenes).
     pub pair_target: f64,
     /// Leaf pairs a ball region aims at in a dense contact. A ball region in a turning or
     /// pressed contact is detected again every few frames, and a dense one's cost grows faster
     /// than its life: a smaller target than [`Tuning::pair_target`] trades more passes for
     /// cheaper ones.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.01, p99 ×0.97 /
-    /// ×1.04; halved: 50 degraded frames against 42 (both cost more).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.98 / ×1.02, p99 ×0.97 /
+    /// ×1.04; halved: 48 degraded frames against 42 (both cost more).
     pub ball_pair_target: f64,
     /// Least allowance (mm) the pair density may give a ball region: a dense contact's regions
     /// may be thinner than [`Tuning::min_allow_mm`] (two bumpy faces hold ~1 500 pairs within
     /// ~0.1 mm).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×0.99 /
-    /// ×0.99 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×1.00, p99 ×1.01 /
+    /// ×1.00 (both within the runs' spread: not critical on these scenes).
     pub dense_min_allow_mm: f64,
     /// Smallest motion allowance of a detected region, mm.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.02 / ×1.11, p99 ×0.97 /
-    /// ×1.14, node pairs ×1.05 / ×1.07, list entries ×1.50 / ×0.51 (halving is at the edge of the
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.02 / ×1.12, p99 ×0.98 /
+    /// ×1.21, node pairs ×1.05 / ×1.06, list entries ×1.50 / ×0.51 (halving is at the edge of the
     /// runs' spread, doubling costs more).
     pub min_allow_mm: f64,
     /// Largest pair list reused from an earlier frame: a list of [`Tuning::pair_target`] pairs
     /// costs ~20 µs to solve again against ~150 µs to find again. (A count, not a rule on
     /// measured times, which would make frames depend on the machine.)
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.98 /
-    /// ×0.98 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×0.99 /
+    /// ×0.99 (both within the runs' spread: not critical on these scenes).
     pub reuse_max_pairs: usize,
     /// A ball region's own pairs serve the next region about a pose it still covers by at least
     /// this share of the allowance wanted (else a fresh detection pays).
     ///
     /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.02, p99 ×1.02 /
-    /// ×1.02, node pairs ×0.97 / ×1.09 (both within the runs' spread: not critical on these
-    /// scenes).
+    /// ×1.04, node pairs ×0.97 / ×1.09 (halving is at the edge of the runs' spread, doubling costs
+    /// more).
     pub recentre_share: f64,
     /// … and by at least this many times the motion predicted for the tool this frame (a tool
     /// about to move farther, e.g. dropping into a hole, needs a detection anyway).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.00, p99 ×0.99 /
-    /// ×0.99, node pairs ×1.00 / ×1.05 (both within the runs' spread: not critical on these
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.01, p99 ×1.01 /
+    /// ×1.01, node pairs ×1.00 / ×1.06 (both within the runs' spread: not critical on these
     /// scenes).
     pub recentre_motion_spare: f64,
     /// A predicted motion shorter than this (mm, largest sphere motion) takes a ball region: a
     /// path region pays off only for a hand in motion.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.02 / ×0.99, p99 ×1.01 /
-    /// ×1.01 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.02 / ×1.00, p99 ×1.02 /
+    /// ×1.04 (halving is at the edge of the runs' spread, doubling costs more).
     pub min_sweep_mm: f64,
     /// A path region is taken only while its length plus width stays within this many times the
     /// allowance that keeps a ball region near [`Tuning::pair_target`] pairs.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.98 /
-    /// ×0.99 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.02, p99 ×1.00 /
+    /// ×1.03 (doubling costs more; halving stays within the runs' spread).
     pub path_density_factor: f64,
     /// A path region reaches at least this far ahead (mm, largest sphere motion; at most
     /// `max_margin_mm`), so that a slow hand's next frames reuse it.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×1.01 /
-    /// ×0.98 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×0.99, p99 ×1.06 /
+    /// ×1.00 (halving costs more; doubling stays within the runs' spread).
     pub path_min_mm: f64,
     /// Least width (mm) of a path region about the predicted path: twice the recent prediction
     /// error, at least this.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×1.00 /
-    /// ×1.00 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×1.01 /
+    /// ×1.01 (both within the runs' spread: not critical on these scenes).
     pub path_width_min_mm: f64,
     /// Largest width (mm) of a path region about the predicted path (a tool riding over the
     /// bumps of a sphere-tree surface strays by a few tenths of a millimetre).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.99 /
-    /// ×0.98 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×1.00 /
+    /// ×1.00 (both within the runs' spread: not critical on these scenes).
     pub path_width_max_mm: f64,
     /// A pass whose answer stayed within this share of its region's width (its motion bound from
     /// the region's centre) crept: its trust box or the contact stopped it well inside its ball,
     /// and the next region's trust box is turned to that pass's motion.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.98, p99 ×0.96 /
-    /// ×0.99, list entries ×1.01 / ×0.94 (halving is at the edge of the runs' spread).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×0.99, p99 ×1.01 /
+    /// ×1.00, list entries ×1.01 / ×0.94 (both within the runs' spread: not critical on these
+    /// scenes).
     pub creep_share: f64,
     /// A slab region (a tool held by one flat face) allows a slide along the face of at least this
     /// much (mm): its face's pairs do not grow with it, only with the margin across.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×0.99, p99 ×0.99 /
-    /// ×0.99 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.03 / ×0.98, p99 ×1.02 /
+    /// ×0.99 (halving is at the edge of the runs' spread).
     pub slab_slide_mm: f64,
     /// Least margin (mm) across the face of a slab region, over 1.5 times last frame's motion
     /// across it.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.00, p99 ×0.99 /
-    /// ×1.00 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.02, p99 ×1.01 /
+    /// ×1.02 (doubling is at the edge of the runs' spread).
     pub slab_across_min_mm: f64,
     /// How much farther (mm) than a ball region's margin the rest of the tool is from the objects
     /// (the `lever` heuristic's near part of the tool): a turn about the contact (a long tool spinning and rocking on
     /// its tip) is bounded by the near leaves' lever arm, not the far end's reach, while the far
     /// end moves less than this.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.98 /
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×1.01 /
     /// ×0.99 (both within the runs' spread: not critical on these scenes).
     pub lever_margin_mm: f64,
     /// A near part of the tool is found this much (mm) wider than a region needs, and kept for
     /// later regions while the tool stays within it of where it was found (the `lever`
     /// heuristic's near part of the tool).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×0.98, p99 ×1.01 /
-    /// ×0.96 (doubling is at the edge of the runs' spread).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×0.99, p99 ×1.01 /
+    /// ×0.98 (halving is at the edge of the runs' spread).
     pub lever_spare_mm: f64,
     /// Margin (mm) of a detection made in free space: an empty result proves free space this far,
     /// and later frames near the same pose skip their traversals.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.98 / ×1.00, p99 ×0.98 /
-    /// ×1.02 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.01, p99 ×0.98 /
+    /// ×1.01 (both within the runs' spread: not critical on these scenes).
     pub free_probe_mm: f64,
     /// Margin (mm) of a background probe: wider than a frame's own proof
     /// ([`Tuning::free_probe_mm`]), since its cost is spread over frames and a wider proof lasts
     /// longer per node pair split.
     ///
     /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.00, p99 ×0.98 /
-    /// ×0.99 (both within the runs' spread: not critical on these scenes).
+    /// ×1.00 (both within the runs' spread: not critical on these scenes).
     pub background_probe_mm: f64,
     /// Node pairs a background free-space probe aims to split per frame (~15–25 µs): it starts
     /// early enough to finish at this pace before the current proof runs out.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×0.99 /
-    /// ×1.01, list entries ×0.93 / ×0.99 (both within the runs' spread: not critical on these
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×0.99, p99 ×1.00 /
+    /// ×1.00, list entries ×0.93 / ×0.99 (both within the runs' spread: not critical on these
     /// scenes).
     pub probe_slice_splits: usize,
     /// Frames of the tool's steady motion a background probe's path covers, within
     /// [`Tuning::path_probe_min_mm`, `Tuning::path_probe_max_mm`]: where walls run along the motion a path
     /// costs a few times a probe at a pose and covers ten or twenty times the way.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×0.99 /
-    /// ×0.98 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×1.00 /
+    /// ×0.99 (both within the runs' spread: not critical on these scenes).
     pub path_probe_frames: f64,
     /// A probe along a path starts when the proofs have this many times its expected slices of
     /// frames left (a path's cost varies more with where it runs than a ball's: one that starts
     /// late ends in long slices).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×1.00 /
-    /// ×0.98 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.01, p99 ×1.00 /
+    /// ×1.01 (both within the runs' spread: not critical on these scenes).
     pub path_probe_lead: f64,
     /// A background probe starts at the latest when the free-space proof has this many frames of
     /// slack left (earlier when the last probe needed more slices).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.99 /
-    /// ×0.99 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×0.99 /
+    /// ×1.00 (both within the runs' spread: not critical on these scenes).
     pub probe_lead_frames: f64,
     /// How far past the pose where the current free-space proofs run out a probe is placed, as a
     /// share of a proof's usable radius: a tool moving on as it did crosses the new proof's ball
     /// instead of leaving it from its centre.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.98 /
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.00, p99 ×0.98 /
     /// ×0.99 (both within the runs' spread: not critical on these scenes).
     pub probe_ahead: f64,
     /// First margin (mm) of a neighbour list; later ones follow the pairs the last one held.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.00, p99 ×1.00 /
-    /// ×1.00 (both within the runs' spread: not critical on these scenes).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×1.00 /
+    /// ×1.01, list entries ×0.95 / ×1.00 (both within the runs' spread: not critical on these
+    /// scenes).
     pub list_margin_mm: f64,
     /// On the frame's own thread a neighbour list is built only when its cost per frame of its
     /// life is at most this many times the traversals it would spare (a list also spares the
     /// second regions of a frame and keeps later frames cheap, which the count does not see; the
     /// limit only keeps lists out where they clearly cost more).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.98 /
-    /// ×0.99, list entries ×0.85 / ×0.99 (both within the runs' spread: not critical on these
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.00, p99 ×0.99 /
+    /// ×1.00, list entries ×0.85 / ×0.98 (both within the runs' spread: not critical on these
     /// scenes).
     pub list_payoff: f64,
     /// Neighbour lists are kept only where a region's traversal splits at least this many node
     /// pairs (~30 µs): where regions are cheap a list costs more than it spares.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.03 / ×0.96, p99 ×1.01 /
-    /// ×0.98, list entries ×1.41 / ×0.56 (doubling is at the edge of the runs' spread).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.03 / ×0.97, p99 ×1.02 /
+    /// ×0.98, list entries ×1.41 / ×0.56 (halving costs more; doubling stays within the runs'
+    /// spread).
     pub list_min_region_splits: f64,
     /// On the frame's own thread, a neighbour list is built only while the last ones answered at
     /// least this many times their build's work in regions (regions answered times a region's
     /// node pairs; running mean over the lists taken): [`Tuning::list_payoff`]'s prediction
     /// misses that a list in use shrinks the regions to fit inside it.
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.98, p99 ×0.98 /
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×0.98 /
     /// ×0.99, list entries ×1.08 / ×0.89 (both within the runs' spread: not critical on these
     /// scenes).
     pub list_min_yield: f64,
     /// Pairs a neighbour list aims at (filtering them costs ~1 ns each).
     ///
-    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.97 / ×1.05, p99 ×0.98 /
-    /// ×1.02, node pairs ×0.99 / ×1.10, list entries ×0.49 / ×1.72 (halving is at the edge of the
-    /// runs' spread, doubling costs more).
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.06, p99 ×1.01 /
+    /// ×1.04, node pairs ×0.99 / ×1.10, list entries ×0.49 / ×1.71 (doubling costs more; halving
+    /// stays within the runs' spread).
     pub list_target_pairs: f64,
     /// The mesh mode's near list reaches this much (mm) beyond the region's margin: listed once,
     /// it serves the narrow phase of every region it covers (the tool moving up to this much from
     /// where it was listed), so the trees are descended once in several frames.
     ///
-    /// Halved / doubled over the zoo in the mesh mode: mean frame time ×1.03 / ×0.98, p99 ×1.01 /
-    /// ×1.02; doubled: 3633 degraded frames against 3506 (doubling costs more; halving stays within
-    /// the runs' spread).
+    /// Halved / doubled over the zoo in the mesh mode: mean frame time ×1.05 / ×1.02, p99 ×1.04 /
+    /// ×1.04; doubled: 3616 degraded frames against 3478 (both cost more).
     pub near_list_mm: f64,
     /// Near-list length aimed at: every region the list serves filters all of it (its plane
     /// bounds, ~30 ns a pair), so 3 000 pairs cost about a tenth of the 1 ms budget a region; a
     /// longer list halves the next one's extra reach, one under a quarter of this doubles it (up
     /// to [`Tuning::near_list_mm`]).
     ///
-    /// Halved / doubled over the zoo in the mesh mode: mean frame time ×0.97 / ×0.98, p99 ×0.98 /
-    /// ×0.99 (halving is at the edge of the runs' spread).
+    /// Halved / doubled over the zoo in the mesh mode: mean frame time ×1.00 / ×1.01, p99 ×1.00 /
+    /// ×1.00 (both within the runs' spread: not critical on these scenes).
     pub near_list_pairs: usize,
     /// The next near list is built ahead in slices of at most this share of the frame's budget
     /// (after the frame's own work, never past its deadline): a whole list of a tight fit's wall
     /// costs a few budgets, so it is spread over the frames the current list still serves.
     ///
-    /// Halved / doubled over the zoo in the mesh mode: mean frame time ×0.97 / ×0.98, p99 ×0.98 /
-    /// ×1.03 (doubling costs more; halving stays within the runs' spread).
+    /// Halved / doubled over the zoo in the mesh mode: mean frame time ×1.01 / ×1.01, p99 ×1.01 /
+    /// ×1.06 (doubling costs more; halving stays within the runs' spread).
     pub near_ahead_share: f64,
     /// A tool left behind that moved at least this far (mm) in its last frame is falling toward
     /// the hand: its path region is the straight way there.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×1.02, p99 ×1.02 /
+    /// ×1.04 (halving is at the edge of the runs' spread, doubling costs more).
     pub fall_min_step_mm: f64,
     /// ... and moved toward the hand: the cosine between its last step and the way to the hand
     /// is at least this (a tool sliding across a face the hand presses into is not falling).
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×0.99 /
+    /// ×0.99 (both within the runs' spread: not critical on these scenes).
     pub fall_min_cos: f64,
     /// Frames without slab regions after one that failed (stopped at the deadline, overflowed, or
     /// listed more than [`Tuning::slab_max_pairs`] pairs or split more than [`Tuning::slab_max_splits`] node
     /// pairs: the other pairs within the slide, of faces whose discs are too small or of the
     /// tool's own bumps, can be many, and the tool's leaves near a face broken by slots are let
     /// go only one by one), doubled after each failure in a row up to [`Tuning::slab_rest_max_frames`].
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×1.00 /
+    /// ×1.00 (both within the runs' spread: not critical on these scenes).
     pub slab_rest_frames: u32,
     /// Most frames slab regions rest after failures in a row (the rest doubling from
     /// [`Tuning::slab_rest_frames`]).
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.02, p99 ×1.00 /
+    /// ×1.04 (doubling costs more; halving stays within the runs' spread).
     pub slab_rest_max_frames: u32,
     /// Most pairs a slab region may list: it is small by design (a flat contact's: ~50 pairs),
     /// and one past this failed to be.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×1.00 /
+    /// ×0.99 (both within the runs' spread: not critical on these scenes).
     pub slab_max_pairs: usize,
     /// Most node pairs a slab region's traversal may split, likewise.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×0.99 /
+    /// ×1.01 (both within the runs' spread: not critical on these scenes).
     pub slab_max_splits: usize,
     /// Fewest pairs of a ball region that looks for the near part of the tool: a small contact's
     /// regions are cheap to detect again (a first contact then costs no more than it did).
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×0.99, p99 ×1.11 /
+    /// ×0.98 (halving costs more; doubling stays within the runs' spread).
     pub lever_min_pairs: usize,
     /// Least margin (mm) of a background probe. A probe that finds a pair within its margin (a
     /// tool turning in a tight groove, 0.1–0.4 mm from its flanks) proves nothing; the next one
     /// asks for less ([`Tuning::probe_margin_shrink`]), down to this.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×0.99, p99 ×1.00 /
+    /// ×0.98 (both within the runs' spread: not critical on these scenes).
     pub background_probe_min_mm: f64,
     /// Frames of the tool's motion a background probe's margin must hold beyond the frame's own
     /// need, or it is not started (a proof that lasts fewer frames than its slices take is no
     /// use: fresh traversals serve).
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×0.99 /
+    /// ×0.99 (both within the runs' spread: not critical on these scenes).
     pub probe_min_usable_frames: f64,
     /// A running background probe at a pose is paced to finish this many frames before the
     /// free-space proofs run out (at the tool's last motion); one along a path within
     /// [`Tuning::probe_finish_within`] of their horizon, less these frames (paced over the whole
     /// horizon, a path probe behind a speeding hand falls behind its time-capped slices and
     /// finishes thousands of node pairs in one frame).
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×1.00 /
+    /// ×1.01 (both within the runs' spread: not critical on these scenes).
     pub probe_finish_spare_frames: f64,
     /// Share of the proofs' horizon (frames) a running background probe along a path is paced to
     /// finish within: the horizon is measured at the last frame's motion, and a hand speeding up
     /// shortens it.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×0.99 /
+    /// ×1.01 (both within the runs' spread: not critical on these scenes).
     pub probe_finish_within: f64,
     /// A new background probe's first slice is this share of its paced slice (when the proofs
     /// last more than 2 frames): it meets its part of the trees out of cache, and its node pairs
     /// cost 2–3 times the next slices'.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.01, p99 ×1.00 /
+    /// ×1.01 (both within the runs' spread: not critical on these scenes).
     pub probe_first_slice_share: f64,
     /// A running background probe is paced for this many times its estimated cost.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×1.01, p99 ×1.04 /
+    /// ×1.01 (halving costs more; doubling stays within the runs' spread).
     pub probe_estimate_spare: f64,
     /// A tool sliding at least this far per frame (mm, without turning) gets background probes
     /// along its way ([`collide::FreeSpaceProbe::start_along`]) instead of at a pose.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.01, p99 ×1.02 /
+    /// ×1.03 (halving is at the edge of the runs' spread, doubling costs more).
     pub path_probe_min_step_mm: f64,
     /// Shortest path (mm) a probe along the tool's way covers ([`Tuning::path_probe_frames`]).
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×1.01 /
+    /// ×1.01 (both within the runs' spread: not critical on these scenes).
     pub path_probe_min_mm: f64,
     /// Longest path (mm) a probe along the tool's way covers.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×1.00 /
+    /// ×1.01 (both within the runs' spread: not critical on these scenes).
     pub path_probe_max_mm: f64,
     /// A background probe that proved free space lets the next one ask for this many times its
     /// margin (up to [`Tuning::background_probe_mm`]): a tool that left a tight gap gets its wide proofs
     /// back within a few probes.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.02, p99 ×1.01 /
+    /// ×1.03 (doubling is at the edge of the runs' spread).
     pub probe_margin_growth: f64,
     /// Frames the free-space proofs must serve a tool, at its last motion, for it to count as at
     /// rest (a second at 1 kHz): then a background probe widens its proof.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.06 / ×1.01, p99 ×1.07 /
+    /// ×1.04 (both cost more).
     pub rest_horizon_frames: f64,
     /// A tool at rest gets a wider proof when the proofs about it reach less than this share of
     /// the next probe's margin.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×1.01, p99 ×1.02 /
+    /// ×1.00 (halving is at the edge of the runs' spread).
     pub probe_widen_ratio: f64,
     /// A background probe that touched lets the next one ask for this share of its margin.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.01 / ×1.00, p99 ×1.02 /
+    /// ×1.04 (halving is at the edge of the runs' spread, doubling costs more).
     pub probe_margin_shrink: f64,
     /// Least margin (mm) of a neighbour list (later ones follow the pairs the last one held).
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.03, p99 ×1.00 /
+    /// ×1.02, node pairs ×1.01 / ×1.20, list entries ×0.99 / ×1.11 (doubling costs more; halving
+    /// stays within the runs' spread).
     pub list_min_mm: f64,
     /// Largest margin (mm) of a neighbour list.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.04, p99 ×0.99 /
+    /// ×1.06, list entries ×0.85 / ×1.00 (doubling costs more; halving stays within the runs'
+    /// spread).
     pub list_max_mm: f64,
     /// The yield assumed before any list has been used: a contact's first list is tried.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×0.99 / ×1.00, p99 ×1.00 /
+    /// ×1.00, list entries ×0.95 / ×0.99 (both within the runs' spread: not critical on these
+    /// scenes).
     pub list_first_yield: f64,
     /// Work (node pairs split plus pairs listed) the first neighbour list is expected to cost
     /// (its slices' size), and the node pairs it is expected to split (its cost as
     /// [`Tuning::list_payoff`] weighs it).
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×1.00 /
+    /// ×0.98 (both within the runs' spread: not critical on these scenes).
     pub list_first_work: usize,
     /// Node pairs the first neighbour list is expected to split.
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.02, p99 ×1.01 /
+    /// ×1.05 (doubling costs more; halving stays within the runs' spread).
     pub list_first_splits: usize,
     /// A neighbour list is built only when it would serve at least this many frames at the
     /// tool's current motion (a fast tool outruns it: its regions are traversed).
+    ///
+    /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×1.00, p99 ×1.01 /
+    /// ×1.00 (both within the runs' spread: not critical on these scenes).
     pub list_min_life_frames: f64,
     /// How far ahead (frames at the last frame's speed) the next near list is centred at most: a
     /// slow tool's list centres near it.
+    ///
+    /// Halved / doubled over the zoo in the mesh mode: mean frame time ×1.00 / ×1.00, p99 ×1.00 /
+    /// ×1.01 (both within the runs' spread: not critical on these scenes).
     pub near_ahead_max_frames: f64,
 }
 
