@@ -43,6 +43,8 @@ pub struct TriangleTree {
     /// Each triangle's plane: unit normal and offset (`n · p = d` on it; all zero for a
     /// degenerate triangle), mm.
     planes: Vec<([f64; 3], f64)>,
+    /// Each triangle's box along the frame's axes (lowest and highest corner), mm.
+    bounds: Vec<([f64; 3], [f64; 3])>,
     /// Each triangle's index in the mesh it came from.
     origin: Vec<u32>,
     depth: usize,
@@ -71,10 +73,12 @@ impl TriangleTree {
         }
         let triangles: Vec<Triangle> = order.iter().map(|&i| placed[i as usize]).collect();
         let planes = triangles.iter().map(plane_of).collect();
+        let bounds = triangles.iter().map(bounds_of).collect();
         Self {
             nodes,
             triangles,
             planes,
+            bounds,
             origin: order,
             depth,
         }
@@ -91,6 +95,13 @@ impl TriangleTree {
     #[inline]
     pub fn plane(&self, i: u32) -> ([f64; 3], f64) {
         self.planes[i as usize]
+    }
+
+    /// Triangle `i`'s box along the tree's frame axes (in leaf order): its lowest and highest
+    /// corner, mm.
+    #[inline]
+    pub fn bounds(&self, i: u32) -> &([f64; 3], [f64; 3]) {
+        &self.bounds[i as usize]
     }
 
     /// The mesh's own index of triangle `i` (in leaf order).
@@ -201,6 +212,13 @@ impl TriangleTree {
         }
         stack.is_empty()
     }
+}
+
+/// The box of a triangle's corners along the frame's axes: lowest and highest corner, mm.
+pub fn bounds_of(t: &Triangle) -> ([f64; 3], [f64; 3]) {
+    let lo = std::array::from_fn(|k| t[0][k].min(t[1][k]).min(t[2][k]));
+    let hi = std::array::from_fn(|k| t[0][k].max(t[1][k]).max(t[2][k]));
+    (lo, hi)
 }
 
 /// The plane of `t`: unit normal (right-handed about its corners) and offset, or zeros for a

@@ -14,12 +14,14 @@ use collide::{triangle_distance, Triangle, TriangleTree};
 
 use super::*;
 
-/// A pair of triangles: the object (index), the tool's triangle and the object's triangle.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// A pair of triangles: the object (index), the tool's triangle and the object's triangle,
+/// and a lower bound on their distance (mm) with the tool where the pair was listed.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct TriPair {
     pub(super) object: u32,
     pub(super) tool: u32,
     pub(super) part: u32,
+    pub(super) apart: f64,
 }
 
 /// The meshes of the mesh geometry mode: the tool's triangles in their box tree (tool frame)
@@ -131,9 +133,17 @@ impl GodObject {
         let Some(meshes) = &self.bodies.meshes else {
             return;
         };
+        // No point of the tool moves farther than the motion bound from where the list was
+        // made: a pair listed farther apart than that beyond the margin stays out of it, and
+        // is not posed again.
+        let listed_at = self.run.regions.near_at.map_or(*center, |at| at.0);
+        let moved = self.motion_bound(&listed_at, center);
         let (rot, t) = (center.rotation_matrix(), center.translation());
         let detector = &mut self.detector;
         for c in &detector.near {
+            if c.apart - moved > margin {
+                continue;
+            }
             let tool = PosedTriangle::of(&meshes.tool, c.tool, &rot, &t);
             let part_tree = &meshes.objects[c.object as usize];
             if tool.separation(part_tree, c.part) > margin {
@@ -556,7 +566,8 @@ impl LeafTriangles<'_> {
         for tool in self.tools {
             let tool_tri = PosedTriangle::of(self.tool_tree, tool, rot, t);
             for part in self.parts.clone() {
-                if tool_tri.separation(self.part_tree, part) > margin {
+                let apart = tool_tri.separation(self.part_tree, part);
+                if apart > margin {
                     continue;
                 }
                 if list.len() < list.capacity() {
@@ -564,6 +575,7 @@ impl LeafTriangles<'_> {
                         object: self.object as u32,
                         tool,
                         part,
+                        apart,
                     });
                 } else {
                     dropped += 1;
@@ -574,11 +586,13 @@ impl LeafTriangles<'_> {
     }
 }
 
-/// A triangle of the tool posed in the world: corners and plane (unit normal, offset), mm.
+/// A triangle of the tool posed in the world: corners, plane (unit normal, offset) and box
+/// along the world axes, mm.
 pub(super) struct PosedTriangle {
     pub(super) corners: Triangle,
     normal: [f64; 3],
     offset: f64,
+    bounds: ([f64; 3], [f64; 3]),
 }
 
 impl PosedTriangle {
@@ -586,20 +600,33 @@ impl PosedTriangle {
     fn of(tree: &TriangleTree, i: u32, rot: &Matrix3<f64>, t: &Vector3<f64>) -> Self {
         let (n, d) = tree.plane(i);
         let n = rot * Vector3::from(n);
+        let corners = tree
+            .triangle(i)
+            .map(|p| (rot * Vector3::from(p) + t).into());
         Self {
-            corners: tree
-                .triangle(i)
-                .map(|p| (rot * Vector3::from(p) + t).into()),
+            corners,
             normal: n.into(),
             offset: d + n.dot(t),
+            bounds: collide::bounds_of(&corners),
         }
     }
 
-    /// A lower bound (mm) on its distance to triangle `i` of `part` (world): the larger of
-    /// how far either lies wholly on one side of the other's plane.
+    /// A lower bound (mm) on its distance to triangle `i` of `part` (world): the largest of
+    /// how far their boxes along the world axes are apart and how far either lies wholly on
+    /// one side of the other's plane. The boxes drop the pairs the planes cannot: in a tight
+    /// fit every wall's plane runs through the other part, so a facet far along the wall
+    /// from another is on neither side of its plane, yet its box is well apart.
     fn separation(&self, part: &TriangleTree, i: u32) -> f64 {
+        let ((lo, hi), (part_lo, part_hi)) = (&self.bounds, part.bounds(i));
+        let boxes = (0..3)
+            .map(|k| (lo[k] - part_hi[k]).max(part_lo[k] - hi[k]))
+            .fold(0.0f64, f64::max);
         let (n, d) = part.plane(i);
-        side_gap(&self.corners, &n, d).max(side_gap(part.triangle(i), &self.normal, self.offset))
+        boxes.max(side_gap(&self.corners, &n, d)).max(side_gap(
+            part.triangle(i),
+            &self.normal,
+            self.offset,
+        ))
     }
 }
 
@@ -994,5 +1021,60 @@ mod tests {
         let wall: Triangle = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
         let facing: Triangle = [[0.2, 0.1, 0.2], [0.9, 0.1, 0.2], [0.2, 0.8, 0.2]];
         assert!((plane_gap(&facing, &wall) - 0.2).abs() < 1e-12);
+    }
+
+    /// The separation the narrow phase drops pairs by (boxes and planes) is a lower bound on
+    /// the exact distance for posed tool triangles, and the boxes see what the planes cannot:
+    /// two facets of one wall far apart along it, each on neither side of the other's plane.
+    #[test]
+    fn the_separation_never_exceeds_the_distance_and_sees_facets_along_a_wall() {
+        let mut x = 987654321u64;
+        let mut r = || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let tools: Vec<Triangle> = (0..40)
+            .map(|_| std::array::from_fn(|_| std::array::from_fn(|_| r())))
+            .collect();
+        let parts: Vec<Triangle> = (0..40)
+            .map(|_| std::array::from_fn(|_| std::array::from_fn(|_| 1.5 * r())))
+            .collect();
+        let (tool_tree, part_tree) = (
+            TriangleTree::build(&tools, &Pose::identity()),
+            TriangleTree::build(&parts, &Pose::identity()),
+        );
+        let (mut dropped_by_boxes, mut checked) = (0, 0);
+        for _ in 0..50 {
+            let q = Pose::from_array([r(), r(), r(), 3.0 * r(), 1.5 * r(), 3.0 * r()]);
+            let (rot, t) = (q.rotation_matrix(), q.translation());
+            for i in 0..tool_tree.len() as u32 {
+                let posed = PosedTriangle::of(&tool_tree, i, &rot, &t);
+                for j in 0..part_tree.len() as u32 {
+                    let d = triangle_distance(&posed.corners, part_tree.triangle(j)).distance;
+                    let bound = posed.separation(&part_tree, j);
+                    assert!(bound <= d + 1e-12, "bound {bound} over distance {d}");
+                    let (n, off) = part_tree.plane(j);
+                    let planes = side_gap(&posed.corners, &n, off)
+                        .max(side_gap(part_tree.triangle(j), &posed.normal, posed.offset));
+                    dropped_by_boxes += usize::from(bound > 0.1 && planes <= 0.1);
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 50_000 && dropped_by_boxes > 0, "{dropped_by_boxes} of {checked}");
+        // Two coplanar facets of a wall 10 mm apart along it: on neither side of each other's
+        // plane, yet 10 mm apart, and the boxes say so.
+        let wall = TriangleTree::build(
+            &[[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]],
+            &Pose::identity(),
+        );
+        let along = TriangleTree::build(
+            &[[[11.0, 0.0, 0.0], [12.0, 0.0, 0.0], [11.0, 1.0, 0.0]]],
+            &Pose::identity(),
+        );
+        let posed = PosedTriangle::of(&along, 0, &Matrix3::identity(), &Vector3::zeros());
+        assert!((posed.separation(&wall, 0) - 10.0).abs() < 1e-12);
     }
 }

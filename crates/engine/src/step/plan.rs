@@ -429,7 +429,9 @@ impl GodObject {
         let extent = plan
             .sweep
             .map_or(plan.allowed, |(_, length)| length + plan.width);
+        let t0 = Instant::now();
         self.narrow_phase(&q_lin, extent + skin);
+        f.clock.detect_s += t0.elapsed().as_secs_f64();
         if !plan.recentred {
             // The rows the region gives (leaf pairs, or triangle pairs in the mesh mode).
             let count = self.listed_rows() + self.run.regions.dropped;
