@@ -587,9 +587,9 @@ impl GodObject {
         // Paced to finish a little before the horizon (a probe at a pose), or within three
         // quarters of it (along a path: the horizon is measured at the last frame's motion,
         // and a hand speeding up along the path shortens it), for a quarter more than the
-        // estimate, the last probe's cost (the spline's withdrawal ran a path probe of
-        // 20 300 node pairs on an estimate of 16 300 at the least slice until its last
-        // frames, then finished 3 500 of them in one).
+        // estimate, the last probe's cost (a shaft drawn out of its splined hole ran a path
+        // probe of 20 300 node pairs on an estimate of 16 300 at the least slice until its
+        // last frames, then finished 3 500 of them in one).
         let left = (self.params.tuning.probe_estimate_spare * estimate
             - self.ahead.probe.splits() as f64)
             .max(0.25 * estimate);
@@ -659,8 +659,8 @@ impl GodObject {
         let lasts = margin - used >= self.params.tuning.probe_min_usable_frames * speed;
         // A tool at rest in free space has time to spare: a wider proof about it,
         // built a slice a frame, serves the first frames of its next motion while the
-        // probes ahead of that motion get going (the spline's insertion starts from
-        // rest in the hole: ~100 µs traversals without one).
+        // probes ahead of that motion get going (an insertion that starts from rest in a
+        // hole: ~100 µs traversals without one).
         let widen = horizon >= self.params.tuning.rest_horizon_frames
             && self.free_slack(q) + used < self.params.tuning.probe_widen_ratio * margin;
         if worth_it && widen {
@@ -711,9 +711,9 @@ impl GodObject {
             + 0.1 * self.run.lists.frame_detections as f64;
         self.run.lists.frame_detections = 0;
         // A list pays where regions are costly to traverse (flat-on-flat contacts: a thousand
-        // node pairs per region; not the bunny's hundred), and on this thread only where it
-        // does not cost clearly more per frame than the regions it spares (a helper builds it
-        // on time nobody else wants).
+        // node pairs per region; not a small curved contact's hundred), and on this thread
+        // only where it does not cost clearly more per frame than the regions it spares (a
+        // helper builds it on time nobody else wants).
         let spared = self.run.lists.detections_per_frame * self.run.lists.splits_per_region;
         let costs = self.run.lists.list_splits as f64 / life.max(1.0);
         if self.ahead.next_neighbours.status() == ListStatus::Empty {
@@ -727,7 +727,7 @@ impl GodObject {
                     && self.run.lists.list_yield >= self.params.tuning.list_min_yield));
         // A list holds leaf pairs without the faces' merging and pruning: with face caps its
         // build costs the whole-sphere traversal the faces spare, so none is kept (measured on
-        // the spline with caps: p99 579 µs without lists, 727 µs with).
+        // a splined shaft in its hub with caps: p99 579 µs without lists, 727 µs with).
         if self.detector.pairs.is_empty()
             || life < self.params.tuning.list_min_life_frames
             || !pays

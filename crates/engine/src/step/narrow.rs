@@ -1056,14 +1056,20 @@ mod tests {
                     let bound = posed.separation(&part_tree, j);
                     assert!(bound <= d + 1e-12, "bound {bound} over distance {d}");
                     let (n, off) = part_tree.plane(j);
-                    let planes = side_gap(&posed.corners, &n, off)
-                        .max(side_gap(part_tree.triangle(j), &posed.normal, posed.offset));
+                    let planes = side_gap(&posed.corners, &n, off).max(side_gap(
+                        part_tree.triangle(j),
+                        &posed.normal,
+                        posed.offset,
+                    ));
                     dropped_by_boxes += usize::from(bound > 0.1 && planes <= 0.1);
                     checked += 1;
                 }
             }
         }
-        assert!(checked > 50_000 && dropped_by_boxes > 0, "{dropped_by_boxes} of {checked}");
+        assert!(
+            checked > 50_000 && dropped_by_boxes > 0,
+            "{dropped_by_boxes} of {checked}"
+        );
         // Two coplanar facets of a wall 10 mm apart along it: on neither side of each other's
         // plane, yet 10 mm apart, and the boxes say so.
         let wall = TriangleTree::build(
