@@ -1,6 +1,6 @@
 //! No allocation in the haptic frame: 10 000 frames of the bunny scene (contact included, with and
-//! without friction) under a counting global allocator, after one warm-up pass over the same
-//! motion.
+//! without friction), and the mesh mode's frames, under a counting global allocator, after one
+//! warm-up pass over the same motion.
 //!
 //! Our own allocator rather than `assert_no_alloc`'s: that crate's default `disable_release`
 //! feature turns its check into a no-op in release builds (CI tests in release), and features
@@ -211,6 +211,34 @@ fn face_capped_frames_do_not_allocate() {
             );
             assert!(records.iter().any(|r| r.frame.pairs > 10), "no contact");
         }
+    }
+}
+
+/// The mesh mode's frames allocate nothing either: the probe down its pocket (near lists,
+/// lists built ahead, rows, checks and their kept distances) and a ball on a ball's pole
+/// (thousands of triangle pairs at once), and friction on meshed faces.
+#[test]
+fn mesh_mode_frames_do_not_allocate() {
+    let cache = common::test_cache();
+    let probe = scene::scenes::builtin("probe", &cache).unwrap();
+    let mut ball = scene::scenes::builtin("zoo/sphere-on-sphere", &cache).unwrap();
+    ball.solver.geometry = engine::Geometry::Mesh;
+    let mut rough = ball.clone();
+    rough.object_friction = vec![engine::Friction {
+        static_mu: 0.4,
+        kinetic_mu: 0.3,
+    }];
+    for scene in [probe, ball, rough] {
+        assert_eq!(scene.geometry(), engine::Geometry::Mesh, "{}", scene.name);
+        let traj = scene.trajectory();
+        let (n, allocs, records) = warm_then_count(&scene, &traj);
+        assert_eq!(n, traj.len());
+        assert_eq!(allocs, 0, "{}: {allocs} (de)allocations", scene.name);
+        assert!(
+            records.iter().any(|r| r.frame.contacts > 0),
+            "{}: no contact",
+            scene.name
+        );
     }
 }
 

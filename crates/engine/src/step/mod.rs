@@ -424,6 +424,7 @@ impl GodObject {
                 near: Vec::with_capacity(contacts_cap),
                 next_near: Vec::with_capacity(contacts_cap),
                 contact_nearest: Vec::with_capacity(contacts_cap),
+                nearest_known: Vec::with_capacity(contacts_cap),
                 nearest_at: None,
                 next_stack: tree_stack.clone(),
                 contact_gaps: vec![0.0; contacts_cap],

@@ -83,6 +83,7 @@ impl GodObject {
         }
         self.detector.contacts.clear();
         self.detector.contact_nearest.clear();
+        self.detector.nearest_known.clear();
         self.detector.nearest_at = None;
         self.run.regions.contacts_at = Some((*center, margin));
         if self.detector.pairs.is_empty() {
@@ -154,6 +155,7 @@ impl GodObject {
                 // The near list is no longer than the contacts' storage.
                 detector.contacts.push(*c);
                 detector.contact_nearest.push(d);
+                detector.nearest_known.push(true);
             }
         }
         detector.nearest_at = Some((rot, t));
@@ -337,12 +339,13 @@ impl GodObject {
             .map_or(f64::INFINITY, |(c, m)| {
                 self.motion_bound(&q, &c) + m + target
             });
-        // At the pose the narrow phase measured them at (a region's first pass), its exact
-        // distances are the rows' own.
+        // At the pose the narrow phase measured them at (a region's first pass), or the check
+        // of the last answer did (the next pass or frame linearises there), the exact
+        // distances measured there are the rows' own.
         let measured = self.detector.nearest_at == Some((rot, t));
         let mut n = 0;
         for c in &self.detector.contacts {
-            let (bound, tool, part, d) = if measured {
+            let (bound, tool, part, d) = if measured && self.detector.nearest_known[n] {
                 let d = self.detector.contact_nearest[n];
                 let (tool, part) = self.posed_pair(meshes, c, &rot, &t);
                 (d.distance, tool, part, Some(d))
@@ -388,34 +391,47 @@ impl GodObject {
     ///
     /// A pair farther apart at the linearisation pose `from` than the tool moves from there to
     /// `q` (the motion bound) cannot touch at `q` and is not measured again, unless its row is
-    /// tight.
+    /// tight. The distances it measures are kept for rows linearised at `q`.
     pub(super) fn mesh_gaps_at(
-        &self,
+        &mut self,
         from: &Pose,
         q: &Pose,
         dq: &[f64; 6],
         n: usize,
     ) -> (f64, f64, u32) {
+        let (target, moved) = (self.mesh_gap(), self.motion_bound(from, q));
         let Some(meshes) = &self.bodies.meshes else {
             return (0.0, 0.0, 0);
         };
         let (rot, t) = (q.rotation_matrix(), q.translation());
-        let (target, moved) = (self.mesh_gap(), self.motion_bound(from, q));
+        let (detector, qp) = (&mut self.detector, &self.qp);
+        if detector.nearest_at != Some((rot, t)) {
+            detector.nearest_at = Some((rot, t));
+            detector.nearest_known.iter_mut().for_each(|k| *k = false);
+        }
         let (mut meet, mut slack, mut touching) = (false, 0.0f64, 0u32);
-        for (i, c) in self.detector.contacts.iter().enumerate().take(n) {
-            let row = &self.qp.rows[i];
-            let lin_gap: f64 = (0..6).map(|k| row[k] * dq[k]).sum::<f64>() - self.qp.rhs[i];
+        for (i, c) in detector.contacts.iter().enumerate().take(n) {
+            let row = &qp.rows[i];
+            let lin_gap: f64 = (0..6).map(|k| row[k] * dq[k]).sum::<f64>() - qp.rhs[i];
             let tight = lin_gap <= TIGHT_MM;
-            if !tight && self.detector.contact_gaps[i] - moved > TOUCH_MM {
+            if !tight && detector.contact_gaps[i] - moved > TOUCH_MM {
                 continue;
             }
-            let (bound, tool, part) = self.posed_separation(meshes, c, &rot, &t);
-            // A pair apart by more than the touch distance across a face's plane neither meets
-            // nor touches: a few products instead of the fifteen features.
-            if !tight && bound > TOUCH_MM {
-                continue;
-            }
-            let d = triangle_distance(&tool, &part);
+            let d = if detector.nearest_known[i] {
+                detector.contact_nearest[i]
+            } else {
+                let part_tree = &meshes.objects[c.object as usize];
+                let tool = PosedTriangle::of(&meshes.tool, c.tool, &rot, &t);
+                // A pair apart by more than the touch distance across a face's plane neither
+                // meets nor touches: a few products instead of the fifteen features.
+                if !tight && tool.separation(part_tree, c.part) > TOUCH_MM {
+                    continue;
+                }
+                let d = triangle_distance(&tool.corners, part_tree.triangle(c.part));
+                detector.contact_nearest[i] = d;
+                detector.nearest_known[i] = true;
+                d
+            };
             meet |= d.meet;
             touching += u32::from(d.distance <= TOUCH_MM);
             if tight {
@@ -867,6 +883,41 @@ mod tests {
             "reused {reused}, listed {relisted}, taken {}, listed in frame {}",
             counts.near_taken, counts.near_listed
         );
+    }
+
+    /// The check of an answer keeps the exact distances it measured, and rows linearised at
+    /// that answer (the next pass's or frame's) reuse them: the same rows as measured afresh.
+    #[test]
+    fn rows_at_a_checked_answer_reuse_its_distances_and_equal_fresh_ones() {
+        let (mut god, _, _) = cube_on_plate();
+        // The cube's bottom face 0.003 mm over the plate's top: every facing pair touches.
+        let q0 = Pose::from_array([5.0, 5.0, 1.003, 0.0, 0.0, 0.0]);
+        let hand = Pose::identity();
+        god.detect(&q0, 1.0).unwrap();
+        god.narrow_phase(&q0, 1.0);
+        let lin0 = god.linearization(&q0, &hand).unwrap();
+        let n = god.fill_rows(&lin0, None);
+        let mut dq = lin0.delta();
+        dq[0] += 0.001;
+        dq[5] += 0.0002;
+        let q1 = lin0.configuration(&dq);
+        let _ = god.mesh_gaps_at(&q0, &q1, &dq, n);
+        let known = god.detector.nearest_known.iter().filter(|k| **k).count();
+        assert!(known > 0, "the check measured no pair");
+        let lin1 = god.linearization(&q1, &hand).unwrap();
+        let at1 = lin1.configuration(&lin1.delta());
+        assert_eq!(
+            god.detector.nearest_at,
+            Some((at1.rotation_matrix(), at1.translation())),
+            "the next rows are linearised where the check measured"
+        );
+        let n1 = god.fill_rows(&lin1, None);
+        let reused = (god.qp.rows[..n1].to_vec(), god.qp.rhs[..n1].to_vec());
+        god.detector.nearest_at = None;
+        let n2 = god.fill_rows(&lin1, None);
+        assert_eq!(n1, n2);
+        assert_eq!(reused.0, god.qp.rows[..n2].to_vec());
+        assert_eq!(reused.1, god.qp.rhs[..n2].to_vec());
     }
 
     #[test]

@@ -42,10 +42,13 @@ pub(super) struct Detector {
     /// The mesh mode's triangle pairs within a wider margin ([`Tuning::near_list_mm`])
     /// of a recent pose: the narrow phase filters them while they cover its region.
     pub(super) near: Vec<TriPair>,
-    /// The exact distances the narrow phase measured for `contacts` (same order), and the tool
-    /// pose (rotation, translation) it measured them at: the first rows at that pose reuse
-    /// them.
+    /// Exact distances of `contacts` (same order) with the tool at one pose (rotation,
+    /// translation): where the narrow phase listed them, or the last answer checked. Rows
+    /// linearised at that pose reuse them.
     pub(super) contact_nearest: Vec<collide::TriangleDistance>,
+    /// Which of `contact_nearest` hold the exact distance at `nearest_at`: the narrow phase
+    /// measures every pair it keeps, the check of an answer those it needs.
+    pub(super) nearest_known: Vec<bool>,
     pub(super) nearest_at: Option<(Matrix3<f64>, Vector3<f64>)>,
     /// The next near list, built a slice per frame ahead of need, and its descent's stack.
     pub(super) next_near: Vec<TriPair>,
