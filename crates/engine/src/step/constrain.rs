@@ -20,6 +20,14 @@ fn complement(d: &[f64; 3]) -> ([f64; 3], [f64; 3]) {
 }
 
 impl GodObject {
+    /// The way from `from` to `to` as the regions measure it: the translation (mm) and the
+    /// rotation's angle times the tool's reach (mm, the farthest a tool point turns).
+    pub(super) fn way_to(&self, from: &Pose, to: &Pose) -> (f64, f64) {
+        let t = (to.translation() - from.translation()).norm();
+        let r = rotation_angle(&to.rotation_matrix(), &from.rotation_matrix()) * self.bodies.reach;
+        (t, r)
+    }
+
     /// The linearization of the current pair list at `q_lin` for the device pose `q_h`.
     pub(super) fn linearization(&self, q_lin: &Pose, q_h: &Pose) -> Option<Linearization> {
         Linearization::with_coordinates(self.params.form, self.params.rotation, q_lin, q_h).ok()
@@ -103,51 +111,57 @@ impl GodObject {
                 n += self.push_turned(n, 0, [(normal, across), (e1, along), (e2, along)], &base);
                 n += self.push_turned(n, 3, [(normal, spin), (e1, tilt), (e2, tilt)], &base);
             }
-            Some((Trust::Path(a), base, end)) => {
-                // In the variable scaled by reach for rotations (a sphere's motion is at most
-                // sqrt(2) times the scaled norm): one direction along the path, five across it
-                // (Gram-Schmidt on the unit vectors but the one most along the path).
-                let reach = self.bodies.reach.max(1e-9);
-                let scale = |k: usize| if k < 3 { 1.0 } else { reach };
-                let mut d = [0.0; 6];
-                for k in 0..6 {
-                    d[k] = (end[k] - base[k]) * scale(k);
-                }
-                let len = d.iter().map(|v| v * v).sum::<f64>().sqrt();
-                let mut basis = [[0.0; 6]; 6];
-                let skip = if len > 1e-12 {
-                    basis[0] = d.map(|v| v / len);
-                    (0..6)
-                        .max_by(|&i, &j| basis[0][i].abs().total_cmp(&basis[0][j].abs()))
-                        .unwrap_or(0)
-                } else {
-                    basis[0][0] = 1.0;
-                    0
-                };
-                for (m, j) in (1..).zip((0..6).filter(|&j| j != skip)) {
-                    let mut v = [0.0; 6];
-                    v[j] = 1.0;
-                    for b in &basis[..m] {
-                        let dot: f64 = (0..6).map(|k| v[k] * b[k]).sum();
-                        for k in 0..6 {
-                            v[k] -= dot * b[k];
-                        }
-                    }
-                    let nv = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-                    basis[m] = v.map(|x| x / nv);
-                }
-                for (i, u) in basis.iter().enumerate() {
-                    let mut row = [0.0; 6];
-                    for k in 0..6 {
-                        row[k] = u[k] * scale(k);
-                    }
-                    let c: f64 = (0..6).map(|k| row[k] * base[k]).sum();
-                    let far = if i == 0 { len } else { 0.0 };
-                    n += self.push_slab(n, &row, c - a, c + far + a);
-                }
-            }
+            Some((Trust::Path(a), base, end)) => n += self.push_path_trust(n, a, &base, &end),
         }
         n
+    }
+
+    /// Writes, at `n`, the trust rows of a path region: the variable within `a` of the segment
+    /// from `base` to `end` (rotations scaled by the tool's reach). Returns the row count.
+    fn push_path_trust(&mut self, n: usize, a: f64, base: &[f64; 6], end: &[f64; 6]) -> usize {
+        let mut count = 0;
+        // In the variable scaled by reach for rotations (a sphere's motion is at most
+        // sqrt(2) times the scaled norm): one direction along the path, five across it
+        // (Gram-Schmidt on the unit vectors but the one most along the path).
+        let reach = self.bodies.reach.max(1e-9);
+        let scale = |k: usize| if k < 3 { 1.0 } else { reach };
+        let mut d = [0.0; 6];
+        for k in 0..6 {
+            d[k] = (end[k] - base[k]) * scale(k);
+        }
+        let len = d.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let mut basis = [[0.0; 6]; 6];
+        let skip = if len > 1e-12 {
+            basis[0] = d.map(|v| v / len);
+            (0..6)
+                .max_by(|&i, &j| basis[0][i].abs().total_cmp(&basis[0][j].abs()))
+                .unwrap_or(0)
+        } else {
+            basis[0][0] = 1.0;
+            0
+        };
+        for (m, j) in (1..).zip((0..6).filter(|&j| j != skip)) {
+            let mut v = [0.0; 6];
+            v[j] = 1.0;
+            for b in &basis[..m] {
+                let dot: f64 = (0..6).map(|k| v[k] * b[k]).sum();
+                for k in 0..6 {
+                    v[k] -= dot * b[k];
+                }
+            }
+            let nv = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            basis[m] = v.map(|x| x / nv);
+        }
+        for (i, u) in basis.iter().enumerate() {
+            let mut row = [0.0; 6];
+            for k in 0..6 {
+                row[k] = u[k] * scale(k);
+            }
+            let c: f64 = (0..6).map(|k| row[k] * base[k]).sum();
+            let far = if i == 0 { len } else { 0.0 };
+            count += self.push_slab(n + count, &row, c - a, c + far + a);
+        }
+        count
     }
 
     /// Writes, at `n`, the rows `|u . (dq - base)| <= w` for each `(u, w)` of `axes`, `u` in

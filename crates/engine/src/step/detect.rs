@@ -53,31 +53,7 @@ impl GodObject {
         let (seen, stamp) = (&mut self.detector.face_seen, self.detector.face_stamp);
         let mut collect = |p: &LeafPair| {
             min_gap = min_gap.min(p.gap);
-            // A tool leaf above a face meets it through every object leaf on it: the rows
-            // would be the same; keep one (the smallest gap, should the offsets differ by
-            // rounding).
-            if p.stands_for_face() {
-                if let Some(mark) = seen.get_mut(p.tool_slot as usize) {
-                    if mark.0 == stamp {
-                        if let Some(kept) = pairs.get_mut(mark.1 as usize) {
-                            if same_face(kept, p) {
-                                if p.gap < kept.gap {
-                                    *kept = *p;
-                                }
-                                return;
-                            }
-                        }
-                    }
-                    if pairs.len() < pairs.capacity() {
-                        *mark = (stamp, pairs.len() as u32);
-                    }
-                }
-            }
-            if pairs.len() < pairs.capacity() {
-                pairs.push(*p);
-            } else {
-                *dropped += 1;
-            }
+            keep_pair(p, pairs, dropped, seen, stamp);
         };
         self.run.lists.frame_detections += 1;
         // Inside the neighbour list: its pairs tested at `q` are the traversal's, and the list
@@ -967,6 +943,41 @@ fn segment_distance(p: &Vector3<f64>, path: &Vector3<f64>) -> f64 {
         0.0
     };
     (p - path * s).norm()
+}
+
+/// Keeps leaf pair `p` in `pairs` (counted in `dropped` past its capacity). A tool leaf above a
+/// face meets it through every object leaf on it and the rows would be the same: one is kept
+/// per tool leaf and face (the smallest gap, should the offsets differ by rounding), `seen`
+/// marking, per tool slot, the pair kept in this detection (`stamp`).
+fn keep_pair(
+    p: &LeafPair,
+    pairs: &mut Vec<LeafPair>,
+    dropped: &mut usize,
+    seen: &mut [(u32, u32)],
+    stamp: u32,
+) {
+    if p.stands_for_face() {
+        if let Some(mark) = seen.get_mut(p.tool_slot as usize) {
+            if mark.0 == stamp {
+                if let Some(kept) = pairs.get_mut(mark.1 as usize) {
+                    if same_face(kept, p) {
+                        if p.gap < kept.gap {
+                            *kept = *p;
+                        }
+                        return;
+                    }
+                }
+            }
+            if pairs.len() < pairs.capacity() {
+                *mark = (stamp, pairs.len() as u32);
+            }
+        }
+    }
+    if pairs.len() < pairs.capacity() {
+        pairs.push(*p);
+    } else {
+        *dropped += 1;
+    }
 }
 
 #[cfg(test)]

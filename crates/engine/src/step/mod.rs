@@ -306,47 +306,8 @@ impl GodObject {
     ) -> Result<Self, EngineError> {
         params.validate()?; // the same ranges as the scene file (crate::config)
         let bad = |body: String, source: collide::CollideError| EngineError::Tree { body, source };
-        let mesh_bad =
-            |body: String, source: collide::MeshLeavesError| EngineError::Mesh { body, source };
-        let all_meshes = tool_mesh.is_some()
-            && object_meshes.len() == objects.len()
-            && object_meshes.iter().all(Option::is_some);
-        let (mut tool_tree, mut object_trees) = (tool.clone(), objects.to_vec());
-        let mut meshes = None;
-        if params.geometry == Geometry::Mesh && all_meshes {
-            if params.form != collide::ConstraintForm::Distance {
-                return Err(EngineError::MeshNeedsDistance);
-            }
-            // The sphere-trees' top levels, grown to hold the triangles, keep the free-space
-            // answers true for the parts; the narrow phase finds and measures the triangles
-            // themselves through their own box trees.
-            let attach = |tree: &SphereTree, m: &MeshRef<'_>, pose: &Pose| {
-                let tree = &top_levels(tree, MESH_SPHERE_LEVELS);
-                let (grown, _) = collide::MeshLeaves::attach(tree, m.vertices, m.triangles, pose)?;
-                let triangles: Vec<collide::Triangle> = m
-                    .triangles
-                    .iter()
-                    .map(|t| t.map(|i| m.vertices[i as usize]))
-                    .collect();
-                Ok::<_, collide::MeshLeavesError>((grown, TriangleTree::build(&triangles, pose)))
-            };
-            let tm = tool_mesh.as_ref().ok_or(EngineError::MeshNeedsDistance)?;
-            let (grown, tool_triangles) =
-                attach(tool, tm, &Pose::identity()).map_err(|e| mesh_bad("tool mesh".into(), e))?;
-            tool_tree = grown;
-            let mut object_triangles = Vec::with_capacity(objects.len());
-            for (i, ((t, p), m)) in objects.iter().zip(object_meshes).enumerate() {
-                let Some(m) = m else { continue };
-                let (grown, tris) =
-                    attach(t, m, p).map_err(|e| mesh_bad(format!("object {} mesh", i + 1), e))?;
-                object_trees[i].0 = grown;
-                object_triangles.push(tris);
-            }
-            meshes = Some(Meshes {
-                tool: tool_triangles,
-                objects: object_triangles,
-            });
-        }
+        let (tool_tree, object_trees, meshes) =
+            attach_meshes(tool, tool_mesh, objects, object_meshes, &params)?;
         let tool = PackedTree::new(&tool_tree).map_err(|e| bad("tool tree".into(), e))?;
         let objects = object_trees
             .iter()
@@ -393,14 +354,7 @@ impl GodObject {
         let neighbours = NeighbourList::for_trees(&tool, &objects, list_capacity);
         let next_neighbours = BackgroundList::for_trees(&tool, &objects, list_capacity);
         let cap = params.max_pairs;
-        let contacts_cap = if meshes.is_some() { cap } else { 0 };
-        let tree_stack = meshes.as_ref().map_or_else(Vec::new, |m| {
-            m.objects
-                .iter()
-                .map(|o| TriangleTree::stack_for(&m.tool, o))
-                .max_by_key(Vec::capacity)
-                .unwrap_or_default()
-        });
+        let detector = Detector::new(ws, team, cap, tool_slots, meshes.as_ref());
         let mut solver = Solver::new(params.solver);
         let mut rows_solver = RowGeneration::new();
         rows_solver.reserve(&mut solver, cap + 12);
@@ -414,23 +368,7 @@ impl GodObject {
                 centres,
                 meshes,
             },
-            detector: Detector {
-                ws,
-                team,
-                pairs: Vec::with_capacity(cap),
-                face_seen: vec![(0, 0); tool_slots],
-                face_stamp: 0,
-                contacts: Vec::with_capacity(contacts_cap),
-                near: Vec::with_capacity(contacts_cap),
-                next_near: Vec::with_capacity(contacts_cap),
-                contact_nearest: Vec::with_capacity(contacts_cap),
-                nearest_known: Vec::with_capacity(contacts_cap),
-                nearest_at: None,
-                next_stack: tree_stack.clone(),
-                contact_gaps: vec![0.0; contacts_cap],
-                contact_points: vec![[0.0; 3]; contacts_cap],
-                tree_stack,
-            },
+            detector,
             ahead: Ahead {
                 probe,
                 neighbours,
@@ -690,6 +628,63 @@ impl GodObject {
         out.total_us = t0.elapsed().as_secs_f64() * 1e6;
         out
     }
+}
+
+/// The tool's tree, the objects' placed trees, and the meshes when the mesh mode has them.
+type AttachedMeshes = (SphereTree, Vec<(SphereTree, Pose)>, Option<Meshes>);
+
+/// In the mesh mode (asked for, and every body with its mesh), the sphere-trees' top levels
+/// grown to hold the triangles and the triangles' own box trees; else the trees as given and no
+/// meshes.
+fn attach_meshes(
+    tool: &SphereTree,
+    tool_mesh: Option<MeshRef<'_>>,
+    objects: &[(SphereTree, Pose)],
+    object_meshes: &[Option<MeshRef<'_>>],
+    params: &EngineConfig,
+) -> Result<AttachedMeshes, EngineError> {
+    let mesh_bad =
+        |body: String, source: collide::MeshLeavesError| EngineError::Mesh { body, source };
+    let all_meshes = tool_mesh.is_some()
+        && object_meshes.len() == objects.len()
+        && object_meshes.iter().all(Option::is_some);
+    let (mut tool_tree, mut object_trees) = (tool.clone(), objects.to_vec());
+    let mut meshes = None;
+    if params.geometry == Geometry::Mesh && all_meshes {
+        if params.form != collide::ConstraintForm::Distance {
+            return Err(EngineError::MeshNeedsDistance);
+        }
+        // The sphere-trees' top levels, grown to hold the triangles, keep the free-space
+        // answers true for the parts; the narrow phase finds and measures the triangles
+        // themselves through their own box trees.
+        let attach = |tree: &SphereTree, m: &MeshRef<'_>, pose: &Pose| {
+            let tree = &top_levels(tree, MESH_SPHERE_LEVELS);
+            let (grown, _) = collide::MeshLeaves::attach(tree, m.vertices, m.triangles, pose)?;
+            let triangles: Vec<collide::Triangle> = m
+                .triangles
+                .iter()
+                .map(|t| t.map(|i| m.vertices[i as usize]))
+                .collect();
+            Ok::<_, collide::MeshLeavesError>((grown, TriangleTree::build(&triangles, pose)))
+        };
+        let tm = tool_mesh.as_ref().ok_or(EngineError::MeshNeedsDistance)?;
+        let (grown, tool_triangles) =
+            attach(tool, tm, &Pose::identity()).map_err(|e| mesh_bad("tool mesh".into(), e))?;
+        tool_tree = grown;
+        let mut object_triangles = Vec::with_capacity(objects.len());
+        for (i, ((t, p), m)) in objects.iter().zip(object_meshes).enumerate() {
+            let Some(m) = m else { continue };
+            let (grown, tris) =
+                attach(t, m, p).map_err(|e| mesh_bad(format!("object {} mesh", i + 1), e))?;
+            object_trees[i].0 = grown;
+            object_triangles.push(tris);
+        }
+        meshes = Some(Meshes {
+            tool: tool_triangles,
+            objects: object_triangles,
+        });
+    }
+    Ok((tool_tree, object_trees, meshes))
 }
 
 /// The first `levels` levels of `tree` (all of it when it has no more), its face caps dropped:

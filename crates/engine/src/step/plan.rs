@@ -71,9 +71,7 @@ impl GodObject {
     /// motion, or the last ball's own pairs.
     fn plan_region(&self, f: &mut FrameWork) -> RegionPlan {
         let (q_lin, goal, skin, cap) = (f.course.q_lin, f.goal, f.skin, f.cap);
-        let need_t = (goal.translation() - q_lin.translation()).norm();
-        let need_r =
-            rotation_angle(&goal.rotation_matrix(), &q_lin.rotation_matrix()) * self.bodies.reach;
+        let (need_t, need_r) = self.way_to(&q_lin, &goal);
         let need = need_t + need_r;
         // Dense contacts (flat on flat) hold many pairs per mm of margin: keep the expected
         // count near the target by taking smaller regions (more passes).

@@ -43,26 +43,18 @@ impl GodObject {
         let (mut reached, mut overflowed) = (false, false);
         for pass in 0..p.relinearize.saturating_add(1) {
             out.passes = pass + 1;
-            let need_t = (q_h.translation() - q_lin.translation()).norm();
-            let need_r = rotation_angle(&q_h.rotation_matrix(), &q_lin.rotation_matrix())
-                * self.bodies.reach;
+            let (need_t, need_r) = self.way_to(&q_lin, q_h);
             let need = need_t + need_r;
             let allowed = need.min(allow);
             if self.detect(&q_lin, allowed + skin).is_err() {
                 return self.keep_last_safe(out, q_h, t_start);
             }
-            if self.run.regions.dropped > 0 {
-                // More pairs than the storage holds: a smaller ball (the list must be whole).
-                overflowed = true;
-                allow = 0.25 * allowed;
-                if allow < MIN_OVERFLOW_ALLOW_MM {
-                    break;
-                }
-                continue;
+            if self.run.regions.dropped == 0 {
+                self.narrow_phase(&q_lin, allowed + skin);
             }
-            self.narrow_phase(&q_lin, allowed + skin);
             if self.run.regions.dropped > 0 {
-                // More triangle pairs than the storage holds: a smaller ball, as for pairs.
+                // More leaf or triangle pairs than the storage holds: a smaller ball (the list
+                // must be whole).
                 overflowed = true;
                 allow = 0.25 * allowed;
                 if allow < MIN_OVERFLOW_ALLOW_MM {
@@ -141,6 +133,19 @@ impl GodObject {
                 _ => FrameStatus::Lagging,
             };
         }
+        self.end_reference_frame(out, q_h, (q_safe, pen_safe), t_start)
+    }
+
+    /// Ends a reference frame at the pose `safe` (its overlap, mm): the god-object moves there
+    /// and the spring to the hand `q_h` is the wrench.
+    fn end_reference_frame(
+        &mut self,
+        mut out: FrameOutput,
+        q_h: &Pose,
+        (q_safe, pen_safe): (Pose, f64),
+        t_start: Instant,
+    ) -> FrameOutput {
+        let p = self.params;
         self.run.regions.cached = None;
         self.run.motion.q_g = q_safe;
         self.run.motion.pen_g = pen_safe;

@@ -58,6 +58,45 @@ pub(super) struct Detector {
     pub(super) tree_stack: collide::TreePairStack,
 }
 
+impl Detector {
+    /// The buffers, reserved once for `cap` leaf pairs (and as many triangle pairs in the mesh
+    /// mode, with `meshes`), a tool of `tool_slots` sphere slots, the traversal workspace `ws`
+    /// and the helper thread's `team`.
+    pub(super) fn new(
+        ws: CollideWorkspace,
+        team: Option<TraversalTeam>,
+        cap: usize,
+        tool_slots: usize,
+        meshes: Option<&Meshes>,
+    ) -> Self {
+        let contacts_cap = if meshes.is_some() { cap } else { 0 };
+        let tree_stack = meshes.map_or_else(Vec::new, |m| {
+            m.objects
+                .iter()
+                .map(|o| TriangleTree::stack_for(&m.tool, o))
+                .max_by_key(Vec::capacity)
+                .unwrap_or_default()
+        });
+        Self {
+            ws,
+            team,
+            pairs: Vec::with_capacity(cap),
+            face_seen: vec![(0, 0); tool_slots],
+            face_stamp: 0,
+            contacts: Vec::with_capacity(contacts_cap),
+            near: Vec::with_capacity(contacts_cap),
+            next_near: Vec::with_capacity(contacts_cap),
+            contact_nearest: Vec::with_capacity(contacts_cap),
+            nearest_known: Vec::with_capacity(contacts_cap),
+            nearest_at: None,
+            next_stack: tree_stack.clone(),
+            contact_gaps: vec![0.0; contacts_cap],
+            contact_points: vec![[0.0; 3]; contacts_cap],
+            tree_stack,
+        }
+    }
+}
+
 /// The work kept ahead of need, a slice per frame.
 pub(super) struct Ahead {
     /// The next free-space proof.
