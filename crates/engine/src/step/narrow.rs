@@ -1049,16 +1049,21 @@ mod tests {
         );
     }
 
-    #[test]
-    fn the_plane_gap_never_exceeds_the_distance_and_sees_facing_walls() {
-        // A pseudo-random spread of triangle pairs (a fixed linear congruential sequence).
-        let mut x = 12345u64;
-        let mut r = || {
+    /// Numbers uniform in [-1, 1) from a fixed linear congruential sequence seeded by `seed`.
+    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut x = seed;
+        move || {
             x = x
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
             (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        }
+    }
+
+    #[test]
+    fn the_plane_gap_never_exceeds_the_distance_and_sees_facing_walls() {
+        // A pseudo-random spread of triangle pairs.
+        let mut r = uniform(12345);
         for _ in 0..5000 {
             let a: Triangle = std::array::from_fn(|_| std::array::from_fn(|_| r()));
             let off = 2.0 * r();
@@ -1079,13 +1084,7 @@ mod tests {
     /// two facets of one wall far apart along it, each on neither side of the other's plane.
     #[test]
     fn the_separation_never_exceeds_the_distance_and_sees_facets_along_a_wall() {
-        let mut x = 987654321u64;
-        let mut r = || {
-            x = x
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut r = uniform(987654321);
         let tools: Vec<Triangle> = (0..40)
             .map(|_| std::array::from_fn(|_| std::array::from_fn(|_| r())))
             .collect();
