@@ -147,7 +147,7 @@ impl GodObject {
             }
             let tool = PosedTriangle::of(&meshes.tool, c.tool, &rot, &t);
             let part_tree = &meshes.objects[c.object as usize];
-            if tool.separation(part_tree, c.part) > margin {
+            if tool.separation_within(part_tree, c.part, margin).is_none() {
                 continue;
             }
             let d = triangle_distance(&tool.corners, part_tree.triangle(c.part));
@@ -582,10 +582,9 @@ impl LeafTriangles<'_> {
         for tool in self.tools {
             let tool_tri = PosedTriangle::of(self.tool_tree, tool, rot, t);
             for part in self.parts.clone() {
-                let apart = tool_tri.separation(self.part_tree, part);
-                if apart > margin {
+                let Some(apart) = tool_tri.separation_within(self.part_tree, part, margin) else {
                     continue;
-                }
+                };
                 if list.len() < list.capacity() {
                     list.push(TriPair {
                         object: self.object as u32,
@@ -633,16 +632,28 @@ impl PosedTriangle {
     /// fit every wall's plane runs through the other part, so a facet far along the wall
     /// from another is on neither side of its plane, yet its box is well apart.
     fn separation(&self, part: &TriangleTree, i: u32) -> f64 {
-        let ((lo, hi), (part_lo, part_hi)) = (&self.bounds, part.bounds(i));
-        let boxes = (0..3)
-            .map(|k| (lo[k] - part_hi[k]).max(part_lo[k] - hi[k]))
-            .fold(0.0f64, f64::max);
         let (n, d) = part.plane(i);
-        boxes.max(side_gap(&self.corners, &n, d)).max(side_gap(
-            part.triangle(i),
-            &self.normal,
-            self.offset,
-        ))
+        self.box_gap(part, i)
+            .max(side_gap(&self.corners, &n, d))
+            .max(side_gap(part.triangle(i), &self.normal, self.offset))
+    }
+
+    /// [`PosedTriangle::separation`] where it is at most `margin` (mm), else `None`: the
+    /// boxes, a few comparisons, settle most pairs a wall apart before the planes are taken.
+    fn separation_within(&self, part: &TriangleTree, i: u32, margin: f64) -> Option<f64> {
+        if self.box_gap(part, i) > margin {
+            return None;
+        }
+        Some(self.separation(part, i)).filter(|&s| s <= margin)
+    }
+
+    /// How far (mm) its box and triangle `i`'s of `part` are apart along a world axis (0 where
+    /// they overlap).
+    fn box_gap(&self, part: &TriangleTree, i: u32) -> f64 {
+        let ((lo, hi), (part_lo, part_hi)) = (&self.bounds, part.bounds(i));
+        (0..3)
+            .map(|k| (lo[k] - part_hi[k]).max(part_lo[k] - hi[k]))
+            .fold(0.0f64, f64::max)
     }
 }
 
