@@ -399,22 +399,11 @@ mod tests {
 
     #[test]
     fn outward_orientation_gives_positive_volume() {
-        let volume = |m: &TriMesh| {
-            m.triangles
-                .iter()
-                .map(|t| {
-                    let [a, b, c] = t.map(|k| m.vertices[k as usize]);
-                    (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                        + a[2] * (b[0] * c[1] - b[1] * c[0]))
-                        / 6.0
-                })
-                .sum::<f64>()
-        };
-        let v = volume(&grid_box([1.0, 0.0, 0.0], [1.0, 2.0, 3.0], 3));
+        let v = grid_box([1.0, 0.0, 0.0], [1.0, 2.0, 3.0], 3).signed_volume();
         assert!((v - 48.0).abs() < 1e-9, "{v}");
-        let v = volume(&uv_sphere(1.0, 60, 120));
+        let v = uv_sphere(1.0, 60, 120).signed_volume();
         assert!((v - 4.0 / 3.0 * PI).abs() < 0.01, "{v}");
-        let v = volume(&torus(1.0, 0.3, 200, 60));
+        let v = torus(1.0, 0.3, 200, 60).signed_volume();
         assert!((v - 2.0 * PI * PI * 0.09).abs() < 0.01, "{v}");
     }
 
@@ -436,24 +425,13 @@ mod tests {
 
     #[test]
     fn lathe_extrude_and_height_field_are_closed_and_outward() {
-        let volume = |m: &TriMesh| {
-            m.triangles
-                .iter()
-                .map(|t| {
-                    let [a, b, c] = t.map(|k| m.vertices[k as usize]);
-                    (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                        + a[2] * (b[0] * c[1] - b[1] * c[0]))
-                        / 6.0
-                })
-                .sum::<f64>()
-        };
         let cylinder = lathe(&[(0.0, 0.0), (1.0, 0.0), (1.0, 2.0), (0.0, 2.0)], 400);
         cylinder.check_closed().unwrap();
-        let v = volume(&cylinder);
+        let v = cylinder.signed_volume();
         assert!((v - 2.0 * PI).abs() < 1e-3, "{v}");
         let probe = rod(1.0, 10.0, 32);
         probe.check_closed().unwrap();
-        assert!(volume(&probe) > 0.0);
+        assert!(probe.signed_volume() > 0.0);
         let (lo, hi) = probe.aabb().unwrap();
         assert!(lo[2].abs() < 1e-12 && (hi[2] - 10.0).abs() < 1e-12);
         // An L of area 3 (a 2 x 2 square missing its 1 x 1 upper-right quarter), 2 high.
@@ -470,12 +448,12 @@ mod tests {
             2.0,
         );
         l.check_closed().unwrap();
-        let v = volume(&l);
+        let v = l.signed_volume();
         assert!((v - 6.0).abs() < 1e-9, "{v}");
         let bumps = height_field_block(2.0, 3.0, -1.0, 8, |x, _| 0.1 * x);
         bumps.check_closed().unwrap();
         assert_eq!(bumps.triangles.len(), 4 * 64 + 8 * 8);
-        let v = volume(&bumps);
+        let v = bumps.signed_volume();
         assert!((v - 24.0).abs() < 1e-9, "{v}");
     }
 }

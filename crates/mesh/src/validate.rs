@@ -197,6 +197,21 @@ fn is_degenerate(vertices: &[[f64; 3]], t: [u32; 3]) -> bool {
 }
 
 impl TriMesh {
+    /// The volume the triangles enclose (mesh units cubed), by the divergence theorem: positive
+    /// when they are counter-clockwise seen from outside (normals outwards), negative when
+    /// inverted. Meaningful for a closed mesh ([`TriMesh::check_closed`]).
+    pub fn signed_volume(&self) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| self.vertices[i as usize]);
+                (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                    + a[2] * (b[0] * c[1] - b[1] * c[0]))
+                    / 6.0
+            })
+            .sum()
+    }
+
     /// Checks that the mesh is a closed, consistently oriented 2-manifold: every edge is
     /// shared by exactly two triangles that run along it in opposite directions. Builders that
     /// need an inside (signed distance, inside tests) call this.

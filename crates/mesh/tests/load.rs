@@ -29,19 +29,6 @@ fn cube_triangles() -> Vec<[u32; 3]> {
         .collect()
 }
 
-/// Signed volume (positive when triangles are counter-clockwise from outside).
-fn volume(m: &TriMesh) -> f64 {
-    m.triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| m.vertices[i as usize]);
-            (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                + a[2] * (b[0] * c[1] - b[1] * c[0]))
-                / 6.0
-        })
-        .sum()
-}
-
 struct Dir(PathBuf);
 
 impl Dir {
@@ -178,7 +165,11 @@ fn assert_cube(l: &LoadedMesh, format: MeshFormat) {
     assert_eq!(l.mesh.triangles.len(), 12);
     assert_eq!(l.report.degenerate_dropped, 0);
     l.mesh.check_closed().unwrap();
-    assert!((volume(&l.mesh) - 1.0).abs() < 1e-12, "{}", volume(&l.mesh));
+    assert!(
+        (l.mesh.signed_volume() - 1.0).abs() < 1e-12,
+        "{}",
+        l.mesh.signed_volume()
+    );
     assert_eq!(l.mesh.aabb(), Some(([0.0; 3], [1.0; 3])));
 }
 
@@ -523,7 +514,10 @@ fn bundled_bunny_loads_closed() {
     assert_eq!(l.report.degenerate_dropped, 0);
     assert_eq!(l.report.duplicates_welded, 0);
     l.mesh.check_closed().unwrap();
-    assert!(volume(&l.mesh) > 0.0, "bunny triangles must face outwards");
+    assert!(
+        l.mesh.signed_volume() > 0.0,
+        "bunny triangles must face outwards"
+    );
     // Euler characteristic of a sphere: V - E + F = 2 with E = 3F/2.
     let (v, f) = (l.mesh.vertices.len() as i64, l.mesh.triangles.len() as i64);
     assert_eq!(v - 3 * f / 2 + f, 2);
@@ -560,7 +554,7 @@ fn bunny_survives_stl_and_ply_round_trips() {
         l.mesh
             .check_closed()
             .unwrap_or_else(|e| panic!("{name}: {e}"));
-        let rel = (volume(&l.mesh) - volume(&bunny)).abs() / volume(&bunny);
+        let rel = (l.mesh.signed_volume() - bunny.signed_volume()).abs() / bunny.signed_volume();
         assert!(rel < 1e-5, "{name}: volume off by {rel}");
     }
 }

@@ -30,19 +30,6 @@ fn assert_watertight(m: &TriMesh, what: &str) {
     assert!(m.check_closed().is_ok(), "{what}: not closed");
 }
 
-/// Signed volume (positive when the normals point outwards), mm³.
-fn volume(m: &TriMesh) -> f64 {
-    m.triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| m.vertices[i as usize]);
-            (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                + a[2] * (b[0] * c[1] - b[1] * c[0]))
-                / 6.0
-        })
-        .sum()
-}
-
 fn radial(v: &[f64; 3]) -> f64 {
     v[0].hypot(v[1])
 }
@@ -64,7 +51,10 @@ fn pegs_and_blocks_are_watertight_and_the_hole_is_the_clearance_wider() {
                 let (peg, block) = (p.peg_mesh(), p.block_mesh());
                 assert_watertight(&peg, &format!("{name} peg"));
                 assert_watertight(&block, &format!("{name} block"));
-                assert!(volume(&peg) > 0.0 && volume(&block) > 0.0, "{name}");
+                assert!(
+                    peg.signed_volume() > 0.0 && block.signed_volume() > 0.0,
+                    "{name}"
+                );
                 if shape == FitShape::Round {
                     // The peg's wall (above the chamfer) at r, the hole's wall (below the
                     // mouth's chamfer) at r + c, read from the vertices.

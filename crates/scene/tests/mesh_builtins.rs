@@ -83,22 +83,9 @@ fn assert_sane_tree(tree: &SphereTree, mesh: &TriMesh, depth: u32, what: &str) {
     }
 }
 
-/// Signed volume by the divergence theorem (positive when normals point outwards), mm³.
-fn volume(m: &TriMesh) -> f64 {
-    m.triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| m.vertices[i as usize]);
-            (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                + a[2] * (b[0] * c[1] - b[1] * c[0]))
-                / 6.0
-        })
-        .sum()
-}
-
 fn assert_closed(m: &TriMesh, what: &str) {
     m.check_closed().unwrap_or_else(|e| panic!("{what}: {e}"));
-    assert!(volume(m) > 0.0, "{what}: normals point inwards");
+    assert!(m.signed_volume() > 0.0, "{what}: normals point inwards");
 }
 
 #[test]

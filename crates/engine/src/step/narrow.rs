@@ -632,19 +632,27 @@ impl PosedTriangle {
     /// fit every wall's plane runs through the other part, so a facet far along the wall
     /// from another is on neither side of its plane, yet its box is well apart.
     fn separation(&self, part: &TriangleTree, i: u32) -> f64 {
+        self.planes_beyond(part, i, self.box_gap(part, i))
+    }
+
+    /// The larger of `boxes` and how far either triangle lies wholly beyond the other's plane.
+    fn planes_beyond(&self, part: &TriangleTree, i: u32, boxes: f64) -> f64 {
         let (n, d) = part.plane(i);
-        self.box_gap(part, i)
-            .max(side_gap(&self.corners, &n, d))
-            .max(side_gap(part.triangle(i), &self.normal, self.offset))
+        boxes.max(side_gap(&self.corners, &n, d)).max(side_gap(
+            part.triangle(i),
+            &self.normal,
+            self.offset,
+        ))
     }
 
     /// [`PosedTriangle::separation`] where it is at most `margin` (mm), else `None`: the
     /// boxes, a few comparisons, settle most pairs a wall apart before the planes are taken.
     fn separation_within(&self, part: &TriangleTree, i: u32, margin: f64) -> Option<f64> {
-        if self.box_gap(part, i) > margin {
+        let boxes = self.box_gap(part, i);
+        if boxes > margin {
             return None;
         }
-        Some(self.separation(part, i)).filter(|&s| s <= margin)
+        Some(self.planes_beyond(part, i, boxes)).filter(|&s| s <= margin)
     }
 
     /// How far (mm) its box and triangle `i`'s of `part` are apart along a world axis (0 where

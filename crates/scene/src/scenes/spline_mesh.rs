@@ -217,19 +217,6 @@ mod tests {
         }
     }
 
-    /// Signed volume by the divergence theorem (positive when normals point outwards).
-    fn volume(m: &TriMesh) -> f64 {
-        m.triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| m.vertices[i as usize]);
-                (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                    + a[2] * (b[0] * c[1] - b[1] * c[0]))
-                    / 6.0
-            })
-            .sum()
-    }
-
     #[test]
     fn meshes_are_closed_with_outward_normals_and_expected_volume() {
         let p = SplineParams::default();
@@ -241,13 +228,13 @@ mod tests {
         let r0 = p.root_radius;
         let r1 = r0 + p.key_height;
         let area = PI * r0 * r0 + keys * p.key_half_angle * (r1 * r1 - r0 * r0);
-        let v = volume(&shaft);
+        let v = shaft.signed_volume();
         let expect = area * p.shaft_length;
         assert!(
             (v - expect).abs() < 0.02 * expect,
             "shaft volume {v} vs {expect}"
         );
-        let vh = volume(&hub);
+        let vh = hub.signed_volume();
         let rh0 = r0 + p.clearance;
         let rh1 = r1 + p.clearance;
         let hole = PI * rh0 * rh0 + keys * p.keyway_half_angle() * (rh1 * rh1 - rh0 * rh0);
