@@ -151,7 +151,16 @@ impl TriangleTree {
         visit: impl FnMut(std::ops::Range<u32>, std::ops::Range<u32>) -> bool,
     ) {
         Self::start_descent(stack);
-        self.descend(rot, t, object, margin, stack, usize::MAX, visit);
+        self.descend(
+            rot,
+            t,
+            &Vector3::zeros(),
+            object,
+            margin,
+            stack,
+            usize::MAX,
+            visit,
+        );
     }
 
     /// Sets `stack` for a descent from the two roots ([`TriangleTree::descend`]).
@@ -161,20 +170,25 @@ impl TriangleTree {
     }
 
     /// Goes on with the descent `stack` holds ([`TriangleTree::start_descent`], then earlier
-    /// calls with the same trees, pose and margin), testing at most `steps` box pairs, as
-    /// [`TriangleTree::near_leaf_pairs`]. Returns true when the descent is over (every leaf
-    /// pair visited, or `visit` returned false); false leaves the rest on the stack.
+    /// calls with the same trees, pose, sweep and margin), testing at most `steps` box pairs, as
+    /// [`TriangleTree::near_leaf_pairs`] but with the tool swept: every leaf pair whose boxes
+    /// come within `margin` with the tool at `(rot, t + s · sweep)` for some `s` in `[0, 1]`
+    /// (`sweep` in mm, the world's axes; zero for the pose alone). Returns true when the
+    /// descent is over (every leaf pair visited, or `visit` returned false); false leaves the
+    /// rest on the stack.
     #[allow(clippy::too_many_arguments)]
     pub fn descend(
         &self,
         rot: &Matrix3<f64>,
         t: &Vector3<f64>,
+        sweep: &Vector3<f64>,
         object: &Self,
         margin: f64,
         stack: &mut TreePairStack,
         steps: usize,
         mut visit: impl FnMut(std::ops::Range<u32>, std::ops::Range<u32>) -> bool,
     ) -> bool {
+        let swept = sweep.iter().any(|&v| v != 0.0);
         if self.nodes.is_empty() || object.nodes.is_empty() {
             stack.clear();
             return true;
@@ -186,9 +200,19 @@ impl TriangleTree {
             let (na, nb) = (&self.nodes[a as usize], &object.nodes[b as usize]);
             // The tool box in the object box's axes: its rotation and centre.
             let turn = nb.axes.transpose() * (rot * na.axes);
-            let offset = nb.axes.transpose()
+            let mut offset = nb.axes.transpose()
                 * (rot * Vector3::from(na.center) + t - Vector3::from(nb.center));
-            if boxes_apart(&offset, &na.half, &turn, &nb.half, margin) {
+            let mut half = na.half;
+            if swept {
+                // The box swept along `sweep` lies in the box about its middle position grown
+                // along each of its axes by half the sweep's reach along that axis.
+                let along = nb.axes.transpose() * sweep;
+                offset += 0.5 * along;
+                for (k, h) in half.iter_mut().enumerate() {
+                    *h += 0.5 * turn.column(k).dot(&along).abs();
+                }
+            }
+            if boxes_apart(&offset, &half, &turn, &nb.half, margin) {
                 continue;
             }
             match (na.count > 0, nb.count > 0) {
@@ -472,6 +496,69 @@ mod tests {
     }
 
     #[test]
+    fn a_swept_descent_lists_every_pair_near_anywhere_on_the_sweep() {
+        let mut rng = ChaCha8Rng::seed_from_u64(23);
+        for case in 0..12 {
+            let tool_tris = sheet(4, case % 2 == 0, &mut rng);
+            let object_tris = sheet(8, case % 3 == 0, &mut rng);
+            let tool = TriangleTree::build(&tool_tris, &Pose::identity());
+            let object = TriangleTree::build(&object_tris, &Pose::identity());
+            let mut stack = TriangleTree::stack_for(&tool, &object);
+            let q = random_pose(&mut rng, 0.9);
+            let (rot, t) = (q.rotation_matrix(), q.translation());
+            let r = |rng: &mut ChaCha8Rng| rng.random_range(-1.5..1.5);
+            let sweep = Vector3::new(r(&mut rng), r(&mut rng), 0.4 * r(&mut rng));
+            let margin = [0.02, 0.1, 0.4][case % 3];
+            let mut listed = std::collections::HashSet::new();
+            let mut swept_pairs = 0;
+            TriangleTree::start_descent(&mut stack);
+            tool.descend(
+                &rot,
+                &t,
+                &sweep,
+                &object,
+                margin,
+                &mut stack,
+                usize::MAX,
+                |ta, ob| {
+                    swept_pairs += 1;
+                    for i in ta {
+                        for j in ob.clone() {
+                            listed.insert((i, j));
+                        }
+                    }
+                    true
+                },
+            );
+            let mut at_start = 0;
+            tool.near_leaf_pairs(&rot, &t, &object, margin, &mut stack, |_, _| {
+                at_start += 1;
+                true
+            });
+            assert!(
+                swept_pairs >= at_start,
+                "case {case}: the sweep's start is in it"
+            );
+            // Sampled along the sweep, every pair within the margin is listed.
+            for step in 0..=20 {
+                let at = t + sweep * (f64::from(step) / 20.0);
+                for i in 0..tool.len() as u32 {
+                    let a = tool
+                        .triangle(i)
+                        .map(|c| (rot * Vector3::from(c) + at).into());
+                    for j in 0..object.len() as u32 {
+                        let d = triangle_distance(&a, object.triangle(j)).distance;
+                        assert!(
+                            d > margin || listed.contains(&(i, j)),
+                            "case {case}: pair ({i}, {j}) {d} mm apart at s = {step}/20 not listed"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
     fn a_descent_in_slices_visits_the_same_leaf_pairs_as_one_whole() {
         let mut rng = ChaCha8Rng::seed_from_u64(11);
         let tool = TriangleTree::build(&sheet(6, true, &mut rng), &Pose::identity());
@@ -488,10 +575,19 @@ mod tests {
             let mut sliced = Vec::new();
             TriangleTree::start_descent(&mut stack);
             let mut slices = 0;
-            while !tool.descend(&rot, &t, &object, 0.3, &mut stack, steps, |a, b| {
-                sliced.push((a, b));
-                true
-            }) {
+            while !tool.descend(
+                &rot,
+                &t,
+                &Vector3::zeros(),
+                &object,
+                0.3,
+                &mut stack,
+                steps,
+                |a, b| {
+                    sliced.push((a, b));
+                    true
+                },
+            ) {
                 slices += 1;
             }
             assert_eq!(sliced, whole, "{steps} steps a slice");

@@ -935,7 +935,7 @@ fn same_face(a: &LeafPair, b: &LeafPair) -> bool {
 }
 
 /// Distance (mm) of the point `p` from the segment from the origin to `path`.
-fn segment_distance(p: &Vector3<f64>, path: &Vector3<f64>) -> f64 {
+pub(super) fn segment_distance(p: &Vector3<f64>, path: &Vector3<f64>) -> f64 {
     let len2 = path.norm_squared();
     let s = if len2 > 0.0 {
         (p.dot(path) / len2).clamp(0.0, 1.0)

@@ -89,12 +89,12 @@ impl GodObject {
         if self.detector.pairs.is_empty() {
             return;
         }
-        let covered = |at: &(Pose, f64)| self.motion_bound(&at.0, center) + margin <= at.1;
+        let covered = |span: &NearSpan| self.span_bound(span, center) + margin <= span.reach;
         let mut listed = self
             .run
             .regions
             .near_at
-            .filter(|at| self.params.heuristics.mesh_near_list && covered(at));
+            .filter(|span| self.params.heuristics.mesh_near_list && covered(span));
         if listed.is_none() && self.take_near_ahead(center, margin) {
             listed = self.run.regions.near_at;
         }
@@ -103,10 +103,15 @@ impl GodObject {
             let extra = self.run.regions.near_extra;
             let wide = self.params.heuristics.mesh_near_list
                 && extra >= NEAR_LIST_MIN_SHARE * self.params.tuning.near_list_mm;
-            let dropped = self.list_near(center, margin + if wide { extra } else { 0.0 });
+            let span = NearSpan {
+                at: *center,
+                sweep: if wide { self.near_sweep() } else { [0.0; 3] },
+                reach: margin + if wide { extra } else { 0.0 },
+            };
+            let dropped = self.list_near(&span);
             self.run.counts.near_listed += 1;
             if wide && dropped == 0 {
-                self.run.regions.near_at = Some((*center, margin + extra));
+                self.run.regions.near_at = Some(span);
                 // Every region it serves filters the whole list: a long one reaches less far
                 // next time, a short one farther.
                 let len = self.detector.near.len();
@@ -121,7 +126,11 @@ impl GodObject {
                 self.run.regions.near_at = None;
                 let dropped = if wide {
                     self.run.regions.near_extra = 0.25 * extra;
-                    self.list_near(center, margin)
+                    self.list_near(&NearSpan {
+                        at: *center,
+                        sweep: [0.0; 3],
+                        reach: margin,
+                    })
                 } else {
                     self.run.regions.near_extra =
                         (2.0 * extra).min(self.params.tuning.near_list_mm);
@@ -134,11 +143,14 @@ impl GodObject {
         let Some(meshes) = &self.bodies.meshes else {
             return;
         };
-        // No point of the tool moves farther than the motion bound from where the list was
-        // made: a pair listed farther apart than that beyond the margin stays out of it, and
-        // is not posed again.
-        let listed_at = self.run.regions.near_at.map_or(*center, |at| at.0);
-        let moved = self.motion_bound(&listed_at, center);
+        // No point of the tool is farther than the motion bound from where it was on the
+        // list's span: a pair listed farther apart than that beyond the margin stays out of
+        // it, and is not posed again.
+        let moved = self
+            .run
+            .regions
+            .near_at
+            .map_or(0.0, |span| self.span_bound(&span, center));
         let (rot, t) = (center.rotation_matrix(), center.translation());
         let detector = &mut self.detector;
         for c in &detector.near {
@@ -161,16 +173,17 @@ impl GodObject {
         detector.nearest_at = Some((rot, t));
     }
 
-    /// Lists into `detector.near` the triangle pairs within `margin` (mm) with the tool at
-    /// `center`, by descending the tool's triangle tree against each object's. Returns how
-    /// many did not fit in the list's storage (0: the list is complete).
-    fn list_near(&mut self, center: &Pose, margin: f64) -> usize {
+    /// Lists into `detector.near` the triangle pairs within the span's reach (mm) of each other
+    /// anywhere on it, by descending the tool's triangle tree, swept along it, against each
+    /// object's. Returns how many did not fit in the list's storage (0: the list is complete).
+    fn list_near(&mut self, span: &NearSpan) -> usize {
         let Some(meshes) = &self.bodies.meshes else {
             return 0;
         };
         let detector = &mut self.detector;
         detector.near.clear();
-        let (rot, t) = (center.rotation_matrix(), center.translation());
+        let (rot, t) = (span.at.rotation_matrix(), span.at.translation());
+        let sweep = Vector3::from(span.sweep);
         let mut dropped = 0usize;
         let near = &mut detector.near;
         for (object, part_tree) in meshes.objects.iter().enumerate() {
@@ -183,12 +196,41 @@ impl GodObject {
                     tools,
                     parts,
                 };
-                dropped += leaves.push_near(&rot, &t, margin, near);
+                dropped += leaves.push_near(&rot, &t, &sweep, span.reach, near);
                 true
             };
-            tool_tree.near_leaf_pairs(&rot, &t, part_tree, margin, &mut detector.tree_stack, visit);
+            TriangleTree::start_descent(&mut detector.tree_stack);
+            tool_tree.descend(
+                &rot,
+                &t,
+                &sweep,
+                part_tree,
+                span.reach,
+                &mut detector.tree_stack,
+                usize::MAX,
+                visit,
+            );
         }
         dropped
+    }
+
+    /// The motion bound (mm) of the tool at `q` from the nearest pose on `span`: no point of
+    /// the tool is farther than this from where it was there.
+    pub(super) fn span_bound(&self, span: &NearSpan, q: &Pose) -> f64 {
+        let off = q.translation() - span.at.translation();
+        detect::segment_distance(&off, &Vector3::from(span.sweep))
+            + self.turn_bound(&span.at.rotation_matrix(), &q.rotation_matrix())
+    }
+
+    /// The sweep (mm) of a new near list: the tool's last step times
+    /// [`Tuning::near_sweep_frames`], so that a tool sliding on is served as many frames.
+    fn near_sweep(&self) -> [f64; 3] {
+        let sweep = Vector3::from(self.run.motion.last_step) * self.params.tuning.near_sweep_frames;
+        if sweep.iter().all(|v| v.is_finite()) {
+            sweep.into()
+        } else {
+            [0.0; 3]
+        }
     }
 
     /// Puts the next near list in place of the current one when it is complete and covers the
@@ -200,7 +242,7 @@ impl GodObject {
             return false;
         };
         self.run.regions.near_ahead = NearAhead::IDLE;
-        if !ahead.done || self.motion_bound(&at.0, center) + margin > at.1 {
+        if !ahead.done || self.span_bound(&at, center) + margin > at.reach {
             return false;
         }
         std::mem::swap(&mut self.detector.near, &mut self.detector.next_near);
@@ -210,14 +252,14 @@ impl GodObject {
     }
 
     /// Builds the next near list a slice at a time (at most `slice_us`, µs, and never past
-    /// `deadline`): once the tool has used half the current list's extra reach, a list as
-    /// wide about the pose the tool is expected at after as many frames again, so that it is
-    /// ready when the current one is spent and no frame pays a whole descent.
+    /// `deadline`): once the tool has used half the current list (half its sweep, or half its
+    /// extra reach off it), a list as wide from the pose the tool is expected at when the
+    /// current one is spent, so that it is ready then and no frame pays a whole descent.
     pub(super) fn tend_near(&mut self, q: &Pose, slice_us: f64, deadline: Instant) {
         let Some(meshes) = &self.bodies.meshes else {
             return;
         };
-        let Some((center, wide)) = self.run.regions.near_at else {
+        let Some(span) = self.run.regions.near_at else {
             return;
         };
         if !self.params.heuristics.mesh_near_list {
@@ -229,25 +271,42 @@ impl GodObject {
         }
         let extra = self.run.regions.near_extra;
         if ahead.at.is_none() {
-            let used = self.motion_bound(&center, q);
-            if used < 0.5 * extra {
+            let sweep = Vector3::from(span.sweep);
+            let len2 = sweep.norm_squared();
+            let along = if len2 > 0.0 {
+                ((q.translation() - span.at.translation()).dot(&sweep) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            if self.span_bound(&span, q) < 0.5 * extra && (len2 == 0.0 || along < 0.5) {
                 return;
             }
+            let step = Vector3::from(self.run.motion.last_step).norm().max(1e-9);
             let speed = self.run.motion.last_motion.max(1e-9);
-            let frames = (0.5 * extra / speed).min(self.params.tuning.near_ahead_max_frames);
+            let frames = if len2 > 0.0 {
+                (1.0 - along) * len2.sqrt() / step
+            } else {
+                0.5 * extra / speed
+            }
+            .min(self.params.tuning.near_ahead_max_frames);
             ahead = NearAhead {
-                at: Some((self.pose_ahead(q, frames), wide)),
+                at: Some(NearSpan {
+                    at: self.pose_ahead(q, frames),
+                    sweep: self.near_sweep(),
+                    reach: span.reach,
+                }),
                 object: 0,
                 done: false,
             };
             self.detector.next_near.clear();
             TriangleTree::start_descent(&mut self.detector.next_stack);
         }
-        let Some((at, margin)) = ahead.at else {
+        let Some(next) = ahead.at else {
             return;
         };
         let end = (Instant::now() + Duration::from_secs_f64(slice_us * 1e-6)).min(deadline);
-        let (rot, t) = (at.rotation_matrix(), at.translation());
+        let (rot, t) = (next.at.rotation_matrix(), next.at.translation());
+        let sweep = Vector3::from(next.sweep);
         let detector = &mut self.detector;
         let mut overflow = false;
         while ahead.object < meshes.objects.len() && Instant::now() < end {
@@ -263,14 +322,15 @@ impl GodObject {
                     tools,
                     parts,
                 };
-                overflow = leaves.push_near(&rot, &t, margin, list) > 0;
+                overflow = leaves.push_near(&rot, &t, &sweep, next.reach, list) > 0;
                 !overflow
             };
             let over = tool_tree.descend(
                 &rot,
                 &t,
+                &sweep,
                 part_tree,
-                margin,
+                next.reach,
                 &mut detector.next_stack,
                 NEAR_AHEAD_STEPS,
                 visit,
@@ -533,12 +593,13 @@ impl GodObject {
     }
 }
 
-/// How far (mm) the points of `a` lie wholly on one side of the plane `n · p = d` (`n` unit):
-/// 0 where they touch or cross it, or for a zero normal.
-fn side_gap(a: &Triangle, n: &[f64; 3], d: f64) -> f64 {
+/// How far (mm) the points of `a`, moved along `n` by any share of `shift` (mm), lie wholly on
+/// one side of the plane `n · p = d` (`n` unit): 0 where they touch or cross it, or for a zero
+/// normal.
+fn side_gap(a: &Triangle, n: &[f64; 3], d: f64, shift: f64) -> f64 {
     let side = a.map(|p| n[0] * p[0] + n[1] * p[1] + n[2] * p[2] - d);
-    let lo = side[0].min(side[1]).min(side[2]);
-    let hi = side[0].max(side[1]).max(side[2]);
+    let lo = side[0].min(side[1]).min(side[2]) + shift.min(0.0);
+    let hi = side[0].max(side[1]).max(side[2]) + shift.max(0.0);
     if lo > 0.0 {
         lo
     } else if hi < 0.0 {
@@ -556,7 +617,7 @@ fn side_gap(a: &Triangle, n: &[f64; 3], d: f64) -> f64 {
 fn plane_gap(a: &Triangle, b: &Triangle) -> f64 {
     let t = TriangleTree::build(&[*b], &Pose::identity());
     let (n, d) = t.plane(0);
-    side_gap(a, &n, d)
+    side_gap(a, &n, d, 0.0)
 }
 
 /// The triangles of a leaf pair of the triangle trees: the tool leaf's and object `object`'s.
@@ -569,18 +630,20 @@ struct LeafTriangles<'a> {
 }
 
 impl LeafTriangles<'_> {
-    /// Pushes onto `list` its triangle pairs that neither plane bound puts farther apart than
-    /// `margin` (mm) with the tool at `(rot, t)`; returns how many did not fit in its storage.
+    /// Pushes onto `list` its triangle pairs that no bound puts farther apart than `margin`
+    /// (mm) with the tool at `(rot, t)` moved along `sweep` (mm) by any share of it; returns
+    /// how many did not fit in its storage.
     fn push_near(
         self,
         rot: &Matrix3<f64>,
         t: &Vector3<f64>,
+        sweep: &Vector3<f64>,
         margin: f64,
         list: &mut Vec<TriPair>,
     ) -> usize {
         let mut dropped = 0;
         for tool in self.tools {
-            let tool_tri = PosedTriangle::of(self.tool_tree, tool, rot, t);
+            let tool_tri = PosedTriangle::of(self.tool_tree, tool, rot, t).swept(sweep);
             for part in self.parts.clone() {
                 let Some(apart) = tool_tri.separation_within(self.part_tree, part, margin) else {
                     continue;
@@ -602,12 +665,15 @@ impl LeafTriangles<'_> {
 }
 
 /// A triangle of the tool posed in the world: corners, plane (unit normal, offset) and box
-/// along the world axes, mm.
+/// along the world axes, mm; and the sweep (mm) it moves along from there, which its box
+/// holds, and that sweep's reach along its normal (0 for the pose alone).
 pub(super) struct PosedTriangle {
     pub(super) corners: Triangle,
     normal: [f64; 3],
     offset: f64,
     bounds: ([f64; 3], [f64; 3]),
+    sweep: [f64; 3],
+    rise: f64,
 }
 
 impl PosedTriangle {
@@ -623,7 +689,21 @@ impl PosedTriangle {
             normal: n.into(),
             offset: d + n.dot(t),
             bounds: collide::bounds_of(&corners),
+            sweep: [0.0; 3],
+            rise: 0.0,
         }
+    }
+
+    /// The triangle moved along `sweep` (mm, world) by any share of it: its bounds hold every
+    /// such pose.
+    fn swept(mut self, sweep: &Vector3<f64>) -> Self {
+        for k in 0..3 {
+            self.bounds.0[k] += sweep[k].min(0.0);
+            self.bounds.1[k] += sweep[k].max(0.0);
+        }
+        self.rise = Vector3::from(self.normal).dot(sweep);
+        self.sweep = (*sweep).into();
+        self
     }
 
     /// A lower bound (mm) on its distance to triangle `i` of `part` (world): the largest of
@@ -635,14 +715,20 @@ impl PosedTriangle {
         self.planes_beyond(part, i, self.box_gap(part, i))
     }
 
-    /// The larger of `boxes` and how far either triangle lies wholly beyond the other's plane.
+    /// The larger of `boxes` and how far either triangle lies wholly beyond the other's plane
+    /// (anywhere on the sweep: the tool's corners move along the part's normal by a share of
+    /// the sweep's reach along it, the tool's plane by a share of its rise).
     fn planes_beyond(&self, part: &TriangleTree, i: u32, boxes: f64) -> f64 {
         let (n, d) = part.plane(i);
-        boxes.max(side_gap(&self.corners, &n, d)).max(side_gap(
-            part.triangle(i),
-            &self.normal,
-            self.offset,
-        ))
+        let shift = n[0] * self.sweep[0] + n[1] * self.sweep[1] + n[2] * self.sweep[2];
+        boxes
+            .max(side_gap(&self.corners, &n, d, shift))
+            .max(side_gap(
+                part.triangle(i),
+                &self.normal,
+                self.offset,
+                -self.rise,
+            ))
     }
 
     /// [`PosedTriangle::separation`] where it is at most `margin` (mm), else `None`: the
@@ -817,7 +903,7 @@ mod tests {
             god.run.regions.near_ahead = NearAhead::IDLE;
             god.detect(&q0, 0.1).unwrap();
             god.narrow_phase(&q0, 0.1);
-            let (_, wide) = god.run.regions.near_at.unwrap();
+            let wide = god.run.regions.near_at.unwrap().reach;
             // Half the extra reach used: the next list, built whole here, is about q1.
             god.tend_near(&q1, 1e6, far);
             assert!(god.run.regions.near_ahead.done);
@@ -831,14 +917,15 @@ mod tests {
         ahead_at(&mut god);
         god.narrow_phase(&q1, 0.1);
         assert_eq!(god.run.counts.near_taken, 1);
-        assert_eq!(god.run.regions.near_at.unwrap().0, q1);
+        assert_eq!(god.run.regions.near_at.unwrap().at, q1);
     }
 
     #[test]
     fn the_near_list_gives_every_pair_within_the_margin_as_the_tool_wanders() {
         let (mut god, tool, sheet) = cube_over_sheet();
         // A walk over the sheet, sliding, bobbing and turning, in steps from 1 µm to 0.4 mm,
-        // so that the near list is reused, listed again, and taken from the list built ahead.
+        // so that the near list is reused, listed again, swept along the last step, and taken
+        // from the list built ahead.
         let (mut reused, mut relisted, mut near_pairs) = (0, 0, 0);
         let mut q = [0.0, 0.0, 2.6, 0.0, 0.0, 0.0];
         for k in 0..600 {
@@ -849,6 +936,7 @@ mod tests {
                 [1e-3, 0.02, 0.05][k % 3]
             };
             let phase = k as f64 * 0.05;
+            let was = q;
             q[0] += step * phase.sin();
             q[1] += step * (0.7 * phase).cos();
             q[2] = 2.45 + 0.2 * (1.3 * phase).sin();
@@ -859,8 +947,10 @@ mod tests {
             let before = god.run.regions.near_at;
             god.detect(&pose, margin).unwrap();
             god.narrow_phase(&pose, margin);
-            // The next list built ahead in slices of a few µs (one step's speed known).
+            // The next list built ahead in slices of a few µs (one step's speed known), and
+            // lists swept along the last step.
             god.run.motion.last_motion = step;
+            god.run.motion.last_step = std::array::from_fn(|i| q[i] - was[i]);
             let far = Instant::now() + Duration::from_secs(1);
             god.tend_near(&pose, 5.0, far);
             if before.is_some() && god.run.regions.near_at == before {
@@ -1125,10 +1215,11 @@ mod tests {
                     let bound = posed.separation(&part_tree, j);
                     assert!(bound <= d + 1e-12, "bound {bound} over distance {d}");
                     let (n, off) = part_tree.plane(j);
-                    let planes = side_gap(&posed.corners, &n, off).max(side_gap(
+                    let planes = side_gap(&posed.corners, &n, off, 0.0).max(side_gap(
                         part_tree.triangle(j),
                         &posed.normal,
                         posed.offset,
+                        0.0,
                     ));
                     dropped_by_boxes += usize::from(bound > 0.1 && planes <= 0.1);
                     checked += 1;
@@ -1151,5 +1242,59 @@ mod tests {
         );
         let posed = PosedTriangle::of(&along, 0, &Matrix3::identity(), &Vector3::zeros());
         assert!((posed.separation(&wall, 0) - 10.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_swept_separation_never_exceeds_the_distance_anywhere_on_the_sweep() {
+        let mut r = uniform(192837465);
+        let tools: Vec<Triangle> = (0..20)
+            .map(|_| std::array::from_fn(|_| std::array::from_fn(|_| r())))
+            .collect();
+        let parts: Vec<Triangle> = (0..20)
+            .map(|_| std::array::from_fn(|_| std::array::from_fn(|_| 2.0 * r())))
+            .collect();
+        let (tool_tree, part_tree) = (
+            TriangleTree::build(&tools, &Pose::identity()),
+            TriangleTree::build(&parts, &Pose::identity()),
+        );
+        let (mut apart, mut checked) = (0, 0);
+        for _ in 0..30 {
+            let q = Pose::from_array([r(), r(), r(), 3.0 * r(), 1.5 * r(), 3.0 * r()]);
+            let (rot, t) = (q.rotation_matrix(), q.translation());
+            let sweep = Vector3::new(2.0 * r(), 2.0 * r(), 2.0 * r());
+            for i in 0..tool_tree.len() as u32 {
+                let swept = PosedTriangle::of(&tool_tree, i, &rot, &t).swept(&sweep);
+                for j in 0..part_tree.len() as u32 {
+                    let bound = swept.separation(&part_tree, j);
+                    let nearest = (0..=16)
+                        .map(|k| {
+                            let at = t + sweep * (f64::from(k) / 16.0);
+                            let a = PosedTriangle::of(&tool_tree, i, &rot, &at).corners;
+                            triangle_distance(&a, part_tree.triangle(j)).distance
+                        })
+                        .fold(f64::INFINITY, f64::min);
+                    assert!(
+                        bound <= nearest + 1e-12,
+                        "bound {bound} over distance {nearest}"
+                    );
+                    apart += usize::from(bound > 0.0);
+                    checked += 1;
+                }
+            }
+        }
+        // It still tells most pairs apart.
+        assert!(2 * apart > checked, "{apart} of {checked} pairs told apart");
+        // A facet sliding along a wall parallel to it keeps its gap however far it slides.
+        let wall = TriangleTree::build(
+            &[[[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0]]],
+            &Pose::identity(),
+        );
+        let facet = TriangleTree::build(
+            &[[[0.0, 0.0, 0.1], [1.0, 0.0, 0.1], [0.0, 1.0, 0.1]]],
+            &Pose::identity(),
+        );
+        let posed = PosedTriangle::of(&facet, 0, &Matrix3::identity(), &Vector3::zeros());
+        let slid = posed.swept(&Vector3::new(3.0, 2.0, 0.0));
+        assert!((slid.separation(&wall, 0) - 0.1).abs() < 1e-12);
     }
 }

@@ -278,9 +278,8 @@ pub(super) struct RegionMemory {
     /// Frames left without slab regions, and the rest after the next failure.
     pub(super) slab_rest: u32,
     pub(super) slab_next_rest: u32,
-    /// The mesh mode's near list: the tool pose and margin (mm) `detector.near` was listed at
-    /// (`None`: no list).
-    pub(super) near_at: Option<(Pose, f64)>,
+    /// The mesh mode's near list: where `detector.near` holds (`None`: no list).
+    pub(super) near_at: Option<NearSpan>,
     /// How far beyond the region's margin the next near list reaches, mm: [`Tuning::near_list_mm`],
     /// quartered each time a list overflows its storage and doubled back each time one fits.
     pub(super) near_extra: f64,
@@ -291,11 +290,23 @@ pub(super) struct RegionMemory {
 }
 
 /// The solves: the warm start and the time a row costs.
+/// Where a mesh-mode near list holds: every triangle pair within `reach` (mm) of each other
+/// with the tool at `at` moved along `sweep` (mm, the world's axes) by any share of it. A tool
+/// sliding along a wall keeps its distances to the wall while its triangles pass new ones: a
+/// list swept along its motion serves many frames, where one about a pose alone would have to
+/// reach past the wall's gap.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct NearSpan {
+    pub(super) at: Pose,
+    pub(super) sweep: [f64; 3],
+    pub(super) reach: f64,
+}
+
 /// The mesh mode's next near list as it is built, a slice per frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct NearAhead {
-    /// The pose and margin (mm) it lists about (`None`: none under way).
-    pub(super) at: Option<(Pose, f64)>,
+    /// Where it will hold (`None`: none under way).
+    pub(super) at: Option<NearSpan>,
     /// The object whose tree the descent is in.
     pub(super) object: usize,
     /// Every object descended: the list is complete.

@@ -544,6 +544,13 @@ pub struct Tuning {
     /// Halved / doubled over the zoo in the mesh mode: mean frame time ×1.00 / ×1.00, p99 ×1.00 /
     /// ×1.01 (both within the runs' spread: not critical on these scenes).
     pub near_ahead_max_frames: f64,
+    /// A mesh-mode near list is swept along the tool's last step times this many frames: a
+    /// tool sliding along a wall keeps its distances to it while its triangles pass new ones,
+    /// so a list swept along the slide serves that many frames where one about the pose alone
+    /// serves until the tool has moved its extra reach (and cannot reach past a tight fit's
+    /// gap without listing the whole wall). A longer sweep lists more pairs, which every
+    /// region filters.
+    pub near_sweep_frames: f64,
 }
 
 impl Tuning {
@@ -610,6 +617,7 @@ impl Tuning {
         list_first_splits: 5000,
         list_min_life_frames: 3.0,
         near_ahead_max_frames: 50.0,
+        near_sweep_frames: 20.0,
     };
 
     /// A field's value by its name in [`Tuning::NAMES`] (counts as `f64`).
@@ -676,6 +684,7 @@ impl Tuning {
             "list-first-splits" => self.list_first_splits as f64,
             "list-min-life-frames" => self.list_min_life_frames,
             "near-ahead-max-frames" => self.near_ahead_max_frames,
+            "near-sweep-frames" => self.near_sweep_frames,
             _ => return None,
         })
     }
@@ -745,6 +754,7 @@ impl Tuning {
             "list-first-splits" => self.list_first_splits = value.round() as usize,
             "list-min-life-frames" => self.list_min_life_frames = value,
             "near-ahead-max-frames" => self.near_ahead_max_frames = value,
+            "near-sweep-frames" => self.near_sweep_frames = value,
             _ => return None,
         }
         Some(self)
@@ -815,7 +825,7 @@ impl Tuning {
     }
 
     /// Every field's name: the field's with dashes, as the tuning study names it.
-    pub const NAMES: [&'static str; 61] = [
+    pub const NAMES: [&'static str; 62] = [
         "pass-headroom",
         "detect-reserve",
         "pair-target",
@@ -877,6 +887,7 @@ impl Tuning {
         "list-first-splits",
         "list-min-life-frames",
         "near-ahead-max-frames",
+        "near-sweep-frames",
     ];
 }
 
