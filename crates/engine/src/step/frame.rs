@@ -198,11 +198,14 @@ impl GodObject {
     /// Reuse: last frame's region, while the tool is well inside it (no traversal in the first
     /// pass). Its trust region keeps the answer inside; one that binds starts a new region (a
     /// wrong guess costs a small solve, not a traversal). A large list costs more to solve
-    /// again than a small region to detect ([`Tuning::reuse_max_pairs`]).
+    /// again than a small region to detect ([`Tuning::reuse_max_pairs`], counted in rows:
+    /// triangle pairs in the mesh mode, where a tight fit's region of thousands takes a whole
+    /// frame to solve, binds where the tool is, and reused frame after frame would hold it
+    /// there).
     pub(super) fn reuse_region(&mut self, f: &mut FrameWork, out: &mut FrameOutput) {
         let reusable = self.params.heuristics.region_reuse
             && f.course.path_regions
-            && self.detector.pairs.len() <= self.params.tuning.reuse_max_pairs;
+            && self.listed_rows() <= self.params.tuning.reuse_max_pairs;
         let Some((cached, trust)) = self.run.regions.cached.filter(|_| reusable) else {
             return;
         };

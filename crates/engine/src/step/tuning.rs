@@ -184,9 +184,13 @@ pub struct Tuning {
     /// ×1.21, node pairs ×1.05 / ×1.06, list entries ×1.50 / ×0.51 (halving is at the edge of the
     /// runs' spread, doubling costs more).
     pub min_allow_mm: f64,
-    /// Largest pair list reused from an earlier frame: a list of [`Tuning::pair_target`] pairs
-    /// costs ~20 µs to solve again against ~150 µs to find again. (A count, not a rule on
-    /// measured times, which would make frames depend on the machine.)
+    /// Largest pair list reused from an earlier frame, in rows (leaf pairs, or triangle pairs
+    /// in the mesh mode): a list of [`Tuning::pair_target`] pairs costs ~20 µs to solve again
+    /// against ~150 µs to find again. (A count, not a rule on measured times, which would make
+    /// frames depend on the machine.) A ball on a ball's pole in the mesh mode gives 2 048
+    /// rows that are worth solving again (`zoo/sphere-on-sphere`: 7 frames over 1 ms reused,
+    /// ~500 not); a tight fit's 5 000–8 000 take a whole frame, bind where the tool is, and,
+    /// reused frame after frame, held `spline-tight`'s shaft in 3 of 6 runs at 4 000.
     ///
     /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×0.99 /
     /// ×0.99 (both within the runs' spread: not critical on these scenes).
@@ -551,6 +555,10 @@ pub struct Tuning {
     /// gap without listing the whole wall). A longer sweep lists more pairs, which every
     /// region filters.
     pub near_sweep_frames: f64,
+    /// A near list's sweep is at most this long (mm): a fast tool's twenty frames would list
+    /// every pair along a long way (one 6.4 mm sweep overflowed the list's storage and took
+    /// 5.7 ms), and a fast tool is not served many frames by any list.
+    pub near_sweep_mm: f64,
 }
 
 impl Tuning {
@@ -562,7 +570,7 @@ impl Tuning {
         ball_pair_target: 500.0,
         dense_min_allow_mm: 0.03,
         min_allow_mm: 0.1,
-        reuse_max_pairs: 2000,
+        reuse_max_pairs: 3000,
         recentre_share: 0.5,
         recentre_motion_spare: 2.0,
         min_sweep_mm: 0.1,
@@ -618,6 +626,7 @@ impl Tuning {
         list_min_life_frames: 3.0,
         near_ahead_max_frames: 50.0,
         near_sweep_frames: 20.0,
+        near_sweep_mm: 1.0,
     };
 
     /// A field's value by its name in [`Tuning::NAMES`] (counts as `f64`).
@@ -685,6 +694,7 @@ impl Tuning {
             "list-min-life-frames" => self.list_min_life_frames,
             "near-ahead-max-frames" => self.near_ahead_max_frames,
             "near-sweep-frames" => self.near_sweep_frames,
+            "near-sweep-mm" => self.near_sweep_mm,
             _ => return None,
         })
     }
@@ -755,6 +765,7 @@ impl Tuning {
             "list-min-life-frames" => self.list_min_life_frames = value,
             "near-ahead-max-frames" => self.near_ahead_max_frames = value,
             "near-sweep-frames" => self.near_sweep_frames = value,
+            "near-sweep-mm" => self.near_sweep_mm = value,
             _ => return None,
         }
         Some(self)
@@ -825,7 +836,7 @@ impl Tuning {
     }
 
     /// Every field's name: the field's with dashes, as the tuning study names it.
-    pub const NAMES: [&'static str; 62] = [
+    pub const NAMES: [&'static str; 63] = [
         "pass-headroom",
         "detect-reserve",
         "pair-target",
@@ -888,6 +899,7 @@ impl Tuning {
         "list-min-life-frames",
         "near-ahead-max-frames",
         "near-sweep-frames",
+        "near-sweep-mm",
     ];
 }
 
