@@ -87,7 +87,7 @@ pub use triangle::{
     closest_on_triangle, triangle_distance, triangle_distance_all_features, Triangle,
     TriangleDistance,
 };
-pub use triangle_tree::{bounds_of, TreePairStack, TriangleTree, LEAF_TRIANGLES};
+pub use triangle_tree::{bounds_of, edges_of, TreePairStack, TriangleTree, LEAF_TRIANGLES};
 
 /// Errors of this crate.
 #[derive(Debug, thiserror::Error)]

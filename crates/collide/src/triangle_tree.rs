@@ -45,6 +45,9 @@ pub struct TriangleTree {
     planes: Vec<([f64; 3], f64)>,
     /// Each triangle's box along the frame's axes (lowest and highest corner), mm.
     bounds: Vec<([f64; 3], [f64; 3])>,
+    /// Each triangle's edges' outward normals in its plane (unit) and offsets (`m · p = e` on
+    /// the edge, the triangle on `m · p <= e`), mm; all zero for a degenerate triangle.
+    edges: Vec<[([f64; 3], f64); 3]>,
     /// Each triangle's index in the mesh it came from.
     origin: Vec<u32>,
     depth: usize,
@@ -74,11 +77,13 @@ impl TriangleTree {
         let triangles: Vec<Triangle> = order.iter().map(|&i| placed[i as usize]).collect();
         let planes = triangles.iter().map(plane_of).collect();
         let bounds = triangles.iter().map(bounds_of).collect();
+        let edges = triangles.iter().map(edges_of).collect();
         Self {
             nodes,
             triangles,
             planes,
             bounds,
+            edges,
             origin: order,
             depth,
         }
@@ -102,6 +107,14 @@ impl TriangleTree {
     #[inline]
     pub fn bounds(&self, i: u32) -> &([f64; 3], [f64; 3]) {
         &self.bounds[i as usize]
+    }
+
+    /// Triangle `i`'s edges (in leaf order): for the edge from corner `k` to corner `k + 1`,
+    /// its outward normal in the triangle's plane (unit) and offset, `m · p = e` on the edge
+    /// and the triangle on `m · p <= e`, mm; all zero for a degenerate triangle.
+    #[inline]
+    pub fn edges(&self, i: u32) -> &[([f64; 3], f64); 3] {
+        &self.edges[i as usize]
     }
 
     /// The mesh's own index of triangle `i` (in leaf order).
@@ -243,6 +256,23 @@ pub fn bounds_of(t: &Triangle) -> ([f64; 3], [f64; 3]) {
     let lo = std::array::from_fn(|k| t[0][k].min(t[1][k]).min(t[2][k]));
     let hi = std::array::from_fn(|k| t[0][k].max(t[1][k]).max(t[2][k]));
     (lo, hi)
+}
+
+/// The outward normals (unit, in its plane) and offsets of the edges of `t`, from corner `k` to
+/// corner `k + 1`: `t` lies on `m · p <= e`. Zeros for a degenerate triangle or edge.
+pub fn edges_of(t: &Triangle) -> [([f64; 3], f64); 3] {
+    let (n, _) = plane_of(t);
+    let n = Vector3::from(n);
+    std::array::from_fn(|k| {
+        let (a, b) = (Vector3::from(t[k]), Vector3::from(t[(k + 1) % 3]));
+        let m = (b - a).cross(&n);
+        let len = m.norm();
+        if len <= 0.0 || !len.is_finite() {
+            return ([0.0; 3], 0.0);
+        }
+        let m = m / len;
+        (m.into(), m.dot(&a))
+    })
 }
 
 /// The plane of `t`: unit normal (right-handed about its corners) and offset, or zeros for a
