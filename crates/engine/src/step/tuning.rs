@@ -548,16 +548,21 @@ pub struct Tuning {
     /// Halved / doubled over the zoo in the mesh mode: mean frame time ×1.00 / ×1.00, p99 ×1.00 /
     /// ×1.01 (both within the runs' spread: not critical on these scenes).
     pub near_ahead_max_frames: f64,
-    /// A mesh-mode near list is swept along the tool's last step times this many frames: a
-    /// tool sliding along a wall keeps its distances to it while its triangles pass new ones,
-    /// so a list swept along the slide serves that many frames where one about the pose alone
-    /// serves until the tool has moved its extra reach (and cannot reach past a tight fit's
-    /// gap without listing the whole wall). A longer sweep lists more pairs, which every
-    /// region filters.
+    /// A mesh-mode near list whose extra reach was cut (a tight fit's wall within it) is swept
+    /// along the tool's last step times up to this many frames: a tool sliding along a wall
+    /// keeps its distances to it while its triangles pass new ones, so a list swept along the
+    /// slide serves that many frames where one about the pose alone serves until the tool has
+    /// moved its extra reach. A longer sweep lists more pairs, which every region filters, but
+    /// leaves the list built ahead more frames to be ready in.
+    ///
+    /// `spline-tight` at 10 / 20 / 40 / 80 frames (2 runs each): p99 3.6 / 2.9 / 1.6 / 1.5 ms,
+    /// frames over 1 ms while the shaft slides in 517–579 / 129–174 / – / 31–84; the quick fit
+    /// study's 0.1 mm peg 100 frames over 1 ms at 20, 9 at 80; the mesh zoo unchanged.
     pub near_sweep_frames: f64,
-    /// A near list's sweep is at most this long (mm): a fast tool's twenty frames would list
-    /// every pair along a long way (one 6.4 mm sweep overflowed the list's storage and took
-    /// 5.7 ms), and a fast tool is not served many frames by any list.
+    /// A near list's sweep is at most this long (mm): a fast tool's many frames would list
+    /// every pair along a long way (one 6.4 mm sweep of a list about the pose's full reach
+    /// overflowed the list's storage and took 5.7 ms), and a fast tool is not served many
+    /// frames by any list.
     pub near_sweep_mm: f64,
 }
 
@@ -625,8 +630,8 @@ impl Tuning {
         list_first_splits: 5000,
         list_min_life_frames: 3.0,
         near_ahead_max_frames: 50.0,
-        near_sweep_frames: 20.0,
-        near_sweep_mm: 1.0,
+        near_sweep_frames: 80.0,
+        near_sweep_mm: 4.0,
     };
 
     /// A field's value by its name in [`Tuning::NAMES`] (counts as `f64`).
