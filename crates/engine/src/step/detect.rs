@@ -207,6 +207,18 @@ impl GodObject {
                 Some(lever) => self.lever_bound(lever, region, q),
             };
         }
+        let (base, end) = (lin.variable(&region.center), lin.variable(&region.end()));
+        let s = self.path_share(lin, region, dq);
+        let on_path = lin.configuration(&std::array::from_fn(|k| base[k] + s * (end[k] - base[k])));
+        self.motion_bound(&on_path, q)
+    }
+
+    /// How far along a path region's path (0 at its centre, 1 at its end) the nearest point to
+    /// the variable `dq` is (rotations scaled by the tool's reach); 0 for a ball.
+    pub(super) fn path_share(&self, lin: &Linearization, region: &Region, dq: &[f64; 6]) -> f64 {
+        if region.sweep.is_none() {
+            return 0.0;
+        }
         let base = lin.variable(&region.center);
         let end = lin.variable(&region.end());
         let reach2 = self.bodies.reach.max(1e-9).powi(2);
@@ -216,13 +228,11 @@ impl GodObject {
             along += (dq[k] - base[k]) * d;
             len2 += (end[k] - base[k]) * d;
         }
-        let s = if len2 > 0.0 {
+        if len2 > 0.0 {
             (along / len2).clamp(0.0, 1.0)
         } else {
             0.0
-        };
-        let on_path = lin.configuration(&std::array::from_fn(|k| base[k] + s * (end[k] - base[k])));
-        self.motion_bound(&on_path, q)
+        }
     }
 
     /// How far (mm) a tool leaf centre moves at most across a face with unit normal `n`

@@ -198,14 +198,12 @@ impl GodObject {
     /// Reuse: last frame's region, while the tool is well inside it (no traversal in the first
     /// pass). Its trust region keeps the answer inside; one that binds starts a new region (a
     /// wrong guess costs a small solve, not a traversal). A large list costs more to solve
-    /// again than a small region to detect ([`Tuning::reuse_max_pairs`], counted in rows:
-    /// triangle pairs in the mesh mode, where a tight fit's region of thousands takes a whole
-    /// frame to solve, binds where the tool is, and reused frame after frame would hold it
-    /// there).
+    /// again than a small region to detect ([`Tuning::reuse_max_pairs`]). A path region is
+    /// reused only while the tool is in the first half of its path.
     pub(super) fn reuse_region(&mut self, f: &mut FrameWork, out: &mut FrameOutput) {
         let reusable = self.params.heuristics.region_reuse
             && f.course.path_regions
-            && self.listed_rows() <= self.params.tuning.reuse_max_pairs;
+            && self.detector.pairs.len() <= self.params.tuning.reuse_max_pairs;
         let Some((cached, trust)) = self.run.regions.cached.filter(|_| reusable) else {
             return;
         };
@@ -217,7 +215,11 @@ impl GodObject {
         let across_ok = cached
             .slab
             .is_none_or(|(n, w)| self.across_bound(&n, &cached.center, &q_lin) <= 0.5 * w);
-        if depth <= 0.5 * cached.width && across_ok {
+        // A path region whose path the tool has gone more than half of binds its trust region
+        // soon: where the tool has reached its end, at once, and would hold it there frame
+        // after frame (a tight fit's thousands of rows, whose one solve takes the frame).
+        let path_left = self.path_share(&lin, &cached, &lin.delta()) <= 0.5;
+        if depth <= 0.5 * cached.width && across_ok && path_left {
             f.course.region = cached;
             f.course.trust = Some(trust);
             f.course.detect_now = false;

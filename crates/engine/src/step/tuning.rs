@@ -184,13 +184,9 @@ pub struct Tuning {
     /// ×1.21, node pairs ×1.05 / ×1.06, list entries ×1.50 / ×0.51 (halving is at the edge of the
     /// runs' spread, doubling costs more).
     pub min_allow_mm: f64,
-    /// Largest pair list reused from an earlier frame, in rows (leaf pairs, or triangle pairs
-    /// in the mesh mode): a list of [`Tuning::pair_target`] pairs costs ~20 µs to solve again
-    /// against ~150 µs to find again. (A count, not a rule on measured times, which would make
-    /// frames depend on the machine.) A ball on a ball's pole in the mesh mode gives 2 048
-    /// rows that are worth solving again (`zoo/sphere-on-sphere`: 7 frames over 1 ms reused,
-    /// ~500 not); a tight fit's 5 000–8 000 take a whole frame, bind where the tool is, and,
-    /// reused frame after frame, held `spline-tight`'s shaft in 3 of 6 runs at 4 000.
+    /// Largest pair list reused from an earlier frame: a list of [`Tuning::pair_target`] pairs
+    /// costs ~20 µs to solve again against ~150 µs to find again. (A count, not a rule on
+    /// measured times, which would make frames depend on the machine.)
     ///
     /// Halved / doubled over the built-ins and the zoo: mean frame time ×1.00 / ×0.99, p99 ×0.99 /
     /// ×0.99 (both within the runs' spread: not critical on these scenes).
@@ -575,7 +571,7 @@ impl Tuning {
         ball_pair_target: 500.0,
         dense_min_allow_mm: 0.03,
         min_allow_mm: 0.1,
-        reuse_max_pairs: 3000,
+        reuse_max_pairs: 2000,
         recentre_share: 0.5,
         recentre_motion_spare: 2.0,
         min_sweep_mm: 0.1,
