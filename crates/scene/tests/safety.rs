@@ -254,15 +254,18 @@ fn check_frames(frames: &[FrameRecord], p: &SafetyParams) -> Result<(), String> 
         if norm3(&d[3..6]) > p.max_torque_step_nmm * (1.0 + 1e-9) + 1e-9 {
             return Err(format!("frame {i}: torque step {} N·mm", norm3(&d[3..6])));
         }
-        // While the hand's tool is inside the ball, the spring pulls it out: along the outward
-        // normal at the graphic tool (the ball is convex), never into it. (Outside, a tool
-        // that lags a fast hand, in a frame whose passes ran out, may pull it toward the surface.)
+        // While the hand's tool is inside the ball, and deeper than the graphic tool, the spring
+        // pulls it out: along the outward normal at the graphic tool (the ball is convex), never
+        // into it. (Otherwise a tool that lags the hand, in a frame whose passes ran out, may
+        // pull it toward the surface: with a hand 0.0047 mm inside the leaves' reach but above
+        // the tool, the spring pulls it down.)
         let h = f.frame.q_h;
-        // (The tool's 2 mm leaves overlap the ball.)
-        let hand_in = norm3(&[h[0] - BALL_C[0], h[1] - BALL_C[1], h[2] - BALL_C[2]]) < BALL_R + 2.0;
         let g = f.frame.q_g;
         let n: Vec<f64> = (0..3).map(|k| g[k] - BALL_C[k]).collect();
         let nn = norm3(&n);
+        let hand_r = norm3(&[h[0] - BALL_C[0], h[1] - BALL_C[1], h[2] - BALL_C[2]]);
+        // (The tool's 2 mm leaves overlap the ball.)
+        let hand_in = hand_r < BALL_R + 2.0 && hand_r < nn;
         let into = -(w[0] * n[0] + w[1] * n[1] + w[2] * n[2]) / nn;
         if hand_in && into > 1e-9 * fn_.max(1.0) {
             return Err(format!(

@@ -1244,6 +1244,26 @@ mod tests {
         }
     }
 
+    /// Trees of `n` random triangles each: the tool's corners in the unit cube about the
+    /// origin, the part's in one `part_scale` times as wide.
+    fn random_trees(
+        r: &mut impl FnMut() -> f64,
+        n: usize,
+        part_scale: f64,
+    ) -> (TriangleTree, TriangleTree) {
+        let mut triangles = |scale: f64| -> Vec<Triangle> {
+            (0..n)
+                .map(|_| std::array::from_fn(|_| std::array::from_fn(|_| scale * r())))
+                .collect()
+        };
+        let tools = triangles(1.0);
+        let parts = triangles(part_scale);
+        (
+            TriangleTree::build(&tools, &Pose::identity()),
+            TriangleTree::build(&parts, &Pose::identity()),
+        )
+    }
+
     #[test]
     fn the_plane_gap_never_exceeds_the_distance_and_sees_facing_walls() {
         // A pseudo-random spread of triangle pairs.
@@ -1269,16 +1289,7 @@ mod tests {
     #[test]
     fn the_separation_never_exceeds_the_distance_and_sees_facets_along_a_wall() {
         let mut r = uniform(987654321);
-        let tools: Vec<Triangle> = (0..40)
-            .map(|_| std::array::from_fn(|_| std::array::from_fn(|_| r())))
-            .collect();
-        let parts: Vec<Triangle> = (0..40)
-            .map(|_| std::array::from_fn(|_| std::array::from_fn(|_| 1.5 * r())))
-            .collect();
-        let (tool_tree, part_tree) = (
-            TriangleTree::build(&tools, &Pose::identity()),
-            TriangleTree::build(&parts, &Pose::identity()),
-        );
+        let (tool_tree, part_tree) = random_trees(&mut r, 40, 1.5);
         let (mut dropped_by_boxes, mut checked) = (0, 0);
         for _ in 0..50 {
             let q = Pose::from_array([r(), r(), r(), 3.0 * r(), 1.5 * r(), 3.0 * r()]);
@@ -1342,16 +1353,7 @@ mod tests {
     #[test]
     fn the_swept_separation_never_exceeds_the_distance_anywhere_on_the_sweep() {
         let mut r = uniform(192837465);
-        let tools: Vec<Triangle> = (0..20)
-            .map(|_| std::array::from_fn(|_| std::array::from_fn(|_| r())))
-            .collect();
-        let parts: Vec<Triangle> = (0..20)
-            .map(|_| std::array::from_fn(|_| std::array::from_fn(|_| 2.0 * r())))
-            .collect();
-        let (tool_tree, part_tree) = (
-            TriangleTree::build(&tools, &Pose::identity()),
-            TriangleTree::build(&parts, &Pose::identity()),
-        );
+        let (tool_tree, part_tree) = random_trees(&mut r, 20, 2.0);
         let (mut apart, mut checked) = (0, 0);
         for _ in 0..30 {
             let q = Pose::from_array([r(), r(), r(), 3.0 * r(), 1.5 * r(), 3.0 * r()]);
