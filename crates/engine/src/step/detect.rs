@@ -946,13 +946,18 @@ fn same_face(a: &LeafPair, b: &LeafPair) -> bool {
 
 /// Distance (mm) of the point `p` from the segment from the origin to `path`.
 pub(super) fn segment_distance(p: &Vector3<f64>, path: &Vector3<f64>) -> f64 {
+    (p - path * segment_share(p, path)).norm()
+}
+
+/// Where along the segment from the origin to `path` (0 to 1) the point nearest `p` lies; 0
+/// for an empty segment.
+pub(super) fn segment_share(p: &Vector3<f64>, path: &Vector3<f64>) -> f64 {
     let len2 = path.norm_squared();
-    let s = if len2 > 0.0 {
+    if len2 > 0.0 {
         (p.dot(path) / len2).clamp(0.0, 1.0)
     } else {
         0.0
-    };
-    (p - path * s).norm()
+    }
 }
 
 /// Keeps leaf pair `p` in `pairs` (counted in `dropped` past its capacity). A tool leaf above a

@@ -290,11 +290,7 @@ impl GodObject {
         if ahead.at.is_none() {
             let sweep = Vector3::from(span.sweep);
             let len2 = sweep.norm_squared();
-            let along = if len2 > 0.0 {
-                ((q.translation() - span.at.translation()).dot(&sweep) / len2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
+            let along = detect::segment_share(&(q.translation() - span.at.translation()), &sweep);
             if self.span_bound(&span, q) < 0.5 * extra && (len2 == 0.0 || along < 0.5) {
                 return;
             }
@@ -1244,6 +1240,16 @@ mod tests {
         }
     }
 
+    /// A tree of one triangle, as given (mm).
+    fn one_triangle(t: Triangle) -> TriangleTree {
+        TriangleTree::build(&[t], &Pose::identity())
+    }
+
+    /// The first triangle of `tree` posed where it is (the identity pose).
+    fn posed_as_given(tree: &TriangleTree) -> PosedTriangle {
+        PosedTriangle::of(tree, 0, &Matrix3::identity(), &Vector3::zeros())
+    }
+
     /// Trees of `n` random triangles each: the tool's corners in the unit cube about the
     /// origin, the part's in one `part_scale` times as wide.
     fn random_trees(
@@ -1319,22 +1325,13 @@ mod tests {
         );
         // Two coplanar facets of a wall 10 mm apart along it: on neither side of each other's
         // plane, yet 10 mm apart, and the boxes say so.
-        let wall = TriangleTree::build(
-            &[[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]],
-            &Pose::identity(),
-        );
-        let along = TriangleTree::build(
-            &[[[11.0, 0.0, 0.0], [12.0, 0.0, 0.0], [11.0, 1.0, 0.0]]],
-            &Pose::identity(),
-        );
-        let posed = PosedTriangle::of(&along, 0, &Matrix3::identity(), &Vector3::zeros());
+        let wall = one_triangle([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+        let along = one_triangle([[11.0, 0.0, 0.0], [12.0, 0.0, 0.0], [11.0, 1.0, 0.0]]);
+        let posed = posed_as_given(&along);
         assert!((posed.separation(&wall, 0) - 10.0).abs() < 1e-12);
         // Two coplanar facets side by side across a diagonal, 0.3 mm apart: their boxes
         // overlap and each lies in the other's plane, but not across the other's edge.
-        let beside = TriangleTree::build(
-            &[[[1.0, 1.0, 0.0], [0.5, 1.0, 0.0], [1.0, 0.5, 0.0]]],
-            &Pose::identity(),
-        );
+        let beside = one_triangle([[1.0, 1.0, 0.0], [0.5, 1.0, 0.0], [1.0, 0.5, 0.0]]);
         let shift = 0.3 * std::f64::consts::FRAC_1_SQRT_2;
         let posed = PosedTriangle::of(
             &beside,
@@ -1382,15 +1379,9 @@ mod tests {
         // It still tells most pairs apart.
         assert!(2 * apart > checked, "{apart} of {checked} pairs told apart");
         // A facet sliding along a wall parallel to it keeps its gap however far it slides.
-        let wall = TriangleTree::build(
-            &[[[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0]]],
-            &Pose::identity(),
-        );
-        let facet = TriangleTree::build(
-            &[[[0.0, 0.0, 0.1], [1.0, 0.0, 0.1], [0.0, 1.0, 0.1]]],
-            &Pose::identity(),
-        );
-        let posed = PosedTriangle::of(&facet, 0, &Matrix3::identity(), &Vector3::zeros());
+        let wall = one_triangle([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0]]);
+        let facet = one_triangle([[0.0, 0.0, 0.1], [1.0, 0.0, 0.1], [0.0, 1.0, 0.1]]);
+        let posed = posed_as_given(&facet);
         let slid = posed.swept(&Vector3::new(3.0, 2.0, 0.0));
         assert!((slid.separation(&wall, 0) - 0.1).abs() < 1e-12);
     }
