@@ -3,6 +3,16 @@
 
 use super::*;
 
+/// Shares of a turned trust box's rotation budget (mm of motion) about the turn's own axis,
+/// taken by the tool's arm about it, and about each axis across it, taken by the reach:
+/// `0.6 + sqrt(2) · 0.28 < 1`, so no point moves farther than in the box.
+const TURN_ALONG_BY_ARM: f64 = 0.6;
+const TURN_ACROSS_BY_ARM: f64 = 0.28;
+
+/// Largest half-width (rad) of a trust box's turn about its axis: the linearised rows hold
+/// the contact's planes only so far.
+const MAX_TRUST_TURN_RAD: f64 = 0.5;
+
 /// Two unit vectors completing the unit `d` to an orthonormal basis.
 fn complement(d: &[f64; 3]) -> ([f64; 3], [f64; 3]) {
     let d = Vector3::from(*d);
@@ -275,6 +285,7 @@ impl GodObject {
         step: &Vector3<f64>,
         turn: &Vector3<f64>,
         reach: f64,
+        rot_lin: &Matrix3<f64>,
     ) -> Trust {
         let Trust::Box(a, b) = self.trust_box(allowed, need_t, need_r, reach) else {
             return self.trust_box(allowed, need_t, need_r, reach);
@@ -292,8 +303,25 @@ impl GodObject {
             ([1.0, 0.0, 0.0], a, a)
         };
         let (turn, rot, rot_across) = if turns {
+            let axis = turn / angle;
             let budget = b * 3f64.sqrt();
-            ((turn / angle).into(), 0.85 * budget, 0.37 * budget)
+            // About its own axis a turn moves the tool's points by the angle times their
+            // distance from the axis (the arm), which is far less than `reach` for a shaft
+            // turning in its hole or a disc spinning on a face. With the triangle inequality
+            // (`|w × p| <= |w_u| arm + |w_across| reach`) the budget splits into 0.6 about the
+            // axis (by the arm) and 0.28 about each axis across (by `reach`): `0.6 + sqrt(2)
+            // 0.28 < 1`. Taken where it turns farther than the ball's 0.85 of the budget.
+            let arm = self.bodies.centres.arm(rot_lin, &axis).min(reach);
+            let by_arm = TURN_ALONG_BY_ARM * budget * reach / arm.max(1e-12);
+            if by_arm > 0.85 * budget && arm > 0.0 {
+                (
+                    axis.into(),
+                    by_arm.min(MAX_TRUST_TURN_RAD),
+                    TURN_ACROSS_BY_ARM * budget,
+                )
+            } else {
+                (axis.into(), 0.85 * budget, 0.37 * budget)
+            }
         } else {
             ([0.0; 3], b, b)
         };
@@ -368,78 +396,111 @@ mod tests {
     }
 
     /// Turned to any translation and any turn, or to neither, at any share of translation
-    /// against rotation, no corner of the box moves a point within `reach` of the tool's
-    /// origin by more than the region allows (`|dt| + |w| reach`, and the exact motion of
-    /// points on that sphere), and the box reaches `0.85` of its budget along the motion it
-    /// is turned to; at every corner the box binds.
+    /// against rotation, no corner of the box moves a point of the tool (its centres' box)
+    /// within `reach` of its origin by more than the region allows (`|dt| + |w_u| arm +
+    /// |w_across| reach`, and the exact motion of such points), and the box reaches its
+    /// budget's `0.85` along the motion it is turned to, or `0.6` of it by the arm about the
+    /// turn's axis where that is farther (a shaft about its own axis); at every corner the box
+    /// binds.
     #[test]
     fn a_turned_box_moves_no_point_farther_than_its_ball_and_goes_farther_along_its_way() {
         let mut g = shaft();
-        let (allowed, reach) = (0.11, 22.9);
+        let centres = g.bodies.centres;
+        let allowed = 0.11;
         let dirs = [
             Vector3::zeros(),
             Vector3::new(0.0, 0.0, -0.012),
             Vector3::new(0.53, 0.47, 0.71),
             Vector3::new(-1e-3, 2e-3, 5e-4),
         ];
-        for step in &dirs {
-            for turn in &dirs {
-                for (need_t, need_r) in [(1.0, 0.0), (0.2, 1.8), (0.5, 0.5), (0.0, 0.0)] {
-                    let trust = g.trust_oriented(allowed, need_t, need_r, step, turn, reach);
-                    let (axes, n) = axes(&mut g, trust);
-                    assert_eq!(axes.len(), 6);
-                    for signs in 0..64u32 {
-                        let mut dq = [0.0; 6];
-                        for (k, (u, w)) in axes.iter().enumerate() {
-                            let s = if signs >> k & 1 == 1 { 1.0 } else { -1.0 };
-                            for (d, x) in dq.iter_mut().zip(u) {
-                                *d += s * w * x;
-                            }
-                        }
-                        let (dt, dw) = (norm(&dq[..3]), norm(&dq[3..]));
-                        assert!(
-                            dt + dw * reach <= allowed * (1.0 + 1e-9),
-                            "{trust:?}: {dt} + {dw} * {reach} > {allowed}"
+        let mut by_arm = 0;
+        // A near part's reach (the arm about z is larger) and more than the whole tool's.
+        for reach in [22.9, 60.0] {
+            let points: Vec<Vector3<f64>> = (0..8)
+                .map(|c| centres.corner(c))
+                .chain([Vector3::new(12.0, 0.0, 0.0), Vector3::new(0.0, -12.0, 20.0)])
+                .map(|p| p * (reach / p.norm()).min(1.0))
+                .collect();
+            for step in &dirs {
+                for turn in &dirs {
+                    for (need_t, need_r) in [(1.0, 0.0), (0.2, 1.8), (0.5, 0.5), (0.0, 0.0)] {
+                        let trust = g.trust_oriented(
+                            allowed,
+                            need_t,
+                            need_r,
+                            step,
+                            turn,
+                            reach,
+                            &Matrix3::identity(),
                         );
-                        let w = Vector3::new(dq[3], dq[4], dq[5]);
-                        let turned = rotation_exp(&w);
-                        for p in [Vector3::x(), Vector3::y(), Vector3::z(), w.normalize()] {
-                            if !p.iter().all(|v| v.is_finite()) {
-                                continue;
+                        let (axes, n) = axes(&mut g, trust);
+                        assert_eq!(axes.len(), 6);
+                        let axis = turn.normalize();
+                        let arm = centres.arm(&Matrix3::identity(), &axis).min(reach);
+                        for signs in 0..64u32 {
+                            let mut dq = [0.0; 6];
+                            for (k, (u, w)) in axes.iter().enumerate() {
+                                let s = if signs >> k & 1 == 1 { 1.0 } else { -1.0 };
+                                for (d, x) in dq.iter_mut().zip(u) {
+                                    *d += s * w * x;
+                                }
                             }
-                            let p = p * reach;
-                            let moved = Vector3::new(dq[0], dq[1], dq[2]) + turned * p - p;
-                            assert!(moved.norm() <= allowed * (1.0 + 1e-9));
+                            let dt = norm(&dq[..3]);
+                            let w = Vector3::new(dq[3], dq[4], dq[5]);
+                            // Two bounds on a point's motion: by the turn's norm, and by its
+                            // parts about the axis (by the arm) and across (by the reach).
+                            let mut bound = dt + w.norm() * reach;
+                            if turn.norm() > 0.0 {
+                                let about = w.dot(&axis);
+                                bound = bound.min(
+                                    dt + about.abs() * arm + (w - axis * about).norm() * reach,
+                                );
+                            }
+                            assert!(bound <= allowed * (1.0 + 1e-9), "{trust:?}: {bound}");
+                            let turned = rotation_exp(&w);
+                            for p in &points {
+                                let moved = Vector3::new(dq[0], dq[1], dq[2]) + turned * p - p;
+                                assert!(moved.norm() <= allowed * (1.0 + 1e-9), "{trust:?}");
+                            }
+                            assert!(g.trust_binds(trust, 0, n, &dq));
                         }
-                        assert!(g.trust_binds(trust, 0, n, &dq));
-                    }
-                    let share_t = (need_t / (need_t + need_r)).clamp(0.2, 0.8);
-                    let share_t = if need_t + need_r > 0.0 { share_t } else { 0.5 };
-                    if step.norm() > 0.0 {
-                        // Along the step: 0.85 of the translation budget.
-                        let along = axes[..3]
-                            .iter()
-                            .map(|(u, w)| w * (u[0] * step.x + u[1] * step.y + u[2] * step.z))
-                            .map(f64::abs)
-                            .fold(0.0, f64::max)
-                            / step.norm();
-                        assert!(
-                            (along - 0.85 * allowed * share_t).abs() < 1e-12,
-                            "{trust:?}"
-                        );
-                    }
-                    if turn.norm() > 0.0 {
-                        let about = axes[3..]
-                            .iter()
-                            .map(|(u, w)| w * (u[3] * turn.x + u[4] * turn.y + u[5] * turn.z))
-                            .map(f64::abs)
-                            .fold(0.0, f64::max)
-                            / turn.norm();
-                        let budget = (allowed * (1.0 - share_t) / reach).min(0.5 * 3f64.sqrt());
-                        assert!((about - 0.85 * budget).abs() < 1e-12, "{trust:?}");
+                        let share_t = (need_t / (need_t + need_r)).clamp(0.2, 0.8);
+                        let share_t = if need_t + need_r > 0.0 { share_t } else { 0.5 };
+                        if step.norm() > 0.0 {
+                            // Along the step: 0.85 of the translation budget.
+                            let along = axes[..3]
+                                .iter()
+                                .map(|(u, w)| w * (u[0] * step.x + u[1] * step.y + u[2] * step.z))
+                                .map(f64::abs)
+                                .fold(0.0, f64::max)
+                                / step.norm();
+                            assert!(
+                                (along - 0.85 * allowed * share_t).abs() < 1e-12,
+                                "{trust:?}"
+                            );
+                        }
+                        if turn.norm() > 0.0 {
+                            let about = axes[3..]
+                                .iter()
+                                .map(|(u, w)| w * (u[3] * turn.x + u[4] * turn.y + u[5] * turn.z))
+                                .map(f64::abs)
+                                .fold(0.0, f64::max)
+                                / turn.norm();
+                            let budget = (allowed * (1.0 - share_t) / reach).min(0.5 * 3f64.sqrt());
+                            let arm_turn = 0.6 * budget * reach / arm;
+                            let want = if arm_turn > 0.85 * budget {
+                                by_arm += 1;
+                                arm_turn
+                            } else {
+                                0.85 * budget
+                            };
+                            assert!((about - want).abs() < 1e-12, "{trust:?}");
+                        }
                     }
                 }
             }
         }
+        // The shaft turning about its own axis with the whole tool's reach goes by its arm.
+        assert!(by_arm > 0);
     }
 }

@@ -199,7 +199,8 @@ impl GodObject {
     /// pass). Its trust region keeps the answer inside; one that binds starts a new region (a
     /// wrong guess costs a small solve, not a traversal). A large list costs more to solve
     /// again than a small region to detect ([`Tuning::reuse_max_pairs`]). A path region is
-    /// reused only while the tool is in the first half of its path.
+    /// reused only while the tool is in the first half of its path, and no region whose trust
+    /// region stopped the last answer in it.
     pub(super) fn reuse_region(&mut self, f: &mut FrameWork, out: &mut FrameOutput) {
         let reusable = self.params.heuristics.region_reuse
             && f.course.path_regions
@@ -219,7 +220,11 @@ impl GodObject {
         // soon: where the tool has reached its end, at once, and would hold it there frame
         // after frame (a tight fit's thousands of rows, whose one solve takes the frame).
         let path_left = self.path_share(&lin, &cached, &lin.delta()) <= 0.5;
-        if depth <= 0.5 * cached.width && across_ok && path_left {
+        // A region whose trust region stopped the last answer in it (a turn the box holds
+        // tighter than the region's motion bound) would stop the tool there again at once, and
+        // where its one solve takes most of the frame, frame after frame.
+        let room = !self.run.regions.cached_bound;
+        if depth <= 0.5 * cached.width && across_ok && path_left && room {
             f.course.region = cached;
             f.course.trust = Some(trust);
             f.course.detect_now = false;
@@ -371,6 +376,10 @@ impl GodObject {
             .course
             .trust
             .is_some_and(|t| self.trust_binds(t, n_pairs, n_rows, dq));
+        if !self.detector.pairs.is_empty() {
+            // The region is the one kept for later frames.
+            self.run.regions.cached_bound = binds;
+        }
         f.clock.end_pass();
         let c = &mut f.course;
         if pen <= f.tol && slack <= CONVERGED_MM {

@@ -701,6 +701,24 @@ mod tests {
     use super::*;
     use spheretree::Sphere;
 
+    /// Last frame's region is reused while the tool is well inside it, but not once its trust
+    /// region stopped the last answer in it: the tool would be stopped there again at once.
+    #[test]
+    fn a_region_whose_trust_region_stopped_the_last_answer_is_not_reused() {
+        let mut g = ring();
+        let q = Pose::identity();
+        let trust = g.trust_box(0.1, 1.0, 1.0, g.bodies.reach);
+        g.run.regions.cached = Some((Region::ball(q, 0.1), trust));
+        let hand = Pose::from_array([0.5, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        for (bound, reused) in [(false, true), (true, false)] {
+            g.run.regions.cached_bound = bound;
+            let mut f = g.start_frame(hand, hand, Instant::now());
+            let mut out = FrameOutput::default();
+            g.reuse_region(&mut f, &mut out);
+            assert_eq!(f.course.reused, reused, "bound: {bound}");
+        }
+    }
+
     /// A ring of eight small tool spheres about a large one, 0.2 mm from a small object.
     fn ring() -> GodObject {
         let mut tool = SphereTree::new_unused(2, 8).unwrap();

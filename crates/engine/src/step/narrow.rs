@@ -37,6 +37,10 @@ pub(super) struct Meshes {
 /// a corner, not over an area.
 const FLAT_CONTACT_COS: f64 = 0.999_847_695_156_391_2;
 
+/// A near list over its pair target reaches half as far next time only where that would
+/// leave at most this share of its pairs (by their listed separations).
+const NEAR_THIN_SHARE: f64 = 0.75;
+
 /// Bisections of a step whose end has meeting triangles, toward the last free pose on it.
 const BACKTRACK_STEPS: u32 = 8;
 
@@ -115,7 +119,17 @@ impl GodObject {
                 // Every region it serves filters the whole list: a long one reaches less far
                 // next time, a short one farther.
                 let len = self.detector.near.len();
-                self.run.regions.near_extra = if len > self.params.tuning.near_list_pairs {
+                // A shorter reach pays only where it lists fewer pairs: faces lying flat on
+                // each other have nearly all their pairs touching, at any reach.
+                let halved = span.reach - 0.5 * extra;
+                let within_half = self
+                    .detector
+                    .near
+                    .iter()
+                    .filter(|c| c.apart <= halved)
+                    .count();
+                let thins = within_half as f64 <= NEAR_THIN_SHARE * len as f64;
+                self.run.regions.near_extra = if len > self.params.tuning.near_list_pairs && thins {
                     0.5 * extra
                 } else if 4 * len < self.params.tuning.near_list_pairs {
                     (2.0 * extra).min(self.params.tuning.near_list_mm)
@@ -951,6 +965,27 @@ mod tests {
             })
             .collect();
         cube_over(&(sv, st), one_leaf([0.0; 3], 28.3))
+    }
+
+    /// A near list longer than its target reaches half as far next time only where that
+    /// lists fewer pairs: a cube resting on a plate has every pair touching at any reach, a
+    /// cube over a wavy sheet has its pairs spread over the reach.
+    #[test]
+    fn a_long_near_list_is_shortened_only_where_a_shorter_reach_lists_fewer_pairs() {
+        let reach_after_a_long_list =
+            |(mut god, _, _): (GodObject, Vec<Triangle>, Vec<Triangle>), q: Pose| {
+                god.params.tuning.near_list_pairs = 4;
+                let extra = god.run.regions.near_extra;
+                god.detect(&q, 0.1).unwrap();
+                god.narrow_phase(&q, 0.1);
+                assert!(god.run.regions.near_at.is_some());
+                assert!(god.detector.near.len() > 4, "{}", god.detector.near.len());
+                god.run.regions.near_extra / extra
+            };
+        let resting = Pose::from_array([0.0, 0.0, 2.001, 0.0, 0.0, 0.0]);
+        assert_eq!(reach_after_a_long_list(cube_on_plate(), resting), 1.0);
+        let above = Pose::from_array([0.0, 0.0, 2.45, 0.0, 0.0, 0.0]);
+        assert_eq!(reach_after_a_long_list(cube_over_sheet(), above), 0.5);
     }
 
     #[test]

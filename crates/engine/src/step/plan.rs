@@ -6,6 +6,10 @@
 use super::frame::{Flow, FrameWork};
 use super::*;
 
+/// A pass whose tool moved less than this share of the region's allowance did not move: its
+/// way is no guide to a turned trust box.
+const STILL_PASS_SHARE: f64 = 1e-3;
+
 /// A region as planned before its pairs are listed.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct RegionPlan {
@@ -497,6 +501,7 @@ impl GodObject {
             // the hand will have moved).
             let keep = trust.unwrap_or_else(|| self.trust_box(plan.allowed, 1.0, 1.0, lever_reach));
             self.run.regions.cached = Some((region, keep));
+            self.run.regions.cached_bound = false;
         }
         f.course.region = region;
         f.course.trust = trust;
@@ -531,8 +536,8 @@ impl GodObject {
     /// gets the larger of its shares of the need and of the predicted motion (the hand's press
     /// into a surface is need the tool will not follow; a turn it follows may be a small part
     /// of the need). A tool that crept in this frame's last pass (stopped well inside its
-    /// ball: the contact, not the hand, sets its way) goes on as it went; else as predicted,
-    /// turning on as in the last frame.
+    /// ball: the contact, not the hand, sets its way) goes on as it went; else (or where that
+    /// pass did not move) as predicted, turning on as in the last frame.
     fn trust_turned(&self, f: &FrameWork, plan: &RegionPlan, lever_reach: f64) -> Trust {
         let q_lin = f.course.q_lin;
         let q_pred = self.predicted_pose(&f.goal);
@@ -549,10 +554,15 @@ impl GodObject {
         let (s_need, s_pred) = (share(plan.need_t, plan.need_r), share(pred_t, pred_r));
         let mut t = s_need.max(s_pred);
         let mut r = (1.0 - s_need).max(1.0 - s_pred);
-        let (step, turn) = if let Some(from) = f.course.crept_from {
+        // A pass that did not move at all (it started on its trust region's edge) tells no way.
+        let crept = f.course.crept_from.and_then(|from| {
             let pass_step = q_lin.translation() - from.translation();
             let pass_turn =
                 rotation_log(&(q_lin.rotation_matrix() * from.rotation_matrix().transpose()));
+            (pass_step.norm() + pass_turn.norm() * lever_reach > STILL_PASS_SHARE * plan.allowed)
+                .then_some((pass_step, pass_turn))
+        });
+        let (step, turn) = if let Some((pass_step, pass_turn)) = crept {
             let s_pass = share(pass_step.norm(), pass_turn.norm() * lever_reach);
             t = t.max(s_pass);
             r = r.max(1.0 - s_pass);
@@ -563,6 +573,14 @@ impl GodObject {
                 Vector3::from(self.run.motion.last_turn),
             )
         };
-        self.trust_oriented(plan.allowed, t, r, &step, &turn, lever_reach)
+        self.trust_oriented(
+            plan.allowed,
+            t,
+            r,
+            &step,
+            &turn,
+            lever_reach,
+            &q_lin.rotation_matrix(),
+        )
     }
 }

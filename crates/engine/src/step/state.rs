@@ -184,6 +184,7 @@ impl RunState {
                 slab_next_rest: tuning.slab_rest_frames,
                 near_at: None,
                 contacts_at: None,
+                cached_bound: false,
                 near_extra: tuning.near_list_mm,
                 near_ahead: NearAhead::IDLE,
             },
@@ -259,6 +260,8 @@ pub(super) struct RegionMemory {
     /// The region whose pairs `self.detector.pairs` holds, and the trust region that keeps iterates in
     /// it: the geometry is static, so it stays valid in later frames (temporal coherence).
     pub(super) cached: Option<(Region, Trust)>,
+    /// The last answer in the cached region was stopped by its trust region.
+    pub(super) cached_bound: bool,
     /// The ball detection that listed `pairs` (its pose and margin, mm), while they are
     /// complete: every pair within that margin of touching there.
     pub(super) pairs_question: Option<(Pose, f64)>,
