@@ -275,15 +275,16 @@ impl GodObject {
     /// `turn` (a rotation vector, rad). Each part's budget (`sqrt(3)` times its half-width
     /// per axis in the box) is split into 0.85 of it along the motion and 0.37 across
     /// (`sqrt(0.85² + 2 · 0.37²) < 1`: no sphere moves farther than in the box), so a tool
-    /// sliding along `step` or turning about `turn` goes 0.85 of it instead of `1 / sqrt(3)`.
-    /// A part stays axis-aligned where its motion is too short to give a direction.
+    /// sliding along `step` or turning about `turn` goes 0.85 of it instead of `1 / sqrt(3)`;
+    /// or the turn goes 0.6 of the rotation budget by the tool's arm about its axis (the tool at
+    /// rotation `rot_lin`), where that is farther, and 0.28 across. A part stays axis-aligned
+    /// where its motion is too short to give a direction.
     pub(super) fn trust_oriented(
         &self,
         allowed: f64,
         need_t: f64,
         need_r: f64,
-        step: &Vector3<f64>,
-        turn: &Vector3<f64>,
+        (step, turn): (&Vector3<f64>, &Vector3<f64>),
         reach: f64,
         rot_lin: &Matrix3<f64>,
     ) -> Trust {
@@ -428,8 +429,7 @@ mod tests {
                             allowed,
                             need_t,
                             need_r,
-                            step,
-                            turn,
+                            (step, turn),
                             reach,
                             &Matrix3::identity(),
                         );

@@ -577,8 +577,7 @@ impl GodObject {
             plan.allowed,
             t,
             r,
-            &step,
-            &turn,
+            (&step, &turn),
             lever_reach,
             &q_lin.rotation_matrix(),
         )
