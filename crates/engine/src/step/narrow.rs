@@ -80,7 +80,8 @@ impl GodObject {
     /// The pairs come from the near list, the pairs within a wider margin of a recent pose
     /// (listed again, by descending the triangle trees, when it no longer covers the region):
     /// a pair within `margin` at `center` is within `margin` plus the motion bound from the
-    /// list's pose there.
+    /// list's pose there, or from the last region that filtered it, whose centre the pairs'
+    /// bounds are then left at.
     pub(super) fn narrow_phase(&mut self, center: &Pose, margin: f64) {
         if self.bodies.meshes.is_none() {
             return;
@@ -160,17 +161,27 @@ impl GodObject {
         // No point of the tool is farther than the motion bound from where it was on the
         // list's span: a pair listed farther apart than that beyond the margin stays out of
         // it, and is not posed again.
-        let moved = self
-            .run
-            .regions
-            .near_at
-            .map_or(0.0, |span| self.span_bound(&span, center));
+        // Each filter leaves every pair's bound at its own centre (`near_bounds_at`): the next
+        // region, a short way on, skips a pair the filter found apart by more than that way
+        // beyond its margin, where the way back to the list's pose would not.
+        let anchored = self.params.heuristics.mesh_near_list;
+        let moved = match self.run.regions.near_bounds_at.filter(|_| anchored) {
+            Some(at) => self.motion_bound(&at, center),
+            None => self
+                .run
+                .regions
+                .near_at
+                .map_or(0.0, |span| self.span_bound(&span, center)),
+        };
         let (rot, t) = (center.rotation_matrix(), center.translation());
         let detector = &mut self.detector;
         // A leaf pair lists its tool triangles' pairs one after another: each is posed once.
         let mut posed: Option<(u32, PosedTriangle)> = None;
-        for c in &detector.near {
+        for c in detector.near.iter_mut() {
             if c.apart - moved > margin {
+                if anchored {
+                    c.apart -= moved;
+                }
                 continue;
             }
             let tool = match &posed {
@@ -181,13 +192,17 @@ impl GodObject {
                 }
             };
             let part_tree = &meshes.objects[c.object as usize];
-            if tool
-                .separation_within(part_tree, c.part, margin, true)
-                .is_none()
-            {
+            let apart = tool.separation_upto(part_tree, c.part, margin, true);
+            if apart > margin {
+                if anchored {
+                    c.apart = apart;
+                }
                 continue;
             }
             let d = triangle_distance(&tool.corners, part_tree.triangle(c.part));
+            if anchored {
+                c.apart = if d.meet { 0.0 } else { d.distance };
+            }
             if d.distance <= margin {
                 // The near list is no longer than the contacts' storage.
                 detector.contacts.push(*c);
@@ -196,6 +211,7 @@ impl GodObject {
             }
         }
         detector.nearest_at = Some((rot, t));
+        self.run.regions.near_bounds_at = Some(*center);
     }
 
     /// Lists into `detector.near` the triangle pairs within the span's reach (mm) of each other
@@ -205,6 +221,7 @@ impl GodObject {
         let Some(meshes) = &self.bodies.meshes else {
             return 0;
         };
+        self.run.regions.near_bounds_at = None;
         let detector = &mut self.detector;
         detector.near.clear();
         let (rot, t) = (span.at.rotation_matrix(), span.at.translation());
@@ -277,6 +294,7 @@ impl GodObject {
             return false;
         }
         std::mem::swap(&mut self.detector.near, &mut self.detector.next_near);
+        self.run.regions.near_bounds_at = None;
         self.run.regions.near_at = Some(at);
         self.run.counts.near_taken += 1;
         true
@@ -774,15 +792,21 @@ impl PosedTriangle {
         margin: f64,
         edges: bool,
     ) -> Option<f64> {
+        Some(self.separation_upto(part, i, margin, edges)).filter(|&s| s <= margin)
+    }
+
+    /// A lower bound (mm) on the pair's distance, as [`PosedTriangle::separation_within`]
+    /// takes it: the first of its tests that puts the pair beyond `margin`, or all of them.
+    fn separation_upto(&self, part: &TriangleTree, i: u32, margin: f64, edges: bool) -> f64 {
         let boxes = self.box_gap(part, i);
         if boxes > margin {
-            return None;
+            return boxes;
         }
         let planes = self.planes_beyond(part, i, boxes);
         if planes > margin || !edges {
-            return Some(planes).filter(|&s| s <= margin);
+            return planes;
         }
-        Some(self.edges_beyond(part, i, planes)).filter(|&s| s <= margin)
+        self.edges_beyond(part, i, planes)
     }
 
     /// The larger of `bound` and how far either triangle lies wholly beyond one of the other's

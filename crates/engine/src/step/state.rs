@@ -184,6 +184,7 @@ impl RunState {
                 slab_next_rest: tuning.slab_rest_frames,
                 near_at: None,
                 contacts_at: None,
+                near_bounds_at: None,
                 cached_bound: false,
                 near_extra: tuning.near_list_mm,
                 near_ahead: NearAhead::IDLE,
@@ -290,6 +291,9 @@ pub(super) struct RegionMemory {
     pub(super) near_ahead: NearAhead,
     /// The region centre and margin (mm) `detector.contacts` was listed for.
     pub(super) contacts_at: Option<(Pose, f64)>,
+    /// Where the near list's pair bounds hold (the last region that filtered it), or `None`:
+    /// they hold on its span, as listed.
+    pub(super) near_bounds_at: Option<Pose>,
 }
 
 /// The solves: the warm start and the time a row costs.
