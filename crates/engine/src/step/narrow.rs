@@ -113,7 +113,7 @@ impl GodObject {
                 sweep: if wide { self.near_sweep() } else { [0.0; 3] },
                 reach: margin + if wide { extra } else { 0.0 },
             };
-            let dropped = self.list_near(&span);
+            let dropped = self.list_near(&span, !wide);
             self.run.counts.near_listed += 1;
             if wide && dropped == 0 {
                 self.run.regions.near_at = Some(span);
@@ -141,11 +141,14 @@ impl GodObject {
                 self.run.regions.near_at = None;
                 let dropped = if wide {
                     self.run.regions.near_extra = 0.25 * extra;
-                    self.list_near(&NearSpan {
-                        at: *center,
-                        sweep: [0.0; 3],
-                        reach: margin,
-                    })
+                    self.list_near(
+                        &NearSpan {
+                            at: *center,
+                            sweep: [0.0; 3],
+                            reach: margin,
+                        },
+                        true,
+                    )
                 } else {
                     self.run.regions.near_extra =
                         (2.0 * extra).min(self.params.tuning.near_list_mm);
@@ -216,8 +219,10 @@ impl GodObject {
 
     /// Lists into `detector.near` the triangle pairs within the span's reach (mm) of each other
     /// anywhere on it, by descending the tool's triangle tree, swept along it, against each
-    /// object's. Returns how many did not fit in the list's storage (0: the list is complete).
-    fn list_near(&mut self, span: &NearSpan) -> usize {
+    /// object's. Returns how many did not fit in the list's storage (0: the list is complete),
+    /// or, unless `count_all`, at least 1 once one does not (the descent stops there: a list
+    /// kept only when complete is not worth finishing).
+    fn list_near(&mut self, span: &NearSpan, count_all: bool) -> usize {
         let Some(meshes) = &self.bodies.meshes else {
             return 0;
         };
@@ -239,7 +244,7 @@ impl GodObject {
                     parts,
                 };
                 dropped += leaves.push_near(&rot, &t, &sweep, span.reach, near);
-                true
+                count_all || dropped == 0
             };
             TriangleTree::start_descent(&mut detector.tree_stack);
             tool_tree.descend(
@@ -252,6 +257,9 @@ impl GodObject {
                 usize::MAX,
                 visit,
             );
+            if dropped > 0 && !count_all {
+                break;
+            }
         }
         dropped
     }
@@ -923,10 +931,20 @@ mod tests {
         object: &(Vec<[f64; 3]>, Vec<[u32; 3]>),
         tree: SphereTree,
     ) -> (GodObject, Vec<Triangle>, Vec<Triangle>) {
+        cube_over_storing(object, tree, EngineConfig::default().max_pairs)
+    }
+
+    /// [`cube_over`] with storage for `max_pairs` pairs.
+    fn cube_over_storing(
+        object: &(Vec<[f64; 3]>, Vec<[u32; 3]>),
+        tree: SphereTree,
+        max_pairs: usize,
+    ) -> (GodObject, Vec<Triangle>, Vec<Triangle>) {
         let (tv, tt) = box_mesh([0.0; 3], [2.0; 3]);
         let (pv, pt) = object;
         let params = EngineConfig {
             geometry: Geometry::Mesh,
+            max_pairs,
             ..EngineConfig::default()
         };
         let god = GodObject::with_meshes(
@@ -970,6 +988,11 @@ mod tests {
     /// The 4 mm cube tool over a wavy 40 x 40 mm sheet of 2 x 2 mm cells (800 triangles), so
     /// that which pairs are near changes as the tool slides.
     fn cube_over_sheet() -> (GodObject, Vec<Triangle>, Vec<Triangle>) {
+        cube_over_sheet_storing(EngineConfig::default().max_pairs)
+    }
+
+    /// [`cube_over_sheet`] with storage for `max_pairs` pairs.
+    fn cube_over_sheet_storing(max_pairs: usize) -> (GodObject, Vec<Triangle>, Vec<Triangle>) {
         let n = 20u32;
         let sv: Vec<[f64; 3]> = (0..=n)
             .flat_map(|i| (0..=n).map(move |j| (i, j)))
@@ -988,7 +1011,7 @@ mod tests {
                 ]
             })
             .collect();
-        cube_over(&(sv, st), one_leaf([0.0; 3], 28.3))
+        cube_over_storing(&(sv, st), one_leaf([0.0; 3], 28.3), max_pairs)
     }
 
     /// A near list longer than its target reaches half as far next time only where that
@@ -1010,6 +1033,41 @@ mod tests {
         assert_eq!(reach_after_a_long_list(cube_on_plate(), resting), 1.0);
         let above = Pose::from_array([0.0, 0.0, 2.45, 0.0, 0.0, 0.0]);
         assert_eq!(reach_after_a_long_list(cube_over_sheet(), above), 0.5);
+    }
+
+    /// A wide list that does not fit in the storage is dropped (its descent stopped at the
+    /// first pair past it) and the region's own pairs listed instead, every one past the
+    /// storage counted (the region shrinks by them).
+    #[test]
+    fn a_wide_list_past_the_storage_gives_way_to_the_regions_own_pairs_all_counted() {
+        let q = Pose::from_array([0.0, 0.0, 2.45, 0.0, 0.0, 0.0]);
+        let listed = |max_pairs: usize| {
+            let (mut god, _, _) = cube_over_sheet_storing(max_pairs);
+            god.detect(&q, 0.25).unwrap();
+            god.narrow_phase(&q, 0.25);
+            god
+        };
+        let whole = listed(EngineConfig::default().max_pairs);
+        let wide = whole.detector.near.len();
+        assert!(whole.run.regions.near_at.is_some());
+        let mut own = listed(EngineConfig::default().max_pairs);
+        let span = NearSpan {
+            at: q,
+            sweep: [0.0; 3],
+            reach: 0.25,
+        };
+        assert_eq!(own.list_near(&span, true), 0);
+        let own_len = own.detector.near.len();
+        assert!(4 < own_len && own_len + 4 < wide, "{own_len} of {wide}");
+        // Room for the region's own pairs, not the wide list's.
+        let roomy = listed(own_len + 2);
+        assert!(roomy.run.regions.near_at.is_none());
+        assert_eq!(roomy.detector.near.len(), own_len);
+        assert_eq!(roomy.run.regions.dropped, 0);
+        // Room for neither: every own pair past the storage counted.
+        let tight = listed(own_len - 3);
+        assert!(tight.run.regions.near_at.is_none());
+        assert_eq!(tight.run.regions.dropped, 3);
     }
 
     #[test]
