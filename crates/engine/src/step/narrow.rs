@@ -453,12 +453,20 @@ impl GodObject {
                 self.motion_bound(&q, &c) + m + target
             });
         // At the pose the narrow phase measured them at (a region's first pass), or the check
-        // of the last answer did (the next pass or frame linearises there), the exact
-        // distances measured there are the rows' own.
-        let measured = self.detector.nearest_at == Some((rot, t));
+        // of the last answer or the last rows did (the next pass or frame linearises there),
+        // the exact distances measured there are the rows' own.
+        // The distances measured here are kept for the check of an answer here and the next
+        // pass's or frame's rows here (a tool at rest).
+        if self.detector.nearest_at != Some((rot, t)) {
+            self.detector.nearest_at = Some((rot, t));
+            self.detector
+                .nearest_known
+                .iter_mut()
+                .for_each(|k| *k = false);
+        }
         let mut n = 0;
         for c in &self.detector.contacts {
-            let (bound, tool, part, d) = if measured && self.detector.nearest_known[n] {
+            let (bound, tool, part, d) = if self.detector.nearest_known[n] {
                 let d = self.detector.contact_nearest[n];
                 let (tool, part) = self.posed_pair(meshes, c, &rot, &t);
                 (d.distance, tool, part, Some(d))
@@ -475,7 +483,12 @@ impl GodObject {
                 n += 1;
                 continue;
             }
-            let d = d.unwrap_or_else(|| triangle_distance(&tool, &part));
+            let d = d.unwrap_or_else(|| {
+                let d = triangle_distance(&tool, &part);
+                self.detector.contact_nearest[n] = d;
+                self.detector.nearest_known[n] = true;
+                d
+            });
             self.detector.contact_gaps[n] = d.distance;
             let (a, b) = (Vector3::from(d.on_a), Vector3::from(d.on_b));
             let normal = if d.distance > 0.0 {
