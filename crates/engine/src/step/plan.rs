@@ -428,11 +428,23 @@ impl GodObject {
         } + skin;
         // The mesh mode's triangle pairs that can touch in the region (more than the storage
         // holds count as dropped: the region shrinks as for leaf pairs).
-        let extent = plan
-            .sweep
-            .map_or(plan.allowed, |(_, length)| length + plan.width);
         let t0 = Instant::now();
-        self.narrow_phase(&q_lin, extent + skin);
+        match plan.sweep {
+            // Along a path: every pose of the region is within its width (and the skin) of a
+            // pose on the path, turned at most by the path's turn.
+            Some((path, _)) => {
+                let r = q_lin.rotation_matrix();
+                let turn = self.turn_bound(&r, &(rotation_exp(&path.rotation.into()) * r));
+                let along = Vector3::from(path.translation);
+                self.narrow_phase_along(&q_lin, plan.width + skin + turn, &along);
+            }
+            _ => {
+                let extent = plan
+                    .sweep
+                    .map_or(plan.allowed, |(_, length)| length + plan.width);
+                self.narrow_phase(&q_lin, extent + skin);
+            }
+        }
         f.clock.detect_s += t0.elapsed().as_secs_f64();
         if !plan.recentred {
             // The rows the region gives (leaf pairs, or triangle pairs in the mesh mode).
