@@ -486,16 +486,9 @@ impl GodObject {
             });
         // At the pose the narrow phase measured them at (a region's first pass), or the check
         // of the last answer or the last rows did (the next pass or frame linearises there),
-        // the exact distances measured there are the rows' own.
-        // The distances measured here are kept for the check of an answer here and the next
-        // pass's or frame's rows here (a tool at rest).
-        if self.detector.nearest_at != Some((rot, t)) {
-            self.detector.nearest_at = Some((rot, t));
-            self.detector
-                .nearest_known
-                .iter_mut()
-                .for_each(|k| *k = false);
-        }
+        // the exact distances measured there are the rows' own; those measured here are kept
+        // for the check of an answer here and the next rows here (a tool at rest).
+        self.detector.hold_distances_at(rot, t);
         let mut n = 0;
         for c in &self.detector.contacts {
             let (bound, tool, part, d) = if self.detector.nearest_known[n] {
@@ -563,10 +556,7 @@ impl GodObject {
         };
         let (rot, t) = (q.rotation_matrix(), q.translation());
         let (detector, qp) = (&mut self.detector, &self.qp);
-        if detector.nearest_at != Some((rot, t)) {
-            detector.nearest_at = Some((rot, t));
-            detector.nearest_known.iter_mut().for_each(|k| *k = false);
-        }
+        detector.hold_distances_at(rot, t);
         let (mut meet, mut slack, mut touching) = (false, 0.0f64, 0u32);
         for (i, c) in detector.contacts.iter().enumerate().take(n) {
             let row = &qp.rows[i];

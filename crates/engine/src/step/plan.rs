@@ -438,12 +438,7 @@ impl GodObject {
                 let along = Vector3::from(path.translation);
                 self.narrow_phase_along(&q_lin, plan.width + skin + turn, &along);
             }
-            _ => {
-                let extent = plan
-                    .sweep
-                    .map_or(plan.allowed, |(_, length)| length + plan.width);
-                self.narrow_phase(&q_lin, extent + skin);
-            }
+            None => self.narrow_phase(&q_lin, plan.allowed + skin),
         }
         f.clock.detect_s += t0.elapsed().as_secs_f64();
         if !plan.recentred {

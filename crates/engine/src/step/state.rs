@@ -59,6 +59,15 @@ pub(super) struct Detector {
 }
 
 impl Detector {
+    /// Makes the contacts' kept exact distances those of the tool at `(rot, t)`: none known
+    /// where they were measured elsewhere.
+    pub(super) fn hold_distances_at(&mut self, rot: Matrix3<f64>, t: Vector3<f64>) {
+        if self.nearest_at != Some((rot, t)) {
+            self.nearest_at = Some((rot, t));
+            self.nearest_known.iter_mut().for_each(|k| *k = false);
+        }
+    }
+
     /// The buffers, reserved once for `cap` leaf pairs (and as many triangle pairs in the mesh
     /// mode, with `meshes`), a tool of `tool_slots` sphere slots, the traversal workspace `ws`
     /// and the helper thread's `team`.
