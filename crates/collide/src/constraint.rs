@@ -134,6 +134,12 @@ impl Linearization {
         })
     }
 
+    /// The linearisation pose's rotation (`R(q_lin)`, bit for bit `q_lin.rotation_matrix()`)
+    /// and translation (mm).
+    pub fn pose_parts(&self) -> (Matrix3<f64>, Vector3<f64>) {
+        (self.rot, self.t)
+    }
+
     /// The form being linearized.
     pub fn form(&self) -> ConstraintForm {
         self.form

@@ -41,6 +41,11 @@ const FLAT_CONTACT_COS: f64 = 0.999_847_695_156_391_2;
 /// leave at most this share of its pairs (by their listed separations).
 const NEAR_THIN_SHARE: f64 = 0.75;
 
+/// The list built ahead starts once the tool has used this share of the current one (its
+/// sweep, or its extra reach off it): later, the pose it is centred at is guessed from nearer;
+/// earlier, it has more frames to be built in.
+const NEAR_AHEAD_START: f64 = 0.5;
+
 /// Bisections of a step whose end has meeting triangles, toward the last free pose on it.
 const BACKTRACK_STEPS: u32 = 8;
 
@@ -125,7 +130,14 @@ impl GodObject {
             .regions
             .near_at
             .filter(|span| self.params.heuristics.mesh_near_list && covered(span));
-        if listed.is_none() && self.take_near_ahead(center, margin) {
+        // The list built ahead serves only where it holds the whole region, the path's end too.
+        let ahead_covers = self
+            .run
+            .regions
+            .near_ahead
+            .at
+            .is_some_and(|at| covered(&at));
+        if listed.is_none() && self.take_near_ahead(ahead_covers) {
             listed = self.run.regions.near_at;
         }
         if listed.is_none() {
@@ -321,16 +333,17 @@ impl GodObject {
         }
     }
 
-    /// Puts the next near list in place of the current one when it is complete and covers the
-    /// region about `center` within `margin` (mm); returns whether it did. An unfinished or
-    /// overflowed one that does not is dropped when the current list is spent.
-    fn take_near_ahead(&mut self, center: &Pose, margin: f64) -> bool {
+    /// Puts the next near list in place of the current one when it is complete and `covers`
+    /// the region (every pose of it within the list's reach, less the region's margin, of its
+    /// span); returns whether it did. An unfinished or overflowed one, or one that does not
+    /// cover the region, is dropped when the current list is spent.
+    fn take_near_ahead(&mut self, covers: bool) -> bool {
         let ahead = self.run.regions.near_ahead;
         let Some(at) = ahead.at else {
             return false;
         };
         self.run.regions.near_ahead = NearAhead::IDLE;
-        if !ahead.done || self.span_bound(&at, center) + margin > at.reach {
+        if !ahead.done || !covers {
             return false;
         }
         std::mem::swap(&mut self.detector.near, &mut self.detector.next_near);
@@ -363,7 +376,9 @@ impl GodObject {
             let sweep = Vector3::from(span.sweep);
             let len2 = sweep.norm_squared();
             let along = detect::segment_share(&(q.translation() - span.at.translation()), &sweep);
-            if self.span_bound(&span, q) < 0.5 * extra && (len2 == 0.0 || along < 0.5) {
+            if self.span_bound(&span, q) < NEAR_AHEAD_START * extra
+                && (len2 == 0.0 || along < NEAR_AHEAD_START)
+            {
                 return;
             }
             let step = Vector3::from(self.run.motion.last_step).norm().max(1e-9);
@@ -371,7 +386,7 @@ impl GodObject {
             let frames = if len2 > 0.0 {
                 (1.0 - along) * len2.sqrt() / step
             } else {
-                0.5 * extra / speed
+                (1.0 - NEAR_AHEAD_START) * extra / speed
             }
             .min(self.params.tuning.near_ahead_max_frames);
             ahead = NearAhead {
@@ -469,8 +484,10 @@ impl GodObject {
         let Some(meshes) = &self.bodies.meshes else {
             return 0;
         };
+        // The linearisation pose's own matrix, bit for bit the one an answer checked there was
+        // measured at (a pose rebuilt from the variable differs by roundings).
         let q = lin.configuration(&lin.delta());
-        let (rot, t) = (q.rotation_matrix(), q.translation());
+        let (rot, t) = lin.pose_parts();
         let target = self.mesh_gap();
         // No answer leaves the region (its trust rows), and no point of the tool moves farther
         // from its place at the region's centre than the listing margin: a pair farther apart
@@ -1174,6 +1191,13 @@ mod tests {
         god.narrow_phase(&q1, 0.1);
         assert_eq!(god.run.counts.near_taken, 1);
         assert_eq!(god.run.regions.near_at.unwrap().at, q1);
+        // A path region from where it is centred, to a pose past its reach (a tool falling
+        // through a thin plate): listed in the frame, the path's end too.
+        ahead_at(&mut god);
+        let listed = god.run.counts.near_listed;
+        god.narrow_phase_along(&q1, 0.1, &Vector3::new(0.0, 0.0, -wide));
+        assert_eq!(god.run.counts.near_taken, 1);
+        assert_eq!(god.run.counts.near_listed, listed + 1);
     }
 
     #[test]
@@ -1264,8 +1288,10 @@ mod tests {
     fn rows_at_a_checked_answer_reuse_its_distances_and_equal_fresh_ones() {
         let (mut god, _, _) = cube_on_plate();
         // The cube's bottom face 0.003 mm over the plate's top: every facing pair touches.
-        let q0 = Pose::from_array([5.0, 5.0, 1.003, 0.0, 0.0, 0.0]);
-        let hand = Pose::identity();
+        // Turned about the vertical (a rotation a pose rebuilt from the variable does not
+        // reproduce bit for bit).
+        let q0 = Pose::from_array([5.0, 5.0, 1.003, 0.0, 0.0, 0.7]);
+        let hand = Pose::from_array([4.0, 5.5, 0.0, 0.0, 0.0, 0.2]);
         god.detect(&q0, 1.0).unwrap();
         god.narrow_phase(&q0, 1.0);
         let lin0 = god.linearization(&q0, &hand).unwrap();
@@ -1278,13 +1304,20 @@ mod tests {
         let known = god.detector.nearest_known.iter().filter(|k| **k).count();
         assert!(known > 0, "the check measured no pair");
         let lin1 = god.linearization(&q1, &hand).unwrap();
-        let at1 = lin1.configuration(&lin1.delta());
         assert_eq!(
             god.detector.nearest_at,
-            Some((at1.rotation_matrix(), at1.translation())),
+            Some(lin1.pose_parts()),
             "the next rows are linearised where the check measured"
         );
         let n1 = god.fill_rows(&lin1, None);
+        // The rows took the check's distances (a pose rebuilt from the variable, a rounding
+        // away, would have measured them all again).
+        assert_eq!(god.detector.nearest_at, Some(lin1.pose_parts()));
+        assert_eq!(
+            god.detector.nearest_known.iter().filter(|k| **k).count(),
+            n1,
+            "every row's distance is known"
+        );
         let reused = (god.qp.rows[..n1].to_vec(), god.qp.rhs[..n1].to_vec());
         god.detector.nearest_at = None;
         let n2 = god.fill_rows(&lin1, None);
