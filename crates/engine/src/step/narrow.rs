@@ -156,10 +156,12 @@ impl GodObject {
                 },
                 reach: margin + if wide { extra } else { 0.0 },
             };
+            let started = Instant::now();
             let dropped = self.list_near(&span, !wide);
             self.run.counts.near_listed += 1;
             if wide && dropped == 0 {
                 self.run.regions.near_at = Some(span);
+                self.run.regions.near_descent_us = started.elapsed().as_secs_f64() * 1e6;
                 // Every region it serves filters the whole list: a long one reaches less far
                 // next time, a short one farther.
                 let len = self.detector.near.len();
@@ -316,15 +318,32 @@ impl GodObject {
             + self.turn_bound(&span.at.rotation_matrix(), &q.rotation_matrix())
     }
 
-    /// The sweep (mm) of a new near list: the tool's last step times
-    /// [`Tuning::near_sweep_frames`], so that a tool sliding on is served as many frames, but
-    /// no longer than [`Tuning::near_sweep_mm`].
+    /// The sweep (mm) of a new near list: the tool's last step times a number of frames, no
+    /// longer than [`Tuning::near_sweep_mm`]. The frames are [`Tuning::near_sweep_frames`]
+    /// times the share of the extra reach that was cut (a tight fit's wall within it), or,
+    /// where the extra reach alone would be spent at the tool's speed before the next list can
+    /// be built ahead, the frames its building takes (at most as many).
     fn near_sweep(&self) -> [f64; 3] {
         let step = Vector3::from(self.run.motion.last_step);
         let tuning = &self.params.tuning;
-        let cut = (1.0 - self.run.regions.near_extra / tuning.near_list_mm).clamp(0.0, 1.0);
-        let frames =
-            (cut * tuning.near_sweep_frames).min(tuning.near_sweep_mm / step.norm().max(1e-12));
+        let extra = self.run.regions.near_extra;
+        let cut = (1.0 - extra / tuning.near_list_mm).clamp(0.0, 1.0);
+        // A list built ahead starts once the tool has used its start share of the current one,
+        // then takes a slice a frame at the last descent's cost. A peg falling past a hole's
+        // wall 0.5 mm away spends an unswept list in 16 frames, while the next one's descent
+        // takes 15 slices: every list was listed in a frame of 2 ms. A slow tool's list
+        // outlasts its descent and is not swept (a longer list costs every region's filter).
+        let slice_us = (tuning.near_ahead_share * self.params.budget_us).max(1e-9);
+        let to_build = self.run.regions.near_descent_us / slice_us / NEAR_AHEAD_START;
+        let served = extra / self.run.motion.last_motion.max(1e-12);
+        let paced = if served < to_build {
+            to_build.min(tuning.near_sweep_frames)
+        } else {
+            0.0
+        };
+        let frames = (cut * tuning.near_sweep_frames)
+            .max(paced)
+            .min(tuning.near_sweep_mm / step.norm().max(1e-12));
         let sweep = step * frames;
         if sweep.iter().all(|v| v.is_finite()) {
             sweep.into()
@@ -397,6 +416,7 @@ impl GodObject {
                 }),
                 object: 0,
                 done: false,
+                spent_us: 0.0,
             };
             self.detector.next_near.clear();
             TriangleTree::start_descent(&mut self.detector.next_stack);
@@ -404,7 +424,8 @@ impl GodObject {
         let Some(next) = ahead.at else {
             return;
         };
-        let end = (Instant::now() + Duration::from_secs_f64(slice_us * 1e-6)).min(deadline);
+        let started = Instant::now();
+        let end = (started + Duration::from_secs_f64(slice_us * 1e-6)).min(deadline);
         let (rot, t) = (next.at.rotation_matrix(), next.at.translation());
         let sweep = Vector3::from(next.sweep);
         let detector = &mut self.detector;
@@ -446,6 +467,10 @@ impl GodObject {
             }
         }
         ahead.done = ahead.object >= meshes.objects.len();
+        ahead.spent_us += started.elapsed().as_secs_f64() * 1e6;
+        if ahead.done {
+            self.run.regions.near_descent_us = ahead.spent_us;
+        }
         self.run.regions.near_ahead = ahead;
     }
 
@@ -1161,6 +1186,31 @@ mod tests {
         god.narrow_phase(&q, path.norm() + margin);
         let ball = god.detector.contacts.len();
         assert!(3 * along < ball, "{along} of {ball}");
+    }
+
+    #[test]
+    fn a_list_is_swept_along_the_motion_only_where_its_reach_is_spent_before_the_next_is_built() {
+        let (mut god, _, _) = cube_over_sheet();
+        let full = god.params.tuning.near_list_mm;
+        let slice_us = god.params.tuning.near_ahead_share * god.params.budget_us;
+        god.run.regions.near_extra = full;
+        // A descent of 15 slices; a tool falling 0.016 mm a frame spends the extra reach in
+        // 16 frames, fewer than the 30 from the start share to the next list's completion.
+        god.run.regions.near_descent_us = 15.0 * slice_us;
+        god.run.motion.last_step = [0.0, 0.0, -0.016];
+        god.run.motion.last_motion = 0.016;
+        let sweep = Vector3::from(god.near_sweep());
+        let frames = 15.0 / NEAR_AHEAD_START;
+        assert!((sweep - Vector3::new(0.0, 0.0, -0.016 * frames)).norm() < 1e-12);
+        // Ten times slower: its reach outlasts the descent; no sweep.
+        god.run.motion.last_step = [0.0, 0.0, -0.0016];
+        god.run.motion.last_motion = 0.0016;
+        assert_eq!(god.near_sweep(), [0.0; 3]);
+        // A cheap descent: no sweep either.
+        god.run.motion.last_step = [0.0, 0.0, -0.016];
+        god.run.motion.last_motion = 0.016;
+        god.run.regions.near_descent_us = slice_us;
+        assert_eq!(god.near_sweep(), [0.0; 3]);
     }
 
     #[test]

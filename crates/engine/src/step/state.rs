@@ -196,6 +196,7 @@ impl RunState {
                 near_bounds_at: None,
                 cached_bound: false,
                 near_extra: tuning.near_list_mm,
+                near_descent_us: 0.0,
                 near_ahead: NearAhead::IDLE,
             },
             solve: SolveMemory {
@@ -298,6 +299,9 @@ pub(super) struct RegionMemory {
     pub(super) near_extra: f64,
     /// The next near list's building ([`NearAhead`]).
     pub(super) near_ahead: NearAhead,
+    /// What the last complete near list's descent cost, µs (in the frame, or its slices ahead
+    /// together).
+    pub(super) near_descent_us: f64,
     /// The region centre and margin (mm) `detector.contacts` was listed for.
     pub(super) contacts_at: Option<(Pose, f64)>,
     /// Where the near list's pair bounds hold (the last region that filtered it), or `None`:
@@ -327,6 +331,8 @@ pub(super) struct NearAhead {
     pub(super) object: usize,
     /// Every object descended: the list is complete.
     pub(super) done: bool,
+    /// Its slices' time so far, µs.
+    pub(super) spent_us: f64,
 }
 
 impl NearAhead {
@@ -335,6 +341,7 @@ impl NearAhead {
         at: None,
         object: 0,
         done: false,
+        spent_us: 0.0,
     };
 }
 

@@ -549,7 +549,9 @@ pub struct Tuning {
     /// keeps its distances to it while its triangles pass new ones, so a list swept along the
     /// slide serves that many frames where one about the pose alone serves until the tool has
     /// moved its extra reach. A longer sweep lists more pairs, which every region filters, but
-    /// leaves the list built ahead more frames to be ready in.
+    /// leaves the list built ahead more frames to be ready in. (A list whose extra reach would
+    /// be spent before the next one's descent is done, a slice a frame, is swept for the
+    /// frames that takes, up to this many, whether its reach was cut or not.)
     ///
     /// `spline-tight` at 10 / 20 / 40 / 80 frames (2 runs each): p99 3.6 / 2.9 / 1.6 / 1.5 ms,
     /// frames over 1 ms while the shaft slides in 517–579 / 129–174 / – / 31–84; the quick fit
