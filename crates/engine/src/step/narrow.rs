@@ -395,19 +395,33 @@ impl GodObject {
             let sweep = Vector3::from(span.sweep);
             let len2 = sweep.norm_squared();
             let along = detect::segment_share(&(q.translation() - span.at.translation()), &sweep);
-            if self.span_bound(&span, q) < NEAR_AHEAD_START * extra
+            let used = self.span_bound(&span, q);
+            // Frames until the list is spent: the tool leaves its reach at the pace its motion
+            // bound grows off the sweep (a turn, a step across), or runs off the sweep's end.
+            let len = len2.sqrt();
+            let step = Vector3::from(self.run.motion.last_step);
+            let along_speed = if len > 0.0 {
+                (step.dot(&sweep) / len).max(0.0)
+            } else {
+                0.0
+            };
+            let off_speed = (self.run.motion.last_motion - along_speed).max(1e-9);
+            let mut left = (extra - used).max(0.0) / off_speed;
+            if along_speed > 0.0 {
+                left = left.min((1.0 - along) * len / along_speed);
+            }
+            // The next list starts once the tool has used its start share of this one, or
+            // earlier where its descent, a slice a frame at the last one's cost, would not be
+            // done by then.
+            let build = self.run.regions.near_descent_us / slice_us.max(1e-9);
+            if used < NEAR_AHEAD_START * extra
                 && (len2 == 0.0 || along < NEAR_AHEAD_START)
+                && left > build / NEAR_AHEAD_START
             {
                 return;
             }
-            let step = Vector3::from(self.run.motion.last_step).norm().max(1e-9);
-            let speed = self.run.motion.last_motion.max(1e-9);
-            let frames = if len2 > 0.0 {
-                (1.0 - along) * len2.sqrt() / step
-            } else {
-                (1.0 - NEAR_AHEAD_START) * extra / speed
-            }
-            .min(self.params.tuning.near_ahead_max_frames);
+            // Centred where the tool is expected when this one is spent.
+            let frames = left.min(self.params.tuning.near_ahead_max_frames);
             ahead = NearAhead {
                 at: Some(NearSpan {
                     at: self.pose_ahead(q, frames),
@@ -1211,6 +1225,40 @@ mod tests {
         god.run.motion.last_motion = 0.016;
         god.run.regions.near_descent_us = slice_us;
         assert_eq!(god.near_sweep(), [0.0; 3]);
+    }
+
+    #[test]
+    fn the_next_list_starts_early_only_where_its_descent_would_not_be_done_in_time() {
+        let (mut god, _, _) = cube_over_sheet();
+        let far = Instant::now() + Duration::from_secs(1);
+        let q0 = Pose::from_array([0.0, 0.0, 2.4, 0.0, 0.0, 0.0]);
+        let slice_us = god.params.tuning.near_ahead_share * god.params.budget_us;
+        let start = |god: &mut GodObject, descent_slices: f64| {
+            god.run.regions.near_at = None;
+            god.run.regions.near_ahead = NearAhead::IDLE;
+            god.detect(&q0, 0.1).unwrap();
+            god.narrow_phase(&q0, 0.1);
+            let extra = god.run.regions.near_extra;
+            // Turning in place, a tenth of the extra reach a frame: spent in ten frames, a
+            // tenth of it used so far.
+            god.run.motion.last_step = [0.0; 3];
+            god.run.motion.last_turn = [0.0, 0.0, 1e-4];
+            god.run.motion.last_motion = 0.1 * extra;
+            god.run.regions.near_descent_us = descent_slices * slice_us;
+            let turned = Pose::from_array([0.0, 0.0, 2.4, 0.0, 0.0, 0.0]);
+            let turned = Pose::from_translation_rotation(
+                &turned.translation(),
+                &(rotation_exp(&Vector3::new(0.0, 0.0, 0.1 * extra / god.bodies.reach))
+                    * turned.rotation_matrix()),
+            );
+            assert!(god.span_bound(&god.run.regions.near_at.unwrap(), &turned) < 0.5 * extra);
+            god.tend_near(&turned, slice_us, far);
+            god.run.regions.near_ahead.at.is_some()
+        };
+        // A descent of two slices fits in the frames left after the start share: it waits.
+        assert!(!start(&mut god, 2.0));
+        // One of eight slices would not (9 frames left, 16 needed): it starts now.
+        assert!(start(&mut god, 8.0));
     }
 
     #[test]
