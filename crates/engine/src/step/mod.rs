@@ -579,10 +579,19 @@ impl GodObject {
         self.reuse_region(&mut f, &mut out);
         for pass in 0..f.max_passes {
             f.clock.pass_start = Instant::now();
+            // In the mesh mode a new region's narrow phase runs to its end whatever the
+            // deadline: its pass starts only where one as costly as the last fits.
+            let new_mesh_region = f.course.detect_now && self.bodies.meshes.is_some();
+            let region_pass_us = if new_mesh_region {
+                self.run.regions.mesh_region_pass_us
+            } else {
+                0.0
+            };
             if pass > 0
-                && !f
+                && (!f
                     .clock
                     .room_for_pass(self.params.budget_us, self.params.tuning.pass_headroom)
+                    || f.clock.elapsed_us() + region_pass_us > self.params.budget_us)
             {
                 break;
             }
@@ -596,6 +605,10 @@ impl GodObject {
                 Flow::Go => self.solve_pass(&mut f, &mut out),
                 other => other,
             };
+            if new_mesh_region {
+                self.run.regions.mesh_region_pass_us =
+                    f.clock.pass_start.elapsed().as_secs_f64() * 1e6;
+            }
             match flow {
                 Flow::Go | Flow::Next => {}
                 Flow::Stop => break,

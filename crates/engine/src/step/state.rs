@@ -197,6 +197,7 @@ impl RunState {
                 cached_bound: false,
                 near_extra: tuning.near_list_mm,
                 near_descent_us: 0.0,
+                mesh_region_pass_us: 0.0,
                 near_ahead: NearAhead::IDLE,
             },
             solve: SolveMemory {
@@ -302,6 +303,9 @@ pub(super) struct RegionMemory {
     /// What the last complete near list's descent cost, µs (in the frame, or its slices ahead
     /// together).
     pub(super) near_descent_us: f64,
+    /// What the last pass that listed a new region's triangle pairs cost, µs (the mesh mode's
+    /// narrow phase is not stopped by the deadline: a pass starts only where that fits).
+    pub(super) mesh_region_pass_us: f64,
     /// The region centre and margin (mm) `detector.contacts` was listed for.
     pub(super) contacts_at: Option<(Pose, f64)>,
     /// Where the near list's pair bounds hold (the last region that filtered it), or `None`:
