@@ -1262,6 +1262,35 @@ mod tests {
     }
 
     #[test]
+    fn a_ball_past_the_storage_lowers_the_dense_floor_until_balls_fit_again() {
+        let (mut god, tool, sheet) = cube_over_sheet_storing(48);
+        let floor = god.params.tuning.dense_min_allow_mm;
+        let mut lowest = f64::INFINITY;
+        for i in 0..200 {
+            // Pressed onto the wavy sheet, where a ball of the floor's size holds more triangle
+            // pairs than the storage, then lifted off.
+            let (x, z) = if i < 150 {
+                (0.0, 2.45 - 0.002 * f64::from(i))
+            } else {
+                (0.1 * f64::from(i - 150), 6.0)
+            };
+            let f = god.step(&Pose::from_array([x, 0.0, z, 0.0, 0.0, 0.0]));
+            lowest = lowest.min(god.dense_floor());
+            let q = Pose::from_array(f.q_g);
+            assert!(
+                brute_distance(&tool, &sheet, &q) > 0.0,
+                "frame {i}: triangles meet"
+            );
+        }
+        assert!(lowest < floor, "no ball overflowed: {lowest}");
+        assert_eq!(
+            god.dense_floor(),
+            floor,
+            "balls that fit give the floor back"
+        );
+    }
+
+    #[test]
     fn a_list_built_ahead_is_taken_only_for_a_region_it_covers() {
         let (mut god, _, _) = cube_over_sheet();
         let far = Instant::now() + Duration::from_secs(1);

@@ -92,7 +92,7 @@ impl GodObject {
         let mut allowed = need
             .min(f.course.allow)
             .min(cap)
-            .min(dense_cap.max(self.params.tuning.dense_min_allow_mm));
+            .min(dense_cap.max(self.dense_floor()));
         // Inside a neighbour list a region costs a filter, not a traversal: one that stays
         // inside it (and a trust region) beats a wider one traversed.
         let list_room = self.ahead.neighbours.slack(&q_lin, None, skin);
@@ -137,6 +137,16 @@ impl GodObject {
         plan.extent = plan.sweep.map_or(0.0, |(_, len)| len) + plan.width;
         plan.free_slack = self.free_slack(&q_lin);
         plan
+    }
+
+    /// Least allowance (mm) the pair density may give a ball region: [`Tuning::dense_min_allow_mm`],
+    /// or less after a ball that overflowed the storage (a peg 0.05 mm from its hole's whole
+    /// wall: the floor and the skin list the wall, frame after frame).
+    pub(super) fn dense_floor(&self) -> f64 {
+        self.params
+            .tuning
+            .dense_min_allow_mm
+            .min(self.run.regions.overflow_floor)
     }
 
     /// A path region for a hand in motion that the ball cannot follow: the pairs along the
@@ -458,11 +468,21 @@ impl GodObject {
                 return Flow::Next;
             }
             f.course.allow = 0.25 * plan.allowed;
+            // The next frames' balls start no larger (the dense floor would list it again).
+            if plan.sweep.is_none() {
+                self.run.regions.overflow_floor = f.course.allow.max(MIN_OVERFLOW_ALLOW_MM);
+            }
             f.clock.end_pass();
             if f.course.allow < MIN_OVERFLOW_ALLOW_MM {
                 return Flow::Stop;
             }
             return Flow::Next;
+        }
+        // A ball that fits, or free space, lets the floor grow back (doubled, to the tuned
+        // floor).
+        if plan.sweep.is_none() || self.detector.pairs.is_empty() {
+            let floor = &mut self.run.regions.overflow_floor;
+            *floor = (2.0 * *floor).min(self.params.tuning.dense_min_allow_mm);
         }
         let region = match plan.sweep {
             Some((path, length)) => Region {
