@@ -333,8 +333,7 @@ impl GodObject {
         // wall 0.5 mm away spends an unswept list in 16 frames, while the next one's descent
         // takes 15 slices: every list was listed in a frame of 2 ms. A slow tool's list
         // outlasts its descent and is not swept (a longer list costs every region's filter).
-        let slice_us = (tuning.near_ahead_share * self.params.budget_us).max(1e-9);
-        let to_build = self.run.regions.near_descent_us / slice_us / NEAR_AHEAD_START;
+        let to_build = self.near_descent_frames() / NEAR_AHEAD_START;
         let served = extra / self.run.motion.last_motion.max(1e-12);
         let paced = if served < to_build {
             to_build.min(tuning.near_sweep_frames)
@@ -350,6 +349,13 @@ impl GodObject {
         } else {
             [0.0; 3]
         }
+    }
+
+    /// Frames a near list's descent takes built ahead, a slice of
+    /// [`Tuning::near_ahead_share`] of the budget a frame, at the last descent's cost.
+    fn near_descent_frames(&self) -> f64 {
+        let slice_us = self.params.tuning.near_ahead_share * self.params.budget_us;
+        self.run.regions.near_descent_us / slice_us.max(1e-9)
     }
 
     /// Puts the next near list in place of the current one when it is complete and `covers`
@@ -413,7 +419,7 @@ impl GodObject {
             // The next list starts once the tool has used its start share of this one, or
             // earlier where its descent, a slice a frame at the last one's cost, would not be
             // done by then.
-            let build = self.run.regions.near_descent_us / slice_us.max(1e-9);
+            let build = self.near_descent_frames();
             if used < NEAR_AHEAD_START * extra
                 && (len2 == 0.0 || along < NEAR_AHEAD_START)
                 && left > build / NEAR_AHEAD_START
