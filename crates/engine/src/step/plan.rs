@@ -469,9 +469,7 @@ impl GodObject {
             }
             f.course.allow = 0.25 * plan.allowed;
             // The next frames' balls start no larger (the dense floor would list it again).
-            if plan.sweep.is_none() {
-                self.run.regions.overflow_floor = f.course.allow.max(MIN_OVERFLOW_ALLOW_MM);
-            }
+            self.run.regions.overflow_floor = f.course.allow.max(MIN_OVERFLOW_ALLOW_MM);
             f.clock.end_pass();
             if f.course.allow < MIN_OVERFLOW_ALLOW_MM {
                 return Flow::Stop;
