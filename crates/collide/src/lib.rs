@@ -52,6 +52,7 @@
 
 mod constraint;
 mod contact_area;
+mod flat_faces;
 mod mesh_leaves;
 mod near;
 mod neighbours;
@@ -68,6 +69,7 @@ pub use constraint::{
     RotationCoordinates, DEGENERATE_DISTANCE,
 };
 pub use contact_area::{flat_overlap, AreaMoment};
+pub use flat_faces::{merge_flat_faces, FlatFaces, FLAT_TOLERANCE_MM};
 pub use mesh_leaves::{MeshLeaves, MeshLeavesError};
 pub use near::near_box;
 pub use neighbours::{BackgroundList, ListStatus, NeighbourList};

@@ -46,6 +46,10 @@ pub struct Heuristics {
     /// The mesh mode's far rows: a triangle pair too far apart to meet anywhere in the region
     /// gets an empty row instead of its exact distance.
     pub mesh_far_rows: bool,
+    /// The mesh mode's flat faces: neighbouring triangles in one plane making one convex
+    /// polygon are cut again into the fewest triangles at set-up (the surface unchanged), so a
+    /// flat face cut into a grid or rings gives a few pairs instead of many.
+    pub mesh_flat_faces: bool,
 }
 
 impl Default for Heuristics {
@@ -70,6 +74,7 @@ impl Heuristics {
         warm_start: true,
         mesh_near_list: true,
         mesh_far_rows: true,
+        mesh_flat_faces: true,
     };
 
     /// Every heuristic off.
@@ -87,10 +92,11 @@ impl Heuristics {
         warm_start: false,
         mesh_near_list: false,
         mesh_far_rows: false,
+        mesh_flat_faces: false,
     };
 
     /// The names of the switches (as the bench's ablation study prints them), in order.
-    pub const NAMES: [&'static str; 13] = [
+    pub const NAMES: [&'static str; 14] = [
         "region-reuse",
         "path-regions",
         "slab-regions",
@@ -104,6 +110,7 @@ impl Heuristics {
         "warm-start",
         "mesh-near-list",
         "mesh-far-rows",
+        "mesh-flat-faces",
     ];
 
     /// The switch called `name` ([`Heuristics::NAMES`]), for reading and setting.
@@ -122,6 +129,7 @@ impl Heuristics {
             "warm-start" => &mut self.warm_start,
             "mesh-near-list" => &mut self.mesh_near_list,
             "mesh-far-rows" => &mut self.mesh_far_rows,
+            "mesh-flat-faces" => &mut self.mesh_flat_faces,
             _ => return None,
         })
     }

@@ -673,11 +673,14 @@ fn attach_meshes(
         let attach = |tree: &SphereTree, m: &MeshRef<'_>, pose: &Pose| {
             let tree = &top_levels(tree, MESH_SPHERE_LEVELS);
             let (grown, _) = collide::MeshLeaves::attach(tree, m.vertices, m.triangles, pose)?;
-            let triangles: Vec<collide::Triangle> = m
-                .triangles
-                .iter()
-                .map(|t| t.map(|i| m.vertices[i as usize]))
-                .collect();
+            let triangles: Vec<collide::Triangle> = if params.heuristics.mesh_flat_faces {
+                collide::merge_flat_faces(m.vertices, m.triangles).triangles
+            } else {
+                m.triangles
+                    .iter()
+                    .map(|t| t.map(|i| m.vertices[i as usize]))
+                    .collect()
+            };
             Ok::<_, collide::MeshLeavesError>((grown, TriangleTree::build(&triangles, pose)))
         };
         let tm = tool_mesh.as_ref().ok_or(EngineError::MeshNeedsDistance)?;
