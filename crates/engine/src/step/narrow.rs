@@ -46,6 +46,12 @@ const NEAR_THIN_SHARE: f64 = 0.75;
 /// earlier, it has more frames to be built in.
 const NEAR_AHEAD_START: f64 = 0.5;
 
+/// Width (mm) and count of the bins the near list's pair bounds are counted in, each region,
+/// for the distance within which it holds a ball's pair target ([`GodObject::standoff_allow`]):
+/// a 0.0025 mm grain up to 0.1 mm, on the stack.
+const STANDOFF_BIN_MM: f64 = 0.0025;
+const STANDOFF_BINS: usize = 40;
+
 /// Bisections of a step whose end has meeting triangles, toward the last free pose on it.
 const BACKTRACK_STEPS: u32 = 8;
 
@@ -108,6 +114,8 @@ impl GodObject {
         // centre.
         self.run.regions.contacts_at = Some((*center, margin + path.norm()));
         if self.detector.pairs.is_empty() {
+            // Free space: no wall stands near.
+            self.run.regions.near_standoff = f64::INFINITY;
             return;
         }
         let end = Pose::from_translation_rotation(
@@ -159,6 +167,7 @@ impl GodObject {
             let started = Instant::now();
             let dropped = self.list_near(&span, !wide);
             self.run.counts.near_listed += 1;
+            self.run.regions.near_standoff = f64::INFINITY;
             if wide && dropped == 0 {
                 self.run.regions.near_at = Some(span);
                 self.run.regions.near_descent_us = started.elapsed().as_secs_f64() * 1e6;
@@ -223,6 +232,17 @@ impl GodObject {
         };
         let (rot, t) = (center.rotation_matrix(), center.translation());
         let detector = &mut self.detector;
+        // The exact distances measured here, counted: how far off the tool a dense wall
+        // stands ([`GodObject::standoff_allow`]).
+        let mut bins = [0u32; STANDOFF_BINS];
+        let mut measured = 0usize;
+        let mut count = |apart: f64| {
+            measured += 1;
+            let bin = (apart.max(0.0) / STANDOFF_BIN_MM) as usize;
+            if let Some(n) = bins.get_mut(bin) {
+                *n += 1;
+            }
+        };
         // A leaf pair lists its tool triangles' pairs one after another: each is posed once.
         let mut posed: Option<(u32, PosedTriangle)> = None;
         for c in detector.near.iter_mut() {
@@ -249,6 +269,7 @@ impl GodObject {
                 continue;
             }
             let d = triangle_distance(&tool.corners, part_tree.triangle(c.part));
+            count(if d.meet { 0.0 } else { d.distance });
             if anchored {
                 c.apart = if d.meet { 0.0 } else { d.distance };
             }
@@ -261,6 +282,29 @@ impl GodObject {
         }
         detector.nearest_at = Some((rot, t));
         self.run.regions.near_bounds_at = Some(*center);
+        // A region that measured a ball's pair target finds where the wall stands; one kept
+        // short of it that measured under half the target leaves that as found, until a new
+        // list; one that measured more found the tool on something nearer than the wall (a
+        // face it was pushed onto), where a smaller ball no longer halves the work.
+        let target = self.params.tuning.ball_pair_target;
+        if (measured as f64) >= 0.5 * target && (measured as f64) < target {
+            self.run.regions.near_standoff = f64::INFINITY;
+        } else if measured as f64 >= target {
+            // A wall: a step in the count, under half the target nearer than it (a spread of
+            // distances, a curved contact, gives a smaller ball no saving).
+            self.run.regions.near_standoff = f64::INFINITY;
+            let mut held = 0.0;
+            for (i, &n) in bins.iter().enumerate() {
+                let nearer = held;
+                held += f64::from(n);
+                if held >= target {
+                    if nearer < 0.5 * target {
+                        self.run.regions.near_standoff = i as f64 * STANDOFF_BIN_MM;
+                    }
+                    break;
+                }
+            }
+        }
     }
 
     /// Lists into `detector.near` the triangle pairs within the span's reach (mm) of each other
@@ -374,6 +418,7 @@ impl GodObject {
         std::mem::swap(&mut self.detector.near, &mut self.detector.next_near);
         self.run.regions.near_bounds_at = None;
         self.run.regions.near_at = Some(at);
+        self.run.regions.near_standoff = f64::INFINITY;
         self.run.counts.near_taken += 1;
         true
     }
@@ -1265,6 +1310,103 @@ mod tests {
         assert!(!start(&mut god, 2.0));
         // One of eight slices would not (9 frames left, 16 needed): it starts now.
         assert!(start(&mut god, 8.0));
+    }
+
+    /// The 4 mm cube tool over a flat 8 x 8 mm sheet of 0.25 mm cells (2 048 triangles, kept
+    /// as cells: flat faces not merged), its top at z = 0: every cell under the cube's bottom
+    /// is as far from it as the cube stands off.
+    fn cube_over_fine_grid() -> GodObject {
+        let n = 32u32;
+        let v: Vec<[f64; 3]> = (0..=n)
+            .flat_map(|i| (0..=n).map(move |j| (i, j)))
+            .map(|(i, j)| [-4.0 + 0.25 * f64::from(i), -4.0 + 0.25 * f64::from(j), 0.0])
+            .collect();
+        let at = |i: u32, j: u32| i * (n + 1) + j;
+        let t: Vec<[u32; 3]> = (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .flat_map(|(i, j)| {
+                [
+                    [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
+                    [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
+                ]
+            })
+            .collect();
+        let (tv, tt) = box_mesh([0.0; 3], [2.0; 3]);
+        let mut params = EngineConfig {
+            geometry: Geometry::Mesh,
+            ..EngineConfig::default()
+        };
+        params.heuristics.mesh_flat_faces = false;
+        params.tuning.ball_pair_target = 200.0;
+        GodObject::with_meshes(
+            &one_leaf([0.0; 3], 3.5),
+            Some(MeshRef {
+                vertices: &tv,
+                triangles: &tt,
+            }),
+            &[(one_leaf([0.0; 3], 5.7), Pose::identity())],
+            &[Some(MeshRef {
+                vertices: &v,
+                triangles: &t,
+            })],
+            params,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn a_wall_a_little_off_keeps_balls_short_of_it_and_touching_faces_keep_the_floor() {
+        let skin = EngineConfig::default().skin_mm;
+        let allow_at = |gap: f64| {
+            let mut god = cube_over_fine_grid();
+            let q = Pose::from_array([0.0, 0.0, 2.0 + gap, 0.0, 0.0, 0.0]);
+            god.detect(&q, 0.12).unwrap();
+            god.narrow_phase(&q, 0.12);
+            assert!(god.detector.near.len() > 500, "{}", god.detector.near.len());
+            god.standoff_allow(skin)
+        };
+        // 0.05 mm off: the dense floor (0.03 mm) and the skin would take in all 512 cells
+        // under the cube; a ball that, moved by its allowance again, stays short of them
+        // lists none.
+        let room = allow_at(0.05);
+        assert!(
+            room < EngineConfig::default().tuning.dense_min_allow_mm,
+            "{room}"
+        );
+        assert!(2.0 * room + skin <= 0.05, "{room}");
+        assert!(2.0 * room + skin >= 0.05 - 2.0 * STANDOFF_BIN_MM, "{room}");
+        // Resting on the sheet: a smaller ball holds as many touching pairs; the floor stands.
+        assert_eq!(allow_at(0.0005), f64::INFINITY);
+        // Far off: the room is past the floor, which already keeps the sheet out.
+        assert_eq!(allow_at(0.11), f64::INFINITY);
+        // A ball kept short of the wall measures nothing and keeps the room; pushed onto the
+        // sheet, its region measures the cells under the cube and gives the floor back.
+        let mut god = cube_over_fine_grid();
+        let q = Pose::from_array([0.0, 0.0, 2.05, 0.0, 0.0, 0.0]);
+        god.detect(&q, 0.12).unwrap();
+        god.narrow_phase(&q, 0.12);
+        let room = god.standoff_allow(skin);
+        let slid = Pose::from_array([room, 0.0, 2.05, 0.0, 0.0, 0.0]);
+        god.narrow_phase(&slid, room + skin);
+        assert!(god.detector.contacts.is_empty());
+        assert_eq!(god.standoff_allow(skin), room);
+        let pressed = Pose::from_array([room, 0.0, 2.0 + room, 0.0, 0.0, 0.0]);
+        god.narrow_phase(&pressed, room + skin);
+        assert!(!god.detector.contacts.is_empty());
+        assert_eq!(god.standoff_allow(skin), f64::INFINITY);
+        // A spread of distances is no wall: the cube tilted over the sheet, its bottom from
+        // 0.005 to about 0.07 mm off, where a smaller ball holds about as many pairs per
+        // millimetre. (The target is every pair, so the count reaches it at the farthest,
+        // whose room would be under the floor.)
+        let mut god = cube_over_fine_grid();
+        let q = Pose::from_array([0.0, 0.0, 2.037, 0.0, 0.016, 0.0]);
+        god.detect(&q, 0.1).unwrap();
+        god.narrow_phase(&q, 0.1);
+        let near = god.detector.contacts.len();
+        assert!(near >= 500, "{near}");
+        god.params.tuning.ball_pair_target = near as f64;
+        god.narrow_phase(&q, 0.1);
+        assert_eq!(god.standoff_allow(skin), f64::INFINITY);
     }
 
     #[test]

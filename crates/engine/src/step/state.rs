@@ -199,6 +199,7 @@ impl RunState {
                 near_descent_us: 0.0,
                 mesh_region_pass_us: 0.0,
                 overflow_floor: f64::INFINITY,
+                near_standoff: f64::INFINITY,
                 near_ahead: NearAhead::IDLE,
             },
             solve: SolveMemory {
@@ -310,6 +311,11 @@ pub(super) struct RegionMemory {
     /// The dense floor after a ball region overflowed the storage (a quarter of its
     /// allowance, mm), doubled back per ball that fits ([`GodObject::dense_floor`]).
     pub(super) overflow_floor: f64,
+    /// A lower bound on the distance (mm) within which the near list held
+    /// [`Tuning::ball_pair_target`] pairs at the last region that filtered it
+    /// (`f64::INFINITY`: fewer pairs, or no list): a tight fit's wall standing a little off
+    /// the tool ([`GodObject::standoff_allow`]).
+    pub(super) near_standoff: f64,
     /// The region centre and margin (mm) `detector.contacts` was listed for.
     pub(super) contacts_at: Option<(Pose, f64)>,
     /// Where the near list's pair bounds hold (the last region that filtered it), or `None`:
