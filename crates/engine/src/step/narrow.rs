@@ -22,6 +22,12 @@ pub(super) struct TriPair {
     pub(super) tool: u32,
     pub(super) part: u32,
     pub(super) apart: f64,
+    /// How far (mm) the tool's triangle lay wholly on one side of the object triangle's plane
+    /// where the list was listed (its span's pose, not swept): positive in front, negative
+    /// behind, 0 where it crossed it. A bound that moves with the tool's translation along
+    /// the plane's normal only, so a tool sliding along a wall keeps it
+    /// ([`GodObject::narrow_phase_along`]).
+    pub(super) beyond: f64,
 }
 
 /// The meshes of the mesh geometry mode: the tool's triangles in their box tree (tool frame)
@@ -230,8 +236,20 @@ impl GodObject {
                 .near_at
                 .map_or(0.0, |span| farthest(&|q| self.span_bound(&span, q))),
         };
+        // Each pair's plane gap moves with the translation from where the list was listed
+        // along the object triangle's normal only (a turn moves it by at most the turn bound):
+        // a tool sliding along a wall keeps its gaps to the wall, where the motion bound of the
+        // way, frame after frame, would pose and test them again.
+        let (listed_shift, listed_turn) = match self.run.regions.near_listed_at {
+            Some(at) => (
+                center.translation() - at.translation(),
+                self.turn_bound(&at.rotation_matrix(), &center.rotation_matrix()),
+            ),
+            None => (Vector3::zeros(), f64::INFINITY),
+        };
         let (rot, t) = (center.rotation_matrix(), center.translation());
         let detector = &mut self.detector;
+        let mut posed_count = 0u64;
         // The exact distances measured here, counted: how far off the tool a dense wall
         // stands ([`GodObject::standoff_allow`]).
         let mut bins = [0u32; STANDOFF_BINS];
@@ -252,6 +270,22 @@ impl GodObject {
                 }
                 continue;
             }
+            if c.beyond != 0.0 && listed_turn.is_finite() {
+                let part_tree = &meshes.objects[c.object as usize];
+                let (n, _) = part_tree.plane(c.part);
+                let side = c.beyond.signum();
+                let toward = side
+                    * (n[0] * listed_shift[0] + n[1] * listed_shift[1] + n[2] * listed_shift[2]);
+                let here = side * c.beyond + toward - listed_turn;
+                let along = side * (n[0] * path[0] + n[1] * path[1] + n[2] * path[2]);
+                if here + along.min(0.0) > margin {
+                    if anchored {
+                        c.apart = (c.apart - moved).max(here);
+                    }
+                    continue;
+                }
+            }
+            posed_count += 1;
             let tool = match &posed {
                 Some((i, tool)) if *i == c.tool => tool,
                 _ => {
@@ -282,6 +316,7 @@ impl GodObject {
         }
         detector.nearest_at = Some((rot, t));
         self.run.regions.near_bounds_at = Some(*center);
+        self.run.counts.near_posed += posed_count;
         // A region that measured a ball's pair target finds where the wall stands; one kept
         // short of it that measured under half the target leaves that as found, until a new
         // list; one that measured more found the tool on something nearer than the wall (a
@@ -317,6 +352,7 @@ impl GodObject {
             return 0;
         };
         self.run.regions.near_bounds_at = None;
+        self.run.regions.near_listed_at = Some(span.at);
         let detector = &mut self.detector;
         detector.near.clear();
         let (rot, t) = (span.at.rotation_matrix(), span.at.translation());
@@ -417,6 +453,7 @@ impl GodObject {
         }
         std::mem::swap(&mut self.detector.near, &mut self.detector.next_near);
         self.run.regions.near_bounds_at = None;
+        self.run.regions.near_listed_at = Some(at.at);
         self.run.regions.near_at = Some(at);
         self.run.regions.near_standoff = f64::INFINITY;
         self.run.counts.near_taken += 1;
@@ -804,6 +841,24 @@ fn side_gap(a: &Triangle, n: &[f64; 3], d: f64, shift: f64) -> f64 {
     }
 }
 
+/// How far (mm) the triangle `a` lies wholly on one side of the plane `n · p = d` (unit `n`):
+/// positive in front (`n · p > d` at every corner), negative behind, 0 where it touches or
+/// crosses it.
+fn signed_side_gap(a: &Triangle, n: &[f64; 3], d: f64) -> f64 {
+    let side = a.map(|p| n[0] * p[0] + n[1] * p[1] + n[2] * p[2] - d);
+    let (lo, hi) = (
+        side[0].min(side[1]).min(side[2]),
+        side[0].max(side[1]).max(side[2]),
+    );
+    if lo > 0.0 {
+        lo
+    } else if hi < 0.0 {
+        hi
+    } else {
+        0.0
+    }
+}
+
 /// A lower bound (mm) on the distance of triangles `a` and `b`: how far `a` lies wholly on one
 /// side of `b`'s plane (0 where it touches or crosses it; every point of `b` is in the plane,
 /// so no point of `a` is nearer to `b` than to the plane). A few products against the exact
@@ -845,11 +900,13 @@ impl LeafTriangles<'_> {
                     continue;
                 };
                 if list.len() < list.capacity() {
+                    let (n, d) = self.part_tree.plane(part);
                     list.push(TriPair {
                         object: self.object as u32,
                         tool,
                         part,
                         apart,
+                        beyond: signed_side_gap(&tool_tri.corners, &n, d),
                     });
                 } else {
                     dropped += 1;

@@ -194,6 +194,7 @@ impl RunState {
                 near_at: None,
                 contacts_at: None,
                 near_bounds_at: None,
+                near_listed_at: None,
                 cached_bound: false,
                 near_extra: tuning.near_list_mm,
                 near_descent_us: 0.0,
@@ -232,6 +233,7 @@ impl RunState {
                 regions_traversed: 0,
                 near_listed: 0,
                 near_taken: 0,
+                near_posed: 0,
             },
             friction: FrictionMemory {
                 sliding: false,
@@ -321,6 +323,9 @@ pub(super) struct RegionMemory {
     /// Where the near list's pair bounds hold (the last region that filtered it), or `None`:
     /// they hold on its span, as listed.
     pub(super) near_bounds_at: Option<Pose>,
+    /// The pose `detector.near` was listed at (its span's own, not swept): where each pair's
+    /// [`TriPair::beyond`] holds.
+    pub(super) near_listed_at: Option<Pose>,
 }
 
 /// The solves: the warm start and the time a row costs.
@@ -427,6 +432,8 @@ pub(super) struct WorkCounts {
     /// The mesh mode's near lists: listed in a frame's own time, and built ahead and taken.
     pub(super) near_listed: u64,
     pub(super) near_taken: u64,
+    /// Near-list pairs the regions' filters posed (their bounds did not settle them).
+    pub(super) near_posed: u64,
 }
 
 /// Friction's stick or slip, and the contact it acts in.
