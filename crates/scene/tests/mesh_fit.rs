@@ -1,5 +1,6 @@
 //! The mesh geometry mode against the sphere envelope on small generated fits: a round peg of
-//! radius 2 mm at 0.2 and 0.05 mm radial clearance jams at the hole's mouth on the leaf spheres
+//! radius 2 mm at each clearance of the fit study (0.5, 0.2, 0.1, 0.05 and 0.02 mm radial)
+//! jams at the hole's mouth on the leaf spheres
 //! (their envelope stands off the cylinder by more than the gap) and goes to full depth on the
 //! parts' own triangles, whose rows keep every triangle pair apart. No deadline, so the frames
 //! are the same on a loaded machine.
@@ -38,7 +39,11 @@ fn insert(p: &FitParams, geometry: Geometry) -> FitOutcome {
 }
 
 fn check(clearance_mm: f64) {
-    let p = small_fit(clearance_mm);
+    check_fit(small_fit(clearance_mm));
+}
+
+fn check_fit(p: FitParams) {
+    let clearance_mm = p.clearance_mm;
     let spheres = insert(&p, Geometry::Spheres);
     assert!(
         !spheres.full_depth && spheres.depth_reached_mm < 0.5 * p.depth_mm,
@@ -52,13 +57,28 @@ fn check(clearance_mm: f64) {
 }
 
 #[test]
+fn a_round_peg_at_0_5_mm_clearance_jams_on_spheres_and_goes_in_on_the_mesh() {
+    check(0.5);
+}
+
+#[test]
 fn a_round_peg_at_0_2_mm_clearance_jams_on_spheres_and_goes_in_on_the_mesh() {
     check(0.2);
 }
 
 #[test]
+fn a_round_peg_at_0_1_mm_clearance_jams_on_spheres_and_goes_in_on_the_mesh() {
+    check(0.1);
+}
+
+#[test]
 fn a_round_peg_at_0_05_mm_clearance_jams_on_spheres_and_goes_in_on_the_mesh() {
     check(0.05);
+}
+
+#[test]
+fn a_round_peg_at_0_02_mm_clearance_jams_on_spheres_and_goes_in_on_the_mesh() {
+    check(0.02);
 }
 
 /// A cylinder slid at 50 mm/s over a block's 90° edge and back, on the mesh: the force turns
@@ -98,4 +118,13 @@ fn a_cylinder_slid_over_a_sharp_edge_on_the_mesh_turns_the_force_without_jumps()
         "the tool trails the hand by {trail:.2} mm on the way back"
     );
     assert!(frames.iter().all(|f| f.penetration_mm == 0.0));
+}
+
+/// A splined shaft (six keys) at 0.05 mm on its root circle and on the keys' sides.
+#[test]
+fn a_splined_peg_at_0_05_mm_clearance_jams_on_spheres_and_goes_in_on_the_mesh() {
+    check_fit(FitParams {
+        shape: fit::FitShape::Splined,
+        ..small_fit(0.05)
+    });
 }
