@@ -173,7 +173,6 @@ impl GodObject {
             let started = Instant::now();
             let dropped = self.list_near(&span, !wide);
             self.run.counts.near_listed += 1;
-            self.run.regions.near_standoff = f64::INFINITY;
             if wide && dropped == 0 {
                 self.run.regions.near_at = Some(span);
                 self.run.regions.near_descent_us = started.elapsed().as_secs_f64() * 1e6;
@@ -318,9 +317,11 @@ impl GodObject {
         self.run.regions.near_bounds_at = Some(*center);
         self.run.counts.near_posed += posed_count;
         // A region that measured a ball's pair target finds where the wall stands; one kept
-        // short of it that measured under half the target leaves that as found, until a new
-        // list; one that measured more found the tool on something nearer than the wall (a
-        // face it was pushed onto), where a smaller ball no longer halves the work.
+        // short of it that measured under half the target leaves that as found (a new list
+        // too: the wall is where the tool is, not where a list was listed, and each reset
+        // listed the wall whole once a list); one that measured more found the tool on
+        // something nearer than the wall (a face it was pushed onto), where a smaller ball no
+        // longer halves the work.
         let target = self.params.tuning.ball_pair_target;
         if (measured as f64) >= 0.5 * target && (measured as f64) < target {
             self.run.regions.near_standoff = f64::INFINITY;
@@ -455,7 +456,6 @@ impl GodObject {
         self.run.regions.near_bounds_at = None;
         self.run.regions.near_listed_at = Some(at.at);
         self.run.regions.near_at = Some(at);
-        self.run.regions.near_standoff = f64::INFINITY;
         self.run.counts.near_taken += 1;
         true
     }
