@@ -151,6 +151,12 @@ impl GodObject {
             .near_ahead
             .at
             .is_some_and(|at| covered(&at));
+        if listed.is_none() && ahead_covers && !self.run.regions.near_ahead.done {
+            // The list being built ahead holds the region but is not done: its rest costs
+            // less than a new list's whole descent.
+            let far = Instant::now() + Duration::from_secs(3600);
+            self.tend_near(center, 3.6e9, far);
+        }
         if listed.is_none() && self.take_near_ahead(ahead_covers) {
             listed = self.run.regions.near_at;
         }
@@ -176,26 +182,7 @@ impl GodObject {
             if wide && dropped == 0 {
                 self.run.regions.near_at = Some(span);
                 self.run.regions.near_descent_us = started.elapsed().as_secs_f64() * 1e6;
-                // Every region it serves filters the whole list: a long one reaches less far
-                // next time, a short one farther.
-                let len = self.detector.near.len();
-                // A shorter reach pays only where it lists fewer pairs: faces lying flat on
-                // each other have nearly all their pairs touching, at any reach.
-                let halved = span.reach - 0.5 * extra;
-                let within_half = self
-                    .detector
-                    .near
-                    .iter()
-                    .filter(|c| c.apart <= halved)
-                    .count();
-                let thins = within_half as f64 <= NEAR_THIN_SHARE * len as f64;
-                self.run.regions.near_extra = if len > self.params.tuning.near_list_pairs && thins {
-                    0.5 * extra
-                } else if 4 * len < self.params.tuning.near_list_pairs {
-                    (2.0 * extra).min(self.params.tuning.near_list_mm)
-                } else {
-                    extra
-                };
+                self.adapt_near_extra(span.reach, extra);
             } else {
                 self.run.regions.near_at = None;
                 let dropped = if wide {
@@ -457,7 +444,34 @@ impl GodObject {
         self.run.regions.near_listed_at = Some(at.at);
         self.run.regions.near_at = Some(at);
         self.run.counts.near_taken += 1;
+        self.adapt_near_extra(at.reach, self.run.regions.near_extra);
         true
+    }
+
+    /// Every region a list serves filters it whole: after a list of more than
+    /// [`Tuning::near_list_pairs`] the next reaches half as far beyond its margin (where half
+    /// the reach would keep at most [`NEAR_THIN_SHARE`] of its pairs, by their listed bounds:
+    /// faces lying flat on each other have nearly all their pairs touching, at any reach),
+    /// after one of under a quarter of that twice as far. `reach` is the list's (mm), `extra`
+    /// the part of it beyond the regions' margin.
+    fn adapt_near_extra(&mut self, reach: f64, extra: f64) {
+        let len = self.detector.near.len();
+        let halved = reach - 0.5 * extra;
+        let within_half = self
+            .detector
+            .near
+            .iter()
+            .filter(|c| c.apart <= halved)
+            .count();
+        let thins = within_half as f64 <= NEAR_THIN_SHARE * len as f64;
+        let tuning = &self.params.tuning;
+        self.run.regions.near_extra = if len > tuning.near_list_pairs && thins {
+            0.5 * extra
+        } else if 4 * len < tuning.near_list_pairs {
+            (2.0 * extra).min(tuning.near_list_mm)
+        } else {
+            extra
+        };
     }
 
     /// Builds the next near list a slice at a time (at most `slice_us`, µs, and never past
@@ -1493,6 +1507,48 @@ mod tests {
             floor,
             "balls that fit give the floor back"
         );
+    }
+
+    /// A list being built ahead that holds the region but is not done is finished in the
+    /// frame and taken, not listed anew; its pairs are the ones a list listed there gives.
+    #[test]
+    fn a_list_ahead_that_holds_the_region_is_finished_rather_than_listed_anew() {
+        let (mut god, _, _) = cube_over_sheet();
+        let far = Instant::now() + Duration::from_secs(1);
+        let (q0, q1) = (
+            Pose::from_array([0.0, 0.0, 2.3, 0.0, 0.0, 0.0]),
+            Pose::from_array([0.3, 0.0, 2.3, 0.0, 0.0, 0.0]),
+        );
+        god.detect(&q0, 0.1).unwrap();
+        god.narrow_phase(&q0, 0.1);
+        // Started about q1, but no slice of its descent done.
+        god.tend_near(&q1, 0.0, far);
+        let ahead = god.run.regions.near_ahead;
+        assert!(ahead.at.is_some() && !ahead.done);
+        let listed = god.run.counts.near_listed;
+        // A list taken is judged as one listed: longer than the pair target, the next
+        // reaches half as far beyond the margin.
+        let extra = god.run.regions.near_extra;
+        god.params.tuning.near_list_pairs = 4;
+        god.narrow_phase(&q1, 0.15);
+        assert_eq!(god.run.counts.near_taken, 1);
+        assert_eq!(god.run.counts.near_listed, listed, "no list listed anew");
+        assert_eq!(god.run.regions.near_extra, 0.5 * extra);
+        let pairs = |god: &GodObject| {
+            let mut p: Vec<(u32, u32)> = god
+                .detector
+                .contacts
+                .iter()
+                .map(|c| (c.tool, c.part))
+                .collect();
+            p.sort_unstable();
+            p
+        };
+        let (mut fresh, _, _) = cube_over_sheet();
+        fresh.detect(&q1, 0.15).unwrap();
+        fresh.narrow_phase(&q1, 0.15);
+        assert!(!pairs(&fresh).is_empty());
+        assert_eq!(pairs(&god), pairs(&fresh));
     }
 
     #[test]
