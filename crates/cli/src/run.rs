@@ -681,6 +681,10 @@ pub fn run(args: RunArgs) -> Result<()> {
         .context("the trajectory has no frame")?;
 
     let mut engine = scene.engine()?;
+    let mesh_line = engine
+        .god_object()
+        .mesh_triangle_counts()
+        .map(|counts| scene::mesh_triangles_line(&scene, &counts));
     engine
         .reset(&first)
         .map_err(|source| scene::SceneError::Engine {
@@ -712,6 +716,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     );
     summary.trees = tree_infos(&scene);
     summary.geometry = scene.geometry().name().into();
+    summary.load.extend(mesh_line);
     if scene.solver.geometry != scene.geometry() {
         summary.load.push(format!(
             "geometry: {} asked, but not every body has a mesh (a tree read from a .sph file has no triangles): the leaf spheres are the geometry",

@@ -424,6 +424,11 @@ impl Engine {
         self.god.set_friction_enabled(on);
     }
 
+    /// The god-object step inside, to read (e.g. the mesh mode's triangle counts).
+    pub fn god_object(&self) -> &GodObject {
+        &self.god
+    }
+
     /// The god-object step inside, for tools that measure it (benches, tests): e.g. its QP
     /// solver's iteration caps or the penetration at a pose.
     pub fn god_object_mut(&mut self) -> &mut GodObject {

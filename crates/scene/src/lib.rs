@@ -28,8 +28,9 @@ pub mod stats;
 pub mod trajectory;
 
 pub use scene::{
-    load_scene_file, object_tree_for_mesh, scale_tree, tree_for_mesh, BodySpec, Coupling,
-    DeviceSpec, FrictionSpec, Goal, Motion, Scene, SceneSpec, SolverSpec, TreeParams,
+    grouped, load_scene_file, mesh_triangles_line, object_tree_for_mesh, scale_tree, tree_for_mesh,
+    BodySpec, Coupling, DeviceSpec, FrictionSpec, Goal, Motion, Scene, SceneSpec, SolverSpec,
+    TreeParams,
 };
 
 /// Errors of the scene crate. Each message says what to fix; a wrapped cause is kept as the

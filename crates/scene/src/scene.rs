@@ -773,8 +773,30 @@ fn tree_for_mesh_with(
     Ok(tree)
 }
 
+/// The load log's line on the mesh mode's triangles: each body's as given and as the narrow
+/// phase holds them after flat faces were merged (`counts`:
+/// [`engine::GodObject::mesh_triangle_counts`]), e.g. `mesh: triangles as given → with flat
+/// faces merged: tool 10 752 → 448; object 1 10 880 → 960`.
+pub fn mesh_triangles_line(scene: &Scene, counts: &(usize, Vec<usize>)) -> String {
+    let given = |m: &Option<TriMesh>| m.as_ref().map_or(0, |m| m.triangles.len());
+    let mut line = format!(
+        "mesh: triangles as given → with flat faces merged: tool {} → {}",
+        grouped(given(&scene.tool_mesh)),
+        grouped(counts.0)
+    );
+    for (i, (m, n)) in scene.object_meshes.iter().zip(&counts.1).enumerate() {
+        line.push_str(&format!(
+            "; object {} {} → {}",
+            i + 1,
+            grouped(given(m)),
+            grouped(*n)
+        ));
+    }
+    line
+}
+
 /// `n` with its digits in groups of three separated by spaces (`4 096`), for the load log.
-fn grouped(n: usize) -> String {
+pub fn grouped(n: usize) -> String {
     let digits = n.to_string();
     let mut out = String::new();
     for (i, ch) in digits.chars().enumerate() {

@@ -317,3 +317,42 @@ fn the_probe_fits_its_pocket_and_reaches_the_floor_on_the_mesh() {
         "the leaf spheres let the tip to the floor: {spheres:?}"
     );
 }
+
+/// The load log's mesh line names each body's triangles as given and as merged: the probe's
+/// rod (16 facets in rings) keeps one strip of two triangles per facet, the floor slab's grid
+/// faces two each, and no body gains any.
+#[test]
+fn the_mesh_line_reports_each_bodys_triangles_as_given_and_merged() {
+    let cache = common::test_cache();
+    let s = scene::scenes::builtin("probe", &cache).unwrap();
+    let engine = s.engine().unwrap();
+    let counts = engine.god_object().mesh_triangle_counts().unwrap();
+    let given = |m: &Option<TriMesh>| m.as_ref().unwrap().triangles.len();
+    assert!(counts.0 < given(&s.tool_mesh), "{counts:?}");
+    for (m, n) in s.object_meshes.iter().zip(&counts.1) {
+        assert!(*n <= given(m), "{counts:?}");
+    }
+    let line = scene::mesh_triangles_line(&s, &counts);
+    assert!(
+        line.starts_with(&format!(
+            "mesh: triangles as given → with flat faces merged: tool {} → {}",
+            scene::grouped(given(&s.tool_mesh)),
+            scene::grouped(counts.0)
+        )),
+        "{line}"
+    );
+    assert_eq!(
+        line.matches("; object ").count(),
+        s.object_meshes.len(),
+        "{line}"
+    );
+    // The leaf spheres hold no triangles.
+    let mut spheres = s.clone();
+    spheres.solver.geometry = Geometry::Spheres;
+    assert!(spheres
+        .engine()
+        .unwrap()
+        .god_object()
+        .mesh_triangle_counts()
+        .is_none());
+}

@@ -72,6 +72,17 @@ impl GodObject {
         }
     }
 
+    /// In the mesh mode, how many triangles the narrow phase holds for the tool and for each
+    /// object (after flat faces were merged, [`collide::merge_flat_faces`]); `None` on the
+    /// leaf spheres.
+    pub fn mesh_triangle_counts(&self) -> Option<(usize, Vec<usize>)> {
+        let meshes = self.bodies.meshes.as_ref()?;
+        Some((
+            meshes.tool.len(),
+            meshes.objects.iter().map(TriangleTree::len).collect(),
+        ))
+    }
+
     /// How many constraint rows the region's list gives (before the trust region's): one per
     /// leaf pair, or per triangle pair in the mesh mode.
     pub(super) fn listed_rows(&self) -> usize {
