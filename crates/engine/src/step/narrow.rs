@@ -1209,24 +1209,23 @@ mod tests {
         best
     }
 
-    /// The 4 mm cube tool over a wavy 40 x 40 mm sheet of 2 x 2 mm cells (800 triangles), so
-    /// that which pairs are near changes as the tool slides.
-    fn cube_over_sheet() -> (GodObject, Vec<Triangle>, Vec<Triangle>) {
-        cube_over_sheet_storing(EngineConfig::default().max_pairs)
-    }
-
-    /// [`cube_over_sheet`] with storage for `max_pairs` pairs.
-    fn cube_over_sheet_storing(max_pairs: usize) -> (GodObject, Vec<Triangle>, Vec<Triangle>) {
-        let n = 20u32;
-        let sv: Vec<[f64; 3]> = (0..=n)
+    /// A square sheet `[-half, half]²` (mm) of `n × n` cells, two triangles each, facing `+z`,
+    /// its height `z(x, y)` at the corners.
+    fn grid_sheet(
+        n: u32,
+        half: f64,
+        z: impl Fn(f64, f64) -> f64,
+    ) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+        let cell = 2.0 * half / f64::from(n);
+        let v = (0..=n)
             .flat_map(|i| (0..=n).map(move |j| (i, j)))
             .map(|(i, j)| {
-                let (x, y) = (-20.0 + 2.0 * f64::from(i), -20.0 + 2.0 * f64::from(j));
-                [x, y, 0.3 * (0.4 * x).sin() * (0.3 * y).cos()]
+                let (x, y) = (-half + cell * f64::from(i), -half + cell * f64::from(j));
+                [x, y, z(x, y)]
             })
             .collect();
         let at = |i: u32, j: u32| i * (n + 1) + j;
-        let st: Vec<[u32; 3]> = (0..n)
+        let t = (0..n)
             .flat_map(|i| (0..n).map(move |j| (i, j)))
             .flat_map(|(i, j)| {
                 [
@@ -1235,7 +1234,19 @@ mod tests {
                 ]
             })
             .collect();
-        cube_over_storing(&(sv, st), one_leaf([0.0; 3], 28.3), max_pairs)
+        (v, t)
+    }
+
+    /// The 4 mm cube tool over a wavy 40 x 40 mm sheet of 2 x 2 mm cells (800 triangles), so
+    /// that which pairs are near changes as the tool slides.
+    fn cube_over_sheet() -> (GodObject, Vec<Triangle>, Vec<Triangle>) {
+        cube_over_sheet_storing(EngineConfig::default().max_pairs)
+    }
+
+    /// [`cube_over_sheet`] with storage for `max_pairs` pairs.
+    fn cube_over_sheet_storing(max_pairs: usize) -> (GodObject, Vec<Triangle>, Vec<Triangle>) {
+        let sheet = grid_sheet(20, 20.0, |x, y| 0.3 * (0.4 * x).sin() * (0.3 * y).cos());
+        cube_over_storing(&sheet, one_leaf([0.0; 3], 28.3), max_pairs)
     }
 
     /// A near list longer than its target reaches half as far next time only where that
@@ -1398,21 +1409,7 @@ mod tests {
     /// as cells: flat faces not merged), its top at z = 0: every cell under the cube's bottom
     /// is as far from it as the cube stands off.
     fn cube_over_fine_grid() -> GodObject {
-        let n = 32u32;
-        let v: Vec<[f64; 3]> = (0..=n)
-            .flat_map(|i| (0..=n).map(move |j| (i, j)))
-            .map(|(i, j)| [-4.0 + 0.25 * f64::from(i), -4.0 + 0.25 * f64::from(j), 0.0])
-            .collect();
-        let at = |i: u32, j: u32| i * (n + 1) + j;
-        let t: Vec<[u32; 3]> = (0..n)
-            .flat_map(|i| (0..n).map(move |j| (i, j)))
-            .flat_map(|(i, j)| {
-                [
-                    [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
-                    [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
-                ]
-            })
-            .collect();
+        let (v, t) = grid_sheet(32, 4.0, |_, _| 0.0);
         let (tv, tt) = box_mesh([0.0; 3], [2.0; 3]);
         let mut params = EngineConfig {
             geometry: Geometry::Mesh,
