@@ -775,7 +775,7 @@ fn tree_for_mesh_with(
 
 /// The load log's line on the mesh mode's triangles: each body's as given and as the narrow
 /// phase holds them after flat faces were merged (`counts`:
-/// [`engine::GodObject::mesh_triangle_counts`]), e.g. `mesh: triangles as given → with flat
+/// [`engine::step::GodObject::mesh_triangle_counts`]), e.g. `mesh: triangles as given → with flat
 /// faces merged: tool 10 752 → 448; object 1 10 880 → 960`.
 pub fn mesh_triangles_line(scene: &Scene, counts: &(usize, Vec<usize>)) -> String {
     let given = |m: &Option<TriMesh>| m.as_ref().map_or(0, |m| m.triangles.len());
