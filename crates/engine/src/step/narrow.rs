@@ -123,10 +123,7 @@ impl GodObject {
         if self.bodies.meshes.is_none() {
             return;
         }
-        self.detector.contacts.clear();
-        self.detector.contact_nearest.clear();
-        self.detector.nearest_known.clear();
-        self.detector.nearest_at = None;
+        let previous = self.detector.keep_checked_distances();
         // Every pose of the region is within the margin of the path, within its length of the
         // centre.
         self.run.regions.contacts_at = Some((*center, margin + path.norm()));
@@ -258,9 +255,14 @@ impl GodObject {
                 *n += 1;
             }
         };
-        // A leaf pair lists its tool triangles' pairs one after another: each is posed once.
-        let mut posed: Option<(u32, PosedTriangle)> = None;
-        for c in detector.near.iter_mut() {
+        // The distances the check of an answer measured here (the last region's pairs, from
+        // this same list) are this region's own: faces lying on each other measure hundreds.
+        let reuse = !swept
+            && previous.at == Some((rot, t))
+            && previous.list == Some(detector.near_generation);
+        let mut from_check = 0;
+        let mut tools = detector.tool_poses.at(&rot, &t, path);
+        for (i, c) in detector.near.iter_mut().enumerate() {
             if c.apart - moved > margin {
                 if anchored {
                     c.apart -= moved;
@@ -282,24 +284,32 @@ impl GodObject {
                     continue;
                 }
             }
-            posed_count += 1;
-            let tool = match &posed {
-                Some((i, tool)) if *i == c.tool => tool,
-                _ => {
-                    let tool = PosedTriangle::of(&meshes.tool, c.tool, &rot, &t).swept(path);
-                    &posed.insert((c.tool, tool)).1
+            let index = i as u32;
+            while from_check < detector.reuse_from.len() && detector.reuse_from[from_check] < index
+            {
+                from_check += 1;
+            }
+            let checked = (reuse
+                && detector.reuse_from.get(from_check) == Some(&index)
+                && detector.reuse_known[from_check])
+                .then(|| detector.reuse_nearest[from_check]);
+            let d = match checked {
+                Some(d) => d,
+                None => {
+                    posed_count += 1;
+                    let tool = tools.get(&meshes.tool, c.tool);
+                    let part_tree = &meshes.objects[c.object as usize];
+                    // Along a path: the least over it (a bound at the centre too).
+                    let apart = tool.separation_upto(part_tree, c.part, margin, true);
+                    if apart > margin {
+                        if anchored {
+                            c.apart = apart;
+                        }
+                        continue;
+                    }
+                    triangle_distance(&tool.corners, part_tree.triangle(c.part))
                 }
             };
-            let part_tree = &meshes.objects[c.object as usize];
-            // Along a path: the least over it (a bound at the centre too).
-            let apart = tool.separation_upto(part_tree, c.part, margin, true);
-            if apart > margin {
-                if anchored {
-                    c.apart = apart;
-                }
-                continue;
-            }
-            let d = triangle_distance(&tool.corners, part_tree.triangle(c.part));
             count(if d.meet { 0.0 } else { d.distance });
             if anchored {
                 c.apart = if d.meet { 0.0 } else { d.distance };
@@ -307,11 +317,13 @@ impl GodObject {
             if d.distance <= margin || swept {
                 // The near list is no longer than the contacts' storage.
                 detector.contacts.push(*c);
+                detector.contact_from.push(index);
                 detector.contact_nearest.push(d);
                 detector.nearest_known.push(true);
             }
         }
         detector.nearest_at = Some((rot, t));
+        detector.contacts_list = Some(detector.near_generation);
         self.run.regions.near_bounds_at = Some(*center);
         self.run.counts.near_posed += posed_count;
         // A region that measured a ball's pair target finds where the wall stands; one kept
@@ -354,6 +366,7 @@ impl GodObject {
         self.run.regions.near_listed_at = Some(span.at);
         let detector = &mut self.detector;
         detector.near.clear();
+        detector.near_generation += 1;
         let (rot, t) = (span.at.rotation_matrix(), span.at.translation());
         let sweep = Vector3::from(span.sweep);
         let mut dropped = 0usize;
@@ -451,6 +464,7 @@ impl GodObject {
             return false;
         }
         std::mem::swap(&mut self.detector.near, &mut self.detector.next_near);
+        self.detector.near_generation += 1;
         self.run.regions.near_bounds_at = None;
         self.run.regions.near_listed_at = Some(at.at);
         self.run.regions.near_at = Some(at);
@@ -726,6 +740,7 @@ impl GodObject {
         let (rot, t) = (q.rotation_matrix(), q.translation());
         let (detector, qp) = (&mut self.detector, &self.qp);
         detector.hold_distances_at(rot, t);
+        let mut tools = detector.tool_poses.at(&rot, &t, &Vector3::zeros());
         let (mut meet, mut slack, mut touching) = (false, 0.0f64, 0u32);
         for (i, c) in detector.contacts.iter().enumerate().take(n) {
             let row = &qp.rows[i];
@@ -738,7 +753,7 @@ impl GodObject {
                 detector.contact_nearest[i]
             } else {
                 let part_tree = &meshes.objects[c.object as usize];
-                let tool = PosedTriangle::of(&meshes.tool, c.tool, &rot, &t);
+                let tool = tools.get(&meshes.tool, c.tool);
                 // A pair apart by more than the touch distance across a face's plane neither
                 // meets nor touches: a few products instead of the fifteen features.
                 if !tight && tool.separation(part_tree, c.part) > TOUCH_MM {
@@ -942,9 +957,69 @@ impl LeafTriangles<'_> {
     }
 }
 
+/// The tool's triangles posed at one pose (and moved along one sweep), each posed the first
+/// time it is asked for there: a near list names a few hundred tool triangles thousands of
+/// times (faces lying on each other in a turn: 5 000 pairs, 300 tool triangles).
+pub(super) struct ToolPoses {
+    posed: Vec<PosedTriangle>,
+    /// `posed[i]` is at the current pose where `stamp[i] == current`.
+    stamp: Vec<u32>,
+    current: u32,
+    /// The pose (rotation, translation, mm) and sweep (mm) the stamp stands for.
+    at: Option<(Matrix3<f64>, Vector3<f64>, Vector3<f64>)>,
+}
+
+impl ToolPoses {
+    /// Room for a tool of `triangles` triangles, none posed.
+    pub(super) fn new(triangles: usize) -> Self {
+        Self {
+            posed: vec![PosedTriangle::UNPOSED; triangles],
+            stamp: vec![0; triangles],
+            current: 0,
+            at: None,
+        }
+    }
+
+    /// The triangles at `(rot, t)` moved along `sweep` (mm): those posed elsewhere are posed
+    /// again when asked for.
+    fn at(&mut self, rot: &Matrix3<f64>, t: &Vector3<f64>, sweep: &Vector3<f64>) -> PosedTools<'_> {
+        let pose = (*rot, *t, *sweep);
+        if self.at != Some(pose) {
+            self.at = Some(pose);
+            self.current = self.current.wrapping_add(1);
+            if self.current == 0 {
+                // The stamps came round: none may pass for current.
+                self.stamp.iter_mut().for_each(|s| *s = 0);
+                self.current = 1;
+            }
+        }
+        PosedTools { poses: self, pose }
+    }
+}
+
+/// The tool's triangles at one pose ([`ToolPoses::at`]).
+pub(super) struct PosedTools<'a> {
+    poses: &'a mut ToolPoses,
+    pose: (Matrix3<f64>, Vector3<f64>, Vector3<f64>),
+}
+
+impl PosedTools<'_> {
+    /// Triangle `i` of the tool's `tree`, posed.
+    fn get(&mut self, tree: &TriangleTree, i: u32) -> &PosedTriangle {
+        let (k, poses) = (i as usize, &mut *self.poses);
+        if poses.stamp[k] != poses.current {
+            let (rot, t, sweep) = &self.pose;
+            poses.posed[k] = PosedTriangle::of(tree, i, rot, t).swept(sweep);
+            poses.stamp[k] = poses.current;
+        }
+        &poses.posed[k]
+    }
+}
+
 /// A triangle of the tool posed in the world: corners, plane (unit normal, offset) and box
 /// along the world axes, mm; and the sweep (mm) it moves along from there, which its box
 /// holds, and that sweep's reach along its normal (0 for the pose alone).
+#[derive(Clone, Copy, Debug)]
 pub(super) struct PosedTriangle {
     pub(super) corners: Triangle,
     normal: [f64; 3],
@@ -955,6 +1030,16 @@ pub(super) struct PosedTriangle {
 }
 
 impl PosedTriangle {
+    /// A placeholder for storage, never measured.
+    const UNPOSED: Self = Self {
+        corners: [[0.0; 3]; 3],
+        normal: [0.0; 3],
+        offset: 0.0,
+        bounds: ([0.0; 3], [0.0; 3]),
+        sweep: [0.0; 3],
+        rise: 0.0,
+    };
+
     /// Triangle `i` of `tree` (the tool frame) with the tool at `(rot, t)`.
     fn of(tree: &TriangleTree, i: u32, rot: &Matrix3<f64>, t: &Vector3<f64>) -> Self {
         let (n, d) = tree.plane(i);
@@ -1720,6 +1805,72 @@ mod tests {
         assert_eq!(n1, n2);
         assert_eq!(reused.0, god.qp.rows[..n2].to_vec());
         assert_eq!(reused.1, god.qp.rhs[..n2].to_vec());
+    }
+
+    #[test]
+    fn a_region_at_a_checked_answer_filters_with_the_checks_distances_equal_to_fresh_ones() {
+        let god_on_grid = cube_over_fine_grid();
+        let mut god = god_on_grid;
+        // The cube's face 0.003 mm over a sheet of fine cells, turned about the vertical: a
+        // few hundred facing pairs touch.
+        let q0 = Pose::from_array([0.0, 0.0, 2.003, 0.0, 0.0, 0.3]);
+        let hand = Pose::from_array([-0.5, 0.2, 0.0, 0.0, 0.0, 0.25]);
+        let margin = 0.05;
+        god.detect(&q0, 1.0).unwrap();
+        god.narrow_phase(&q0, margin);
+        let lin0 = god.linearization(&q0, &hand).unwrap();
+        let n = god.fill_rows(&lin0, None);
+        let mut dq = lin0.delta();
+        dq[0] += 0.001;
+        dq[5] -= 0.0002;
+        let q1 = lin0.configuration(&dq);
+        let _ = god.mesh_gaps_at(&q0, &q1, &dq, n);
+        let checked = god.detector.nearest_known.iter().filter(|k| **k).count();
+        assert!(checked > 100, "the check measured {checked} pairs");
+        // The next region is centred at the answer: the check's distances are its own.
+        let posed = god.run.counts.near_posed;
+        god.narrow_phase(&q1, margin);
+        let posed_reusing = god.run.counts.near_posed - posed;
+        let reused = (
+            god.detector.contacts.clone(),
+            god.detector.contact_nearest.clone(),
+        );
+        assert!(
+            reused.0.len() > 100,
+            "{} pairs within the margin",
+            reused.0.len()
+        );
+        // The same region measured afresh.
+        god.detector.nearest_at = None;
+        let posed = god.run.counts.near_posed;
+        god.narrow_phase(&q1, margin);
+        let posed_fresh = god.run.counts.near_posed - posed;
+        assert!(
+            reused.0 == god.detector.contacts,
+            "the pairs kept differ from those kept afresh"
+        );
+        assert!(
+            reused.1 == god.detector.contact_nearest,
+            "the distances taken differ from those measured afresh"
+        );
+        assert!(
+            posed_reusing + checked as u64 <= posed_fresh + 10,
+            "{posed_reusing} pairs posed reusing {checked} distances, {posed_fresh} afresh"
+        );
+        // A region anywhere else measures its own.
+        let q2 = Pose::from_array([0.0, 0.0, 2.003, 0.0, 0.0, 0.31]);
+        god.narrow_phase(&q2, margin);
+        let (rot, t) = (q2.rotation_matrix(), q2.translation());
+        for (c, d) in god
+            .detector
+            .contacts
+            .iter()
+            .zip(&god.detector.contact_nearest)
+        {
+            let meshes = god.bodies.meshes.as_ref().unwrap();
+            let (tool, part) = god.posed_pair(meshes, c, &rot, &t);
+            assert_eq!(*d, triangle_distance(&tool, &part));
+        }
     }
 
     #[test]

@@ -50,6 +50,18 @@ pub(super) struct Detector {
     /// measures every pair it keeps, the check of an answer those it needs.
     pub(super) nearest_known: Vec<bool>,
     pub(super) nearest_at: Option<(Matrix3<f64>, Vector3<f64>)>,
+    /// Where each of `contacts` stands in `near` (ascending), and which near list that was
+    /// (`near_generation`, counted up each time `near` is listed or replaced).
+    pub(super) contact_from: Vec<u32>,
+    pub(super) contacts_list: Option<u64>,
+    pub(super) near_generation: u64,
+    /// The last region's `contact_nearest`, `nearest_known` and `contact_from`, kept while the
+    /// next region is filtered: at the answer the check measured, they are its own.
+    pub(super) reuse_nearest: Vec<collide::TriangleDistance>,
+    pub(super) reuse_known: Vec<bool>,
+    pub(super) reuse_from: Vec<u32>,
+    /// The tool's triangles posed at the pose being measured (empty in sphere mode).
+    pub(super) tool_poses: ToolPoses,
     /// The next near list, built a slice per frame ahead of need, and its descent's stack.
     pub(super) next_near: Vec<TriPair>,
     pub(super) next_stack: collide::TreePairStack,
@@ -66,6 +78,24 @@ impl Detector {
             self.nearest_at = Some((rot, t));
             self.nearest_known.iter_mut().for_each(|k| *k = false);
         }
+    }
+
+    /// Empties the region's contacts and keeps their exact distances (and where they were
+    /// measured) for the next region's filter ([`Detector::reuse_nearest`]); returns where
+    /// they hold.
+    pub(super) fn keep_checked_distances(&mut self) -> CheckedDistances {
+        let kept = CheckedDistances {
+            at: self.nearest_at.take(),
+            list: self.contacts_list.take(),
+        };
+        std::mem::swap(&mut self.contact_nearest, &mut self.reuse_nearest);
+        std::mem::swap(&mut self.nearest_known, &mut self.reuse_known);
+        std::mem::swap(&mut self.contact_from, &mut self.reuse_from);
+        self.contacts.clear();
+        self.contact_nearest.clear();
+        self.nearest_known.clear();
+        self.contact_from.clear();
+        kept
     }
 
     /// The buffers, reserved once for `cap` leaf pairs (and as many triangle pairs in the mesh
@@ -98,12 +128,26 @@ impl Detector {
             contact_nearest: Vec::with_capacity(contacts_cap),
             nearest_known: Vec::with_capacity(contacts_cap),
             nearest_at: None,
+            contact_from: Vec::with_capacity(contacts_cap),
+            contacts_list: None,
+            near_generation: 0,
+            reuse_nearest: Vec::with_capacity(contacts_cap),
+            reuse_known: Vec::with_capacity(contacts_cap),
+            reuse_from: Vec::with_capacity(contacts_cap),
+            tool_poses: ToolPoses::new(meshes.map_or(0, |m| m.tool.len())),
             next_stack: tree_stack.clone(),
             contact_gaps: vec![0.0; contacts_cap],
             contact_points: vec![[0.0; 3]; contacts_cap],
             tree_stack,
         }
     }
+}
+
+/// Where the distances [`Detector::keep_checked_distances`] kept were measured: the tool's
+/// pose (rotation, translation, mm) and the near list their pairs came from.
+pub(super) struct CheckedDistances {
+    pub(super) at: Option<(Matrix3<f64>, Vector3<f64>)>,
+    pub(super) list: Option<u64>,
 }
 
 /// The work kept ahead of need, a slice per frame.
