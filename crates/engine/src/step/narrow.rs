@@ -672,42 +672,49 @@ impl GodObject {
         // the exact distances measured there are the rows' own; those measured here are kept
         // for the check of an answer here and the next rows here (a tool at rest).
         self.detector.hold_distances_at(rot, t);
+        let far_rows = self.params.heuristics.mesh_far_rows;
+        let detector = &mut self.detector;
+        // A tool triangle is posed only where its pair's distance is not known, or its row
+        // needs its centre (an empty row, meeting triangles).
+        let mut tools = detector.tool_poses.at(&rot, &t, &Vector3::zeros());
         let mut n = 0;
-        for c in &self.detector.contacts {
-            let (bound, tool, part, d) = if self.detector.nearest_known[n] {
-                let d = self.detector.contact_nearest[n];
-                let (tool, part) = self.posed_pair(meshes, c, &rot, &t);
-                (d.distance, tool, part, Some(d))
-            } else {
-                let (bound, tool, part) = self.posed_separation(meshes, c, &rot, &t);
-                (bound, tool, part, None)
+        for c in &detector.contacts {
+            let part_tree = &meshes.objects[c.object as usize];
+            let part = part_tree.triangle(c.part);
+            let known = detector.nearest_known[n].then(|| detector.contact_nearest[n]);
+            let bound = match known {
+                Some(d) => d.distance,
+                None => tools
+                    .get(&meshes.tool, c.tool)
+                    .separation(part_tree, c.part),
             };
-            if self.params.heuristics.mesh_far_rows && bound > reach {
-                self.detector.contact_gaps[n] = bound;
+            if far_rows && bound > reach {
+                detector.contact_gaps[n] = bound;
                 // Never binding: no force acts here.
-                self.detector.contact_points[n] = (rot.transpose() * (centroid(&tool) - t)).into();
+                let centre = centroid(&tools.get(&meshes.tool, c.tool).corners);
+                detector.contact_points[n] = (rot.transpose() * (centre - t)).into();
                 self.qp.rows[n] = [0.0; 6];
                 self.qp.rhs[n] = -1.0;
                 n += 1;
                 continue;
             }
-            let d = d.unwrap_or_else(|| {
-                let d = triangle_distance(&tool, &part);
-                self.detector.contact_nearest[n] = d;
-                self.detector.nearest_known[n] = true;
+            let d = known.unwrap_or_else(|| {
+                let d = triangle_distance(&tools.get(&meshes.tool, c.tool).corners, part);
+                detector.contact_nearest[n] = d;
+                detector.nearest_known[n] = true;
                 d
             });
-            self.detector.contact_gaps[n] = d.distance;
+            detector.contact_gaps[n] = d.distance;
             let (a, b) = (Vector3::from(d.on_a), Vector3::from(d.on_b));
             let normal = if d.distance > 0.0 {
                 (a - b) / d.distance
             } else {
                 // Meeting triangles have no nearest direction: the object face's normal,
                 // turned toward the tool triangle's centre.
-                face_normal_toward(&part, &centroid(&tool))
+                face_normal_toward(part, &centroid(&tools.get(&meshes.tool, c.tool).corners))
             };
             let p_in_tool: [f64; 3] = (rot.transpose() * (a - t)).into();
-            self.detector.contact_points[n] = p_in_tool;
+            detector.contact_points[n] = p_in_tool;
             let (value, j) =
                 lin.face_value_gradient(&p_in_tool, 0.0, &normal.into(), normal.dot(&b) + target);
             let jd: f64 = j.iter().zip(&lin.delta()).map(|(x, y)| x * y).sum();
