@@ -145,7 +145,8 @@ pub struct Frame {
     /// Constraint rows in the frame's largest solve, after reduction (trust-region rows
     /// included; see [`EngineConfig::reduce_rows`]), rows.
     pub rows: u32,
-    /// Leaf pairs touching at `q_g` (gap within [`crate::step::TOUCH_MM`]): the contact's size.
+    /// Leaf pairs (triangle pairs in the mesh geometry mode) touching at `q_g` (gap within
+    /// [`crate::step::TOUCH_MM`]): the contact's size.
     pub contacts: u32,
     /// Solver iterations, summed over passes.
     pub iterations: u32,
@@ -165,7 +166,8 @@ pub struct Frame {
     /// them. Work a helper thread did in the background is counted when this frame reads it.
     pub splits: u32,
     /// Neighbour-list entries the frame tested (each a leaf-pair gap at the pose, ~10× cheaper
-    /// than a node pair split), entries. Machine-independent as [`Frame::splits`].
+    /// than a node pair split), entries; in the mesh geometry mode, with the near-list triangle
+    /// pairs its regions filtered. Machine-independent as [`Frame::splits`].
     pub scanned: u32,
     /// Deepest leaf–leaf overlap at `q_g`, mm (0 when free).
     pub penetration_mm: f64,

@@ -326,6 +326,7 @@ impl GodObject {
         detector.contacts_list = Some(detector.near_generation);
         self.run.regions.near_bounds_at = Some(*center);
         self.run.counts.near_posed += posed_count;
+        self.run.counts.frame_scanned += self.detector.near.len() as u64;
         // A region that measured a ball's pair target finds where the wall stands; one kept
         // short of it that measured under half the target leaves that as found (a new list
         // too: the wall is where the tool is, not where a list was listed, and each reset
