@@ -50,6 +50,12 @@ pub struct Heuristics {
     /// polygon are cut again into the fewest triangles at set-up (the surface unchanged), so a
     /// flat face cut into a grid or rings gives a few pairs instead of many.
     pub mesh_flat_faces: bool,
+    /// The mesh mode's tilted targets: a triangle pair's row keeps its triangles apart by the
+    /// row target times the cosine between its nearest direction and the nearer face's normal
+    /// (at least half the target), so that a tool face resting at the target beside an object
+    /// face's edge slides over it in one pass, instead of halving its way there pass after
+    /// pass.
+    pub mesh_tilted_targets: bool,
 }
 
 impl Default for Heuristics {
@@ -75,6 +81,7 @@ impl Heuristics {
         mesh_near_list: true,
         mesh_far_rows: true,
         mesh_flat_faces: true,
+        mesh_tilted_targets: true,
     };
 
     /// Every heuristic off.
@@ -93,10 +100,11 @@ impl Heuristics {
         mesh_near_list: false,
         mesh_far_rows: false,
         mesh_flat_faces: false,
+        mesh_tilted_targets: false,
     };
 
     /// The names of the switches (as the bench's ablation study prints them), in order.
-    pub const NAMES: [&'static str; 14] = [
+    pub const NAMES: [&'static str; 15] = [
         "region-reuse",
         "path-regions",
         "slab-regions",
@@ -111,6 +119,7 @@ impl Heuristics {
         "mesh-near-list",
         "mesh-far-rows",
         "mesh-flat-faces",
+        "mesh-tilted-targets",
     ];
 
     /// The switch called `name` ([`Heuristics::NAMES`]), for reading and setting.
@@ -130,6 +139,7 @@ impl Heuristics {
             "mesh-near-list" => &mut self.mesh_near_list,
             "mesh-far-rows" => &mut self.mesh_far_rows,
             "mesh-flat-faces" => &mut self.mesh_flat_faces,
+            "mesh-tilted-targets" => &mut self.mesh_tilted_targets,
             _ => return None,
         })
     }

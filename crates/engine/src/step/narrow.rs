@@ -58,6 +58,12 @@ const NEAR_AHEAD_START: f64 = 0.5;
 const STANDOFF_BIN_MM: f64 = 0.0025;
 const STANDOFF_BINS: usize = 40;
 
+/// The least share of the row target a tilted row keeps ([`Heuristics::mesh_tilted_targets`]):
+/// a half keeps every answer's triangles apart by a rounding's many times over, and lets a face
+/// resting at the target beside an edge off it by up to `√3` times the target slide over in one
+/// pass (the cosine 1/2 at 60°).
+const TILTED_TARGET_LEAST: f64 = 0.5;
+
 /// Bisections of a step whose end has meeting triangles, toward the last free pose on it.
 const BACKTRACK_STEPS: u32 = 8;
 
@@ -674,6 +680,7 @@ impl GodObject {
         // for the check of an answer here and the next rows here (a tool at rest).
         self.detector.hold_distances_at(rot, t);
         let far_rows = self.params.heuristics.mesh_far_rows;
+        let tilted_targets = self.params.heuristics.mesh_tilted_targets;
         let detector = &mut self.detector;
         // A tool triangle is posed only where its pair's distance is not known, or its row
         // needs its centre (an empty row, meeting triangles).
@@ -690,6 +697,7 @@ impl GodObject {
                     .separation(part_tree, c.part),
             };
             if far_rows && bound > reach {
+                detector.row_targets[n] = target;
                 detector.contact_gaps[n] = bound;
                 // Never binding: no force acts here.
                 let centre = centroid(&tools.get(&meshes.tool, c.tool).corners);
@@ -714,10 +722,28 @@ impl GodObject {
                 // turned toward the tool triangle's centre.
                 face_normal_toward(part, &centroid(&tools.get(&meshes.tool, c.tool).corners))
             };
+            // A tool face resting at the target beside an object face's edge (or the other way
+            // round) has its nearest direction tilted toward the edge by `θ`: kept at the
+            // target along it, the face's edge may come only part of the way over the other
+            // face's each pass, however far the tool is pulled. Kept at `target · cos θ` (what
+            // the resting face holds along it) it comes all the way.
+            let row_target = if tilted_targets && d.distance > 0.0 {
+                let part_cos = normal.dot(&Vector3::from(part_tree.plane(c.part).0));
+                let tool_normal = rot * Vector3::from(meshes.tool.plane(c.tool).0);
+                let tool_cos = -normal.dot(&tool_normal);
+                target * part_cos.max(tool_cos).clamp(TILTED_TARGET_LEAST, 1.0)
+            } else {
+                target
+            };
+            detector.row_targets[n] = row_target;
             let p_in_tool: [f64; 3] = (rot.transpose() * (a - t)).into();
             detector.contact_points[n] = p_in_tool;
-            let (value, j) =
-                lin.face_value_gradient(&p_in_tool, 0.0, &normal.into(), normal.dot(&b) + target);
+            let (value, j) = lin.face_value_gradient(
+                &p_in_tool,
+                0.0,
+                &normal.into(),
+                normal.dot(&b) + row_target,
+            );
             let jd: f64 = j.iter().zip(&lin.delta()).map(|(x, y)| x * y).sum();
             self.qp.rows[n] = j;
             self.qp.rhs[n] = jd - value;
@@ -741,7 +767,7 @@ impl GodObject {
         dq: &[f64; 6],
         n: usize,
     ) -> (f64, f64, u32) {
-        let (target, moved) = (self.mesh_gap(), self.motion_bound(from, q));
+        let moved = self.motion_bound(from, q);
         let Some(meshes) = &self.bodies.meshes else {
             return (0.0, 0.0, 0);
         };
@@ -775,7 +801,7 @@ impl GodObject {
             meet |= d.meet;
             touching += u32::from(d.distance <= TOUCH_MM);
             if tight {
-                slack = slack.max(d.distance - target - lin_gap);
+                slack = slack.max(d.distance - detector.row_targets[i] - lin_gap);
             }
         }
         (if meet { f64::INFINITY } else { 0.0 }, slack, touching)
@@ -1881,6 +1907,96 @@ mod tests {
         }
     }
 
+    /// Two flat sheets at z = 0 (normals up), `x <= -gap/2` and `x >= gap/2`, 20 mm across.
+    fn two_sheets(gap: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+        let h = 0.5 * gap;
+        let v = vec![
+            [-10.0, -10.0, 0.0],
+            [-h, -10.0, 0.0],
+            [-h, 10.0, 0.0],
+            [-10.0, 10.0, 0.0],
+            [h, -10.0, 0.0],
+            [10.0, -10.0, 0.0],
+            [10.0, 10.0, 0.0],
+            [h, 10.0, 0.0],
+        ];
+        let t = vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]];
+        (v, t)
+    }
+
+    /// Two blocks 2 mm deep, their tops at z = 0, `x <= -gap/2` and `x >= gap/2`.
+    fn two_blocks(gap: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+        let half = [5.0 - 0.25 * gap, 10.0, 1.0];
+        let (mut v, mut t) = box_mesh([-5.0 - 0.25 * gap, 0.0, -1.0], half);
+        let (v2, t2) = box_mesh([5.0 + 0.25 * gap, 0.0, -1.0], half);
+        let base = v.len() as u32;
+        v.extend(v2);
+        t.extend(t2.iter().map(|tri| tri.map(|i| i + base)));
+        (v, t)
+    }
+
+    #[test]
+    fn a_face_at_the_row_target_beside_an_object_edge_comes_over_it_in_one_solve() {
+        // The cube's bottom face at the row target over the left sheet (or block), held level,
+        // its right edge a little short of the right one's edge, the hand 0.01 mm to the right
+        // and 0.05 mm down. The cube's way to the hand, solve after solve (each linearised at
+        // the last answer), as far as 0.01 mm in x.
+        let slide = |tilted_targets: bool, blocks: bool, off: f64| {
+            let object = if blocks {
+                two_blocks(1.0)
+            } else {
+                two_sheets(1.0)
+            };
+            let (mut god, tool, object_triangles) =
+                cube_over(&object, one_leaf([0.0, 0.0, -1.0], 14.2));
+            god.params.heuristics.mesh_tilted_targets = tilted_targets;
+            // Held level, as a face resting on many points is.
+            god.params.kr = 1e9;
+            let g = god.mesh_gap();
+            let x0 = 0.5 - off * g - 2.0;
+            let mut q = Pose::from_array([x0, 0.0, 2.0 + g, 0.0, 0.0, 0.0]);
+            let hand = Pose::from_array([x0 + 0.01, 0.0, 1.95, 0.0, 0.0, 0.0]);
+            let mut way = Vec::new();
+            for _ in 0..3 {
+                god.detect(&q, 2.0).unwrap();
+                god.narrow_phase(&q, 2.0);
+                let lin = god.linearization(&q, &hand).unwrap();
+                let n = god.fill_rows(&lin, None);
+                let (dq, _, status, _) = god.solve(n, n, &lin.delta()).unwrap();
+                assert_eq!(status, Status::Solved);
+                q = lin.configuration(&dq);
+                // Every answer keeps the triangles apart by the least share of the target.
+                let apart = brute_distance(&tool, &object_triangles, &q);
+                assert!(
+                    apart >= TILTED_TARGET_LEAST * g * (1.0 - 1e-6),
+                    "{apart} mm apart after {} solves",
+                    way.len() + 1
+                );
+                way.push(q.translation().x - x0);
+            }
+            (way, off * g)
+        };
+        // Over sheets (the cube's edge beside a face's edge) and over blocks (its side beside
+        // a wall's top too), the edge off by half the target and by the target.
+        for blocks in [false, true] {
+            for off in [0.5, 1.0] {
+                // With the target's share along the tilted direction, the first solve brings
+                // the edge over the other edge, the next to the hand.
+                let (way, edge) = slide(true, blocks, off);
+                assert!(
+                    way[0] >= edge * (1.0 - 1e-6) && way[2] >= 0.01 - 1e-6,
+                    "with tilted targets {way:?} mm (the edge {edge} mm off, blocks {blocks})"
+                );
+                // Kept at the whole target along it, the edge comes a share of the way.
+                let (way, edge) = slide(false, blocks, off);
+                assert!(
+                    way[0] < 0.8 * edge,
+                    "without tilted targets {way:?} mm (the edge {edge} mm off, blocks {blocks})"
+                );
+            }
+        }
+    }
+
     #[test]
     fn the_mesh_rows_are_the_distance_and_its_gradient() {
         let (mut god, _, _) = cube_on_plate();
@@ -1904,11 +2020,18 @@ mod tests {
         let mut checked = 0;
         for (i, c) in god.detector.contacts.iter().enumerate().take(n) {
             let d0 = distance(c, &base);
-            // The row's value at the linearisation pose is the distance less the target.
+            // The row's value at the linearisation pose is the distance less its target: the
+            // row target, or a share of it down to the least where the nearest direction is
+            // tilted off both faces.
             let row = god.qp.rows[i];
+            let row_target = god.detector.row_targets[i];
+            assert!(
+                (TILTED_TARGET_LEAST * target..=target).contains(&row_target),
+                "row {i}: target {row_target}"
+            );
             let value: f64 = (0..6).map(|k| row[k] * base[k]).sum::<f64>() - god.qp.rhs[i];
             assert!(
-                (value - (d0.distance - target)).abs() < 1e-9,
+                (value - (d0.distance - row_target)).abs() < 1e-9,
                 "row {i}: {value} vs {}",
                 d0.distance
             );

@@ -39,6 +39,8 @@ pub(super) struct Detector {
     /// The tool point (tool frame, mm) each of those rows holds off the object: where its
     /// multiplier's force acts (friction's centre of pressure).
     pub(super) contact_points: Vec<[f64; 3]>,
+    /// The distance (mm) each row keeps its pair apart ([`Heuristics::mesh_tilted_targets`]).
+    pub(super) row_targets: Vec<f64>,
     /// The mesh mode's triangle pairs within a wider margin ([`Tuning::near_list_mm`])
     /// of a recent pose: the narrow phase filters them while they cover its region.
     pub(super) near: Vec<TriPair>,
@@ -138,6 +140,7 @@ impl Detector {
             next_stack: tree_stack.clone(),
             contact_gaps: vec![0.0; contacts_cap],
             contact_points: vec![[0.0; 3]; contacts_cap],
+            row_targets: vec![0.0; contacts_cap],
             tree_stack,
         }
     }
