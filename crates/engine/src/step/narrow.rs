@@ -910,9 +910,8 @@ impl GodObject {
 /// one side of the plane `n · p = d` (`n` unit): 0 where they touch or cross it, or for a zero
 /// normal.
 fn side_gap(a: &Triangle, n: &[f64; 3], d: f64, shift: f64) -> f64 {
-    let side = a.map(|p| n[0] * p[0] + n[1] * p[1] + n[2] * p[2] - d);
-    let lo = side[0].min(side[1]).min(side[2]) + shift.min(0.0);
-    let hi = side[0].max(side[1]).max(side[2]) + shift.max(0.0);
+    let (lo, hi) = side_range(a, n, d);
+    let (lo, hi) = (lo + shift.min(0.0), hi + shift.max(0.0));
     if lo > 0.0 {
         lo
     } else if hi < 0.0 {
@@ -926,11 +925,7 @@ fn side_gap(a: &Triangle, n: &[f64; 3], d: f64, shift: f64) -> f64 {
 /// positive in front (`n · p > d` at every corner), negative behind, 0 where it touches or
 /// crosses it.
 fn signed_side_gap(a: &Triangle, n: &[f64; 3], d: f64) -> f64 {
-    let side = a.map(|p| n[0] * p[0] + n[1] * p[1] + n[2] * p[2] - d);
-    let (lo, hi) = (
-        side[0].min(side[1]).min(side[2]),
-        side[0].max(side[1]).max(side[2]),
-    );
+    let (lo, hi) = side_range(a, n, d);
     if lo > 0.0 {
         lo
     } else if hi < 0.0 {
@@ -938,6 +933,15 @@ fn signed_side_gap(a: &Triangle, n: &[f64; 3], d: f64) -> f64 {
     } else {
         0.0
     }
+}
+
+/// The least and greatest height (mm) of the corners of `a` over the plane `n · p = d`.
+fn side_range(a: &Triangle, n: &[f64; 3], d: f64) -> (f64, f64) {
+    let side = a.map(|p| n[0] * p[0] + n[1] * p[1] + n[2] * p[2] - d);
+    (
+        side[0].min(side[1]).min(side[2]),
+        side[0].max(side[1]).max(side[2]),
+    )
 }
 
 /// A lower bound (mm) on the distance of triangles `a` and `b`: how far `a` lies wholly on one
