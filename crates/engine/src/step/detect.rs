@@ -825,7 +825,7 @@ impl GodObject {
     }
 
     /// Uses a paced loop's wait before the next frame (until `until`): the running background
-    /// probe and the next neighbour list's build go on here, in slices of 128 node pairs
+    /// probe, the next neighbour list's build and the mesh mode's near list under way go on here, in slices of 128 node pairs
     /// between clock reads, until 60 µs before `until`; a list finished here is taken at once;
     /// the rest of the wait brings the trees into cache ([`GodObject::warm_caches`]). What the
     /// frames would have done in their own slices is done in time nobody else wants, on this
@@ -862,6 +862,11 @@ impl GodObject {
         }
         if self.ahead.next_neighbours.status() == ListStatus::Ready {
             self.take_next_list();
+        }
+        if let Some(stop) = stop.filter(|&s| Instant::now() < s) {
+            // The mesh mode's near list under way (or the next one ahead, where due).
+            let q = self.run.motion.q_g;
+            self.tend_near(&q, f64::INFINITY, stop);
         }
         self.warm_caches(until);
     }

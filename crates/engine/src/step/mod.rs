@@ -552,6 +552,9 @@ impl GodObject {
         let t_start = Instant::now();
         self.run.counts.frame_splits = 0;
         self.run.counts.frame_scanned = 0;
+        // Whether this frame's time ran out before a region was listed (a region that lists
+        // nothing, in proven free space, does not clear it).
+        self.run.regions.interrupted = false;
         let mut out = FrameOutput {
             q_h: q_h.to_array(),
             ..FrameOutput::default()

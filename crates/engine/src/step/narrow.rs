@@ -64,6 +64,11 @@ const STANDOFF_BINS: usize = 40;
 /// pass (the cosine 1/2 at 60°).
 const TILTED_TARGET_LEAST: f64 = 0.5;
 
+/// The filter reads the clock (24 ns) once per this many near-list pairs: at most ~25 µs of
+/// exact distances between reads, and a skip loop as fast as without the clock (read at every
+/// 64th pair, it cost 2 µs of a 5 000-pair list's filter).
+const FILTER_CLOCK_PAIRS: usize = 256;
+
 /// Bisections of a step whose end has meeting triangles, toward the last free pose on it.
 const BACKTRACK_STEPS: u32 = 8;
 
@@ -126,6 +131,23 @@ impl GodObject {
     /// tool falling into a tight hole: 11 000 pairs of the hole's wall within 1.8 mm, a few
     /// hundred along the way). The path's turn is the caller's to add to `margin`.
     pub(super) fn narrow_phase_along(&mut self, center: &Pose, margin: f64, path: &Vector3<f64>) {
+        self.narrow_phase_by(center, margin, path, None);
+    }
+
+    /// [`GodObject::narrow_phase_along`] within the frame's time: a near list's descent or its
+    /// filter still running at `deadline` stops there, and `run.regions.interrupted` says so
+    /// (nothing of the region is proven). The frame then ends at its last proven pose, and the
+    /// next frame's region there goes on: the list under way is kept, and so are the pairs'
+    /// bounds and exact distances the filter reached (a first contact's wide list of ~10 000
+    /// pairs costs 1–2 ms to list and up to 1.5 ms to filter: frames within the budget, not
+    /// one frame over it).
+    pub(super) fn narrow_phase_by(
+        &mut self,
+        center: &Pose,
+        margin: f64,
+        path: &Vector3<f64>,
+        deadline: Option<Instant>,
+    ) {
         if self.bodies.meshes.is_none() {
             return;
         }
@@ -138,11 +160,16 @@ impl GodObject {
             self.run.regions.near_standoff = f64::INFINITY;
             return;
         }
+        if !self.near_list_for(center, margin, path, deadline) {
+            self.run.regions.interrupted = true;
+            self.run.regions.contacts_at = None;
+            return;
+        }
+        let swept = *path != Vector3::zeros();
         let end = Pose::from_translation_rotation(
             &(center.translation() + path),
             &center.rotation_matrix(),
         );
-        let swept = *path != Vector3::zeros();
         // The bounds are convex along the path: its ends are the farthest.
         let farthest = |bound: &dyn Fn(&Pose) -> f64| {
             if swept {
@@ -151,73 +178,6 @@ impl GodObject {
                 bound(center)
             }
         };
-        let covered =
-            |span: &NearSpan| farthest(&|q| self.span_bound(span, q)) + margin <= span.reach;
-        let mut listed = self
-            .run
-            .regions
-            .near_at
-            .filter(|span| self.params.heuristics.mesh_near_list && covered(span));
-        // The list built ahead serves only where it holds the whole region, the path's end too.
-        let ahead_covers = self
-            .run
-            .regions
-            .near_ahead
-            .at
-            .is_some_and(|at| covered(&at));
-        if listed.is_none() && ahead_covers && !self.run.regions.near_ahead.done {
-            // The list being built ahead holds the region but is not done: its rest costs
-            // less than a new list's whole descent.
-            let far = Instant::now() + Duration::from_secs(3600);
-            self.tend_near(center, 3.6e9, far);
-        }
-        if listed.is_none() && self.take_near_ahead(ahead_covers) {
-            listed = self.run.regions.near_at;
-        }
-        if listed.is_none() {
-            // A list no wider than the region's own margin is not kept for later regions.
-            let extra = self.run.regions.near_extra;
-            let wide = self.params.heuristics.mesh_near_list
-                && extra >= NEAR_LIST_MIN_SHARE * self.params.tuning.near_list_mm;
-            let span = NearSpan {
-                at: *center,
-                sweep: if swept {
-                    (*path).into()
-                } else if wide {
-                    self.near_sweep()
-                } else {
-                    [0.0; 3]
-                },
-                reach: margin + if wide { extra } else { 0.0 },
-            };
-            let started = Instant::now();
-            let dropped = self.list_near(&span, !wide);
-            self.run.counts.near_listed += 1;
-            if wide && dropped == 0 {
-                self.run.regions.near_at = Some(span);
-                self.run.regions.near_descent_us = started.elapsed().as_secs_f64() * 1e6;
-                self.adapt_near_extra(span.reach, extra);
-            } else {
-                self.run.regions.near_at = None;
-                let dropped = if wide {
-                    self.run.regions.near_extra = 0.25 * extra;
-                    self.list_near(
-                        &NearSpan {
-                            at: *center,
-                            sweep: (*path).into(),
-                            reach: margin,
-                        },
-                        true,
-                    )
-                } else {
-                    self.run.regions.near_extra =
-                        (2.0 * extra).min(self.params.tuning.near_list_mm);
-                    dropped
-                };
-                // Past the storage: the region shrinks.
-                self.run.regions.dropped += dropped;
-            }
-        }
         let Some(meshes) = &self.bodies.meshes else {
             return;
         };
@@ -268,71 +228,96 @@ impl GodObject {
             && previous.list == Some(detector.near_generation);
         let mut from_check = 0;
         let mut tools = detector.tool_poses.at(&rot, &t, path);
-        for (i, c) in detector.near.iter_mut().enumerate() {
-            if c.apart - moved > margin {
-                if anchored {
-                    c.apart -= moved;
-                }
-                continue;
+        let mut stopped_at = None;
+        for (k, chunk) in detector.near.chunks_mut(FILTER_CLOCK_PAIRS).enumerate() {
+            if deadline.is_some_and(|d| Instant::now() >= d) {
+                stopped_at = Some(k * FILTER_CLOCK_PAIRS);
+                break;
             }
-            if c.beyond != 0.0 && listed_turn.is_finite() {
-                let part_tree = &meshes.objects[c.object as usize];
-                let (n, _) = part_tree.plane(c.part);
-                let side = c.beyond.signum();
-                let toward = side
-                    * (n[0] * listed_shift[0] + n[1] * listed_shift[1] + n[2] * listed_shift[2]);
-                let here = side * c.beyond + toward - listed_turn;
-                let along = side * (n[0] * path[0] + n[1] * path[1] + n[2] * path[2]);
-                if here + along.min(0.0) > margin {
+            for (j, c) in chunk.iter_mut().enumerate() {
+                let i = k * FILTER_CLOCK_PAIRS + j;
+                if c.apart - moved > margin {
                     if anchored {
-                        c.apart = (c.apart - moved).max(here);
+                        c.apart -= moved;
                     }
                     continue;
                 }
-            }
-            let index = i as u32;
-            while from_check < detector.reuse_from.len() && detector.reuse_from[from_check] < index
-            {
-                from_check += 1;
-            }
-            let checked = (reuse
-                && detector.reuse_from.get(from_check) == Some(&index)
-                && detector.reuse_known[from_check])
-                .then(|| detector.reuse_nearest[from_check]);
-            let d = match checked {
-                Some(d) => d,
-                None => {
-                    posed_count += 1;
-                    let tool = tools.get(&meshes.tool, c.tool);
+                if c.beyond != 0.0 && listed_turn.is_finite() {
                     let part_tree = &meshes.objects[c.object as usize];
-                    // Along a path: the least over it (a bound at the centre too).
-                    let apart = tool.separation_upto(part_tree, c.part, margin, true);
-                    if apart > margin {
+                    let (n, _) = part_tree.plane(c.part);
+                    let side = c.beyond.signum();
+                    let toward = side
+                        * (n[0] * listed_shift[0]
+                            + n[1] * listed_shift[1]
+                            + n[2] * listed_shift[2]);
+                    let here = side * c.beyond + toward - listed_turn;
+                    let along = side * (n[0] * path[0] + n[1] * path[1] + n[2] * path[2]);
+                    if here + along.min(0.0) > margin {
                         if anchored {
-                            c.apart = apart;
+                            c.apart = (c.apart - moved).max(here);
                         }
                         continue;
                     }
-                    triangle_distance(&tool.corners, part_tree.triangle(c.part))
                 }
-            };
-            count(if d.meet { 0.0 } else { d.distance });
-            if anchored {
-                c.apart = if d.meet { 0.0 } else { d.distance };
+                let index = i as u32;
+                while from_check < detector.reuse_from.len()
+                    && detector.reuse_from[from_check] < index
+                {
+                    from_check += 1;
+                }
+                let checked = (reuse
+                    && detector.reuse_from.get(from_check) == Some(&index)
+                    && detector.reuse_known[from_check])
+                    .then(|| detector.reuse_nearest[from_check]);
+                let d = match checked {
+                    Some(d) => d,
+                    None => {
+                        posed_count += 1;
+                        let tool = tools.get(&meshes.tool, c.tool);
+                        let part_tree = &meshes.objects[c.object as usize];
+                        // Along a path: the least over it (a bound at the centre too).
+                        let apart = tool.separation_upto(part_tree, c.part, margin, true);
+                        if apart > margin {
+                            if anchored {
+                                c.apart = apart;
+                            }
+                            continue;
+                        }
+                        triangle_distance(&tool.corners, part_tree.triangle(c.part))
+                    }
+                };
+                count(if d.meet { 0.0 } else { d.distance });
+                if anchored {
+                    c.apart = if d.meet { 0.0 } else { d.distance };
+                }
+                if d.distance <= margin || swept {
+                    // The near list is no longer than the contacts' storage.
+                    detector.contacts.push(*c);
+                    detector.contact_from.push(index);
+                    detector.contact_nearest.push(d);
+                    detector.nearest_known.push(true);
+                }
             }
-            if d.distance <= margin || swept {
-                // The near list is no longer than the contacts' storage.
-                detector.contacts.push(*c);
-                detector.contact_from.push(index);
-                detector.contact_nearest.push(d);
-                detector.nearest_known.push(true);
+        }
+        if let Some(stop) = stopped_at.filter(|_| anchored) {
+            // The pairs not reached keep their bounds, moved to this centre as every other's.
+            for c in &mut detector.near[stop..] {
+                c.apart -= moved;
             }
         }
         detector.nearest_at = Some((rot, t));
         detector.contacts_list = Some(detector.near_generation);
         self.run.regions.near_bounds_at = Some(*center);
         self.run.counts.near_posed += posed_count;
-        self.run.counts.frame_scanned += self.detector.near.len() as u64;
+        self.run.counts.frame_scanned += stopped_at.unwrap_or(self.detector.near.len()) as u64;
+        if stopped_at.is_some() {
+            // Out of time: nothing of the region is proven. The distances measured so far
+            // serve the next frame's region here (the frame ends at its last proven pose, where
+            // the next one starts), as an answer's check's do.
+            self.run.regions.interrupted = true;
+            self.run.regions.contacts_at = None;
+            return;
+        }
         // A region that measured a ball's pair target finds where the wall stands; one kept
         // short of it that measured under half the target leaves that as found (a new list
         // too: the wall is where the tool is, not where a list was listed, and each reset
@@ -360,26 +345,134 @@ impl GodObject {
         }
     }
 
-    /// Lists into `detector.near` the triangle pairs within the span's reach (mm) of each other
-    /// anywhere on it, by descending the tool's triangle tree, swept along it, against each
-    /// object's. Returns how many did not fit in the list's storage (0: the list is complete),
-    /// or, unless `count_all`, at least 1 once one does not (the descent stops there: a list
-    /// kept only when complete is not worth finishing).
-    fn list_near(&mut self, span: &NearSpan, count_all: bool) -> usize {
-        let Some(meshes) = &self.bodies.meshes else {
-            return 0;
+    /// Puts in `detector.near` a list of every triangle pair that can come within `margin`
+    /// (mm) of each other in the region about `center` along `path` (mm): the list in use, the
+    /// one under way (finished here), or a new one. Returns false where `deadline` came first
+    /// (the list under way is kept for the next frame).
+    fn near_list_for(
+        &mut self,
+        center: &Pose,
+        margin: f64,
+        path: &Vector3<f64>,
+        deadline: Option<Instant>,
+    ) -> bool {
+        let swept = *path != Vector3::zeros();
+        let end = Pose::from_translation_rotation(
+            &(center.translation() + path),
+            &center.rotation_matrix(),
+        );
+        // The bounds are convex along the path: its ends are the farthest.
+        let covered = |span: &NearSpan| {
+            let mut far = self.span_bound(span, center);
+            if swept {
+                far = far.max(self.span_bound(span, &end));
+            }
+            far + margin <= span.reach
         };
-        self.run.regions.near_bounds_at = None;
-        self.run.regions.near_listed_at = Some(span.at);
+        if self.params.heuristics.mesh_near_list
+            && self.run.regions.near_at.is_some_and(|s| covered(&s))
+        {
+            return true;
+        }
+        // The list under way serves only where it holds the whole region, the path's end too.
+        let under_way_covers = self
+            .run
+            .regions
+            .near_ahead
+            .at
+            .is_some_and(|at| covered(&at));
+        // Its rest costs less than a new list's whole descent; out of time, the next frame
+        // goes on with it.
+        if under_way_covers
+            && !self.advance_near(deadline)
+            && self.run.regions.near_ahead.at.is_some()
+        {
+            return false;
+        }
+        let wide_over = |ahead: &NearAhead| {
+            ahead.purpose == (NearPurpose::Region { wide: true }) && ahead.done && ahead.dropped > 0
+        };
+        let resumed_over = under_way_covers && wide_over(&self.run.regions.near_ahead);
+        if self.take_near_list(under_way_covers) {
+            return true;
+        }
+        let extra = self.run.regions.near_extra;
+        if !resumed_over {
+            // A list no wider than the region's own margin is not kept for later regions.
+            let wide = self.params.heuristics.mesh_near_list
+                && extra >= NEAR_LIST_MIN_SHARE * self.params.tuning.near_list_mm;
+            if !wide {
+                // The next list reaches farther again.
+                self.run.regions.near_extra = (2.0 * extra).min(self.params.tuning.near_list_mm);
+            }
+            let span = NearSpan {
+                at: *center,
+                sweep: if swept {
+                    (*path).into()
+                } else if wide {
+                    self.near_sweep()
+                } else {
+                    [0.0; 3]
+                },
+                reach: margin + if wide { extra } else { 0.0 },
+            };
+            self.begin_near(span, NearPurpose::Region { wide });
+            if !self.advance_near(deadline) {
+                return false;
+            }
+            if self.take_near_list(true) {
+                return true;
+            }
+        }
+        // A wide list past the storage gives way to the region's own pairs, every one past
+        // the storage counted (the region shrinks by them); the next list reaches a quarter
+        // as far beyond its region.
+        self.run.regions.near_extra = 0.25 * extra;
+        let own = NearSpan {
+            at: *center,
+            sweep: (*path).into(),
+            reach: margin,
+        };
+        self.begin_near(own, NearPurpose::Region { wide: false });
+        self.advance_near(deadline) && self.take_near_list(true)
+    }
+
+    /// Starts a near list for `span` in `detector.next_near` (one under way is dropped).
+    fn begin_near(&mut self, span: NearSpan, purpose: NearPurpose) {
+        if purpose != NearPurpose::Ahead {
+            self.run.counts.near_listed += 1;
+        }
+        self.run.regions.near_ahead = NearAhead::start(span, purpose);
+        self.detector.next_near.clear();
+        TriangleTree::start_descent(&mut self.detector.next_stack);
+    }
+
+    /// Goes on descending the tool's triangle tree, swept along the span, against each
+    /// object's, for the near list under way, until it is done or `end`; returns whether it is
+    /// done. Past the storage a list built ahead is dropped (none this time), a region's wide
+    /// list is done (its overflow counted), a region's own list goes on counting.
+    fn advance_near(&mut self, end: Option<Instant>) -> bool {
+        let Some(meshes) = &self.bodies.meshes else {
+            return false;
+        };
+        let mut ahead = self.run.regions.near_ahead;
+        let Some(next) = ahead.at else {
+            return false;
+        };
+        if ahead.done {
+            return true;
+        }
+        let count_all = ahead.purpose == NearPurpose::Region { wide: false };
+        let started = Instant::now();
+        let (rot, t) = (next.at.rotation_matrix(), next.at.translation());
+        let sweep = Vector3::from(next.sweep);
         let detector = &mut self.detector;
-        detector.near.clear();
-        detector.near_generation += 1;
-        let (rot, t) = (span.at.rotation_matrix(), span.at.translation());
-        let sweep = Vector3::from(span.sweep);
-        let mut dropped = 0usize;
-        let near = &mut detector.near;
-        for (object, part_tree) in meshes.objects.iter().enumerate() {
+        while ahead.object < meshes.objects.len() && end.is_none_or(|e| Instant::now() < e) {
+            let object = ahead.object;
+            let part_tree = &meshes.objects[object];
             let tool_tree = &meshes.tool;
+            let list = &mut detector.next_near;
+            let mut dropped = 0;
             let visit = |tools: std::ops::Range<u32>, parts: std::ops::Range<u32>| {
                 let leaves = LeafTriangles {
                     tool_tree,
@@ -388,24 +481,46 @@ impl GodObject {
                     tools,
                     parts,
                 };
-                dropped += leaves.push_near(&rot, &t, &sweep, span.reach, near);
+                dropped += leaves.push_near(&rot, &t, &sweep, next.reach, list);
                 count_all || dropped == 0
             };
-            TriangleTree::start_descent(&mut detector.tree_stack);
-            tool_tree.descend(
+            let over = tool_tree.descend(
                 &rot,
                 &t,
                 &sweep,
                 part_tree,
-                span.reach,
-                &mut detector.tree_stack,
-                usize::MAX,
+                next.reach,
+                &mut detector.next_stack,
+                NEAR_AHEAD_STEPS,
                 visit,
             );
-            if dropped > 0 && !count_all {
-                break;
+            ahead.dropped += dropped;
+            if ahead.dropped > 0 && !count_all {
+                if ahead.purpose == NearPurpose::Ahead {
+                    // Too many for the storage: no list ahead this time.
+                    self.run.regions.near_ahead = NearAhead::IDLE;
+                    return false;
+                }
+                ahead.object = meshes.objects.len();
+            } else if over {
+                ahead.object += 1;
+                TriangleTree::start_descent(&mut detector.next_stack);
             }
         }
+        ahead.done = ahead.object >= meshes.objects.len();
+        ahead.spent_us += started.elapsed().as_secs_f64() * 1e6;
+        self.run.regions.near_ahead = ahead;
+        ahead.done
+    }
+
+    /// Lists into `detector.near` the triangle pairs within the span's reach (mm) of each other
+    /// anywhere on it, at once; returns how many did not fit in the list's storage.
+    #[cfg(test)]
+    fn list_near(&mut self, span: &NearSpan) -> usize {
+        self.begin_near(*span, NearPurpose::Region { wide: false });
+        self.advance_near(None);
+        let dropped = self.run.regions.near_ahead.dropped;
+        self.take_near_list(true);
         dropped
     }
 
@@ -457,26 +572,40 @@ impl GodObject {
         self.run.regions.near_descent_us / slice_us.max(1e-9)
     }
 
-    /// Puts the next near list in place of the current one when it is complete and `covers`
+    /// Puts the near list under way in place of the current one when it is done and `covers`
     /// the region (every pose of it within the list's reach, less the region's margin, of its
-    /// span); returns whether it did. An unfinished or overflowed one, or one that does not
-    /// cover the region, is dropped when the current list is spent.
-    fn take_near_ahead(&mut self, covers: bool) -> bool {
+    /// span); returns whether it did. One not done, or one that does not cover the region, is
+    /// dropped (a list built ahead is when the current one is spent), and so is a region's
+    /// wide list past the storage (false: the region lists its own pairs instead).
+    fn take_near_list(&mut self, covers: bool) -> bool {
         let ahead = self.run.regions.near_ahead;
         let Some(at) = ahead.at else {
             return false;
         };
         self.run.regions.near_ahead = NearAhead::IDLE;
-        if !ahead.done || !covers {
+        let wide_over = ahead.purpose == (NearPurpose::Region { wide: true }) && ahead.dropped > 0;
+        if !ahead.done || !covers || wide_over {
             return false;
         }
         std::mem::swap(&mut self.detector.near, &mut self.detector.next_near);
         self.detector.near_generation += 1;
         self.run.regions.near_bounds_at = None;
         self.run.regions.near_listed_at = Some(at.at);
-        self.run.regions.near_at = Some(at);
-        self.run.counts.near_taken += 1;
-        self.adapt_near_extra(at.reach, self.run.regions.near_extra);
+        match ahead.purpose {
+            NearPurpose::Region { wide: false } => {
+                // The region's own: not kept for later regions; past the storage it shrinks.
+                self.run.regions.near_at = None;
+                self.run.regions.dropped += ahead.dropped;
+            }
+            purpose => {
+                if purpose == NearPurpose::Ahead {
+                    self.run.counts.near_taken += 1;
+                }
+                self.run.regions.near_at = Some(at);
+                self.run.regions.near_descent_us = ahead.spent_us;
+                self.adapt_near_extra(at.reach, self.run.regions.near_extra);
+            }
+        }
         true
     }
 
@@ -511,115 +640,65 @@ impl GodObject {
     /// extra reach off it), a list as wide from the pose the tool is expected at when the
     /// current one is spent, so that it is ready then and no frame pays a whole descent.
     pub(super) fn tend_near(&mut self, q: &Pose, slice_us: f64, deadline: Instant) {
-        let Some(meshes) = &self.bodies.meshes else {
-            return;
-        };
-        let Some(span) = self.run.regions.near_at else {
-            return;
-        };
-        if !self.params.heuristics.mesh_near_list {
+        if self.bodies.meshes.is_none() {
             return;
         }
-        let mut ahead = self.run.regions.near_ahead;
-        if ahead.done {
+        // (A slice past any clock's range, or not a number, ends at the deadline.)
+        let end = Duration::try_from_secs_f64(slice_us.max(0.0) * 1e-6)
+            .ok()
+            .and_then(|slice| Instant::now().checked_add(slice))
+            .map_or(deadline, |e| e.min(deadline));
+        if self.run.regions.near_ahead.at.is_some() {
+            // A list under way (ahead, or a region's the frame had no time for) goes on.
+            self.advance_near(Some(end));
             return;
         }
+        let Some(span) = self
+            .run
+            .regions
+            .near_at
+            .filter(|_| self.params.heuristics.mesh_near_list)
+        else {
+            return;
+        };
         let extra = self.run.regions.near_extra;
-        if ahead.at.is_none() {
-            let sweep = Vector3::from(span.sweep);
-            let len2 = sweep.norm_squared();
-            let along = detect::segment_share(&(q.translation() - span.at.translation()), &sweep);
-            let used = self.span_bound(&span, q);
-            // Frames until the list is spent: the tool leaves its reach at the pace its motion
-            // bound grows off the sweep (a turn, a step across), or runs off the sweep's end.
-            let len = len2.sqrt();
-            let step = Vector3::from(self.run.motion.last_step);
-            let along_speed = if len > 0.0 {
-                (step.dot(&sweep) / len).max(0.0)
-            } else {
-                0.0
-            };
-            let off_speed = (self.run.motion.last_motion - along_speed).max(1e-9);
-            let mut left = (extra - used).max(0.0) / off_speed;
-            if along_speed > 0.0 {
-                left = left.min((1.0 - along) * len / along_speed);
-            }
-            // The next list starts once the tool has used its start share of this one, or
-            // earlier where its descent, a slice a frame at the last one's cost, would not be
-            // done by then.
-            let build = self.near_descent_frames();
-            if used < NEAR_AHEAD_START * extra
-                && (len2 == 0.0 || along < NEAR_AHEAD_START)
-                && left > build / NEAR_AHEAD_START
-            {
-                return;
-            }
-            // Centred where the tool is expected when this one is spent.
-            let frames = left.min(self.params.tuning.near_ahead_max_frames);
-            ahead = NearAhead {
-                at: Some(NearSpan {
-                    at: self.pose_ahead(q, frames),
-                    sweep: self.near_sweep(),
-                    reach: span.reach,
-                }),
-                object: 0,
-                done: false,
-                spent_us: 0.0,
-            };
-            self.detector.next_near.clear();
-            TriangleTree::start_descent(&mut self.detector.next_stack);
-        }
-        let Some(next) = ahead.at else {
-            return;
+        let sweep = Vector3::from(span.sweep);
+        let len2 = sweep.norm_squared();
+        let along = detect::segment_share(&(q.translation() - span.at.translation()), &sweep);
+        let used = self.span_bound(&span, q);
+        // Frames until the list is spent: the tool leaves its reach at the pace its motion
+        // bound grows off the sweep (a turn, a step across), or runs off the sweep's end.
+        let len = len2.sqrt();
+        let step = Vector3::from(self.run.motion.last_step);
+        let along_speed = if len > 0.0 {
+            (step.dot(&sweep) / len).max(0.0)
+        } else {
+            0.0
         };
-        let started = Instant::now();
-        let end = (started + Duration::from_secs_f64(slice_us * 1e-6)).min(deadline);
-        let (rot, t) = (next.at.rotation_matrix(), next.at.translation());
-        let sweep = Vector3::from(next.sweep);
-        let detector = &mut self.detector;
-        let mut overflow = false;
-        while ahead.object < meshes.objects.len() && Instant::now() < end {
-            let object = ahead.object;
-            let part_tree = &meshes.objects[object];
-            let tool_tree = &meshes.tool;
-            let list = &mut detector.next_near;
-            let visit = |tools: std::ops::Range<u32>, parts: std::ops::Range<u32>| {
-                let leaves = LeafTriangles {
-                    tool_tree,
-                    part_tree,
-                    object,
-                    tools,
-                    parts,
-                };
-                overflow = leaves.push_near(&rot, &t, &sweep, next.reach, list) > 0;
-                !overflow
-            };
-            let over = tool_tree.descend(
-                &rot,
-                &t,
-                &sweep,
-                part_tree,
-                next.reach,
-                &mut detector.next_stack,
-                NEAR_AHEAD_STEPS,
-                visit,
-            );
-            if overflow {
-                // Too many for the storage: no list ahead this time.
-                self.run.regions.near_ahead = NearAhead::IDLE;
-                return;
-            }
-            if over {
-                ahead.object += 1;
-                TriangleTree::start_descent(&mut detector.next_stack);
-            }
+        let off_speed = (self.run.motion.last_motion - along_speed).max(1e-9);
+        let mut left = (extra - used).max(0.0) / off_speed;
+        if along_speed > 0.0 {
+            left = left.min((1.0 - along) * len / along_speed);
         }
-        ahead.done = ahead.object >= meshes.objects.len();
-        ahead.spent_us += started.elapsed().as_secs_f64() * 1e6;
-        if ahead.done {
-            self.run.regions.near_descent_us = ahead.spent_us;
+        // The next list starts once the tool has used its start share of this one, or
+        // earlier where its descent, a slice a frame at the last one's cost, would not be
+        // done by then.
+        let build = self.near_descent_frames();
+        if used < NEAR_AHEAD_START * extra
+            && (len2 == 0.0 || along < NEAR_AHEAD_START)
+            && left > build / NEAR_AHEAD_START
+        {
+            return;
         }
-        self.run.regions.near_ahead = ahead;
+        // Centred where the tool is expected when this one is spent.
+        let frames = left.min(self.params.tuning.near_ahead_max_frames);
+        let next = NearSpan {
+            at: self.pose_ahead(q, frames),
+            sweep: self.near_sweep(),
+            reach: span.reach,
+        };
+        self.begin_near(next, NearPurpose::Ahead);
+        self.advance_near(Some(end));
     }
 
     /// The two triangles of `c` with the tool at `(rot, t)`: the tool's posed, the object's.
@@ -1421,7 +1500,7 @@ mod tests {
             sweep: [0.0; 3],
             reach: 0.25,
         };
-        assert_eq!(own.list_near(&span, true), 0);
+        assert_eq!(own.list_near(&span), 0);
         let own_len = own.detector.near.len();
         assert!(4 < own_len && own_len + 4 < wide, "{own_len} of {wide}");
         // Room for the region's own pairs, not the wide list's.
@@ -1538,6 +1617,69 @@ mod tests {
     /// The 4 mm cube tool over a flat 8 x 8 mm sheet of 0.25 mm cells (2 048 triangles, kept
     /// as cells: flat faces not merged), its top at z = 0: every cell under the cube's bottom
     /// is as far from it as the cube stands off.
+    /// A region whose frame has no time left lists nothing and proves nothing; the regions
+    /// after it at the same pose, each given a short slice, go on with the list's descent and
+    /// then its filter where they stopped (the pairs not reached keep bounds that hold there),
+    /// and end with the pairs and distances of regions listed and filtered at once.
+    #[test]
+    fn a_region_stopped_at_the_deadline_is_finished_by_the_next_ones_there_as_if_at_once() {
+        // The cube's face 0.003 mm over a sheet of fine cells, turned: hundreds of pairs
+        // touch. Then slid and turned a little, within the list's reach.
+        let poses = [
+            Pose::from_array([0.0, 0.0, 2.003, 0.0, 0.0, 0.3]),
+            Pose::from_array([0.02, -0.01, 2.004, 0.0, 0.0, 0.301]),
+        ];
+        let margin = 0.05;
+        let mut at_once = cube_over_fine_grid();
+        let mut god = cube_over_fine_grid();
+        let mut filters_stopped = 0;
+        for q in &poses {
+            at_once.detect(q, 1.0).unwrap();
+            at_once.narrow_phase(q, margin);
+            assert!(!at_once.run.regions.interrupted);
+            assert!(at_once.detector.contacts.len() > 100);
+            god.detect(q, 1.0).unwrap();
+            god.narrow_phase_by(q, margin, &Vector3::zeros(), Some(Instant::now()));
+            assert!(god.run.regions.interrupted);
+            assert!(god.detector.contacts.is_empty());
+            assert!(god.run.regions.contacts_at.is_none());
+            let mut regions = 1;
+            while god.run.regions.interrupted {
+                assert!(regions < 100_000, "still not done after {regions} regions");
+                god.run.regions.interrupted = false;
+                let slice = Instant::now() + Duration::from_micros(20);
+                god.narrow_phase_by(q, margin, &Vector3::zeros(), Some(slice));
+                regions += 1;
+                if god.run.regions.interrupted && god.run.regions.near_at.is_some() {
+                    filters_stopped += 1;
+                }
+            }
+            assert_eq!(god.run.counts.near_listed, at_once.run.counts.near_listed);
+            let names = |god: &GodObject| -> Vec<_> {
+                god.detector
+                    .near
+                    .iter()
+                    .map(|c| (c.object, c.tool, c.part))
+                    .collect()
+            };
+            assert!(names(&god) == names(&at_once), "the lists differ");
+            assert!(
+                god.detector.contacts == at_once.detector.contacts,
+                "the pairs kept differ from those kept at once"
+            );
+            assert!(
+                god.detector.contact_nearest == at_once.detector.contact_nearest,
+                "the distances differ from those measured at once"
+            );
+            assert_eq!(god.run.regions.contacts_at, at_once.run.regions.contacts_at);
+        }
+        assert_eq!(at_once.run.counts.near_listed, 1);
+        assert!(
+            filters_stopped > 1,
+            "the filter was stopped in {filters_stopped} regions"
+        );
+    }
+
     fn cube_over_fine_grid() -> GodObject {
         let (v, t) = grid_sheet(32, 4.0, |_, _| 0.0);
         let (tv, tt) = box_mesh([0.0; 3], [2.0; 3]);

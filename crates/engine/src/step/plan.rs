@@ -460,6 +460,7 @@ impl GodObject {
         // The mesh mode's triangle pairs that can touch in the region (more than the storage
         // holds count as dropped: the region shrinks as for leaf pairs).
         let t0 = Instant::now();
+        let deadline = Some(f.clock.deadline);
         match plan.sweep {
             // Along a path: every pose of the region is within its width (and the skin) of a
             // pose on the path, turned at most by the path's turn.
@@ -467,11 +468,18 @@ impl GodObject {
                 let r = q_lin.rotation_matrix();
                 let turn = self.turn_bound(&r, &(rotation_exp(&path.rotation.into()) * r));
                 let along = Vector3::from(path.translation);
-                self.narrow_phase_along(&q_lin, plan.width + skin + turn, &along);
+                self.narrow_phase_by(&q_lin, plan.width + skin + turn, &along, deadline);
             }
-            None => self.narrow_phase(&q_lin, plan.allowed + skin),
+            None => {
+                self.narrow_phase_by(&q_lin, plan.allowed + skin, &Vector3::zeros(), deadline);
+            }
         }
         f.clock.detect_s += t0.elapsed().as_secs_f64();
+        if self.run.regions.interrupted {
+            // The frame's time is up before the region's triangle pairs were listed: as for a
+            // traversal, the frame ends at its last proven pose and the next one goes on.
+            return Flow::Stop;
+        }
         if !plan.recentred {
             // The rows the region gives (leaf pairs, or triangle pairs in the mesh mode).
             let count = self.listed_rows() + self.run.regions.dropped;

@@ -64,12 +64,10 @@ pub(super) struct Detector {
     pub(super) reuse_from: Vec<u32>,
     /// The tool's triangles posed at the pose being measured (empty in sphere mode).
     pub(super) tool_poses: ToolPoses,
-    /// The next near list, built a slice per frame ahead of need, and its descent's stack.
+    /// The near list under way ([`NearAhead`]), and the stack its descent of the triangle
+    /// trees is on (reserved for the deepest pair of trees).
     pub(super) next_near: Vec<TriPair>,
     pub(super) next_stack: collide::TreePairStack,
-    /// The stack the narrow phase descends the triangle trees on (reserved for the deepest
-    /// pair of trees).
-    pub(super) tree_stack: collide::TreePairStack,
 }
 
 impl Detector {
@@ -111,7 +109,7 @@ impl Detector {
         meshes: Option<&Meshes>,
     ) -> Self {
         let contacts_cap = if meshes.is_some() { cap } else { 0 };
-        let tree_stack = meshes.map_or_else(Vec::new, |m| {
+        let next_stack = meshes.map_or_else(Vec::new, |m| {
             m.objects
                 .iter()
                 .map(|o| TriangleTree::stack_for(&m.tool, o))
@@ -137,11 +135,10 @@ impl Detector {
             reuse_known: Vec::with_capacity(contacts_cap),
             reuse_from: Vec::with_capacity(contacts_cap),
             tool_poses: ToolPoses::new(meshes.map_or(0, |m| m.tool.len())),
-            next_stack: tree_stack.clone(),
+            next_stack,
             contact_gaps: vec![0.0; contacts_cap],
             contact_points: vec![[0.0; 3]; contacts_cap],
             row_targets: vec![0.0; contacts_cap],
-            tree_stack,
         }
     }
 }
@@ -331,7 +328,8 @@ pub(super) struct RegionMemory {
     /// Leaf pairs of the last detection that did not fit in `pairs` (its list is then not
     /// complete).
     pub(super) dropped: usize,
-    /// The last traversal stopped at the frame's deadline (its list is not complete).
+    /// The frame's time ran out before its region was listed: a traversal, or the mesh mode's
+    /// near list or its filter, stopped at the deadline (the list is not complete).
     pub(super) interrupted: bool,
     /// How the pair count grows with the margin near the tool, as last seen (sizes regions).
     pub(super) density: density::PairDensity,
@@ -388,15 +386,32 @@ pub(super) struct NearSpan {
     pub(super) reach: f64,
 }
 
-/// The mesh mode's next near list as it is built, a slice per frame.
+/// What a mesh-mode near list under way is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum NearPurpose {
+    /// Built ahead, a slice a frame, for the regions after the current list is spent; one past
+    /// the storage is dropped.
+    Ahead,
+    /// A region's own list, begun in a frame whose time ran out before it was done and
+    /// finished by the next frame's region at the same pose. `wide`: reaching beyond the
+    /// region's margin, kept for later regions, stopped at the storage's end; else the
+    /// region's alone, every pair past the storage counted (the region shrinks by them).
+    Region { wide: bool },
+}
+
+/// The mesh mode's near list under way, built a slice at a time into `detector.next_near`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct NearAhead {
     /// Where it will hold (`None`: none under way).
     pub(super) at: Option<NearSpan>,
+    /// What it is for.
+    pub(super) purpose: NearPurpose,
     /// The object whose tree the descent is in.
     pub(super) object: usize,
-    /// Every object descended: the list is complete.
+    /// Every object descended (or a wide region list stopped at the storage's end).
     pub(super) done: bool,
+    /// Pairs that did not fit in the storage.
+    pub(super) dropped: usize,
     /// Its slices' time so far, µs.
     pub(super) spent_us: f64,
 }
@@ -405,10 +420,21 @@ impl NearAhead {
     /// No list under way.
     pub(super) const IDLE: Self = Self {
         at: None,
+        purpose: NearPurpose::Ahead,
         object: 0,
         done: false,
+        dropped: 0,
         spent_us: 0.0,
     };
+
+    /// A list for `span` about to be descended.
+    pub(super) fn start(span: NearSpan, purpose: NearPurpose) -> Self {
+        Self {
+            at: Some(span),
+            purpose,
+            ..Self::IDLE
+        }
+    }
 }
 
 #[derive(Clone, Debug)]
