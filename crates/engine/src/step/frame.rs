@@ -36,6 +36,9 @@ pub(super) struct FrameClock {
     /// Time in detection and in rows and solves, s.
     pub(super) detect_s: f64,
     pub(super) solve_s: f64,
+    /// When the last mesh-mode region was adopted, and its triangle pairs: the rest of its
+    /// pass is their rows, solve and check.
+    pub(super) rows_from: Option<(Instant, usize)>,
 }
 
 impl FrameClock {
@@ -48,6 +51,7 @@ impl FrameClock {
             longest_pass_us: 0.0,
             detect_s: 0.0,
             solve_s: 0.0,
+            rows_from: None,
         }
     }
 

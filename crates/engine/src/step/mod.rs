@@ -582,8 +582,8 @@ impl GodObject {
         self.reuse_region(&mut f, &mut out);
         for pass in 0..f.max_passes {
             f.clock.pass_start = Instant::now();
-            // In the mesh mode a new region's narrow phase runs to its end whatever the
-            // deadline: its pass starts only where one as costly as the last fits.
+            // In the mesh mode a new region's pass starts only where one as costly as the last
+            // fits (its narrow phase, stopped at the deadline, would leave the frame lagging).
             let new_mesh_region = f.course.detect_now && self.bodies.meshes.is_some();
             let region_pass_us = if new_mesh_region {
                 self.run.regions.mesh_region_pass_us
@@ -611,6 +611,10 @@ impl GodObject {
             if new_mesh_region {
                 self.run.regions.mesh_region_pass_us =
                     f.clock.pass_start.elapsed().as_secs_f64() * 1e6;
+            }
+            if let Some((from, pairs)) = f.clock.rows_from.take() {
+                self.run.regions.mesh_contact_us =
+                    from.elapsed().as_secs_f64() * 1e6 / pairs.max(1) as f64;
             }
             match flow {
                 Flow::Go | Flow::Next => {}

@@ -10,6 +10,12 @@ use super::*;
 /// way is no guide to a turned trust box.
 const STILL_PASS_SHARE: f64 = 1e-3;
 
+/// A mesh-mode region of fewer triangle pairs has its rows, solve and check within the
+/// budget's reserve for them ([`Tuning::detect_reserve`]: a ball on a ball's pole, 2 048
+/// pairs, takes 300–650 µs; 256 pairs under 100 µs), and its cost per pair is not a guide
+/// (the solve's own cost spread over few pairs).
+const ROWS_RESERVE_MIN_PAIRS: usize = 256;
+
 /// A region as planned before its pairs are listed.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct RegionPlan {
@@ -480,6 +486,11 @@ impl GodObject {
             // traversal, the frame ends at its last proven pose and the next one goes on.
             return Flow::Stop;
         }
+        if self.rows_past_budget(f) {
+            // Their rows, solve and check would end past the budget: the next frame's region
+            // here takes the distances measured and has the time for them.
+            return Flow::Stop;
+        }
         if !plan.recentred {
             // The rows the region gives (leaf pairs, or triangle pairs in the mesh mode).
             let count = self.listed_rows() + self.run.regions.dropped;
@@ -561,7 +572,27 @@ impl GodObject {
         f.course.trust = trust;
         f.course.detect_now = false;
         self.map_warm_start();
+        if self.bodies.meshes.is_some() && self.detector.contacts.len() >= ROWS_RESERVE_MIN_PAIRS {
+            f.clock.rows_from = Some((Instant::now(), self.detector.contacts.len()));
+        }
         Flow::Go
+    }
+
+    /// Whether the mesh-mode region just listed would have its rows, solve and check end past
+    /// the budget, at [`Tuning::pass_headroom`] times the cost per triangle pair of the last
+    /// region of at least [`ROWS_RESERVE_MIN_PAIRS`] (as a pass is started only where 1.25
+    /// times the longest fits); never where they would not fit in a frame of their own either
+    /// (then the frame runs over rather than the tool never moving).
+    fn rows_past_budget(&self, f: &FrameWork) -> bool {
+        let pairs = self.detector.contacts.len();
+        if self.bodies.meshes.is_none() || pairs < ROWS_RESERVE_MIN_PAIRS {
+            return false;
+        }
+        let rest =
+            self.params.tuning.pass_headroom * pairs as f64 * self.run.regions.mesh_contact_us;
+        let budget = self.params.budget_us;
+        f.clock.elapsed_us() + rest > budget
+            && rest < (1.0 - self.params.tuning.detect_reserve) * budget
     }
 
     /// The trust region of an adopted region that does not reach the goal: the slab's box, a

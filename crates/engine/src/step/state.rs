@@ -243,6 +243,7 @@ impl RunState {
                 near_extra: tuning.near_list_mm,
                 near_descent_us: 0.0,
                 mesh_region_pass_us: 0.0,
+                mesh_contact_us: 0.0,
                 overflow_floor: f64::INFINITY,
                 near_standoff: f64::INFINITY,
                 near_ahead: NearAhead::IDLE,
@@ -355,6 +356,9 @@ pub(super) struct RegionMemory {
     /// What the last pass that listed a new region's triangle pairs cost, µs (the mesh mode's
     /// narrow phase is not stopped by the deadline: a pass starts only where that fits).
     pub(super) mesh_region_pass_us: f64,
+    /// What the rows, solve and check of the last mesh-mode region of at least 256 triangle
+    /// pairs cost per pair, µs (0: none yet).
+    pub(super) mesh_contact_us: f64,
     /// The dense floor after a ball region overflowed the storage (a quarter of its
     /// allowance, mm), doubled back per ball that fits ([`GodObject::dense_floor`]).
     pub(super) overflow_floor: f64,
