@@ -1680,6 +1680,41 @@ mod tests {
         );
     }
 
+    /// A region of thousands of triangle pairs listed late in the frame leaves its rows,
+    /// solve and check to the next frame where they would end past the budget (at the last
+    /// such region's cost per pair), but not early in the frame, and not where they would not
+    /// fit in a frame of their own either.
+    #[test]
+    fn a_large_region_listed_late_leaves_its_rows_to_the_next_frame() {
+        let mut god = cube_over_fine_grid();
+        let q = Pose::from_array([0.0, 0.0, 2.003, 0.0, 0.0, 0.3]);
+        god.detect(&q, 1.0).unwrap();
+        god.narrow_phase(&q, 0.05);
+        let pairs = god.detector.contacts.len();
+        assert!(
+            pairs >= super::super::plan::ROWS_RESERVE_MIN_PAIRS,
+            "{pairs} pairs"
+        );
+        let budget = god.params.budget_us;
+        // Rows, solve and check at a third of the budget, with the headroom.
+        god.run.regions.mesh_contact_us = budget / 3.0 / pairs as f64;
+        let frame_at = |god: &GodObject, ago_us: f64| {
+            let start = Instant::now() - Duration::from_secs_f64(ago_us * 1e-6);
+            god.start_frame(q, q, start)
+        };
+        assert!(god.rows_past_budget(&frame_at(&god, 0.8 * budget)));
+        assert!(!god.rows_past_budget(&frame_at(&god, 0.0)));
+        // Rows that would take a whole frame are done here: the tool would never move.
+        god.run.regions.mesh_contact_us = budget / pairs as f64;
+        assert!(!god.rows_past_budget(&frame_at(&god, 0.8 * budget)));
+        // Nor is a small region held back by the cost of the last large one.
+        god.run.regions.mesh_contact_us = budget / 3.0 / pairs as f64;
+        god.detector
+            .contacts
+            .truncate(super::super::plan::ROWS_RESERVE_MIN_PAIRS - 1);
+        assert!(!god.rows_past_budget(&frame_at(&god, 0.9 * budget)));
+    }
+
     fn cube_over_fine_grid() -> GodObject {
         let (v, t) = grid_sheet(32, 4.0, |_, _| 0.0);
         let (tv, tt) = box_mesh([0.0; 3], [2.0; 3]);

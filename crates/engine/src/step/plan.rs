@@ -14,7 +14,7 @@ const STILL_PASS_SHARE: f64 = 1e-3;
 /// budget's reserve for them ([`Tuning::detect_reserve`]: a ball on a ball's pole, 2 048
 /// pairs, takes 300–650 µs; 256 pairs under 100 µs), and its cost per pair is not a guide
 /// (the solve's own cost spread over few pairs).
-const ROWS_RESERVE_MIN_PAIRS: usize = 256;
+pub(super) const ROWS_RESERVE_MIN_PAIRS: usize = 256;
 
 /// A region as planned before its pairs are listed.
 #[derive(Clone, Copy, Debug)]
@@ -583,7 +583,7 @@ impl GodObject {
     /// region of at least [`ROWS_RESERVE_MIN_PAIRS`] (as a pass is started only where 1.25
     /// times the longest fits); never where they would not fit in a frame of their own either
     /// (then the frame runs over rather than the tool never moving).
-    fn rows_past_budget(&self, f: &FrameWork) -> bool {
+    pub(super) fn rows_past_budget(&self, f: &FrameWork) -> bool {
         let pairs = self.detector.contacts.len();
         if self.bodies.meshes.is_none() || pairs < ROWS_RESERVE_MIN_PAIRS {
             return false;
