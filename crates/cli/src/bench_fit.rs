@@ -30,9 +30,9 @@ use serde::Serialize;
 /// The radial clearances of the study, mm.
 pub const CLEARANCES_MM: [f64; 5] = [0.5, 0.2, 0.1, 0.05, 0.02];
 
-/// Mesh-level penetration is measured on every this many frames near or in contact
-/// ([`crate::run::near_contact`], whatever the geometry mode; a peg in its hole
-/// puts all its probe points in the block's box: about 1.5 ms a frame on 2 cores).
+/// Mesh-level penetration is measured on every this many frames, where the tool may touch the
+/// block by the parts alone ([`crate::run::mesh_depths`], whatever the geometry mode; a peg in
+/// its hole puts all its probe points in the block's box: about 1.5 ms a frame on 2 cores).
 pub const MESH_STRIDE: usize = 5;
 
 /// Tilt of a tilted approach about `x`, rad (2°).
@@ -122,7 +122,8 @@ pub struct FitRow {
     /// Deepest penetration of the peg mesh into the block mesh or the reverse at the graphic
     /// pose over the frames measured (independent of the trees), mm.
     pub mesh_penetration_mm: f64,
-    /// Frames measured at the mesh level (every [`MESH_STRIDE`]-th frame near or in contact).
+    /// Frames measured at the mesh level (every [`MESH_STRIDE`]-th frame, where the parts'
+    /// boxes may touch).
     pub mesh_frames: usize,
     /// Wall time of the replay (without the mesh measure), s.
     pub wall_s: f64,
@@ -159,11 +160,14 @@ pub fn fit_study(
             let outcome = f.outcome(&frames);
             let poses: Vec<[f64; 6]> = frames
                 .iter()
-                .filter(|fr| crate::run::near_contact(fr))
                 .step_by(MESH_STRIDE)
                 .map(|fr| fr.q_g)
                 .collect();
-            let depths = crate::run::mesh_depths(&scene, &poses).unwrap_or_default();
+            let depths: Vec<f64> = crate::run::mesh_depths(&scene, &poses)
+                .unwrap_or_default()
+                .into_iter()
+                .flatten()
+                .collect();
             let leaves = |t: &spheretree::SphereTree| t.leaves().count();
             let row = FitRow {
                 scene: scene.name.clone(),
@@ -274,7 +278,7 @@ pub struct EdgeRow {
     pub total_us: scene::stats::Summary,
     pub over_1ms: usize,
     /// Mesh-level penetration of the cylinder into the block at the graphic pose, mm (every
-    /// frame near or in contact).
+    /// frame where the parts' boxes may touch).
     pub mesh_penetration_mm: f64,
 }
 
@@ -307,12 +311,12 @@ pub fn edge_study(
             // larger x than the hand.
             let back = frames.windows(2).filter(|w| w[1].q_h[0] < w[0].q_h[0]);
             let max_trail_back_mm = back.map(|w| w[1].q_g[0] - w[1].q_h[0]).fold(0.0, f64::max);
-            let poses: Vec<[f64; 6]> = frames
-                .iter()
-                .filter(|fr| crate::run::near_contact(fr))
-                .map(|fr| fr.q_g)
+            let poses: Vec<[f64; 6]> = frames.iter().map(|fr| fr.q_g).collect();
+            let depths: Vec<f64> = crate::run::mesh_depths(&scene, &poses)
+                .unwrap_or_default()
+                .into_iter()
+                .flatten()
                 .collect();
-            let depths = crate::run::mesh_depths(&scene, &poses).unwrap_or_default();
             let row = EdgeRow {
                 speed_mm_s: speed,
                 geometry: scene.geometry().setting_name().into(),

@@ -9,7 +9,8 @@
 //! shows is the trees' bumps and the step's lag);
 //! the engine's deepest leaf overlap at the graphic pose; the mesh-level penetration of the
 //! tool mesh into the object meshes at the graphic pose ([`peer::MeshPenetration`], on every
-//! [`MESH_STRIDE`]-th frame in contact) and, on the same frames, how deep the hand's pose is in
+//! [`MESH_STRIDE`]-th frame where the tool may touch an object by the parts' boxes alone) and,
+//! on the same frames, how deep the hand's pose is in
 //! the objects by the same measure (what the god-object kept the tool out of); the largest
 //! first-region pair count and touching pairs; the largest force; the largest rotation of the
 //! tool behind the hand while twisting (rad: how much of the twist the objects block); how far
@@ -38,8 +39,8 @@ pub const QUICK_SCENES: &[&str] = &[
 /// is noise at the ends of the strokes and where the tool is held).
 pub const DRAG_MIN_SPEED: f64 = 5.0;
 
-/// Mesh-level penetration is measured on every this many frames in contact (each measure
-/// walks every probe point of the meshes).
+/// Mesh-level penetration is measured on every this many frames (each measure walks every
+/// probe point of the meshes; none where the parts' boxes keep apart, whose depth is 0).
 pub const MESH_STRIDE: usize = 5;
 
 /// Surface samples per mesh of the mesh-level measure, beside its vertices (the measure adds
@@ -201,8 +202,8 @@ fn zoo_row(z: &ZooScene, times: &[f64], frames: &[FrameOutput], wall_s: f64) -> 
     }
 }
 
-/// The deepest mesh-level penetration over the frames in contact (every [`MESH_STRIDE`]-th) of
-/// the graphic tool and of the hand, mm.
+/// The deepest mesh-level penetration over every [`MESH_STRIDE`]-th frame of the graphic tool
+/// and of the hand, mm.
 fn mesh_penetration(z: &ZooScene, frames: &[FrameOutput]) -> Option<(f64, f64)> {
     let tool = z.scene.tool_mesh.as_ref()?;
     let objects = z
@@ -213,11 +214,19 @@ fn mesh_penetration(z: &ZooScene, frames: &[FrameOutput]) -> Option<(f64, f64)> 
         .map(|(m, (_, pose))| m.as_ref().map(|m| (m, *pose)))
         .collect::<Option<Vec<_>>>()?;
     let measure = peer::MeshPenetration::new(tool, &objects, MESH_SAMPLES);
-    let depth = |q: &[f64; 6]| measure.depth_mm(&collide::Pose::from_array(*q));
+    // Where the tool's box keeps clear of every object's, the depth is 0 exactly: which frames
+    // are measured rests on the parts alone, not on the engine's contacts.
+    let depth = |q: &[f64; 6]| {
+        let q = collide::Pose::from_array(*q);
+        if measure.may_touch(&q) {
+            measure.depth_mm(&q)
+        } else {
+            0.0
+        }
+    };
     Some(
         frames
             .iter()
-            .filter(|f| f.contacts > 0)
             .step_by(MESH_STRIDE)
             .map(|f| (depth(&f.q_g), depth(&f.q_h)))
             .fold((0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1))),

@@ -65,6 +65,22 @@ impl Probed {
         (0..3).all(|k| p[k] > self.lo[k] && p[k] < self.hi[k])
     }
 
+    /// The centre of the bounding box and the radius of the ball about it that holds the box
+    /// (own frame, mm).
+    fn ball(&self) -> (Point3<f64>, f64) {
+        let c = Point3::from((Point3::from(self.lo).coords + Point3::from(self.hi).coords) / 2.0);
+        let r = (Point3::from(self.hi) - Point3::from(self.lo)).norm() / 2.0;
+        (c, r)
+    }
+
+    /// How far (mm) the point `p` (own frame) lies outside the bounding box (0 inside).
+    fn box_distance(&self, p: &Point3<f64>) -> f64 {
+        (0..3)
+            .map(|k| (self.lo[k] - p[k]).max(p[k] - self.hi[k]).max(0.0).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    }
+
     /// Deepest of `other`'s probe points (mapped into this mesh's frame by `here_from_other`)
     /// inside this mesh, mm (0 when none is inside).
     fn deepest_of(&self, other: &Probed, here_from_other: &Isometry3<f64>) -> f64 {
@@ -108,6 +124,19 @@ impl MeshPenetration {
         }
     }
 
+    /// Whether the tool mesh at `tool_pose` (mm, rad) may touch an object: the ball holding
+    /// its bounding box reaches an object's bounding box. Where it does not, no probe point of
+    /// either lies in the other's box, so [`MeshPenetration::depth_mm`] is 0 exactly: a
+    /// selection of poses to measure that rests on the geometry alone, not on any engine's
+    /// view of the contact.
+    pub fn may_touch(&self, tool_pose: &Pose) -> bool {
+        let (centre, radius) = self.tool.ball();
+        let world = tool_pose.to_isometry() * centre;
+        self.objects.iter().any(|(object, world_from_object)| {
+            object.box_distance(&world_from_object.inverse_transform_point(&world)) <= radius
+        })
+    }
+
     /// Deepest penetration (mm, >= 0) of the tool mesh at `tool_pose` (mm, rad) into the
     /// objects, either way round.
     pub fn depth_mm(&self, tool_pose: &Pose) -> f64 {
@@ -143,6 +172,36 @@ mod tests {
             (tilted - (20.0 * 0.1f64.sin() - 1.0)).abs() < 1e-9,
             "{tilted}"
         );
+    }
+
+    /// A pose the bounding boxes keep clear of every object reads 0, and so does every pose
+    /// near it that the selection leaves out; one that may touch is selected however far the
+    /// tool is from touching inside the boxes.
+    #[test]
+    fn poses_left_out_by_the_boxes_read_no_depth() {
+        let plate = box_mesh([-60.0, -60.0, -10.0], [60.0, 60.0, 0.0]);
+        let puck = box_mesh([-20.0, -20.0, 0.0], [20.0, 20.0, 10.0]);
+        let measure = MeshPenetration::new(&puck, &[(&plate, Pose::identity())], 500);
+        // The puck's box ball: radius |(40, 40, 10)| / 2 = 28.7 mm about (0, 0, 5).
+        let radius = (40.0f64.powi(2) * 2.0 + 100.0).sqrt() / 2.0;
+        let at = |x: f64, z: f64, turn: f64| Pose::from_array([x, 0.0, z, turn, 0.0, 0.0]);
+        assert!(!measure.may_touch(&at(0.0, radius - 5.0 + 0.01, 0.0)));
+        assert!(measure.may_touch(&at(0.0, radius - 5.0 - 0.01, 0.0)));
+        // Beside the plate's edge and above it.
+        assert!(!measure.may_touch(&at(60.0 + radius + 0.01, -5.0, 0.7)));
+        assert!(measure.may_touch(&at(60.0 + radius - 0.01, -5.0, 0.7)));
+        // Poses left out read 0; a pose pressed in is selected.
+        for k in 0..200 {
+            let q = at(
+                -150.0 + 1.5 * k as f64,
+                -30.0 + 0.4 * k as f64,
+                0.01 * k as f64,
+            );
+            if !measure.may_touch(&q) {
+                assert_eq!(measure.depth_mm(&q), 0.0, "{:?}", q.to_array());
+            }
+        }
+        assert!(measure.may_touch(&at(3.0, -0.7, 0.0)));
     }
 
     #[test]

@@ -218,10 +218,10 @@ pub struct MeshPenetrationReport {
     pub max: f64,
     /// Frames measured.
     pub frames: usize,
-    /// Frames near or in contact in the run (leaf pairs listed or touching, or the tool held
-    /// off the hand), of which every `stride`-th was measured.
+    /// Frames of the run whose tool may touch an object by the parts' bounding boxes alone
+    /// (whatever the engine listed), of which every `stride`-th was measured.
     pub contact_frames: usize,
-    /// One frame near or in contact of every this many was measured (1: every one).
+    /// One frame of every this many was measured (1: every one).
     pub stride: usize,
     /// Wall time of the measure (after the run, outside the haptic loop), s.
     pub wall_s: f64,
