@@ -140,7 +140,7 @@ pub struct Frame {
     /// How the step ended.
     pub status: FrameStatus,
     /// Leaf pairs in the frame's first QP (its first pair list; a path region that overflowed
-    /// the pair storage is not one).
+    /// the pair storage is not one); triangle pairs in the mesh geometry mode.
     pub pairs: u32,
     /// Constraint rows in the frame's largest solve, after reduction (trust-region rows
     /// included; see [`EngineConfig::reduce_rows`]), rows.

@@ -238,7 +238,7 @@ impl GodObject {
             f.course.detect_now = false;
             f.course.reused = true;
             f.progress.listed = true;
-            out.pairs = self.detector.pairs.len() as u32;
+            out.pairs = self.listed_rows() as u32;
             out.margin_mm = cached.width + f.skin;
             self.map_warm_start();
         }

@@ -1715,6 +1715,19 @@ mod tests {
         assert!(!god.rows_past_budget(&frame_at(&god, 0.9 * budget)));
     }
 
+    /// A frame's pair count in the mesh mode is its first region's triangle pairs, not the
+    /// grown leaves' (one pair here).
+    #[test]
+    fn a_mesh_frame_counts_its_triangle_pairs() {
+        let mut god = cube_over_fine_grid();
+        god.params.budget_us = crate::config::BUDGET_US.hi;
+        let q = Pose::from_array([0.0, 0.0, 2.003, 0.0, 0.0, 0.3]);
+        god.step(&q);
+        let out = god.step(&Pose::from_array([0.0, 0.0, 2.0, 0.0, 0.0, 0.3]));
+        assert_eq!(god.detector.pairs.len(), 1);
+        assert!(out.pairs > 100, "{} pairs", out.pairs);
+    }
+
     fn cube_over_fine_grid() -> GodObject {
         let (v, t) = grid_sheet(32, 4.0, |_, _| 0.0);
         let (tv, tt) = box_mesh([0.0; 3], [2.0; 3]);

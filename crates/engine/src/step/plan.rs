@@ -446,7 +446,8 @@ impl GodObject {
     ) -> Flow {
         let (q_lin, skin) = (f.course.q_lin, f.skin);
         // The frame's pair count is its first list (a path region that overflowed is none:
-        // the next one is).
+        // the next one is); in the mesh mode its triangle pairs, once listed below.
+        let first_list = !f.progress.listed;
         if !f.progress.listed && (self.run.regions.dropped == 0 || plan.sweep.is_none()) {
             f.progress.listed = true;
             out.pairs = self.detector.pairs.len() as u32;
@@ -485,6 +486,9 @@ impl GodObject {
             // The frame's time is up before the region's triangle pairs were listed: as for a
             // traversal, the frame ends at its last proven pose and the next one goes on.
             return Flow::Stop;
+        }
+        if first_list && f.progress.listed && self.bodies.meshes.is_some() {
+            out.pairs = self.listed_rows() as u32;
         }
         if self.rows_past_budget(f) {
             // Their rows, solve and check would end past the budget: the next frame's region
