@@ -166,18 +166,7 @@ impl GodObject {
             return;
         }
         let swept = *path != Vector3::zeros();
-        let end = Pose::from_translation_rotation(
-            &(center.translation() + path),
-            &center.rotation_matrix(),
-        );
-        // The bounds are convex along the path: its ends are the farthest.
-        let farthest = |bound: &dyn Fn(&Pose) -> f64| {
-            if swept {
-                bound(center).max(bound(&end))
-            } else {
-                bound(center)
-            }
-        };
+        let farthest = |bound: &dyn Fn(&Pose) -> f64| farthest_on_path(center, path, bound);
         let Some(meshes) = &self.bodies.meshes else {
             return;
         };
@@ -357,17 +346,8 @@ impl GodObject {
         deadline: Option<Instant>,
     ) -> bool {
         let swept = *path != Vector3::zeros();
-        let end = Pose::from_translation_rotation(
-            &(center.translation() + path),
-            &center.rotation_matrix(),
-        );
-        // The bounds are convex along the path: its ends are the farthest.
         let covered = |span: &NearSpan| {
-            let mut far = self.span_bound(span, center);
-            if swept {
-                far = far.max(self.span_bound(span, &end));
-            }
-            far + margin <= span.reach
+            farthest_on_path(center, path, &|q| self.span_bound(span, q)) + margin <= span.reach
         };
         if self.params.heuristics.mesh_near_list
             && self.run.regions.near_at.is_some_and(|s| covered(&s))
@@ -983,6 +963,18 @@ impl GodObject {
         let at = rot * Vector3::from(*self.detector.contact_points.get(i)?) + t;
         Some((at, d.distance))
     }
+}
+
+/// The greatest of `bound` (mm) over the poses of a region about `center` moved along `path`
+/// (mm) by any share of it: at the path's ends, the bounds being convex along it.
+fn farthest_on_path(center: &Pose, path: &Vector3<f64>, bound: &dyn Fn(&Pose) -> f64) -> f64 {
+    let here = bound(center);
+    if *path == Vector3::zeros() {
+        return here;
+    }
+    let end =
+        Pose::from_translation_rotation(&(center.translation() + path), &center.rotation_matrix());
+    here.max(bound(&end))
 }
 
 /// How far (mm) the points of `a`, moved along `n` by any share of `shift` (mm), lie wholly on
