@@ -282,14 +282,15 @@ fn warming_the_caches_allocates_nothing_and_changes_no_frame() {
     }
 }
 
-/// A paced loop's wait (`Engine::idle`: the background probe and list work, then the caches)
-/// allocates nothing, nor do the frames after it, on one thread and with the helper: the
-/// spline run, each frame after a wait of 200 µs.
+/// A paced loop's wait (`Engine::idle`: the background probe and list work, the mesh mode's
+/// near list under way, then the caches) allocates nothing, nor do the frames after it, from
+/// the first frame on: the spline run on one thread and with the helper, and the probe down
+/// its pocket on the mesh, each frame after a wait of 200 µs.
 #[test]
 fn the_wait_before_a_frame_allocates_nothing() {
     use std::time::{Duration, Instant};
-    for helper in [false, true] {
-        let mut scene = scene::scenes::builtin("spline", &common::test_cache()).unwrap();
+    for (name, helper) in [("spline", false), ("spline", true), ("probe", false)] {
+        let mut scene = scene::scenes::builtin(name, &common::test_cache()).unwrap();
         scene.solver.helper_thread = helper;
         let traj = scene.trajectory();
         let mut engine = scene.engine().unwrap();
@@ -303,7 +304,10 @@ fn the_wait_before_a_frame_allocates_nothing() {
             allocs += n;
             contact += usize::from(pairs > 0);
         }
-        assert_eq!(allocs, 0, "helper {helper}: {allocs} (de)allocations");
-        assert!(contact > 100, "{contact} frames in contact");
+        assert_eq!(
+            allocs, 0,
+            "{name}, helper {helper}: {allocs} (de)allocations"
+        );
+        assert!(contact > 100, "{name}: {contact} frames in contact");
     }
 }
