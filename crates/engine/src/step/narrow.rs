@@ -235,12 +235,9 @@ impl GodObject {
                     let part_tree = &meshes.objects[c.object as usize];
                     let (n, _) = part_tree.plane(c.part);
                     let side = c.beyond.signum();
-                    let toward = side
-                        * (n[0] * listed_shift[0]
-                            + n[1] * listed_shift[1]
-                            + n[2] * listed_shift[2]);
+                    let toward = side * dot(&n, listed_shift.as_ref());
                     let here = side * c.beyond + toward - listed_turn;
-                    let along = side * (n[0] * path[0] + n[1] * path[1] + n[2] * path[2]);
+                    let along = side * dot(&n, path.as_ref());
                     if here + along.min(0.0) > margin {
                         if anchored {
                             c.apart = (c.apart - moved).max(here);
@@ -965,6 +962,11 @@ impl GodObject {
     }
 }
 
+/// The dot product of two vectors given as arrays (in the order `x, y, z`).
+fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
 /// The greatest of `bound` (mm) over the poses of a region about `center` moved along `path`
 /// (mm) by any share of it: at the path's ends, the bounds being convex along it.
 fn farthest_on_path(center: &Pose, path: &Vector3<f64>, bound: &dyn Fn(&Pose) -> f64) -> f64 {
@@ -1008,7 +1010,7 @@ fn signed_side_gap(a: &Triangle, n: &[f64; 3], d: f64) -> f64 {
 
 /// The least and greatest height (mm) of the corners of `a` over the plane `n · p = d`.
 fn side_range(a: &Triangle, n: &[f64; 3], d: f64) -> (f64, f64) {
-    let side = a.map(|p| n[0] * p[0] + n[1] * p[1] + n[2] * p[2] - d);
+    let side = a.map(|p| dot(n, &p) - d);
     (
         side[0].min(side[1]).min(side[2]),
         side[0].max(side[1]).max(side[2]),
@@ -1199,7 +1201,7 @@ impl PosedTriangle {
     /// the sweep's reach along it, the tool's plane by a share of its rise).
     fn planes_beyond(&self, part: &TriangleTree, i: u32, boxes: f64) -> f64 {
         let (n, d) = part.plane(i);
-        let shift = n[0] * self.sweep[0] + n[1] * self.sweep[1] + n[2] * self.sweep[2];
+        let shift = dot(&n, &self.sweep);
         boxes
             .max(side_gap(&self.corners, &n, d, shift))
             .max(side_gap(
@@ -1247,7 +1249,6 @@ impl PosedTriangle {
     /// its triangle). Faces lying on each other are apart only sideways, where neither plane
     /// nor a box along the world's axes tells them apart: a fan's slivers on a ring of facets.
     fn edges_beyond(&self, part: &TriangleTree, i: u32, bound: f64) -> f64 {
-        let dot = |a: &[f64; 3], b: &[f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
         let lowest =
             |m: &[f64; 3], t: &Triangle| dot(m, &t[0]).min(dot(m, &t[1])).min(dot(m, &t[2]));
         let other = part.triangle(i);
