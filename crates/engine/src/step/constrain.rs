@@ -29,6 +29,42 @@ fn complement(d: &[f64; 3]) -> ([f64; 3], [f64; 3]) {
     (e1.into(), e2.into())
 }
 
+/// A trust region's rows, `rows[i] . dq >= rhs[i]` for `i < len`: two per axis, six axes.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct TrustRows {
+    pub(super) rows: [[f64; 6]; 12],
+    pub(super) rhs: [f64; 12],
+    pub(super) len: usize,
+}
+
+impl TrustRows {
+    /// Adds the two rows `lo <= row . dq <= hi`.
+    fn push_slab(&mut self, row: &[f64; 6], lo: f64, hi: f64) {
+        let n = self.len;
+        self.rows[n] = *row;
+        self.rhs[n] = lo;
+        self.rows[n + 1] = row.map(|v| -v);
+        self.rhs[n + 1] = -hi;
+        self.len += 2;
+    }
+
+    /// Adds the rows `|u . (dq - base)| <= w` for each `(u, w)` of `axes`, `u` in the
+    /// translation part of `dq` (`part` 0) or its rotation part (`part` 3).
+    fn push_turned(&mut self, part: usize, axes: [([f64; 3], f64); 3], base: &[f64; 6]) {
+        for (u, w) in axes {
+            let mut row = [0.0; 6];
+            row[part..part + 3].copy_from_slice(&u);
+            let c = u[0] * base[part] + u[1] * base[part + 1] + u[2] * base[part + 2];
+            self.push_slab(&row, c - w, c + w);
+        }
+    }
+
+    /// Whether `dq` lies inside every row.
+    pub(super) fn hold(&self, dq: &[f64; 6]) -> bool {
+        (0..self.len).all(|i| (0..6).map(|k| self.rows[i][k] * dq[k]).sum::<f64>() >= self.rhs[i])
+    }
+}
+
 impl GodObject {
     /// The way from `from` to `to` as the regions measure it: the translation (mm) and the
     /// rotation's angle times the tool's reach (mm, the farthest a tool point turns).
@@ -67,69 +103,71 @@ impl GodObject {
                 n += 1;
             }
         }
-        match trust {
-            None => {}
-            Some((Trust::Box(w_t, w_r), base, _)) => {
-                for k in 0..6 {
-                    let w = if k < 3 { w_t } else { w_r };
-                    let mut e = [0.0; 6];
-                    e[k] = 1.0;
-                    n += self.push_slab(n, &e, base[k] - w, base[k] + w);
-                }
-            }
-            Some((
-                Trust::Oriented {
-                    dir,
-                    along,
-                    across,
-                    turn,
-                    rot,
-                    rot_across,
-                },
-                base,
-                _,
-            )) => {
-                // Translation in the basis (dir, e1, e2); rotation in (turn, f1, f2), or per
-                // component without a turn.
-                let (e1, e2) = complement(&dir);
-                n += self.push_turned(n, 0, [(dir, along), (e1, across), (e2, across)], &base);
-                if turn == [0.0; 3] {
-                    for k in 3..6 {
-                        let mut e = [0.0; 6];
-                        e[k] = 1.0;
-                        n += self.push_slab(n, &e, base[k] - rot, base[k] + rot);
-                    }
-                } else {
-                    let (f1, f2) = complement(&turn);
-                    let axes = [(turn, rot), (f1, rot_across), (f2, rot_across)];
-                    n += self.push_turned(n, 3, axes, &base);
-                }
-            }
-            Some((
-                Trust::Slab {
-                    normal,
-                    across,
-                    along,
-                    spin,
-                    tilt,
-                },
-                base,
-                _,
-            )) => {
-                // Translation and rotation each in the basis (normal, e1, e2).
-                let (e1, e2) = complement(&normal);
-                n += self.push_turned(n, 0, [(normal, across), (e1, along), (e2, along)], &base);
-                n += self.push_turned(n, 3, [(normal, spin), (e1, tilt), (e2, tilt)], &base);
-            }
-            Some((Trust::Path(a), base, end)) => n += self.push_path_trust(n, a, &base, &end),
+        if let Some((trust, base, end)) = trust {
+            let t = self.trust_rows(trust, &base, &end);
+            self.qp.rows[n..n + t.len].copy_from_slice(&t.rows[..t.len]);
+            self.qp.rhs[n..n + t.len].copy_from_slice(&t.rhs[..t.len]);
+            n += t.len;
         }
         n
     }
 
-    /// Writes, at `n`, the trust rows of a path region: the variable within `a` of the segment
-    /// from `base` to `end` (rotations scaled by the tool's reach). Returns the row count.
-    fn push_path_trust(&mut self, n: usize, a: f64, base: &[f64; 6], end: &[f64; 6]) -> usize {
-        let mut count = 0;
+    /// The rows `row . dq >= rhs` of the trust region `trust` about the variable's values
+    /// `base` at the region's centre and `end` at the end of its path.
+    pub(super) fn trust_rows(&self, trust: Trust, base: &[f64; 6], end: &[f64; 6]) -> TrustRows {
+        let mut t = TrustRows::default();
+        match trust {
+            Trust::Box(w_t, w_r) => {
+                for k in 0..6 {
+                    let w = if k < 3 { w_t } else { w_r };
+                    let mut e = [0.0; 6];
+                    e[k] = 1.0;
+                    t.push_slab(&e, base[k] - w, base[k] + w);
+                }
+            }
+            Trust::Oriented {
+                dir,
+                along,
+                across,
+                turn,
+                rot,
+                rot_across,
+            } => {
+                // Translation in the basis (dir, e1, e2); rotation in (turn, f1, f2), or per
+                // component without a turn.
+                let (e1, e2) = complement(&dir);
+                t.push_turned(0, [(dir, along), (e1, across), (e2, across)], base);
+                if turn == [0.0; 3] {
+                    for k in 3..6 {
+                        let mut e = [0.0; 6];
+                        e[k] = 1.0;
+                        t.push_slab(&e, base[k] - rot, base[k] + rot);
+                    }
+                } else {
+                    let (f1, f2) = complement(&turn);
+                    t.push_turned(3, [(turn, rot), (f1, rot_across), (f2, rot_across)], base);
+                }
+            }
+            Trust::Slab {
+                normal,
+                across,
+                along,
+                spin,
+                tilt,
+            } => {
+                // Translation and rotation each in the basis (normal, e1, e2).
+                let (e1, e2) = complement(&normal);
+                t.push_turned(0, [(normal, across), (e1, along), (e2, along)], base);
+                t.push_turned(3, [(normal, spin), (e1, tilt), (e2, tilt)], base);
+            }
+            Trust::Path(a) => self.push_path_trust(&mut t, a, base, end),
+        }
+        t
+    }
+
+    /// Writes into `t` the trust rows of a path region: the variable within `a` of the segment
+    /// from `base` to `end` (rotations scaled by the tool's reach).
+    fn push_path_trust(&self, t: &mut TrustRows, a: f64, base: &[f64; 6], end: &[f64; 6]) {
         // In the variable scaled by reach for rotations (a sphere's motion is at most
         // sqrt(2) times the scaled norm): one direction along the path, five across it
         // (Gram-Schmidt on the unit vectors but the one most along the path).
@@ -169,38 +207,8 @@ impl GodObject {
             }
             let c: f64 = (0..6).map(|k| row[k] * base[k]).sum();
             let far = if i == 0 { len } else { 0.0 };
-            count += self.push_slab(n + count, &row, c - a, c + far + a);
+            t.push_slab(&row, c - a, c + far + a);
         }
-        count
-    }
-
-    /// Writes, at `n`, the rows `|u . (dq - base)| <= w` for each `(u, w)` of `axes`, `u` in
-    /// the translation part of `dq` (`part` 0) or its rotation part (`part` 3); returns the
-    /// number of rows written.
-    fn push_turned(
-        &mut self,
-        n: usize,
-        part: usize,
-        axes: [([f64; 3], f64); 3],
-        base: &[f64; 6],
-    ) -> usize {
-        let mut written = 0;
-        for (u, w) in axes {
-            let mut row = [0.0; 6];
-            row[part..part + 3].copy_from_slice(&u);
-            let c = u[0] * base[part] + u[1] * base[part + 1] + u[2] * base[part + 2];
-            written += self.push_slab(n + written, &row, c - w, c + w);
-        }
-        written
-    }
-
-    /// Writes the two rows `lo <= row . dq <= hi` at `n`; returns 2.
-    pub(super) fn push_slab(&mut self, n: usize, row: &[f64; 6], lo: f64, hi: f64) -> usize {
-        self.qp.rows[n] = *row;
-        self.qp.rhs[n] = lo;
-        self.qp.rows[n + 1] = row.map(|v| -v);
-        self.qp.rhs[n + 1] = -hi;
-        2
     }
 
     /// True when the answer `dq` sits on the trust region's boundary (rows `from..to`): the
