@@ -2284,6 +2284,33 @@ mod tests {
     }
 
     #[test]
+    fn a_cube_turned_steadily_on_a_plate_takes_one_pass_a_frame() {
+        let (mut god, _, _) = cube_on_plate();
+        god.reset(&Pose::from_array([0.0, 0.0, 2.5, 0.0, 0.0, 0.0]))
+            .unwrap();
+        // Pressed 1 mm into the plate, then turned about the plate's normal at a steady pace
+        // that takes each region's trust region about a frame to spend: a reused region would
+        // stop the turn at its trust region's edge, and a new region follow in the same frame.
+        let hand = |turn: f64| Pose::from_array([0.0, 0.0, 1.0, 0.0, 0.0, turn]);
+        for _ in 0..50 {
+            god.step(&hand(0.0));
+        }
+        let (mut frames, mut more_passes) = (0, 0);
+        for i in 0..400 {
+            let f = god.step(&hand(0.004 * f64::from(i)));
+            assert!(f.contacts > 0, "frame {i}: the cube stays on the plate");
+            if i >= 20 {
+                frames += 1;
+                more_passes += usize::from(f.passes > 1);
+            }
+        }
+        assert!(
+            more_passes * 20 <= frames,
+            "{more_passes} of {frames} turning frames took more than one pass"
+        );
+    }
+
+    #[test]
     fn rocked_fast_on_a_plate_no_triangles_meet() {
         let (mut god, tool, plate) = cube_on_plate();
         god.reset(&Pose::from_array([0.0, 0.0, 2.5, 0.0, 0.0, 0.0]))
