@@ -238,17 +238,20 @@ impl GodObject {
         // reused one's (a shaft turned about its axis on its hub's face, whose trust region
         // holds the turn by the shaft's arm to a frame's way: two passes every frame). On the
         // leaf spheres a bound reused region is followed by a ball re-centred on its own pairs,
-        // which costs less than a new region (the bunny's work +10 % without it).
-        let goes_on = self.bodies.meshes.is_none() || {
-            let ahead = lin.variable(&self.pose_ahead(&q_lin, 1.0));
-            self.trust_rows(
-                trust,
-                &lin.variable(&cached.center),
-                &lin.variable(&cached.end()),
-            )
-            .hold(&ahead)
+        // which costs less than a new region (the bunny's work +10 % with this test there).
+        // Taken last: only for a region that passes the rest.
+        let goes_on = || {
+            self.bodies.meshes.is_none() || {
+                let ahead = lin.variable(&self.pose_ahead(&q_lin, 1.0));
+                self.trust_rows(
+                    trust,
+                    &lin.variable(&cached.center),
+                    &lin.variable(&cached.end()),
+                )
+                .hold(&ahead)
+            }
         };
-        if depth <= 0.5 * cached.width && across_ok && path_left && room && goes_on {
+        if depth <= 0.5 * cached.width && across_ok && path_left && room && goes_on() {
             f.course.region = cached;
             f.course.trust = Some(trust);
             f.course.detect_now = false;
