@@ -876,10 +876,7 @@ impl GodObject {
     /// a centre `x = R_a p` moves by `2 sin(θ/2) |û × x| <= θ |û × x|`). A shaft turning about
     /// its own axis moves its centres by 17.7 mm per radian, not its reach of 56.5.
     pub(super) fn turn_bound(&self, r_a: &Matrix3<f64>, r_b: &Matrix3<f64>) -> f64 {
-        self.bodies
-            .centres
-            .turn_bound(r_a, r_b)
-            .min(rotation_angle(r_b, r_a) * self.bodies.reach)
+        self.bodies.turn_bound(r_a, r_b)
     }
 
     /// The near part of the tool ([`Lever`]) at `q` for a ball region of margin `margin` (mm),

@@ -56,6 +56,12 @@ pub struct Heuristics {
     /// face's edge slides over it in one pass, instead of halving its way there pass after
     /// pass.
     pub mesh_tilted_targets: bool,
+    /// The mesh mode's pair directions: a near-list pair a region's filter found apart keeps
+    /// the gap of the box or plane that showed it, along that fixed direction of the world,
+    /// and the next filters drop it while the tool's translation along that direction (and
+    /// its turn) leave the gap beyond their margin, rather than posing it again: a peg going
+    /// down its hole moves along the wall, not toward it.
+    pub mesh_pair_directions: bool,
 }
 
 impl Default for Heuristics {
@@ -82,6 +88,7 @@ impl Heuristics {
         mesh_far_rows: true,
         mesh_flat_faces: true,
         mesh_tilted_targets: true,
+        mesh_pair_directions: true,
     };
 
     /// Every heuristic off.
@@ -101,10 +108,11 @@ impl Heuristics {
         mesh_far_rows: false,
         mesh_flat_faces: false,
         mesh_tilted_targets: false,
+        mesh_pair_directions: false,
     };
 
     /// The names of the switches (as the bench's ablation study prints them), in order.
-    pub const NAMES: [&'static str; 15] = [
+    pub const NAMES: [&'static str; 16] = [
         "region-reuse",
         "path-regions",
         "slab-regions",
@@ -120,6 +128,7 @@ impl Heuristics {
         "mesh-far-rows",
         "mesh-flat-faces",
         "mesh-tilted-targets",
+        "mesh-pair-directions",
     ];
 
     /// The switch called `name` ([`Heuristics::NAMES`]), for reading and setting.
@@ -140,6 +149,7 @@ impl Heuristics {
             "mesh-far-rows" => &mut self.mesh_far_rows,
             "mesh-flat-faces" => &mut self.mesh_flat_faces,
             "mesh-tilted-targets" => &mut self.mesh_tilted_targets,
+            "mesh-pair-directions" => &mut self.mesh_pair_directions,
             _ => return None,
         })
     }

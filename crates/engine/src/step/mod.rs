@@ -69,7 +69,7 @@ mod solve;
 mod state;
 mod tuning;
 
-use narrow::{Meshes, ToolPoses, TriPair};
+use narrow::{Meshes, PairGap, ToolPoses, TriPair};
 use state::*;
 pub use tuning::TOUCH_MM;
 use tuning::*;

@@ -14,20 +14,72 @@ use collide::{triangle_distance, Triangle, TriangleTree};
 
 use super::*;
 
-/// A pair of triangles: the object (index), the tool's triangle and the object's triangle,
-/// and a lower bound on their distance (mm) with the tool where the pair was listed.
+/// A pair of triangles: the object (index), the tool's triangle and the object's triangle
+/// (their bounds on distance are kept beside the list: `Detector::near_apart`,
+/// `Detector::near_gaps`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct TriPair {
     pub(super) object: u32,
     pub(super) tool: u32,
     pub(super) part: u32,
-    pub(super) apart: f64,
-    /// How far (mm) the tool's triangle lay wholly on one side of the object triangle's plane
-    /// where the list was listed (its span's pose, not swept): positive in front, negative
-    /// behind, 0 where it crossed it. A bound that moves with the tool's translation along
-    /// the plane's normal only, so a tool sliding along a wall keeps it
-    /// ([`GodObject::narrow_phase_along`]).
-    pub(super) beyond: f64,
+}
+
+/// A near-list pair's directional gap: with the tool's translation at `t` (mm) and the list's
+/// turn offset at `turn` (mm, `Detector::near_turn`), the pair's triangles lie at least
+/// `way · t + level - turn` (mm) apart along the fixed world direction `way` (unit). It moves
+/// with the tool's translation along `way` only (and the turn), so a tool sliding along a wall
+/// keeps its gaps to the wall, where the motion bound of the way would pose the pair again
+/// frame after frame ([`GodObject::narrow_phase_along`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct PairGap {
+    way: [f64; 3],
+    level: f64,
+}
+
+impl PairGap {
+    /// No directional gap known.
+    pub(super) const NONE: Self = Self {
+        way: [0.0; 3],
+        level: f64::NEG_INFINITY,
+    };
+
+    /// A gap of `gap` (mm) along `way` (unit, world) with the tool's translation at `t` (mm)
+    /// and the turn offset at `turn` (mm); lowered by a rounding's worth.
+    fn new(gap: f64, way: [f64; 3], t: &Vector3<f64>, turn: f64) -> Self {
+        Self {
+            way,
+            level: gap - dot(&way, t.as_ref()) + turn - GAP_ROUNDING_MM,
+        }
+    }
+
+    /// The least gap (mm) with the tool's translation at `t` (mm) moved along `path` (mm) by
+    /// any share of it, and the turn offset at `turn` (mm).
+    fn at(&self, t: &Vector3<f64>, path: &Vector3<f64>, turn: f64) -> f64 {
+        dot(&self.way, t.as_ref()) + dot(&self.way, path.as_ref()).min(0.0) + self.level - turn
+    }
+}
+
+/// Taken off every directional gap (mm): the roundings of its level, of a few products of
+/// translations of at most metres, stay far below it.
+const GAP_ROUNDING_MM: f64 = 1e-9;
+
+/// The world direction (unit) a translation of the tool along which widens the gap found
+/// `along` ([`PosedTriangle::separation_upto_along`]), the object triangle's plane normal
+/// `part_normal` and the posed tool triangle's `tool_normal` (world): ±1 the object's normal,
+/// the tool's triangle in front of its plane (+) or behind it (−); ±2 the tool's normal, the
+/// object's triangle in front (+) or behind (−); ±3, ±4, ±5 the world's x, y, z, the tool's
+/// box above (+) or below (−).
+fn gap_way(along: i8, part_normal: &[f64; 3], tool_normal: &[f64; 3]) -> [f64; 3] {
+    let side = f64::from(along.signum());
+    match along.abs() {
+        1 => part_normal.map(|v| side * v),
+        2 => tool_normal.map(|v| -side * v),
+        k => {
+            let mut e = [0.0; 3];
+            e[usize::from(k.unsigned_abs()).saturating_sub(3).min(2)] = side;
+            e
+        }
+    }
 }
 
 /// The meshes of the mesh geometry mode: the tool's triangles in their box tree (tool frame)
@@ -185,17 +237,28 @@ impl GodObject {
                 .near_at
                 .map_or(0.0, |span| farthest(&|q| self.span_bound(&span, q))),
         };
-        // Each pair's plane gap moves with the translation from where the list was listed
-        // along the object triangle's normal only (a turn moves it by at most the turn bound):
-        // a tool sliding along a wall keeps its gaps to the wall, where the motion bound of the
-        // way, frame after frame, would pose and test them again.
-        let (listed_shift, listed_turn) = match self.run.regions.near_listed_at {
-            Some(at) => (
-                center.translation() - at.translation(),
-                self.turn_bound(&at.rotation_matrix(), &center.rotation_matrix()),
-            ),
-            None => (Vector3::zeros(), f64::INFINITY),
+        // Each pair's directional gap moves with the translation along its direction only,
+        // and with the turn; the turns are summed from filter to filter (as the motion bounds
+        // are) from where the list was listed, where each pair's first one was taken (the tool
+        // off the object's plane). With `directions`, a filter that finds a pair apart keeps the
+        // box's or plane's gap that showed it.
+        let last_centre = self
+            .run
+            .regions
+            .near_bounds_at
+            .filter(|_| anchored)
+            .or(self.run.regions.near_listed_at);
+        let turned = last_centre.map_or(f64::INFINITY, |at| {
+            self.turn_bound(&at.rotation_matrix(), &center.rotation_matrix())
+        });
+        let turn = if anchored {
+            self.detector.near_turn += turned;
+            self.detector.near_turn
+        } else {
+            turned
         };
+        let directions =
+            anchored && turn.is_finite() && self.params.heuristics.mesh_pair_directions;
         let (rot, t) = (center.rotation_matrix(), center.translation());
         let detector = &mut self.detector;
         let mut posed_count = 0u64;
@@ -218,33 +281,38 @@ impl GodObject {
         let mut from_check = 0;
         let mut tools = detector.tool_poses.at(&rot, &t, path);
         let mut stopped_at = None;
-        for (k, chunk) in detector.near.chunks_mut(FILTER_CLOCK_PAIRS).enumerate() {
+        // The bounds are kept less the list's offset: moving every one to this centre is
+        // adding `moved` to the offset, and the pairs it leaves beyond the margin are passed
+        // over without a write (a tight fit's list of 10 000 pairs, a few hundred near).
+        let offset = if anchored {
+            detector.near_offset += moved;
+            detector.near_offset
+        } else {
+            moved
+        };
+        let keep = |bound: f64| bound + offset;
+        for (k, bounds) in detector
+            .near_apart
+            .chunks_mut(FILTER_CLOCK_PAIRS)
+            .enumerate()
+        {
             if deadline.is_some_and(|d| Instant::now() >= d) {
                 stopped_at = Some(k * FILTER_CLOCK_PAIRS);
                 break;
             }
-            for (j, c) in chunk.iter_mut().enumerate() {
+            for (j, kept) in bounds.iter_mut().enumerate() {
+                if *kept - offset > margin {
+                    continue;
+                }
                 let i = k * FILTER_CLOCK_PAIRS + j;
-                if c.apart - moved > margin {
+                let here = detector.near_gaps[i].at(&t, path, turn);
+                if here > margin {
                     if anchored {
-                        c.apart -= moved;
+                        *kept = kept.max(keep(here));
                     }
                     continue;
                 }
-                if c.beyond != 0.0 && listed_turn.is_finite() {
-                    let part_tree = &meshes.objects[c.object as usize];
-                    let (n, _) = part_tree.plane(c.part);
-                    let side = c.beyond.signum();
-                    let toward = side * dot(&n, listed_shift.as_ref());
-                    let here = side * c.beyond + toward - listed_turn;
-                    let along = side * dot(&n, path.as_ref());
-                    if here + along.min(0.0) > margin {
-                        if anchored {
-                            c.apart = (c.apart - moved).max(here);
-                        }
-                        continue;
-                    }
-                }
+                let c = &detector.near[i];
                 let index = i as u32;
                 while from_check < detector.reuse_from.len()
                     && detector.reuse_from[from_check] < index
@@ -262,10 +330,15 @@ impl GodObject {
                         let tool = tools.get(&meshes.tool, c.tool);
                         let part_tree = &meshes.objects[c.object as usize];
                         // Along a path: the least over it (a bound at the centre too).
-                        let apart = tool.separation_upto(part_tree, c.part, margin, true);
+                        let (apart, along) =
+                            tool.separation_upto_along(part_tree, c.part, margin, true);
                         if apart > margin {
                             if anchored {
-                                c.apart = apart;
+                                *kept = keep(apart);
+                            }
+                            if directions && along != 0 {
+                                let way = gap_way(along, &part_tree.plane(c.part).0, &tool.normal);
+                                detector.near_gaps[i] = PairGap::new(apart, way, &t, turn);
                             }
                             continue;
                         }
@@ -274,7 +347,7 @@ impl GodObject {
                 };
                 count(if d.meet { 0.0 } else { d.distance });
                 if anchored {
-                    c.apart = if d.meet { 0.0 } else { d.distance };
+                    *kept = keep(if d.meet { 0.0 } else { d.distance });
                 }
                 if d.distance <= margin || swept {
                     // The near list is no longer than the contacts' storage.
@@ -285,12 +358,8 @@ impl GodObject {
                 }
             }
         }
-        if let Some(stop) = stopped_at.filter(|_| anchored) {
-            // The pairs not reached keep their bounds, moved to this centre as every other's.
-            for c in &mut detector.near[stop..] {
-                c.apart -= moved;
-            }
-        }
+        // (The pairs a filter stopped at the deadline did not reach keep their bounds, moved to
+        // this centre with the offset as every other's.)
         detector.nearest_at = Some((rot, t));
         detector.contacts_list = Some(detector.near_generation);
         self.run.regions.near_bounds_at = Some(*center);
@@ -421,6 +490,8 @@ impl GodObject {
         }
         self.run.regions.near_ahead = NearAhead::start(span, purpose);
         self.detector.next_near.clear();
+        self.detector.next_apart.clear();
+        self.detector.next_gaps.clear();
         TriangleTree::start_descent(&mut self.detector.next_stack);
     }
 
@@ -449,6 +520,8 @@ impl GodObject {
             let part_tree = &meshes.objects[object];
             let tool_tree = &meshes.tool;
             let list = &mut detector.next_near;
+            let bounds = &mut detector.next_apart;
+            let gaps = &mut detector.next_gaps;
             let mut dropped = 0;
             let visit = |tools: std::ops::Range<u32>, parts: std::ops::Range<u32>| {
                 let leaves = LeafTriangles {
@@ -458,7 +531,7 @@ impl GodObject {
                     tools,
                     parts,
                 };
-                dropped += leaves.push_near(&rot, &t, &sweep, next.reach, list);
+                dropped += leaves.push_near(&rot, &t, &sweep, next.reach, list, bounds, gaps);
                 count_all || dropped == 0
             };
             let over = tool_tree.descend(
@@ -565,6 +638,10 @@ impl GodObject {
             return false;
         }
         std::mem::swap(&mut self.detector.near, &mut self.detector.next_near);
+        std::mem::swap(&mut self.detector.near_apart, &mut self.detector.next_apart);
+        std::mem::swap(&mut self.detector.near_gaps, &mut self.detector.next_gaps);
+        self.detector.near_offset = 0.0;
+        self.detector.near_turn = 0.0;
         self.detector.near_generation += 1;
         self.run.regions.near_bounds_at = None;
         self.run.regions.near_listed_at = Some(at.at);
@@ -595,11 +672,12 @@ impl GodObject {
     fn adapt_near_extra(&mut self, reach: f64, extra: f64) {
         let len = self.detector.near.len();
         let halved = reach - 0.5 * extra;
+        let offset = self.detector.near_offset;
         let within_half = self
             .detector
-            .near
+            .near_apart
             .iter()
-            .filter(|c| c.apart <= halved)
+            .filter(|&&kept| kept - offset <= halved)
             .count();
         let thins = within_half as f64 <= NEAR_THIN_SHARE * len as f64;
         let tuning = &self.params.tuning;
@@ -979,26 +1057,18 @@ fn farthest_on_path(center: &Pose, path: &Vector3<f64>, bound: &dyn Fn(&Pose) ->
     here.max(bound(&end))
 }
 
-/// How far (mm) the points of `a`, moved along `n` by any share of `shift` (mm), lie wholly on
-/// one side of the plane `n · p = d` (`n` unit): 0 where they touch or cross it, or for a zero
-/// normal.
-fn side_gap(a: &Triangle, n: &[f64; 3], d: f64, shift: f64) -> f64 {
-    let (lo, hi) = side_range(a, n, d);
-    let (lo, hi) = (lo + shift.min(0.0), hi + shift.max(0.0));
-    if lo > 0.0 {
-        lo
-    } else if hi < 0.0 {
-        -hi
-    } else {
-        0.0
-    }
-}
-
 /// How far (mm) the triangle `a` lies wholly on one side of the plane `n · p = d` (unit `n`):
 /// positive in front (`n · p > d` at every corner), negative behind, 0 where it touches or
 /// crosses it.
 fn signed_side_gap(a: &Triangle, n: &[f64; 3], d: f64) -> f64 {
+    signed_side_gap_moved(a, n, d, 0.0)
+}
+
+/// [`signed_side_gap`] with the points of `a` moved along `n` by any share of `shift` (mm): 0
+/// where they touch or cross the plane anywhere on the way (or for a zero normal).
+fn signed_side_gap_moved(a: &Triangle, n: &[f64; 3], d: f64, shift: f64) -> f64 {
     let (lo, hi) = side_range(a, n, d);
+    let (lo, hi) = (lo + shift.min(0.0), hi + shift.max(0.0));
     if lo > 0.0 {
         lo
     } else if hi < 0.0 {
@@ -1025,7 +1095,7 @@ fn side_range(a: &Triangle, n: &[f64; 3], d: f64) -> (f64, f64) {
 fn plane_gap(a: &Triangle, b: &Triangle) -> f64 {
     let t = TriangleTree::build(&[*b], &Pose::identity());
     let (n, d) = t.plane(0);
-    side_gap(a, &n, d, 0.0)
+    signed_side_gap(a, &n, d).abs()
 }
 
 /// The triangles of a leaf pair of the triangle trees: the tool leaf's and object `object`'s.
@@ -1048,6 +1118,8 @@ impl LeafTriangles<'_> {
         sweep: &Vector3<f64>,
         margin: f64,
         list: &mut Vec<TriPair>,
+        bounds: &mut Vec<f64>,
+        gaps: &mut Vec<PairGap>,
     ) -> usize {
         let mut dropped = 0;
         for tool in self.tools {
@@ -1058,13 +1130,20 @@ impl LeafTriangles<'_> {
                     continue;
                 };
                 if list.len() < list.capacity() {
+                    // The tool's triangle off the object's plane where listed (its span's pose,
+                    // not swept).
                     let (n, d) = self.part_tree.plane(part);
+                    let beyond = signed_side_gap(&tool_tri.corners, &n, d);
+                    bounds.push(apart);
+                    gaps.push(if beyond == 0.0 {
+                        PairGap::NONE
+                    } else {
+                        PairGap::new(beyond.abs(), n.map(|v| beyond.signum() * v), t, 0.0)
+                    });
                     list.push(TriPair {
                         object: self.object as u32,
                         tool,
                         part,
-                        apart,
-                        beyond: signed_side_gap(&tool_tri.corners, &n, d),
                     });
                 } else {
                     dropped += 1;
@@ -1200,16 +1279,25 @@ impl PosedTriangle {
     /// (anywhere on the sweep: the tool's corners move along the part's normal by a share of
     /// the sweep's reach along it, the tool's plane by a share of its rise).
     fn planes_beyond(&self, part: &TriangleTree, i: u32, boxes: f64) -> f64 {
+        self.planes_beyond_along(part, i, (boxes, 0)).0
+    }
+
+    /// [`PosedTriangle::planes_beyond`] with the way its bound runs ([`TriPair::along`]),
+    /// `boxes` being the boxes' with theirs.
+    fn planes_beyond_along(&self, part: &TriangleTree, i: u32, boxes: (f64, i8)) -> (f64, i8) {
         let (n, d) = part.plane(i);
         let shift = dot(&n, &self.sweep);
-        boxes
-            .max(side_gap(&self.corners, &n, d, shift))
-            .max(side_gap(
-                part.triangle(i),
-                &self.normal,
-                self.offset,
-                -self.rise,
-            ))
+        let mut best = boxes;
+        let tool_off = signed_side_gap_moved(&self.corners, &n, d, shift);
+        if tool_off.abs() > best.0 {
+            best = (tool_off.abs(), tool_off.signum() as i8);
+        }
+        let part_off =
+            signed_side_gap_moved(part.triangle(i), &self.normal, self.offset, -self.rise);
+        if part_off.abs() > best.0 {
+            best = (part_off.abs(), 2 * part_off.signum() as i8);
+        }
+        best
     }
 
     /// [`PosedTriangle::separation`] where it is at most `margin` (mm), else `None`: the
@@ -1233,15 +1321,28 @@ impl PosedTriangle {
     /// A lower bound (mm) on the pair's distance, as [`PosedTriangle::separation_within`]
     /// takes it: the first of its tests that puts the pair beyond `margin`, or all of them.
     fn separation_upto(&self, part: &TriangleTree, i: u32, margin: f64, edges: bool) -> f64 {
-        let boxes = self.box_gap(part, i);
-        if boxes > margin {
+        self.separation_upto_along(part, i, margin, edges).0
+    }
+
+    /// [`PosedTriangle::separation_upto`], with the way the bound runs where a box or plane
+    /// gave it ([`TriPair::along`]; 0 where an edge did).
+    fn separation_upto_along(
+        &self,
+        part: &TriangleTree,
+        i: u32,
+        margin: f64,
+        edges: bool,
+    ) -> (f64, i8) {
+        let boxes = self.box_gap_along(part, i);
+        if boxes.0 > margin {
             return boxes;
         }
-        let planes = self.planes_beyond(part, i, boxes);
-        if planes > margin || !edges {
+        let planes = self.planes_beyond_along(part, i, boxes);
+        if planes.0 > margin || !edges {
             return planes;
         }
-        self.edges_beyond(part, i, planes)
+        let with_edges = self.edges_beyond(part, i, planes.0);
+        (with_edges, if with_edges > planes.0 { 0 } else { planes.1 })
     }
 
     /// The larger of `bound` and how far either triangle lies wholly beyond one of the other's
@@ -1279,10 +1380,25 @@ impl PosedTriangle {
     /// How far (mm) its box and triangle `i`'s of `part` are apart along a world axis (0 where
     /// they overlap).
     fn box_gap(&self, part: &TriangleTree, i: u32) -> f64 {
+        self.box_gap_along(part, i).0
+    }
+
+    /// [`PosedTriangle::box_gap`], with the axis and side it runs along ([`TriPair::along`]; 0
+    /// where the boxes overlap).
+    fn box_gap_along(&self, part: &TriangleTree, i: u32) -> (f64, i8) {
         let ((lo, hi), (part_lo, part_hi)) = (&self.bounds, part.bounds(i));
-        (0..3)
-            .map(|k| (lo[k] - part_hi[k]).max(part_lo[k] - hi[k]))
-            .fold(0.0f64, f64::max)
+        let mut best = (0.0, 0);
+        for k in 0..3 {
+            let (above, below) = (lo[k] - part_hi[k], part_lo[k] - hi[k]);
+            let axis = 3 + k as i8;
+            if above > best.0 {
+                best = (above, axis);
+            }
+            if below > best.0 {
+                best = (below, -axis);
+            }
+        }
+        best
     }
 }
 
@@ -2433,12 +2549,9 @@ mod tests {
                     let edges = posed.edges_beyond(&part_tree, j, bound);
                     assert!(edges <= d + 1e-12, "bound {edges} over distance {d}");
                     let (n, off) = part_tree.plane(j);
-                    let planes = side_gap(&posed.corners, &n, off, 0.0).max(side_gap(
-                        part_tree.triangle(j),
-                        &posed.normal,
-                        posed.offset,
-                        0.0,
-                    ));
+                    let planes = signed_side_gap(&posed.corners, &n, off).abs().max(
+                        signed_side_gap(part_tree.triangle(j), &posed.normal, posed.offset).abs(),
+                    );
                     dropped_by_boxes += usize::from(bound > 0.1 && planes <= 0.1);
                     checked += 1;
                 }

@@ -21,6 +21,16 @@ pub(super) struct Bodies {
     pub(super) meshes: Option<Meshes>,
 }
 
+impl Bodies {
+    /// [`GodObject::turn_bound`]: how far (mm) a point of the tool moves at most when it turns
+    /// from `r_a` to `r_b`.
+    pub(super) fn turn_bound(&self, r_a: &Matrix3<f64>, r_b: &Matrix3<f64>) -> f64 {
+        self.centres
+            .turn_bound(r_a, r_b)
+            .min(rotation_angle(r_b, r_a) * self.reach)
+    }
+}
+
 /// The detection's buffers: the traversal workspace, the helper thread and the pair list.
 pub(super) struct Detector {
     pub(super) ws: CollideWorkspace,
@@ -44,6 +54,16 @@ pub(super) struct Detector {
     /// The mesh mode's triangle pairs within a wider margin ([`Tuning::near_list_mm`])
     /// of a recent pose: the narrow phase filters them while they cover its region.
     pub(super) near: Vec<TriPair>,
+    /// A lower bound (mm) on each of `near`'s pair's distance (same order) at the last region
+    /// that filtered the list (or on its span, as listed), plus `near_offset`; each filter
+    /// moves every bound to its own centre by adding the motion bound of the way to the
+    /// offset.
+    pub(super) near_apart: Vec<f64>,
+    pub(super) near_offset: f64,
+    /// Each of `near`'s pairs' directional gap (same order), and the sum of the turn bounds
+    /// (mm) from filter to filter since the list was taken that they are taken less.
+    pub(super) near_gaps: Vec<PairGap>,
+    pub(super) near_turn: f64,
     /// Exact distances of `contacts` (same order) with the tool at one pose (rotation,
     /// translation): where the narrow phase listed them, or the last answer checked. Rows
     /// linearised at that pose reuse them.
@@ -67,6 +87,8 @@ pub(super) struct Detector {
     /// The near list under way ([`NearAhead`]), and the stack its descent of the triangle
     /// trees is on (reserved for the deepest pair of trees).
     pub(super) next_near: Vec<TriPair>,
+    pub(super) next_apart: Vec<f64>,
+    pub(super) next_gaps: Vec<PairGap>,
     pub(super) next_stack: collide::TreePairStack,
 }
 
@@ -125,6 +147,12 @@ impl Detector {
             contacts: Vec::with_capacity(contacts_cap),
             near: Vec::with_capacity(contacts_cap),
             next_near: Vec::with_capacity(contacts_cap),
+            next_apart: Vec::with_capacity(contacts_cap),
+            near_apart: Vec::with_capacity(contacts_cap),
+            near_offset: 0.0,
+            near_gaps: Vec::with_capacity(contacts_cap),
+            next_gaps: Vec::with_capacity(contacts_cap),
+            near_turn: 0.0,
             contact_nearest: Vec::with_capacity(contacts_cap),
             nearest_known: Vec::with_capacity(contacts_cap),
             nearest_at: None,
