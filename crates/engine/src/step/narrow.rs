@@ -1279,10 +1279,17 @@ impl PosedTriangle {
     /// (anywhere on the sweep: the tool's corners move along the part's normal by a share of
     /// the sweep's reach along it, the tool's plane by a share of its rise).
     fn planes_beyond(&self, part: &TriangleTree, i: u32, boxes: f64) -> f64 {
-        self.planes_beyond_along(part, i, (boxes, 0)).0
+        let (n, d) = part.plane(i);
+        let shift = dot(&n, &self.sweep);
+        boxes
+            .max(signed_side_gap_moved(&self.corners, &n, d, shift).abs())
+            .max(
+                signed_side_gap_moved(part.triangle(i), &self.normal, self.offset, -self.rise)
+                    .abs(),
+            )
     }
 
-    /// [`PosedTriangle::planes_beyond`] with the way its bound runs ([`TriPair::along`]),
+    /// [`PosedTriangle::planes_beyond`] with the way its bound runs ([`gap_way`]),
     /// `boxes` being the boxes' with theirs.
     fn planes_beyond_along(&self, part: &TriangleTree, i: u32, boxes: (f64, i8)) -> (f64, i8) {
         let (n, d) = part.plane(i);
@@ -1321,11 +1328,19 @@ impl PosedTriangle {
     /// A lower bound (mm) on the pair's distance, as [`PosedTriangle::separation_within`]
     /// takes it: the first of its tests that puts the pair beyond `margin`, or all of them.
     fn separation_upto(&self, part: &TriangleTree, i: u32, margin: f64, edges: bool) -> f64 {
-        self.separation_upto_along(part, i, margin, edges).0
+        let boxes = self.box_gap(part, i);
+        if boxes > margin {
+            return boxes;
+        }
+        let planes = self.planes_beyond(part, i, boxes);
+        if planes > margin || !edges {
+            return planes;
+        }
+        self.edges_beyond(part, i, planes)
     }
 
     /// [`PosedTriangle::separation_upto`], with the way the bound runs where a box or plane
-    /// gave it ([`TriPair::along`]; 0 where an edge did).
+    /// gave it ([`gap_way`]; 0 where an edge did).
     fn separation_upto_along(
         &self,
         part: &TriangleTree,
@@ -1380,10 +1395,13 @@ impl PosedTriangle {
     /// How far (mm) its box and triangle `i`'s of `part` are apart along a world axis (0 where
     /// they overlap).
     fn box_gap(&self, part: &TriangleTree, i: u32) -> f64 {
-        self.box_gap_along(part, i).0
+        let ((lo, hi), (part_lo, part_hi)) = (&self.bounds, part.bounds(i));
+        (0..3)
+            .map(|k| (lo[k] - part_hi[k]).max(part_lo[k] - hi[k]))
+            .fold(0.0f64, f64::max)
     }
 
-    /// [`PosedTriangle::box_gap`], with the axis and side it runs along ([`TriPair::along`]; 0
+    /// [`PosedTriangle::box_gap`], with the axis and side it runs along ([`gap_way`]; 0
     /// where the boxes overlap).
     fn box_gap_along(&self, part: &TriangleTree, i: u32) -> (f64, i8) {
         let ((lo, hi), (part_lo, part_hi)) = (&self.bounds, part.bounds(i));
