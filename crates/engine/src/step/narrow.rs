@@ -59,6 +59,14 @@ impl PairGap {
     }
 }
 
+/// How far (mm) the triangle `a` lies beyond the triangle `b` along `way`: the least of
+/// `a`'s corners along it less the greatest of `b`'s (negative where they overlap along it).
+fn projected_gap(a: &Triangle, b: &Triangle, way: &[f64; 3]) -> f64 {
+    let lowest = dot(way, &a[0]).min(dot(way, &a[1])).min(dot(way, &a[2]));
+    let highest = dot(way, &b[0]).max(dot(way, &b[1])).max(dot(way, &b[2]));
+    lowest - highest
+}
+
 /// Taken off every directional gap (mm): the roundings of its level, of a few products of
 /// translations of at most metres, stay far below it.
 const GAP_ROUNDING_MM: f64 = 1e-9;
@@ -342,7 +350,20 @@ impl GodObject {
                             }
                             continue;
                         }
-                        triangle_distance(&tool.corners, part_tree.triangle(c.part))
+                        let d = triangle_distance(&tool.corners, part_tree.triangle(c.part));
+                        if directions && d.distance > margin {
+                            // Apart beyond the margin: along the way from the object's nearest
+                            // point to the tool's, the two lie that far apart (measured on their
+                            // corners, not taken on trust).
+                            let way = Vector3::from(d.on_a) - Vector3::from(d.on_b);
+                            let way: [f64; 3] = (way / d.distance).into();
+                            let part = part_tree.triangle(c.part);
+                            let gap = projected_gap(&tool.corners, part, &way);
+                            if gap > margin {
+                                detector.near_gaps[i] = PairGap::new(gap, way, &t, turn);
+                            }
+                        }
+                        d
                     }
                 };
                 count(if d.meet { 0.0 } else { d.distance });
@@ -2122,6 +2143,70 @@ mod tests {
         eprintln!(
             "reused {reused}, listed {relisted} ({swept} swept), taken {}, listed in frame {}",
             counts.near_taken, counts.near_listed
+        );
+    }
+
+    /// A cube gliding over a sheet of fine cells, rocking and bobbing as it goes: each filter
+    /// still gives every triangle pair within its margin (against every pair measured), while
+    /// the pairs' directional gaps (the cells' normals, the world's z) spare the posing of the
+    /// pairs a slide along the sheet leaves apart; with the gaps off, the filters pose them
+    /// again.
+    #[test]
+    fn a_tool_gliding_over_a_sheet_keeps_its_pairs_apart_by_their_gaps_and_misses_none() {
+        let glide = |directions: bool| {
+            // Gently waved, so that no two cells lie in one plane (flat faces would be cut
+            // again into other triangles at set-up).
+            let sheet = grid_sheet(40, 20.0, |x, y| 0.02 * (0.4 * x).sin() * (0.3 * y).cos());
+            let (mut god, tool, plate) =
+                cube_over_storing(&sheet, one_leaf([0.0; 3], 28.3), 20_000);
+            god.params.heuristics.mesh_pair_directions = directions;
+            let mut near_pairs = 0;
+            for k in 0..400 {
+                let phase = k as f64 * 0.07;
+                // 2 mm half-height: the cube's base 0.13 mm over the sheet's mean plane (its
+                // cells ±0.02 mm off it), rocked by up to 0.01 rad (its corners up or down by up
+                // to 0.03 mm) and turned as it goes.
+                let q = Pose::from_array([
+                    -12.0 + 0.015 * k as f64,
+                    0.5 * phase.sin(),
+                    2.13,
+                    0.01 * (0.9 * phase).sin(),
+                    0.01 * (0.6 * phase).cos(),
+                    0.01 * phase,
+                ]);
+                let margin = 0.1;
+                god.detect(&q, margin).unwrap();
+                god.narrow_phase(&q, margin);
+                let meshes = god.bodies.meshes.as_ref().unwrap();
+                let listed: std::collections::HashSet<(u32, u32)> = god
+                    .detector
+                    .contacts
+                    .iter()
+                    .map(|c| (meshes.tool.origin(c.tool), meshes.objects[0].origin(c.part)))
+                    .collect();
+                let (r, t) = (q.rotation_matrix(), q.translation());
+                for (i, a) in tool.iter().enumerate() {
+                    let a = a.map(|p| (r * Vector3::from(p) + t).into());
+                    for (j, b) in plate.iter().enumerate() {
+                        let d = triangle_distance(&a, b).distance;
+                        if d <= margin {
+                            near_pairs += 1;
+                            assert!(
+                                listed.contains(&(i as u32, j as u32)),
+                                "step {k}: triangles {i} and {j} are {d} mm apart but not kept"
+                            );
+                        }
+                    }
+                }
+            }
+            assert!(near_pairs > 500, "{near_pairs} pairs within the margin");
+            god.run.counts.near_posed
+        };
+        let without = glide(false);
+        let with = glide(true);
+        assert!(
+            (with as f64) < 0.7 * without as f64,
+            "{with} pairs posed with the directional gaps, {without} without"
         );
     }
 
