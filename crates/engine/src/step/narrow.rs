@@ -543,6 +543,9 @@ impl GodObject {
             let list = &mut detector.next_near;
             let bounds = &mut detector.next_apart;
             let gaps = &mut detector.next_gaps;
+            // Each tool triangle posed once for the list (a tool leaf meets several object
+            // leaves), and kept while the descent goes on over frames.
+            let mut posed = detector.list_poses.at(&rot, &t, &sweep);
             let mut dropped = 0;
             let visit = |tools: std::ops::Range<u32>, parts: std::ops::Range<u32>| {
                 let leaves = LeafTriangles {
@@ -552,7 +555,7 @@ impl GodObject {
                     tools,
                     parts,
                 };
-                dropped += leaves.push_near(&rot, &t, &sweep, next.reach, list, bounds, gaps);
+                dropped += leaves.push_near(&mut posed, &t, next.reach, list, bounds, gaps);
                 count_all || dropped == 0
             };
             let over = tool_tree.descend(
@@ -1130,13 +1133,13 @@ struct LeafTriangles<'a> {
 
 impl LeafTriangles<'_> {
     /// Pushes onto `list` its triangle pairs that no bound puts farther apart than `margin`
-    /// (mm) with the tool at `(rot, t)` moved along `sweep` (mm) by any share of it; returns
-    /// how many did not fit in its storage.
+    /// (mm) with the tool's triangles `posed` (at a pose of translation `t`, mm, moved along a
+    /// sweep by any share of it), with their bounds and gaps; returns how many did not fit in
+    /// its storage.
     fn push_near(
         self,
-        rot: &Matrix3<f64>,
+        posed: &mut PosedTools<'_>,
         t: &Vector3<f64>,
-        sweep: &Vector3<f64>,
         margin: f64,
         list: &mut Vec<TriPair>,
         bounds: &mut Vec<f64>,
@@ -1144,7 +1147,7 @@ impl LeafTriangles<'_> {
     ) -> usize {
         let mut dropped = 0;
         for tool in self.tools {
-            let tool_tri = PosedTriangle::of(self.tool_tree, tool, rot, t).swept(sweep);
+            let tool_tri = posed.get(self.tool_tree, tool);
             for part in self.parts.clone() {
                 let Some(apart) = tool_tri.separation_within(self.part_tree, part, margin, false)
                 else {

@@ -84,6 +84,8 @@ pub(super) struct Detector {
     pub(super) reuse_from: Vec<u32>,
     /// The tool's triangles posed at the pose being measured (empty in sphere mode).
     pub(super) tool_poses: ToolPoses,
+    /// The tool's triangles posed for the near list under way (its span's pose and sweep).
+    pub(super) list_poses: ToolPoses,
     /// The near list under way ([`NearAhead`]), and the stack its descent of the triangle
     /// trees is on (reserved for the deepest pair of trees).
     pub(super) next_near: Vec<TriPair>,
@@ -163,6 +165,7 @@ impl Detector {
             reuse_known: Vec::with_capacity(contacts_cap),
             reuse_from: Vec::with_capacity(contacts_cap),
             tool_poses: ToolPoses::new(meshes.map_or(0, |m| m.tool.len())),
+            list_poses: ToolPoses::new(meshes.map_or(0, |m| m.tool.len())),
             next_stack,
             contact_gaps: vec![0.0; contacts_cap],
             contact_points: vec![[0.0; 3]; contacts_cap],
