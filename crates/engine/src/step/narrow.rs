@@ -2067,6 +2067,42 @@ mod tests {
         assert_eq!(god.run.counts.near_listed, listed + 1);
     }
 
+    /// Asserts that every pair of the tool's triangles `tool` (tool frame) at `q` and the
+    /// object's `object` (world) within `margin` (mm) of each other, measured exactly, is among
+    /// the region's pairs (`step` names the step in the message); returns how many there are.
+    fn every_pair_within_kept(
+        god: &GodObject,
+        tool: &[Triangle],
+        object: &[Triangle],
+        q: &Pose,
+        margin: f64,
+        step: usize,
+    ) -> usize {
+        let meshes = god.bodies.meshes.as_ref().unwrap();
+        let kept: std::collections::HashSet<(u32, u32)> = god
+            .detector
+            .contacts
+            .iter()
+            .map(|c| (meshes.tool.origin(c.tool), meshes.objects[0].origin(c.part)))
+            .collect();
+        let (r, t) = (q.rotation_matrix(), q.translation());
+        let mut within = 0;
+        for (i, a) in tool.iter().enumerate() {
+            let a = a.map(|p| (r * Vector3::from(p) + t).into());
+            for (j, b) in object.iter().enumerate() {
+                let d = triangle_distance(&a, b).distance;
+                if d <= margin {
+                    within += 1;
+                    assert!(
+                        kept.contains(&(i as u32, j as u32)),
+                        "step {step}: triangles {i} and {j} are {d} mm apart (margin {margin}) but not kept"
+                    );
+                }
+            }
+        }
+        within
+    }
+
     #[test]
     fn the_near_list_gives_every_pair_within_the_margin_as_the_tool_wanders() {
         let (mut god, tool, sheet) = cube_over_sheet();
@@ -2109,27 +2145,7 @@ mod tests {
                 relisted += 1;
                 swept += usize::from(god.run.regions.near_at.is_some_and(|s| s.sweep != [0.0; 3]));
             }
-            let meshes = god.bodies.meshes.as_ref().unwrap();
-            let (r, t) = (pose.rotation_matrix(), pose.translation());
-            let listed: std::collections::HashSet<(u32, u32)> = god
-                .detector
-                .contacts
-                .iter()
-                .map(|c| (meshes.tool.origin(c.tool), meshes.objects[0].origin(c.part)))
-                .collect();
-            for (i, a) in tool.iter().enumerate() {
-                let a = a.map(|p| (r * Vector3::from(p) + t).into());
-                for (j, b) in sheet.iter().enumerate() {
-                    let d = triangle_distance(&a, b).distance;
-                    if d <= margin {
-                        near_pairs += 1;
-                        assert!(
-                            listed.contains(&(i as u32, j as u32)),
-                            "step {k}: triangles {i} and {j} are {d} mm apart (margin {margin}) but not listed"
-                        );
-                    }
-                }
-            }
+            near_pairs += every_pair_within_kept(&god, &tool, &sheet, &pose, margin, k);
         }
         let counts = &god.run.counts;
         assert!(
@@ -2180,27 +2196,7 @@ mod tests {
                 let margin = 0.1;
                 god.detect(&q, margin).unwrap();
                 god.narrow_phase(&q, margin);
-                let meshes = god.bodies.meshes.as_ref().unwrap();
-                let listed: std::collections::HashSet<(u32, u32)> = god
-                    .detector
-                    .contacts
-                    .iter()
-                    .map(|c| (meshes.tool.origin(c.tool), meshes.objects[0].origin(c.part)))
-                    .collect();
-                let (r, t) = (q.rotation_matrix(), q.translation());
-                for (i, a) in tool.iter().enumerate() {
-                    let a = a.map(|p| (r * Vector3::from(p) + t).into());
-                    for (j, b) in plate.iter().enumerate() {
-                        let d = triangle_distance(&a, b).distance;
-                        if d <= margin {
-                            near_pairs += 1;
-                            assert!(
-                                listed.contains(&(i as u32, j as u32)),
-                                "step {k}: triangles {i} and {j} are {d} mm apart but not kept"
-                            );
-                        }
-                    }
-                }
+                near_pairs += every_pair_within_kept(&god, &tool, &plate, &q, margin, k);
             }
             assert!(near_pairs > 500, "{near_pairs} pairs within the margin");
             god.run.counts.near_posed
