@@ -404,7 +404,7 @@ pub(super) struct RegionMemory {
     /// they hold on its span, as listed.
     pub(super) near_bounds_at: Option<Pose>,
     /// The pose `detector.near` was listed at (its span's own, not swept): where each pair's
-    /// [`TriPair::beyond`] holds.
+    /// first directional gap ([`PairGap`]) was taken, and the turns summed since start.
     pub(super) near_listed_at: Option<Pose>,
 }
 
