@@ -2165,7 +2165,7 @@ mod tests {
         );
     }
 
-    /// A cube gliding over a sheet of fine cells, rocking and bobbing as it goes: each filter
+    /// A cube gliding over a sheet of fine cells, rocking and turning as it goes: each filter
     /// still gives every triangle pair within its margin (against every pair measured), while
     /// the pairs' directional gaps (the cells' normals, the world's z) spare the posing of the
     /// pairs a slide along the sheet leaves apart; with the gaps off, the filters pose them
@@ -2611,6 +2611,51 @@ mod tests {
             TriangleTree::build(&tools, &Pose::identity()),
             TriangleTree::build(&parts, &Pose::identity()),
         )
+    }
+
+    /// The bounds that also say which way they run give the same bounds as the listing's own
+    /// (kept apart for the listing's speed), swept or not, at every margin; and a pair found
+    /// apart lies at least that far apart along the way they name, on its corners.
+    #[test]
+    fn the_bounds_with_their_way_equal_the_plain_ones_and_hold_along_it() {
+        let mut r = uniform(24681357);
+        let (tool_tree, part_tree) = random_trees(&mut r, 30, 1.5);
+        let mut named = 0;
+        for k in 0..40 {
+            let q = Pose::from_array([r(), r(), r(), 3.0 * r(), 1.5 * r(), 3.0 * r()]);
+            let (rot, t) = (q.rotation_matrix(), q.translation());
+            let sweep = if k % 2 == 0 {
+                Vector3::zeros()
+            } else {
+                Vector3::new(0.3 * r(), 0.3 * r(), 0.3 * r())
+            };
+            for i in 0..tool_tree.len() as u32 {
+                let posed = PosedTriangle::of(&tool_tree, i, &rot, &t).swept(&sweep);
+                for j in 0..part_tree.len() as u32 {
+                    assert_eq!(
+                        posed.box_gap(&part_tree, j),
+                        posed.box_gap_along(&part_tree, j).0
+                    );
+                    let boxes = posed.box_gap_along(&part_tree, j);
+                    assert_eq!(
+                        posed.planes_beyond(&part_tree, j, boxes.0),
+                        posed.planes_beyond_along(&part_tree, j, boxes).0
+                    );
+                    for margin in [0.0, 0.05, 0.3, 2.0] {
+                        let (bound, along) =
+                            posed.separation_upto_along(&part_tree, j, margin, true);
+                        assert_eq!(posed.separation_upto(&part_tree, j, margin, true), bound);
+                        if along != 0 && sweep == Vector3::zeros() {
+                            named += 1;
+                            let way = gap_way(along, &part_tree.plane(j).0, &posed.normal);
+                            let gap = projected_gap(&posed.corners, part_tree.triangle(j), &way);
+                            assert!(gap >= bound - 1e-12, "{gap} along {along} under {bound}");
+                        }
+                    }
+                }
+            }
+        }
+        assert!(named > 10_000, "{named} bounds with a way");
     }
 
     #[test]
