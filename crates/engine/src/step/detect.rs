@@ -191,6 +191,33 @@ impl GodObject {
         Some((sweep, length * scale))
     }
 
+    /// A thin path's sweep ([`Heuristics::mesh_thin_paths`]): from `q_lin` to the pose the tool
+    /// is expected at for the hand at `q_h`, however short, within `cap` (mm); with its largest
+    /// sphere motion and the turn bound of its rotation (mm). `None` where the tool is not
+    /// expected to move.
+    pub(super) fn thin_sweep(
+        &self,
+        q_lin: &Pose,
+        q_h: &Pose,
+        cap: f64,
+    ) -> Option<(Sweep, f64, f64)> {
+        let q_pred = self.predicted_pose(q_h);
+        let v = q_pred.translation() - q_lin.translation();
+        let w = rotation_log(&(q_pred.rotation_matrix() * q_lin.rotation_matrix().transpose()));
+        let length = v.norm() + w.norm() * self.bodies.reach;
+        if !(length > 0.0 && length.is_finite()) {
+            return None;
+        }
+        let scale = (cap / length).min(1.0);
+        let sweep = Sweep {
+            translation: (v * scale).into(),
+            rotation: (w * scale).into(),
+        };
+        let r = q_lin.rotation_matrix();
+        let turn = self.turn_bound(&r, &(rotation_exp(&(w * scale)) * r));
+        Some((sweep, length * scale, turn))
+    }
+
     /// How far (mm, largest sphere motion) the pose `q` (variable `dq` of `lin`) is from
     /// `region`: from its centre, or from the nearest pose on its path (found in the variable,
     /// rotations scaled by reach).

@@ -62,6 +62,10 @@ pub struct Heuristics {
     /// its turn) leave the gap beyond their margin, rather than posing it again: a peg going
     /// down its hole moves along the wall, not toward it.
     pub mesh_pair_directions: bool,
+    /// The mesh mode's thin paths: a tool held short of a wall by its standoff room (the
+    /// wall's pairs kept out of its balls) moves along a path as thin as that room, however
+    /// slow the hand, rather than in balls no wider than the room, several a frame.
+    pub mesh_thin_paths: bool,
 }
 
 impl Default for Heuristics {
@@ -89,6 +93,7 @@ impl Heuristics {
         mesh_flat_faces: true,
         mesh_tilted_targets: true,
         mesh_pair_directions: true,
+        mesh_thin_paths: true,
     };
 
     /// Every heuristic off.
@@ -109,10 +114,11 @@ impl Heuristics {
         mesh_flat_faces: false,
         mesh_tilted_targets: false,
         mesh_pair_directions: false,
+        mesh_thin_paths: false,
     };
 
     /// The names of the switches (as the bench's ablation study prints them), in order.
-    pub const NAMES: [&'static str; 16] = [
+    pub const NAMES: [&'static str; 17] = [
         "region-reuse",
         "path-regions",
         "slab-regions",
@@ -129,6 +135,7 @@ impl Heuristics {
         "mesh-flat-faces",
         "mesh-tilted-targets",
         "mesh-pair-directions",
+        "mesh-thin-paths",
     ];
 
     /// The switch called `name` ([`Heuristics::NAMES`]), for reading and setting.
@@ -150,6 +157,7 @@ impl Heuristics {
             "mesh-flat-faces" => &mut self.mesh_flat_faces,
             "mesh-tilted-targets" => &mut self.mesh_tilted_targets,
             "mesh-pair-directions" => &mut self.mesh_pair_directions,
+            "mesh-thin-paths" => &mut self.mesh_thin_paths,
             _ => return None,
         })
     }

@@ -1960,6 +1960,41 @@ mod tests {
     }
 
     #[test]
+    fn a_tool_sliding_just_off_a_wall_takes_one_thin_path_a_frame_where_balls_take_several() {
+        // The cube 0.05 mm over a fine sheet (512 cells under it within the dense floor and
+        // the skin) slides along it at 0.04 mm a frame: balls held short of the sheet by its
+        // standoff room are narrower than a frame's motion.
+        let passes = |thin: bool| {
+            let mut god = cube_over_fine_grid();
+            god.params.heuristics.mesh_thin_paths = thin;
+            let hand = |x: f64| Pose::from_array([x, 0.0, 2.05, 0.0, 0.0, 0.0]);
+            god.reset(&hand(-2.0)).unwrap();
+            let (mut frames, mut more) = (0, 0);
+            for i in 0..100 {
+                let f = god.step(&hand(-2.0 + 0.04 * f64::from(i)));
+                assert_eq!(f.contacts, 0, "frame {i}: the cube stays off the sheet");
+                assert!(f.q_g[2] >= 2.05 - 1e-9, "frame {i}: {}", f.q_g[2]);
+                if i >= 20 {
+                    frames += 1;
+                    more += usize::from(f.passes > 1);
+                }
+            }
+            (more, frames)
+        };
+        let (thin, frames) = passes(true);
+        let (balls, _) = passes(false);
+        eprintln!("{thin} / {balls} of {frames}");
+        assert!(
+            thin * 20 <= frames,
+            "{thin} of {frames} frames took more than one pass"
+        );
+        assert!(
+            balls * 2 >= frames,
+            "{balls} of {frames}: balls took one pass a frame"
+        );
+    }
+
+    #[test]
     fn a_ball_past_the_storage_lowers_the_dense_floor_until_balls_fit_again() {
         let (mut god, tool, sheet) = cube_over_sheet_storing(48);
         let floor = god.params.tuning.dense_min_allow_mm;

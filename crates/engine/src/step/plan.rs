@@ -16,6 +16,11 @@ const STILL_PASS_SHARE: f64 = 1e-3;
 /// (the solve's own cost spread over few pairs).
 pub(super) const ROWS_RESERVE_MIN_PAIRS: usize = 256;
 
+/// A thin path ([`Heuristics::mesh_thin_paths`]) is taken only where its turn leaves at least
+/// this share of the standoff room for its width: a tool turning faster than that toward the
+/// wall is better held by balls.
+const THIN_PATH_LEAST_SHARE: f64 = 0.25;
+
 /// A region as planned before its pairs are listed.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct RegionPlan {
@@ -38,6 +43,9 @@ pub(super) struct RegionPlan {
     slab_used: bool,
     /// A path region: the sweep and its largest sphere motion (mm).
     sweep: Option<(Sweep, f64)>,
+    /// The room (mm) a wall standing a little off the tool leaves a ball, where it holds the
+    /// ball short of the rest of its allowance ([`GodObject::standoff_allow`]).
+    standoff: Option<f64>,
     /// The last ball's own pairs serve (no detection).
     recentred: bool,
     /// Width about the path (a path region) or the allowance (a ball), mm.
@@ -99,8 +107,13 @@ impl GodObject {
             .min(f.course.allow)
             .min(cap)
             .min(dense_cap.max(self.dense_floor()));
+        let mut standoff = None;
         if h.density_sizing {
-            allowed = allowed.min(self.standoff_allow(skin));
+            let room = self.standoff_allow(skin);
+            if room < allowed {
+                standoff = Some(room);
+                allowed = room;
+            }
         }
         // Inside a neighbour list a region costs a filter, not a traversal: one that stays
         // inside it (and a trust region) beats a wider one traversed.
@@ -131,6 +144,7 @@ impl GodObject {
             slab,
             slab_used: false,
             sweep: None,
+            standoff,
             recentred: false,
             width: 0.0,
             extent: 0.0,
@@ -210,6 +224,32 @@ impl GodObject {
         } else {
             self.path_width()
         };
+        // A tool kept short of a wall by its standoff room: a path as thin as the room, along
+        // the motion however slow, so that a peg sliding down a tight hole takes one pass a
+        // frame instead of a ball's few. Not for a tool left behind: a ball there goes on with
+        // the distances a region stopped at the deadline measured (a path measures anew).
+        if let Some(room) = plan.standoff.filter(|_| {
+            h.mesh_thin_paths
+                && h.path_regions
+                && plan.trust
+                && f.course.path_regions
+                && plan.slab.is_none()
+                && !self.run.motion.behind
+                && self.bodies.meshes.is_some()
+        }) {
+            if let Some((sweep, len, turn)) = self.thin_sweep(&q_lin, &goal, f.cap) {
+                let width = room - turn;
+                // Only where the motion outruns a ball of the room (else one ball a frame
+                // serves, and is reused where a path is filtered anew).
+                if len > room
+                    && width >= THIN_PATH_LEAST_SHARE * room
+                    && len >= f.course.min_path_len
+                {
+                    plan.sweep = Some((sweep, len));
+                    return width;
+                }
+            }
+        }
         if h.path_regions && plan.trust && f.course.path_regions && plan.slab.is_none() {
             // A falling tool's path goes the whole way to the goal (within the cap): its pairs
             // come in at the leading edges, not by the density of paths per mm of width.
