@@ -170,11 +170,7 @@ impl GodObject {
         let (v, w) = if falling {
             (q_h.translation() - q_lin.translation(), Vector3::zeros())
         } else {
-            let q_pred = self.predicted_pose(q_h);
-            (
-                q_pred.translation() - q_lin.translation(),
-                rotation_log(&(q_pred.rotation_matrix() * q_lin.rotation_matrix().transpose())),
-            )
+            self.expected_motion(q_lin, q_h)
         };
         let length = v.norm() + w.norm() * self.bodies.reach;
         if length.is_nan() || length < self.params.tuning.min_sweep_mm {
@@ -191,6 +187,16 @@ impl GodObject {
         Some((sweep, length * scale))
     }
 
+    /// The motion from `q_lin` to the pose the tool is expected at for the hand at `q_h`
+    /// ([`GodObject::predicted_pose`]): translation (mm, world) and rotation vector (rad).
+    fn expected_motion(&self, q_lin: &Pose, q_h: &Pose) -> (Vector3<f64>, Vector3<f64>) {
+        let q_pred = self.predicted_pose(q_h);
+        (
+            q_pred.translation() - q_lin.translation(),
+            rotation_log(&(q_pred.rotation_matrix() * q_lin.rotation_matrix().transpose())),
+        )
+    }
+
     /// A thin path's sweep ([`Heuristics::mesh_thin_paths`]): from `q_lin` to the pose the tool
     /// is expected at for the hand at `q_h`, however short, within `cap` (mm); with its largest
     /// sphere motion and the turn bound of its rotation (mm). `None` where the tool is not
@@ -201,9 +207,7 @@ impl GodObject {
         q_h: &Pose,
         cap: f64,
     ) -> Option<(Sweep, f64, f64)> {
-        let q_pred = self.predicted_pose(q_h);
-        let v = q_pred.translation() - q_lin.translation();
-        let w = rotation_log(&(q_pred.rotation_matrix() * q_lin.rotation_matrix().transpose()));
+        let (v, w) = self.expected_motion(q_lin, q_h);
         let length = v.norm() + w.norm() * self.bodies.reach;
         if !(length > 0.0 && length.is_finite()) {
             return None;

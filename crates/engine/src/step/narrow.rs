@@ -1983,7 +1983,6 @@ mod tests {
         };
         let (thin, frames) = passes(true);
         let (balls, _) = passes(false);
-        eprintln!("{thin} / {balls} of {frames}");
         assert!(
             thin * 20 <= frames,
             "{thin} of {frames} frames took more than one pass"
