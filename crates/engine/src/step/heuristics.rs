@@ -66,6 +66,11 @@ pub struct Heuristics {
     /// wall's pairs kept out of its balls) moves along a path as thin as that room, however
     /// slow the hand, rather than in balls no wider than the room, several a frame.
     pub mesh_thin_paths: bool,
+    /// The mesh mode's held press: a ball's turned trust box is shared between translation
+    /// and turn as the tool is predicted to move, where it reached its optimum in the last
+    /// frame (the rest of the way to the hand is then a press its contacts hold, which it
+    /// will not follow), rather than by the larger of that share and the way's.
+    pub mesh_held_press: bool,
 }
 
 impl Default for Heuristics {
@@ -94,6 +99,7 @@ impl Heuristics {
         mesh_tilted_targets: true,
         mesh_pair_directions: true,
         mesh_thin_paths: true,
+        mesh_held_press: true,
     };
 
     /// Every heuristic off.
@@ -115,10 +121,11 @@ impl Heuristics {
         mesh_tilted_targets: false,
         mesh_pair_directions: false,
         mesh_thin_paths: false,
+        mesh_held_press: false,
     };
 
     /// The names of the switches (as the bench's ablation study prints them), in order.
-    pub const NAMES: [&'static str; 17] = [
+    pub const NAMES: [&'static str; 18] = [
         "region-reuse",
         "path-regions",
         "slab-regions",
@@ -136,6 +143,7 @@ impl Heuristics {
         "mesh-tilted-targets",
         "mesh-pair-directions",
         "mesh-thin-paths",
+        "mesh-held-press",
     ];
 
     /// The switch called `name` ([`Heuristics::NAMES`]), for reading and setting.
@@ -158,6 +166,7 @@ impl Heuristics {
             "mesh-tilted-targets" => &mut self.mesh_tilted_targets,
             "mesh-pair-directions" => &mut self.mesh_pair_directions,
             "mesh-thin-paths" => &mut self.mesh_thin_paths,
+            "mesh-held-press" => &mut self.mesh_held_press,
             _ => return None,
         })
     }

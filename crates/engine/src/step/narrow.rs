@@ -2563,6 +2563,48 @@ mod tests {
     }
 
     #[test]
+    fn a_cube_pressed_hard_and_turned_on_a_dense_sheet_follows_the_turn_in_fewer_passes() {
+        // The hand 2 mm into a fine sheet (over 1 000 triangle pairs under the cube: balls at
+        // the dense floor) turns the cube about the sheet's normal by 4 mrad a frame: the
+        // press is held by the sheet, the turn is the cube's whole way. A trust box shared by
+        // the way to the hand gives half its budget to the press, and the turn outruns the
+        // rest: a second region in most frames.
+        let passes = |held: bool| {
+            let mut god = cube_over_fine_grid();
+            god.params.heuristics.mesh_held_press = held;
+            // No deadline: the passes are the step's, not the machine's.
+            god.params.budget_us = 1e6;
+            god.reset(&Pose::from_array([0.0, 0.0, 2.5, 0.0, 0.0, 0.0]))
+                .unwrap();
+            let hand = |turn: f64| Pose::from_array([0.0, 0.0, 0.0, 0.0, 0.0, turn]);
+            for _ in 0..50 {
+                god.step(&hand(0.0));
+            }
+            let (mut frames, mut more) = (0, 0);
+            for i in 0..300 {
+                let f = god.step(&hand(0.004 * f64::from(i)));
+                assert!(f.contacts > 0, "frame {i}: the cube stays on the sheet");
+                assert!(f.q_g[2] >= 2.0, "frame {i}: {}", f.q_g[2]);
+                if i >= 20 {
+                    frames += 1;
+                    more += usize::from(f.passes > 1);
+                }
+            }
+            (more, frames)
+        };
+        let (held, frames) = passes(true);
+        let (shared, _) = passes(false);
+        assert!(
+            held * 3 <= frames,
+            "{held} of {frames} frames took more than one pass"
+        );
+        assert!(
+            2 * held <= shared,
+            "{held} frames of several passes held, {shared} shared by the way"
+        );
+    }
+
+    #[test]
     fn rocked_fast_on_a_plate_no_triangles_meet() {
         let (mut god, tool, plate) = cube_on_plate();
         god.reset(&Pose::from_array([0.0, 0.0, 2.5, 0.0, 0.0, 0.0]))

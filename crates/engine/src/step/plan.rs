@@ -681,8 +681,32 @@ impl GodObject {
             }
         };
         let (s_need, s_pred) = (share(plan.need_t, plan.need_r), share(pred_t, pred_r));
-        let mut t = s_need.max(s_pred);
-        let mut r = (1.0 - s_need).max(1.0 - s_pred);
+        // A tool that reached its optimum in the last frame holds what is left of the way to
+        // the hand against its contacts (the hand pressing a shaft onto its hub's face while
+        // turning it): the prediction, at that offset, is its way, and the press's share
+        // would starve the turn it follows (two passes a frame). Where this frame's passes
+        // have already moved it, that motion shares too (the press let go: a shaft dropping
+        // into its keyways as they align). A tool left behind may still go the whole way:
+        // the larger of the shares of the need and of the prediction. In the mesh mode only:
+        // there a second region costs a filter and hundreds of exact distances, on the leaf
+        // spheres a ball re-centred on its own pairs (the spheres' zoo lost more than it won).
+        let held = self.params.heuristics.mesh_held_press
+            && self.bodies.meshes.is_some()
+            && !self.run.motion.behind;
+        let (mut t, mut r) = if held {
+            let q_g = self.run.motion.q_g;
+            let frame_step = (q_lin.translation() - q_g.translation()).norm();
+            let frame_turn =
+                rotation_angle(&q_lin.rotation_matrix(), &q_g.rotation_matrix()) * lever_reach;
+            if frame_step + frame_turn > STILL_PASS_SHARE * plan.allowed {
+                let s_frame = share(frame_step, frame_turn);
+                (s_pred.max(s_frame), (1.0 - s_pred).max(1.0 - s_frame))
+            } else {
+                (s_pred, 1.0 - s_pred)
+            }
+        } else {
+            (s_need.max(s_pred), (1.0 - s_need).max(1.0 - s_pred))
+        };
         // A pass that did not move at all (it started on its trust region's edge) tells no way.
         let crept = f.course.crept_from.and_then(|from| {
             let pass_step = q_lin.translation() - from.translation();
