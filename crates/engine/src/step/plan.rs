@@ -689,7 +689,7 @@ impl GodObject {
         // into its keyways as they align). A tool left behind may still go the whole way:
         // the larger of the shares of the need and of the prediction. In the mesh mode only:
         // there a second region costs a filter and hundreds of exact distances, on the leaf
-        // spheres a ball re-centred on its own pairs (the spheres' zoo lost more than it won).
+        // spheres a ball re-centred on its own pairs (the spheres' zoo lost as much as it won).
         let held = self.params.heuristics.mesh_held_press
             && self.bodies.meshes.is_some()
             && !self.run.motion.behind;
