@@ -1959,6 +1959,27 @@ mod tests {
         assert_eq!(god.standoff_allow(skin), f64::INFINITY);
     }
 
+    /// Steps `god` to the hands `hand(i)` for `i` in `0..frames`, `check`ing each frame's
+    /// output: how many frames after the first 20 (the motion settled) took more than one
+    /// pass, and how many frames those are.
+    fn several_passes(
+        god: &mut GodObject,
+        frames: u32,
+        hand: impl Fn(u32) -> Pose,
+        check: impl Fn(u32, &FrameOutput),
+    ) -> (usize, usize) {
+        let (mut counted, mut more) = (0, 0);
+        for i in 0..frames {
+            let f = god.step(&hand(i));
+            check(i, &f);
+            if i >= 20 {
+                counted += 1;
+                more += usize::from(f.passes > 1);
+            }
+        }
+        (more, counted)
+    }
+
     #[test]
     fn a_tool_sliding_just_off_a_wall_takes_one_thin_path_a_frame_where_balls_take_several() {
         // The cube 0.05 mm over a fine sheet (512 cells under it within the dense floor and
@@ -1969,17 +1990,15 @@ mod tests {
             god.params.heuristics.mesh_thin_paths = thin;
             let hand = |x: f64| Pose::from_array([x, 0.0, 2.05, 0.0, 0.0, 0.0]);
             god.reset(&hand(-2.0)).unwrap();
-            let (mut frames, mut more) = (0, 0);
-            for i in 0..100 {
-                let f = god.step(&hand(-2.0 + 0.04 * f64::from(i)));
-                assert_eq!(f.contacts, 0, "frame {i}: the cube stays off the sheet");
-                assert!(f.q_g[2] >= 2.05 - 1e-9, "frame {i}: {}", f.q_g[2]);
-                if i >= 20 {
-                    frames += 1;
-                    more += usize::from(f.passes > 1);
-                }
-            }
-            (more, frames)
+            several_passes(
+                &mut god,
+                100,
+                |i| hand(-2.0 + 0.04 * f64::from(i)),
+                |i, f| {
+                    assert_eq!(f.contacts, 0, "frame {i}: the cube stays off the sheet");
+                    assert!(f.q_g[2] >= 2.05 - 1e-9, "frame {i}: {}", f.q_g[2]);
+                },
+            )
         };
         let (thin, frames) = passes(true);
         let (balls, _) = passes(false);
@@ -2547,15 +2566,12 @@ mod tests {
         for _ in 0..50 {
             god.step(&hand(0.0));
         }
-        let (mut frames, mut more_passes) = (0, 0);
-        for i in 0..400 {
-            let f = god.step(&hand(0.004 * f64::from(i)));
-            assert!(f.contacts > 0, "frame {i}: the cube stays on the plate");
-            if i >= 20 {
-                frames += 1;
-                more_passes += usize::from(f.passes > 1);
-            }
-        }
+        let (more_passes, frames) = several_passes(
+            &mut god,
+            400,
+            |i| hand(0.004 * f64::from(i)),
+            |i, f| assert!(f.contacts > 0, "frame {i}: the cube stays on the plate"),
+        );
         assert!(
             more_passes * 20 <= frames,
             "{more_passes} of {frames} turning frames took more than one pass"
@@ -2580,17 +2596,15 @@ mod tests {
             for _ in 0..50 {
                 god.step(&hand(0.0));
             }
-            let (mut frames, mut more) = (0, 0);
-            for i in 0..300 {
-                let f = god.step(&hand(0.004 * f64::from(i)));
-                assert!(f.contacts > 0, "frame {i}: the cube stays on the sheet");
-                assert!(f.q_g[2] >= 2.0, "frame {i}: {}", f.q_g[2]);
-                if i >= 20 {
-                    frames += 1;
-                    more += usize::from(f.passes > 1);
-                }
-            }
-            (more, frames)
+            several_passes(
+                &mut god,
+                300,
+                |i| hand(0.004 * f64::from(i)),
+                |i, f| {
+                    assert!(f.contacts > 0, "frame {i}: the cube stays on the sheet");
+                    assert!(f.q_g[2] >= 2.0, "frame {i}: {}", f.q_g[2]);
+                },
+            )
         };
         let (held, frames) = passes(true);
         let (shared, _) = passes(false);
