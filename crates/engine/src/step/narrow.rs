@@ -1246,6 +1246,9 @@ pub(super) struct PosedTriangle {
     normal: [f64; 3],
     offset: f64,
     bounds: ([f64; 3], [f64; 3]),
+    /// Its edges' outward normals in its plane (unit) and offsets, as
+    /// [`TriangleTree::edges`] gives them, in the world: posed once for the pairs it is in.
+    edges: [([f64; 3], f64); 3],
     sweep: [f64; 3],
     rise: f64,
 }
@@ -1257,6 +1260,7 @@ impl PosedTriangle {
         normal: [0.0; 3],
         offset: 0.0,
         bounds: ([0.0; 3], [0.0; 3]),
+        edges: [([0.0; 3], 0.0); 3],
         sweep: [0.0; 3],
         rise: 0.0,
     };
@@ -1273,6 +1277,10 @@ impl PosedTriangle {
             normal: n.into(),
             offset: d + n.dot(t),
             bounds: collide::bounds_of(&corners),
+            edges: tree.edges(i).map(|(m, e)| {
+                let m = rot * Vector3::from(m);
+                (m.into(), e + m.dot(t))
+            }),
             sweep: [0.0; 3],
             rise: 0.0,
         }
@@ -1393,18 +1401,11 @@ impl PosedTriangle {
             |m: &[f64; 3], t: &Triangle| dot(m, &t[0]).min(dot(m, &t[1])).min(dot(m, &t[2]));
         let other = part.triangle(i);
         let mut best = bound;
-        if self.normal != [0.0; 3] {
-            let n = Vector3::from(self.normal);
-            for k in 0..3 {
-                let a = Vector3::from(self.corners[k]);
-                let m = (Vector3::from(self.corners[(k + 1) % 3]) - a).cross(&n);
-                let len = m.norm();
-                if len > 0.0 {
-                    let m: [f64; 3] = (m / len).into();
-                    // The tool's edge moves along the sweep by a share of its reach along m.
-                    let reach = dot(&m, &self.sweep).max(0.0);
-                    best = best.max(lowest(&m, other) - dot(&m, &self.corners[k]) - reach);
-                }
+        for (m, e) in &self.edges {
+            if *m != [0.0; 3] {
+                // The tool's edge moves along the sweep by a share of its reach along m.
+                let reach = dot(m, &self.sweep).max(0.0);
+                best = best.max(lowest(m, other) - e - reach);
             }
         }
         for (m, e) in part.edges(i) {
