@@ -193,8 +193,12 @@ pub fn triangle_distance(a: &Triangle, b: &Triangle) -> TriangleDistance {
     // plane.
     let a_over_b = pa.map(|p| nb.dot(&(p - pb[0])));
     let b_over_a = pb.map(|p| na.dot(&(p - pa[0])));
-    if let Some(x) =
-        crossing(&pa, &pb, &nb, &a_over_b).or_else(|| crossing(&pb, &pa, &na, &b_over_a))
+    // Meeting triangles have a common point in both planes: each has a corner on or across
+    // the other's plane.
+    let meet_possible = !one_side(&a_over_b) && !one_side(&b_over_a);
+    if let Some(x) = meet_possible
+        .then(|| crossing(&pa, &pb, &nb, &a_over_b).or_else(|| crossing(&pb, &pa, &na, &b_over_a)))
+        .flatten()
     {
         return TriangleDistance {
             distance: 0.0,
@@ -228,8 +232,11 @@ fn nearest_features(
     let (ea, eb) = (edges(pa), edges(pb));
     let (la, lb) = (ea.map(|e| e.norm_squared()), eb.map(|e| e.norm_squared()));
     let mut best = (f64::INFINITY, pa[0], pb[0]);
-    for i in 0..3 {
-        for j in 0..3 {
+    // Each triangle's edges nearest the other's plane first: the nearest pair is most often
+    // among them, and a near pair measured early lets the farther ones pass untested.
+    let (order_a, order_b) = (nearest_edges_first(a_over_b), nearest_edges_first(b_over_a));
+    for i in order_a {
+        for j in order_b {
             let (x, y) = closest_segments_along(&pa[i], &ea[i], la[i], &pb[j], &eb[j], lb[j]);
             let d2 = (y - x).norm_squared();
             // Only the nearest pair can be separated by a slab as thick as its distance: a
@@ -264,6 +271,23 @@ fn nearest_features(
     corner_on_face(pa, pb, nb, a_over_b, false);
     corner_on_face(pb, pa, na, b_over_a, true);
     nearest(best.1, best.2)
+}
+
+/// A triangle's edges (`k` from corner `k` to `k + 1`) by how near they run to a plane, given
+/// its corners' heights over it: the sum of their ends' distances.
+fn nearest_edges_first(side: &[f64; 3]) -> [usize; 3] {
+    let h: [f64; 3] = std::array::from_fn(|k| side[k].abs() + side[(k + 1) % 3].abs());
+    let mut order = [0, 1, 2];
+    if h[order[1]] < h[order[0]] {
+        order.swap(0, 1);
+    }
+    if h[order[2]] < h[order[1]] {
+        order.swap(1, 2);
+        if h[order[1]] < h[order[0]] {
+            order.swap(0, 1);
+        }
+    }
+    order
 }
 
 /// Whether `x` (a point of `a`) and `y` (of `b`) are the triangles' nearest points by a
@@ -314,10 +338,16 @@ fn nearest(x: V, y: V) -> TriangleDistance {
 /// Where an edge of `s` crosses `t` (normal `n`), given the heights `side` of `s`'s corners
 /// over `t`'s plane (only where they are not all on one side).
 fn crossing(s: &[V; 3], t: &[V; 3], n: &V, side: &[f64; 3]) -> Option<V> {
-    if side.iter().all(|&d| d > 0.0) || side.iter().all(|&d| d < 0.0) {
+    if one_side(side) {
         return None;
     }
     (0..3).find_map(|k| segment_crosses(&s[k], &s[(k + 1) % 3], t, n, side[k], side[(k + 1) % 3]))
+}
+
+/// Whether a triangle's corners, of heights `side` over a plane, are all strictly on one side
+/// of it.
+fn one_side(side: &[f64; 3]) -> bool {
+    side.iter().all(|&d| d > 0.0) || side.iter().all(|&d| d < 0.0)
 }
 
 /// Where `s` lies wholly on one side of `t`'s plane (normal `n`, heights `side` of its
@@ -326,6 +356,7 @@ fn crossing(s: &[V; 3], t: &[V; 3], n: &V, side: &[f64; 3]) -> Option<V> {
 /// projection is a point of `t`).
 fn corner_over_face(s: &[V; 3], t: &[V; 3], n: &V, side: &[f64; 3]) -> Option<(V, V)> {
     let above = side.iter().all(|&d| d > 0.0);
+    if above || side.iter().all(|&d| d < 0.0) {}
     if !above && !side.iter().all(|&d| d < 0.0) {
         return None;
     }
