@@ -86,8 +86,8 @@ pub use traverse::{
     StandIn, Sweep, Traversal, TraversalStats,
 };
 pub use triangle::{
-    closest_on_triangle, triangle_distance, triangle_distance_all_features, Triangle,
-    TriangleDistance,
+    closest_on_triangle, triangle_distance, triangle_distance_all_features, triangle_distance_from,
+    NearestEdges, Triangle, TriangleDistance,
 };
 pub use triangle_tree::{bounds_of, edges_of, TreePairStack, TriangleTree, LEAF_TRIANGLES};
 

@@ -184,7 +184,61 @@ fn inside(t: &[V; 3], n: &V, x: &V) -> bool {
 /// No allocation, no panic, constant time (at most 9 edge pairs, 6 corner projections and 6
 /// edge crossings).
 pub fn triangle_distance(a: &Triangle, b: &Triangle) -> TriangleDistance {
+    let mut none = NearestEdges::NONE;
+    triangle_distance_from(a, b, &mut none)
+}
+
+/// The pair of edges, one of each triangle, whose nearest points were the two triangles'
+/// nearest points where [`triangle_distance_from`] last measured them (by a separating slab),
+/// if any.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NearestEdges(u8);
+
+impl NearestEdges {
+    /// None known: the search starts from the face contacts.
+    pub const NONE: Self = Self(0);
+
+    /// Edge `i` of the first triangle (from its corner `i` to `i + 1`) and edge `j` of the
+    /// second.
+    fn of(i: usize, j: usize) -> Self {
+        Self(1 + (3 * i + j) as u8)
+    }
+
+    fn edges(self) -> Option<(usize, usize)> {
+        let k = usize::from(self.0).checked_sub(1)?;
+        (k < 9).then_some((k / 3, k % 3))
+    }
+}
+
+/// [`triangle_distance`], trying first the pair of edges `last` names (the answer where the
+/// two were measured a little way back, as a sliding contact's pairs are frame after frame);
+/// leaves in `last` the pair that answers here, or [`NearestEdges::NONE`]. The same distance
+/// whatever `last` says (a pair is the answer only where a separating slab shows it); the
+/// nearest points, where they are not unique, may be others.
+///
+/// # Real-time
+/// As [`triangle_distance`], and one edge pair more at most.
+pub fn triangle_distance_from(
+    a: &Triangle,
+    b: &Triangle,
+    last: &mut NearestEdges,
+) -> TriangleDistance {
     let (pa, pb) = (a.map(|p| v(&p)), b.map(|p| v(&p)));
+    if let Some((i, j)) = last.edges() {
+        let (da, db) = (pa[(i + 1) % 3] - pa[i], pb[(j + 1) % 3] - pb[j]);
+        let (x, y) = closest_segments_along(
+            &pa[i],
+            &da,
+            da.norm_squared(),
+            &pb[j],
+            &db,
+            db.norm_squared(),
+        );
+        if separated_at(&pa, &pb, &x, &y) {
+            return nearest(x, y);
+        }
+    }
+    *last = NearestEdges::NONE;
     let (na, nb) = (
         (pa[1] - pa[0]).cross(&(pa[2] - pa[0])),
         (pb[1] - pb[0]).cross(&(pb[2] - pb[0])),
@@ -214,19 +268,20 @@ pub fn triangle_distance(a: &Triangle, b: &Triangle) -> TriangleDistance {
     if let Some((y, x)) = corner_over_face(&pb, &pa, &na, &b_over_a) {
         return nearest(x, y);
     }
-    nearest_features(&pa, &pb, (&na, &b_over_a), (&nb, &a_over_b))
+    nearest_features(&pa, &pb, (&na, &b_over_a), (&nb, &a_over_b), last)
 }
 
 /// [`triangle_distance`] past its face contacts: the nearest of the nine edge pairs (the first
-/// at a separating slab) and of the corners projecting inside the other's face. `a_plane` is
-/// `a`'s normal and `b`'s heights over it, `b_plane` the other way round. Kept apart so that
-/// the face contacts' way (over half the pairs of a contact) carries none of its state.
+/// at a separating slab, named in `found`) and of the corners projecting inside the other's
+/// face; given each triangle's normal and the other's heights over its plane. Kept apart so
+/// that the face contacts' way (over half the pairs of a contact) carries none of its state.
 #[inline(never)]
 fn nearest_features(
     pa: &[V; 3],
     pb: &[V; 3],
     (na, b_over_a): (&V, &[f64; 3]),
     (nb, a_over_b): (&V, &[f64; 3]),
+    found: &mut NearestEdges,
 ) -> TriangleDistance {
     let edges = |p: &[V; 3]| [p[1] - p[0], p[2] - p[1], p[0] - p[2]];
     let (ea, eb) = (edges(pa), edges(pb));
@@ -244,6 +299,7 @@ fn nearest_features(
             // other have several at the same distance, to a rounding).
             if d2 <= best.0 * (1.0 + TIE) {
                 if separated_at(pa, pb, &x, &y) {
+                    *found = NearestEdges::of(i, j);
                     return nearest(x, y);
                 }
                 if d2 < best.0 {
@@ -599,6 +655,53 @@ mod tests {
             total == 8000 && face > 500 && edge > 1000,
             "face {face}, edge {edge} of {total}"
         );
+    }
+
+    #[test]
+    fn any_edge_pair_tried_first_gives_the_same_distance_and_a_slid_pair_keeps_its_edges() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(17);
+        let mut named = 0;
+        for case in 0..1000 {
+            let a = random_triangle(&mut rng, [0.0; 3], 1.0);
+            let along = rng.random_range(-1.5..1.5);
+            let b = random_triangle(&mut rng, [along, 0.0, 1.2], 1.0);
+            let all = triangle_distance_all_features(&a, &b);
+            for k in 0..=9u8 {
+                let mut last = NearestEdges(k);
+                let d = triangle_distance_from(&a, &b, &mut last);
+                assert!(
+                    (d.distance - all.distance).abs() <= 1e-12 * (1.0 + all.distance),
+                    "case {case}, tried {k} first: {} against {}",
+                    d.distance,
+                    all.distance
+                );
+                assert_eq!(d.meet, all.meet, "case {case}");
+                assert_certified(&a, &b, &d, &format!("case {case}, tried {k} first"));
+                if let Some((i, j)) = last.edges() {
+                    // The pair it names is the answer's.
+                    let (pa, pb) = (a.map(|p| v(&p)), b.map(|p| v(&p)));
+                    let (x, y) =
+                        closest_segments(&pa[i], &pa[(i + 1) % 3], &pb[j], &pb[(j + 1) % 3]);
+                    assert!(((y - x).norm() - d.distance).abs() <= 1e-12, "case {case}");
+                    named += 1;
+                }
+            }
+        }
+        assert!(named > 2000, "edge answers named: {named}");
+        // Skew edges slid along each other keep their nearest edges frame after frame.
+        let mut last = NearestEdges::NONE;
+        for step in 0..50 {
+            let s = -0.3 + 0.012 * f64::from(step);
+            let a = [[-1.0, s, 0.0], [1.0, s, 0.0], [0.0, s, -1.0]];
+            let b = [[s, -1.0, 0.05], [s, 1.0, 0.05], [0.0, s, 1.05]];
+            let d = triangle_distance_from(&a, &b, &mut last);
+            assert!(
+                (d.distance - 0.05).abs() <= 1e-12,
+                "step {step}: {}",
+                d.distance
+            );
+            assert_eq!(last, NearestEdges::of(0, 0), "step {step}");
+        }
     }
 
     #[test]

@@ -10,7 +10,7 @@
 //! from spheres to triangles. The sphere-trees' top levels, grown to hold the triangles
 //! ([`collide::MeshLeaves`]), still answer "free" for the whole step.
 
-use collide::{triangle_distance, Triangle, TriangleTree};
+use collide::{triangle_distance, triangle_distance_from, NearestEdges, Triangle, TriangleTree};
 
 use super::*;
 
@@ -350,7 +350,11 @@ impl GodObject {
                             }
                             continue;
                         }
-                        let d = triangle_distance(&tool.corners, part_tree.triangle(c.part));
+                        let d = triangle_distance_from(
+                            &tool.corners,
+                            part_tree.triangle(c.part),
+                            &mut detector.near_edges[i],
+                        );
                         if directions && d.distance > margin {
                             // Apart beyond the margin: along the way from the object's nearest
                             // point to the tool's, the two lie that far apart (measured on their
@@ -664,6 +668,10 @@ impl GodObject {
         std::mem::swap(&mut self.detector.near, &mut self.detector.next_near);
         std::mem::swap(&mut self.detector.near_apart, &mut self.detector.next_apart);
         std::mem::swap(&mut self.detector.near_gaps, &mut self.detector.next_gaps);
+        // (Within the capacity reserved for the list: no allocation.)
+        let len = self.detector.near.len();
+        self.detector.near_edges.clear();
+        self.detector.near_edges.resize(len, NearestEdges::NONE);
         self.detector.near_offset = 0.0;
         self.detector.near_turn = 0.0;
         self.detector.near_generation += 1;
@@ -842,6 +850,7 @@ impl GodObject {
         let detector = &mut self.detector;
         // A tool triangle is posed only where its pair's distance is not known, or its row
         // needs its centre (an empty row, meeting triangles).
+        let current = detector.contacts_list == Some(detector.near_generation);
         let mut tools = detector.tool_poses.at(&rot, &t, &Vector3::zeros());
         let mut n = 0;
         for c in &detector.contacts {
@@ -865,7 +874,12 @@ impl GodObject {
                 continue;
             }
             let d = known.unwrap_or_else(|| {
-                let d = triangle_distance(&tools.get(&meshes.tool, c.tool).corners, part);
+                let tool = &tools.get(&meshes.tool, c.tool).corners;
+                let last = near_edges(&mut detector.near_edges, &detector.contact_from, current, n);
+                let d = match last {
+                    Some(last) => triangle_distance_from(tool, part, last),
+                    None => triangle_distance(tool, part),
+                };
                 detector.contact_nearest[n] = d;
                 detector.nearest_known[n] = true;
                 d
@@ -939,6 +953,7 @@ impl GodObject {
         let (rot, t) = (q.rotation_matrix(), q.translation());
         let (detector, qp) = (&mut self.detector, &self.qp);
         detector.hold_distances_at(rot, t);
+        let current = detector.contacts_list == Some(detector.near_generation);
         let mut tools = detector.tool_poses.at(&rot, &t, &Vector3::zeros());
         let (mut meet, mut slack, mut touching) = (false, 0.0f64, 0u32);
         for (i, c) in detector.contacts.iter().enumerate().take(n) {
@@ -958,7 +973,12 @@ impl GodObject {
                 if !tight && tool.separation(part_tree, c.part) > TOUCH_MM {
                     continue;
                 }
-                let d = triangle_distance(&tool.corners, part_tree.triangle(c.part));
+                let part = part_tree.triangle(c.part);
+                let last = near_edges(&mut detector.near_edges, &detector.contact_from, current, i);
+                let d = match last {
+                    Some(last) => triangle_distance_from(&tool.corners, part, last),
+                    None => triangle_distance(&tool.corners, part),
+                };
                 detector.contact_nearest[i] = d;
                 detector.nearest_known[i] = true;
                 d
@@ -1065,6 +1085,18 @@ impl GodObject {
 }
 
 /// The dot product of two vectors given as arrays (in the order `x, y, z`).
+/// The nearest edges last found for contact `n`'s pair, kept with the near list it came from
+/// (none where the contacts are not of the list in use).
+fn near_edges<'a>(
+    near_edges: &'a mut [NearestEdges],
+    contact_from: &[u32],
+    current: bool,
+    n: usize,
+) -> Option<&'a mut NearestEdges> {
+    let from = *contact_from.get(n)? as usize;
+    current.then(|| near_edges.get_mut(from)).flatten()
+}
+
 fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
@@ -2369,7 +2401,10 @@ mod tests {
         {
             let meshes = god.bodies.meshes.as_ref().unwrap();
             let (tool, part) = god.posed_pair(meshes, c, &rot, &t);
-            assert_eq!(*d, triangle_distance(&tool, &part));
+            // (The pair's nearest edges from the last region are tried first: the same
+            // distance to a rounding, the nearest points perhaps others where not unique.)
+            let fresh = triangle_distance(&tool, &part);
+            assert!((d.distance - fresh.distance).abs() <= 1e-12 && d.meet == fresh.meet);
         }
     }
 

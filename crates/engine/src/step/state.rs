@@ -64,6 +64,9 @@ pub(super) struct Detector {
     /// (mm) from filter to filter since the list was taken that they are taken less.
     pub(super) near_gaps: Vec<PairGap>,
     pub(super) near_turn: f64,
+    /// Each of `near`'s pairs' nearest edges where last measured (same order): tried first
+    /// the next time ([`collide::triangle_distance_from`]).
+    pub(super) near_edges: Vec<collide::NearestEdges>,
     /// Exact distances of `contacts` (same order) with the tool at one pose (rotation,
     /// translation): where the narrow phase listed them, or the last answer checked. Rows
     /// linearised at that pose reuse them.
@@ -155,6 +158,7 @@ impl Detector {
             near_gaps: Vec::with_capacity(contacts_cap),
             next_gaps: Vec::with_capacity(contacts_cap),
             near_turn: 0.0,
+            near_edges: Vec::with_capacity(contacts_cap),
             contact_nearest: Vec::with_capacity(contacts_cap),
             nearest_known: Vec::with_capacity(contacts_cap),
             nearest_at: None,
