@@ -411,9 +411,7 @@ fn one_side(side: &[f64; 3]) -> bool {
 /// projection, the two triangles' nearest points (no point of `s` is nearer the plane, and the
 /// projection is a point of `t`).
 fn corner_over_face(s: &[V; 3], t: &[V; 3], n: &V, side: &[f64; 3]) -> Option<(V, V)> {
-    let above = side.iter().all(|&d| d > 0.0);
-    if above || side.iter().all(|&d| d < 0.0) {}
-    if !above && !side.iter().all(|&d| d < 0.0) {
+    if !one_side(side) {
         return None;
     }
     let n2 = n.norm_squared();
