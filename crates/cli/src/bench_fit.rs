@@ -4,7 +4,7 @@
 //! case, clearance and geometry mode.
 //!
 //! Cases: a round peg of radius 10 mm with and without chamfers (1 mm at the tip and the
-//! mouth), approached straight and tilted by [`TILT_RAD`]; a round peg of radius 3 mm
+//! mouth), approached straight and tilted by [`fit::STUDY_TILT_RAD`]; a round peg of radius 3 mm
 //! (0.5 mm chamfers) straight and tilted; the splined shaft (root radius 10 mm, six keys) with
 //! and without chamfers, straight and tilted. The hand enters and inserts at 12 mm/s mean
 //! (18 mm/s peak) to 20 mm below the mouth, holds, withdraws.
@@ -18,74 +18,23 @@
 //! Every row names the geometry mode the engine used (`[solver] geometry`); the modes replayed
 //! are `bench --geometry`'s (the leaf spheres by default).
 //!
-//! `--quick` replays [`QUICK_ROWS`] rows.
+//! `--quick` replays [`QUICK_ROWS`] rows. Every row is a built-in scene by its name
+//! (`haptic6d run fit/round-r10-c0.05 --geometry mesh`).
 
 use anyhow::Result;
 use engine::setting::Setting;
 use engine::SolverKind;
 use scene::cache::TreeCache;
-use scene::scenes::fit::{self, FitParams, FitShape};
+use scene::scenes::fit::{self, StudyCase, STUDY_CASES, STUDY_CLEARANCES_MM};
 use serde::Serialize;
-
-/// The radial clearances of the study, mm.
-pub const CLEARANCES_MM: [f64; 5] = [0.5, 0.2, 0.1, 0.05, 0.02];
 
 /// Mesh-level penetration is measured on every this many frames, where the tool may touch the
 /// block by the parts alone ([`crate::run::mesh_depths`], whatever the geometry mode; a peg in
 /// its hole puts all its probe points in the block's box: about 1.5 ms a frame on 2 cores).
 pub const MESH_STRIDE: usize = 5;
 
-/// Tilt of a tilted approach about `x`, rad (2°).
-pub const TILT_RAD: f64 = 0.035;
-
-/// One case of the study before its clearance: shape, radius, chamfers, approach.
-#[derive(Clone, Copy, Debug)]
-struct Case {
-    shape: FitShape,
-    radius_mm: f64,
-    chamfer_mm: f64,
-    tilted: bool,
-}
-
-/// The study's cases, each at every clearance of [`CLEARANCES_MM`].
-const CASES: [Case; 10] = [
-    case(FitShape::Round, 10.0, 0.0, false),
-    case(FitShape::Round, 10.0, 0.0, true),
-    case(FitShape::Round, 10.0, 1.0, false),
-    case(FitShape::Round, 10.0, 1.0, true),
-    case(FitShape::Round, 3.0, 0.5, false),
-    case(FitShape::Round, 3.0, 0.5, true),
-    case(FitShape::Splined, 10.0, 0.0, false),
-    case(FitShape::Splined, 10.0, 0.0, true),
-    case(FitShape::Splined, 10.0, 1.0, false),
-    case(FitShape::Splined, 10.0, 1.0, true),
-];
-
-const fn case(shape: FitShape, radius_mm: f64, chamfer_mm: f64, tilted: bool) -> Case {
-    Case {
-        shape,
-        radius_mm,
-        chamfer_mm,
-        tilted,
-    }
-}
-
 /// The rows of `--quick`: (index into the cases, clearance mm).
 pub const QUICK_ROWS: &[(usize, f64)] = &[(2, 0.5), (2, 0.1), (5, 0.2), (8, 0.5)];
-
-impl Case {
-    fn params(&self, clearance_mm: f64) -> FitParams {
-        FitParams {
-            shape: self.shape,
-            radius_mm: self.radius_mm,
-            clearance_mm,
-            peg_chamfer_mm: self.chamfer_mm,
-            hole_chamfer_mm: self.chamfer_mm,
-            tilt_rad: if self.tilted { TILT_RAD } else { 0.0 },
-            ..FitParams::default()
-        }
-    }
-}
 
 /// One row: a case at one clearance in one geometry mode.
 #[derive(Serialize, Clone, Debug)]
@@ -136,12 +85,15 @@ pub fn fit_study(
     quick: bool,
     geometries: &[engine::Geometry],
 ) -> Result<Vec<FitRow>> {
-    let rows: Vec<(Case, f64)> = if quick {
-        QUICK_ROWS.iter().map(|&(k, c)| (CASES[k], c)).collect()
-    } else {
-        CASES
+    let rows: Vec<(StudyCase, f64)> = if quick {
+        QUICK_ROWS
             .iter()
-            .flat_map(|&case| CLEARANCES_MM.iter().map(move |&c| (case, c)))
+            .map(|&(k, c)| (STUDY_CASES[k], c))
+            .collect()
+    } else {
+        STUDY_CASES
+            .iter()
+            .flat_map(|&case| STUDY_CLEARANCES_MM.iter().map(move |&c| (case, c)))
             .collect()
     };
     let mut out = Vec::with_capacity(rows.len() * geometries.len());

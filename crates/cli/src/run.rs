@@ -176,8 +176,12 @@ pub(crate) fn load_scene(name: &str, cache: &TreeCache) -> Result<Scene> {
     }
     let path = Path::new(name);
     if !path.exists() {
+        if name.starts_with("fit/") || name.starts_with("zoo/") {
+            // The built-ins' own error names what the family holds.
+            return Ok(scene::scenes::builtin(name, cache)?);
+        }
         bail!(
-            "no built-in scene or scene file named `{name}` (built-in: {}; files end in .toml)",
+            "no built-in scene or scene file named `{name}` (built-in: {}, zoo/..., fit/...; files end in .toml)",
             scene::scenes::BUILTIN_NAMES.join(", ")
         );
     }

@@ -1304,15 +1304,18 @@ impl PosedTriangle {
         let corners = tree
             .triangle(i)
             .map(|p| (rot * Vector3::from(p) + t).into());
+        let in_tool = tree.edges(i);
+        let edge = |k: usize| {
+            let (m, e) = in_tool[k];
+            let m = rot * Vector3::from(m);
+            (m.into(), e + m.dot(t))
+        };
         Self {
             corners,
             normal: n.into(),
             offset: d + n.dot(t),
             bounds: collide::bounds_of(&corners),
-            edges: tree.edges(i).map(|(m, e)| {
-                let m = rot * Vector3::from(m);
-                (m.into(), e + m.dot(t))
-            }),
+            edges: [edge(0), edge(1), edge(2)],
             sweep: [0.0; 3],
             rise: 0.0,
         }

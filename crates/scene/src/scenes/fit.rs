@@ -405,6 +405,75 @@ fn tight(depth: u32) -> TreeParams {
     }
 }
 
+/// The radial clearances of the clearance study (`haptic6d bench --studies fit`), mm.
+pub const STUDY_CLEARANCES_MM: [f64; 5] = [0.5, 0.2, 0.1, 0.05, 0.02];
+
+/// Tilt of the study's tilted approaches about `x`, rad (2°).
+pub const STUDY_TILT_RAD: f64 = 0.035;
+
+/// One peg of the clearance study before its clearance: shape, radius and chamfers (peg tip
+/// and hole mouth alike), mm, and whether it comes in tilted by [`STUDY_TILT_RAD`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StudyCase {
+    /// The peg's cross-section.
+    pub shape: FitShape,
+    /// Peg radius (round) or root radius (splined), mm.
+    pub radius_mm: f64,
+    /// Chamfer at the peg's tip and at the hole's mouth, mm (0 for none).
+    pub chamfer_mm: f64,
+    /// Approached tilted.
+    pub tilted: bool,
+}
+
+impl StudyCase {
+    /// The case at `clearance_mm` (the rest as [`FitParams::default`]).
+    pub fn params(&self, clearance_mm: f64) -> FitParams {
+        FitParams {
+            shape: self.shape,
+            radius_mm: self.radius_mm,
+            clearance_mm,
+            peg_chamfer_mm: self.chamfer_mm,
+            hole_chamfer_mm: self.chamfer_mm,
+            tilt_rad: if self.tilted { STUDY_TILT_RAD } else { 0.0 },
+            ..FitParams::default()
+        }
+    }
+}
+
+const fn case(shape: FitShape, radius_mm: f64, chamfer_mm: f64, tilted: bool) -> StudyCase {
+    StudyCase {
+        shape,
+        radius_mm,
+        chamfer_mm,
+        tilted,
+    }
+}
+
+/// The study's pegs, each at every clearance of [`STUDY_CLEARANCES_MM`]: a round peg of radius
+/// 10 mm with and without 1 mm chamfers, one of 3 mm with 0.5 mm chamfers, the splined shaft
+/// (root radius 10 mm, six keys) with and without 1 mm chamfers; each straight and tilted.
+pub const STUDY_CASES: [StudyCase; 10] = [
+    case(FitShape::Round, 10.0, 0.0, false),
+    case(FitShape::Round, 10.0, 0.0, true),
+    case(FitShape::Round, 10.0, 1.0, false),
+    case(FitShape::Round, 10.0, 1.0, true),
+    case(FitShape::Round, 3.0, 0.5, false),
+    case(FitShape::Round, 3.0, 0.5, true),
+    case(FitShape::Splined, 10.0, 0.0, false),
+    case(FitShape::Splined, 10.0, 0.0, true),
+    case(FitShape::Splined, 10.0, 1.0, false),
+    case(FitShape::Splined, 10.0, 1.0, true),
+];
+
+/// The clearance study's row named `name` ([`FitParams::name`], as `fit/round-r10-c0.05`), so
+/// that every row is runnable by name (`haptic6d run fit/round-r10-c0.05-chamfer`).
+pub fn study_params(name: &str) -> Option<FitParams> {
+    STUDY_CASES
+        .iter()
+        .flat_map(|case| STUDY_CLEARANCES_MM.iter().map(|&c| case.params(c)))
+        .find(|p| p.name() == name)
+}
+
 /// The peg-in-hole scene of `p`, trees from `cache` or built.
 pub fn fit_scene(p: &FitParams, cache: &TreeCache) -> Result<FitScene, SceneError> {
     p.validate()?;
@@ -605,6 +674,22 @@ impl FitScene {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_study_row_is_found_by_its_own_name_and_no_other() {
+        let mut names = std::collections::HashSet::new();
+        for case in &STUDY_CASES {
+            for &c in &STUDY_CLEARANCES_MM {
+                let p = case.params(c);
+                assert!(names.insert(p.name()), "two rows named {}", p.name());
+                assert_eq!(study_params(&p.name()), Some(p));
+                assert!(crate::scenes::is_builtin(&p.name()));
+            }
+        }
+        assert_eq!(names.len(), 50);
+        assert_eq!(study_params("fit/round-r10-c0.07"), None);
+        assert!(!crate::scenes::is_builtin("fit/round-r10-c0.07"));
+    }
 
     #[test]
     fn bad_dimensions_are_one_line_errors() {

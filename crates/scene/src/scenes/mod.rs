@@ -42,17 +42,30 @@ pub fn sphere_builtin_names() -> impl Iterator<Item = &'static str> {
         .filter(|n| !MESH_BUILTIN_NAMES.contains(n))
 }
 
-/// Whether `name` names a built-in scene: one of [`BUILTIN_NAMES`] or of the zoo
-/// ([`zoo::ZOO`]).
+/// Whether `name` names a built-in scene: one of [`BUILTIN_NAMES`], of the zoo
+/// ([`zoo::ZOO`]) or a clearance-study row ([`fit::study_params`]).
 pub fn is_builtin(name: &str) -> bool {
-    BUILTIN_NAMES.contains(&name) || zoo::is_zoo(name)
+    BUILTIN_NAMES.contains(&name) || zoo::is_zoo(name) || fit::study_params(name).is_some()
 }
 
-/// A built-in scene by name (one of [`BUILTIN_NAMES`] or a zoo scene such as `zoo/slot`),
-/// trees from `cache` or built.
+/// A built-in scene by name (one of [`BUILTIN_NAMES`], a zoo scene such as `zoo/slot` or a
+/// clearance-study row such as `fit/round-r10-c0.05`), trees from `cache` or built.
 pub fn builtin(name: &str, cache: &TreeCache) -> Result<Scene, SceneError> {
     let scene = match name {
         _ if zoo::is_zoo(name) => zoo::zoo_scene(name, cache)?.scene,
+        _ if name.starts_with("fit/") => match fit::study_params(name) {
+            Some(p) => fit::fit_scene(&p, cache)?.scene,
+            None => {
+                return Err(SceneError::Unknown {
+                    what: "clearance-study row",
+                    name: name.to_string(),
+                    expected: "fit/<round|splined>-r<radius>-c<clearance>[-chamfer][-tilted] as \
+                               `haptic6d bench --studies fit` names them (fit/round-r10-c0.05, \
+                               fit/splined-r10-c0.1-chamfer-tilted, ...)"
+                        .to_string(),
+                })
+            }
+        },
         "bunny" => bunny::scene(cache)?,
         "spline" => spline_scene::scene(
             cache,
@@ -67,7 +80,7 @@ pub fn builtin(name: &str, cache: &TreeCache) -> Result<Scene, SceneError> {
                 what: "scene",
                 name: name.to_string(),
                 expected: format!(
-                    "{}, a zoo scene ({}) or a scene file (.toml)",
+                    "{}, a zoo scene ({}), a clearance-study row (fit/round-r10-c0.05, ...) or a scene file (.toml)",
                     BUILTIN_NAMES.join(", "),
                     zoo::names().collect::<Vec<_>>().join(", ")
                 ),
