@@ -106,10 +106,16 @@ fn closest_segments(p1: &V, q1: &V, p2: &V, q2: &V) -> (V, V) {
 /// direction's squared length (`a`, `e`): a triangle's edges are measured once for its nine
 /// edge pairs.
 fn closest_segments_along(p1: &V, d1: &V, a: f64, p2: &V, d2: &V, e: f64) -> (V, V) {
+    closest_segments_at(p1, d1, a, p2, d2, e).0
+}
+
+/// [`closest_segments_along`] with where the points lie along their segments (`s`, `t`): where
+/// one is inside its segment, the way between them is normal to it.
+fn closest_segments_at(p1: &V, d1: &V, a: f64, p2: &V, d2: &V, e: f64) -> ((V, V), (f64, f64)) {
     let r = p1 - p2;
     let f = d2.dot(&r);
     if a <= 0.0 && e <= 0.0 {
-        return (*p1, *p2);
+        return ((*p1, *p2), (0.0, 0.0));
     }
     let (s, t) = if a <= 0.0 {
         (0.0, (f / e).clamp(0.0, 1.0))
@@ -137,7 +143,7 @@ fn closest_segments_along(p1: &V, d1: &V, a: f64, p2: &V, d2: &V, e: f64) -> (V,
             (s, t)
         }
     };
-    (p1 + d1 * s, p2 + d2 * t)
+    ((p1 + d1 * s, p2 + d2 * t), (s, t))
 }
 
 /// Where the segment `p q` crosses the triangle `t` (normal `n`, the cross product of its
@@ -226,7 +232,7 @@ pub fn triangle_distance_from(
     let (pa, pb) = (a.map(|p| v(&p)), b.map(|p| v(&p)));
     if let Some((i, j)) = last.edges() {
         let (da, db) = (pa[(i + 1) % 3] - pa[i], pb[(j + 1) % 3] - pb[j]);
-        let (x, y) = closest_segments_along(
+        let ((x, y), at) = closest_segments_at(
             &pa[i],
             &da,
             da.norm_squared(),
@@ -234,7 +240,7 @@ pub fn triangle_distance_from(
             &db,
             db.norm_squared(),
         );
-        if separated_at(&pa, &pb, &x, &y) {
+        if separated_at_edges(&pa, &pb, &x, &y, (i, j), at) {
             return nearest(x, y);
         }
     }
@@ -292,13 +298,13 @@ fn nearest_features(
     let (order_a, order_b) = (nearest_edges_first(a_over_b), nearest_edges_first(b_over_a));
     for i in order_a {
         for j in order_b {
-            let (x, y) = closest_segments_along(&pa[i], &ea[i], la[i], &pb[j], &eb[j], lb[j]);
+            let ((x, y), at) = closest_segments_at(&pa[i], &ea[i], la[i], &pb[j], &eb[j], lb[j]);
             let d2 = (y - x).norm_squared();
             // Only the nearest pair can be separated by a slab as thick as its distance: a
             // pair farther than one already measured is not tested (faces lying on each
             // other have several at the same distance, to a rounding).
             if d2 <= best.0 * (1.0 + TIE) {
-                if separated_at(pa, pb, &x, &y) {
+                if separated_at_edges(pa, pb, &x, &y, (i, j), at) {
                     *found = NearestEdges::of(i, j);
                     return nearest(x, y);
                 }
@@ -346,13 +352,39 @@ fn nearest_edges_first(side: &[f64; 3]) -> [usize; 3] {
     order
 }
 
+/// [`separated_at`] for nearest points on edge `i` of `a` and edge `j` of `b`, at `s` and `t`
+/// along them: where a point is inside its edge the way between them is normal to that edge
+/// (the points are nearest), so the edge's ends lie in the slab's plane and only the third
+/// corner is tested.
+fn separated_at_edges(
+    a: &[V; 3],
+    b: &[V; 3],
+    x: &V,
+    y: &V,
+    (i, j): (usize, usize),
+    (s, t): (f64, f64),
+) -> bool {
+    let ends = |k: usize, at: f64| {
+        let inside = at > 0.0 && at < 1.0;
+        std::array::from_fn(|c| inside && (c == k || c == (k + 1) % 3))
+    };
+    separated_at(a, b, x, y, ends(i, s), ends(j, t))
+}
+
 /// Whether `x` (a point of `a`) and `y` (of `b`) are the triangles' nearest points by a
 /// separating slab: every corner of `a` on `x`'s side of the plane through `x` normal to
 /// `y - x`, every corner of `b` beyond the one through `y` (then no two points are nearer).
-/// A corner in the plane to rounding ([`ROUNDING`] of the products' size) counts as on it, so
-/// parallel faces and edges end here too (the distance then within that share of its own
-/// rounding).
-fn separated_at(a: &[V; 3], b: &[V; 3], x: &V, y: &V) -> bool {
+/// A corner in the plane to rounding ([`ROUNDING2`] of the coordinates' size) counts as on it,
+/// so parallel faces and edges end here too; so does a corner marked in `in_plane_a` or
+/// `in_plane_b` (known to lie in its plane).
+fn separated_at(
+    a: &[V; 3],
+    b: &[V; 3],
+    x: &V,
+    y: &V,
+    in_plane_a: [bool; 3],
+    in_plane_b: [bool; 3],
+) -> bool {
     let w = y - x;
     let w2 = w.norm_squared();
     let scale2 = x.norm_squared().max(y.norm_squared());
@@ -364,7 +396,9 @@ fn separated_at(a: &[V; 3], b: &[V; 3], x: &V, y: &V) -> bool {
         let r2 = r.norm_squared();
         along <= 0.0 || along * along <= ROUNDING2 * (scale2 + r2) * (r2 + w2)
     };
-    w2 > 0.0 && a.iter().all(|p| behind(p - x, 1.0)) && b.iter().all(|q| behind(q - y, -1.0))
+    w2 > 0.0
+        && (0..3).all(|k| in_plane_a[k] || behind(a[k] - x, 1.0))
+        && (0..3).all(|k| in_plane_b[k] || behind(b[k] - y, -1.0))
 }
 
 /// The square of a rounding's share of a coordinate in the separating slab's test
@@ -641,7 +675,14 @@ mod tests {
                         || corner_over_face(&py, &px, &nx, &y_over_x).is_some()
                     {
                         face += 1;
-                    } else if separated_at(&px, &py, &v(&fast.on_a), &v(&fast.on_b)) {
+                    } else if separated_at(
+                        &px,
+                        &py,
+                        &v(&fast.on_a),
+                        &v(&fast.on_b),
+                        [false; 3],
+                        [false; 3],
+                    ) {
                         edge += 1;
                     }
                 }
@@ -739,7 +780,14 @@ mod tests {
                 );
                 assert!((fast.distance - gap).abs() <= 1e-9, "case {case}: the gap");
                 let (px, py) = (x.map(|p| v(&p)), y.map(|p| v(&p)));
-                if separated_at(&px, &py, &v(&fast.on_a), &v(&fast.on_b)) {
+                if separated_at(
+                    &px,
+                    &py,
+                    &v(&fast.on_a),
+                    &v(&fast.on_b),
+                    [false; 3],
+                    [false; 3],
+                ) {
                     early += 1;
                 }
             }
