@@ -293,24 +293,39 @@ fn nearest_features(
     let (ea, eb) = (edges(pa), edges(pb));
     let (la, lb) = (ea.map(|e| e.norm_squared()), eb.map(|e| e.norm_squared()));
     let mut best = (f64::INFINITY, pa[0], pb[0]);
-    // Each triangle's edges nearest the other's plane first: the nearest pair is most often
-    // among them, and a near pair measured early lets the farther ones pass untested.
-    let (order_a, order_b) = (nearest_edges_first(a_over_b), nearest_edges_first(b_over_a));
-    for i in order_a {
-        for j in order_b {
-            let ((x, y), at) = closest_segments_at(&pa[i], &ea[i], la[i], &pb[j], &eb[j], lb[j]);
-            let d2 = (y - x).norm_squared();
-            // Only the nearest pair can be separated by a slab as thick as its distance: a
-            // pair farther than one already measured is not tested (faces lying on each
-            // other have several at the same distance, to a rounding).
-            if d2 <= best.0 * (1.0 + TIE) {
-                if separated_at_edges(pa, pb, &x, &y, (i, j), at) {
-                    *found = NearestEdges::of(i, j);
-                    return nearest(x, y);
-                }
-                if d2 < best.0 {
-                    best = (d2, x, y);
-                }
+    // Where one triangle lies on one side of the other's plane, each one's edges nearest the
+    // other's plane first; where each crosses the other's plane (and they do not meet), the
+    // pair of edges whose middles are nearest first. The nearest pair is most often the first
+    // tried, and a near pair measured early lets the farther ones pass untested.
+    let mut order = [0, 1, 2, 3, 4, 5, 6, 7, 8];
+    if one_side(a_over_b) || one_side(b_over_a) {
+        let (by_a, by_b) = (nearest_edges_first(a_over_b), nearest_edges_first(b_over_a));
+        order = std::array::from_fn(|k| 3 * by_a[k / 3] + by_b[k % 3]);
+    } else {
+        let middle = |p: &[V; 3], e: &[V; 3], k: usize| p[k] + e[k] * 0.5;
+        let mut first = (f64::INFINITY, 0);
+        for k in 0..9 {
+            let d2 = (middle(pa, &ea, k / 3) - middle(pb, &eb, k % 3)).norm_squared();
+            if d2 < first.0 {
+                first = (d2, k);
+            }
+        }
+        order.swap(0, first.1);
+    }
+    for k in order {
+        let (i, j) = (k / 3, k % 3);
+        let ((x, y), at) = closest_segments_at(&pa[i], &ea[i], la[i], &pb[j], &eb[j], lb[j]);
+        let d2 = (y - x).norm_squared();
+        // Only the nearest pair can be separated by a slab as thick as its distance: a pair
+        // farther than one already measured is not tested (faces lying on each other have
+        // several at the same distance, to a rounding).
+        if d2 <= best.0 * (1.0 + TIE) {
+            if separated_at_edges(pa, pb, &x, &y, (i, j), at) {
+                *found = NearestEdges::of(i, j);
+                return nearest(x, y);
+            }
+            if d2 < best.0 {
+                best = (d2, x, y);
             }
         }
     }
