@@ -1,5 +1,6 @@
 //! The exact triangle–triangle distance (the mesh mode's narrow phase): `triangle_distance`,
-//! which stops at a face contact or a separating slab, against
+//! which stops at a face contact or a separating slab, and `triangle_distance_from` with each
+//! pair's nearest edges kept from its last measure (as a sliding contact's are), against
 //! `triangle_distance_all_features`, which measures all fifteen feature pairs, on five sets of
 //! 1 024 pairs: a face over a face 0.01–0.1 mm apart (a tight fit's walls, a box on a plate),
 //! two fans meeting at their apexes (a ball's pole on another's), skew edges crossing at a
@@ -11,7 +12,10 @@
 use std::f64::consts::TAU;
 use std::hint::black_box;
 
-use collide::{triangle_distance, triangle_distance_all_features, Triangle};
+use collide::{
+    triangle_distance, triangle_distance_all_features, triangle_distance_from, NearestEdges,
+    Triangle,
+};
 use criterion::{BenchmarkId, Criterion, Throughput};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -125,6 +129,26 @@ fn bench(c: &mut Criterion) {
             bch.iter(|| {
                 p.iter()
                     .map(|(a, b)| triangle_distance(black_box(a), black_box(b)).distance)
+                    .sum::<f64>()
+            })
+        });
+        // Measured again with each pair's nearest edges kept from the last measure, as a
+        // sliding contact's pairs are frame after frame.
+        let mut kept: Vec<NearestEdges> = pairs
+            .iter()
+            .map(|(a, b)| {
+                let mut last = NearestEdges::NONE;
+                triangle_distance_from(a, b, &mut last);
+                last
+            })
+            .collect();
+        group.bench_with_input(BenchmarkId::new("edges kept", name), pairs, |bch, p| {
+            bch.iter(|| {
+                p.iter()
+                    .zip(kept.iter_mut())
+                    .map(|((a, b), last)| {
+                        triangle_distance_from(black_box(a), black_box(b), last).distance
+                    })
                     .sum::<f64>()
             })
         });
