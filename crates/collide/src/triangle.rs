@@ -572,6 +572,25 @@ mod tests {
         }
     }
 
+    /// `d` measures `a` against `b` as `all` (all fifteen features) does, to 1e-12 mm of its
+    /// size, and its points are certified.
+    fn assert_agrees(
+        a: &Triangle,
+        b: &Triangle,
+        d: &TriangleDistance,
+        all: &TriangleDistance,
+        what: &str,
+    ) {
+        assert!(
+            (d.distance - all.distance).abs() <= 1e-12 * (1.0 + all.distance),
+            "{what}: {} against {}",
+            d.distance,
+            all.distance
+        );
+        assert_eq!(d.meet, all.meet, "{what}");
+        assert_certified(a, b, d, what);
+    }
+
     /// The least distance over a grid of barycentric points of both triangles.
     fn sampled(a: &Triangle, b: &Triangle, n: usize) -> f64 {
         let points = |t: &Triangle| {
@@ -668,14 +687,7 @@ mod tests {
             for (x, y) in [(&a, &b), (&b, &a)] {
                 let fast = triangle_distance(x, y);
                 let all = triangle_distance_all_features(x, y);
-                assert!(
-                    (fast.distance - all.distance).abs() <= 1e-12 * (1.0 + all.distance),
-                    "case {case}: {} against {}",
-                    fast.distance,
-                    all.distance
-                );
-                assert_eq!(fast.meet, all.meet, "case {case}");
-                assert_certified(x, y, &fast, &format!("case {case}"));
+                assert_agrees(x, y, &fast, &all, &format!("case {case}"));
                 // Which early answer applies (each is a sufficient condition, checked above
                 // against the full search).
                 let (px, py) = (x.map(|p| v(&p)), y.map(|p| v(&p)));
@@ -723,14 +735,7 @@ mod tests {
             for k in 0..=9u8 {
                 let mut last = NearestEdges(k);
                 let d = triangle_distance_from(&a, &b, &mut last);
-                assert!(
-                    (d.distance - all.distance).abs() <= 1e-12 * (1.0 + all.distance),
-                    "case {case}, tried {k} first: {} against {}",
-                    d.distance,
-                    all.distance
-                );
-                assert_eq!(d.meet, all.meet, "case {case}");
-                assert_certified(&a, &b, &d, &format!("case {case}, tried {k} first"));
+                assert_agrees(&a, &b, &d, &all, &format!("case {case}, tried {k} first"));
                 if let Some((i, j)) = last.edges() {
                     // The pair it names is the answer's.
                     let (pa, pb) = (a.map(|p| v(&p)), b.map(|p| v(&p)));
