@@ -78,18 +78,14 @@ pub unsafe extern "C" fn h6d_scene_load(name: *const c_char, out: *mut *mut H6dS
             // SAFETY: NULL or NUL-terminated.
             let name = unsafe { text_arg(CALL, "name", name)? };
             let cache = TreeCache::from_env();
-            let builtin = scene::scenes::BUILTIN_NAMES;
-            let loaded = if scene::scenes::is_builtin(name) {
+            let path = Path::new(name);
+            let loaded = if scene::scenes::is_builtin(name)
+                || (scene::scenes::is_builtin_family(name) && !path.is_file())
+            {
                 scene::scenes::builtin(name, &cache)
             } else {
-                let path = Path::new(name);
                 if !path.is_file() {
-                    return Err(fail!(
-                        CALL,
-                        Io,
-                        "no built-in scene or scene file named `{name}` (built-in: {}; files end in .toml)",
-                        builtin.join(", ")
-                    ));
+                    return Err(fail!(CALL, Io, "{}", scene::scenes::no_such_scene(name)));
                 }
                 scene::load_scene_file(path, &cache)
             };

@@ -176,14 +176,10 @@ pub(crate) fn load_scene(name: &str, cache: &TreeCache) -> Result<Scene> {
     }
     let path = Path::new(name);
     if !path.exists() {
-        if name.starts_with("fit/") || name.starts_with("zoo/") {
-            // The built-ins' own error names what the family holds.
+        if scene::scenes::is_builtin_family(name) {
             return Ok(scene::scenes::builtin(name, cache)?);
         }
-        bail!(
-            "no built-in scene or scene file named `{name}` (built-in: {}, zoo/..., fit/...; files end in .toml)",
-            scene::scenes::BUILTIN_NAMES.join(", ")
-        );
+        bail!("{}", scene::scenes::no_such_scene(name));
     }
     Ok(load_scene_file(path, cache)?)
 }

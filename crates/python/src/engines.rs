@@ -36,10 +36,10 @@ pub fn load_scene(name: &str, cache: &TreeCache) -> Result<Scene, Failure> {
     }
     let path = Path::new(name);
     if !path.exists() {
-        return Err(Failure::file(format!(
-            "no built-in scene or scene file named `{name}` (built-in: {}; files end in .toml)",
-            scene::scenes::BUILTIN_NAMES.join(", ")
-        )));
+        if scene::scenes::is_builtin_family(name) {
+            return Ok(scene::scenes::builtin(name, cache)?);
+        }
+        return Err(Failure::file(scene::scenes::no_such_scene(name)));
     }
     Ok(load_scene_file(path, cache)?)
 }
@@ -173,7 +173,7 @@ mod tests {
         assert_eq!(e.kind, FailureKind::File);
         assert_eq!(
             e.message,
-            "no built-in scene or scene file named `nothere.toml` (built-in: bunny, spline, plate, spline-tight, probe; files end in .toml)"
+            "no built-in scene or scene file named `nothere.toml` (built-in: bunny, spline, plate, spline-tight, probe, zoo/..., fit/...; files end in .toml)"
         );
     }
 

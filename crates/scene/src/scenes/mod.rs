@@ -48,6 +48,21 @@ pub fn is_builtin(name: &str) -> bool {
     BUILTIN_NAMES.contains(&name) || zoo::is_zoo(name) || fit::study_params(name).is_some()
 }
 
+/// Whether `name` is of a family of built-ins (`zoo/…`, `fit/…`): a name there that is not a
+/// scene gets the family's own error from [`builtin`], not a missing file's.
+pub fn is_builtin_family(name: &str) -> bool {
+    name.starts_with("zoo/") || name.starts_with("fit/")
+}
+
+/// The one-line error for `name`, neither a built-in scene nor a file (every door's same
+/// words).
+pub fn no_such_scene(name: &str) -> String {
+    format!(
+        "no built-in scene or scene file named `{name}` (built-in: {}, zoo/..., fit/...; files end in .toml)",
+        BUILTIN_NAMES.join(", ")
+    )
+}
+
 /// A built-in scene by name (one of [`BUILTIN_NAMES`], a zoo scene such as `zoo/slot` or a
 /// clearance-study row such as `fit/round-r10-c0.05`), trees from `cache` or built.
 pub fn builtin(name: &str, cache: &TreeCache) -> Result<Scene, SceneError> {
