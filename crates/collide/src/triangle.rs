@@ -171,15 +171,17 @@ fn inside(t: &[V; 3], n: &V, x: &V) -> bool {
 
 /// The exact distance between the triangles `a` and `b` and their nearest points.
 ///
-/// The fifteen feature pairs are tried in an order that usually ends early: where one
-/// triangle lies wholly on one side of the other's plane and its nearest corner projects
-/// inside the other, that corner and its projection are the nearest points (a face contact);
-/// a pair of edges whose nearest points have every corner of each triangle behind the plane
-/// through its point normal to the way between them (a separating slab as thick as their
-/// distance) is the answer (it is the nearest edge pair, so only a pair no farther than those
-/// measured before is tested). Otherwise the nearest of the nine edge pairs and of the corners
-/// projecting inside the other's face is the answer (a corner nearest to a face's edge is
-/// no nearer than its own edges to that edge): the same as
+/// The fifteen feature pairs are tried in an order that usually ends early. Edge crossings
+/// are tested only where each triangle reaches the other's plane. Where one triangle lies
+/// wholly on one side of the other's plane and its nearest corner projects inside the other,
+/// that corner and its projection are the nearest points (a face contact). A pair of edges
+/// whose nearest points have every corner of each triangle behind the plane through its point
+/// normal to the way between them (a separating slab as thick as their distance) is the
+/// answer; the pairs are tried nearest the other's plane first (or, where each triangle
+/// crosses the other's plane, nearest middles first), and only a pair no farther than those
+/// measured before is slab-tested. Otherwise the nearest of the nine edge pairs and of the
+/// corners projecting inside the other's face is the answer (a corner nearest to a face's edge
+/// is no nearer than its own edges to that edge): the same as
 /// [`triangle_distance_all_features`], which measures all fifteen.
 ///
 /// The slab's test allows for the rounding of coordinates far from the origin: faces lying

@@ -1084,7 +1084,6 @@ impl GodObject {
     }
 }
 
-/// The dot product of two vectors given as arrays (in the order `x, y, z`).
 /// The nearest edges last found for contact `n`'s pair, kept with the near list it came from
 /// (none where the contacts are not of the list in use).
 fn near_edges<'a>(
@@ -1097,6 +1096,7 @@ fn near_edges<'a>(
     current.then(|| near_edges.get_mut(from)).flatten()
 }
 
+/// The dot product of two vectors given as arrays (in the order `x, y, z`).
 fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
