@@ -574,6 +574,13 @@ mod tests {
         }
     }
 
+    /// Whether `d`'s nearest points on `a` and `b` are shown by a separating slab, every
+    /// corner tested.
+    fn ends_at_slab(a: &Triangle, b: &Triangle, d: &TriangleDistance) -> bool {
+        let (pa, pb) = (a.map(|p| v(&p)), b.map(|p| v(&p)));
+        separated_at(&pa, &pb, &v(&d.on_a), &v(&d.on_b), [false; 3], [false; 3])
+    }
+
     /// `d` measures `a` against `b` as `all` (all fifteen features) does, to 1e-12 mm of its
     /// size, and its points are certified.
     fn assert_agrees(
@@ -704,14 +711,7 @@ mod tests {
                         || corner_over_face(&py, &px, &nx, &y_over_x).is_some()
                     {
                         face += 1;
-                    } else if separated_at(
-                        &px,
-                        &py,
-                        &v(&fast.on_a),
-                        &v(&fast.on_b),
-                        [false; 3],
-                        [false; 3],
-                    ) {
+                    } else if ends_at_slab(x, y, &fast) {
                         edge += 1;
                     }
                 }
@@ -801,15 +801,7 @@ mod tests {
                     all.distance
                 );
                 assert!((fast.distance - gap).abs() <= 1e-9, "case {case}: the gap");
-                let (px, py) = (x.map(|p| v(&p)), y.map(|p| v(&p)));
-                if separated_at(
-                    &px,
-                    &py,
-                    &v(&fast.on_a),
-                    &v(&fast.on_b),
-                    [false; 3],
-                    [false; 3],
-                ) {
+                if ends_at_slab(x, y, &fast) {
                     early += 1;
                 }
             }
