@@ -21,16 +21,33 @@ use crate::Pose;
 pub const LEAF_TRIANGLES: usize = 4;
 
 /// One node: a box (centre and half extents, mm, along the columns of `axes`, the body's
-/// frame) and either its triangles
-/// (`count > 0`: `first..first + count` of the tree's triangles) or its two children
-/// (`count == 0`: nodes `first` and `first + 1`).
+/// frame) over `under` triangles: a leaf's own, `first..first + under` of the tree's, where
+/// there are at most [`LEAF_TRIANGLES`]; else its two children's, nodes `first` and
+/// `first + 1`, the first holding half of them (rounded down). 128 bytes: two cache lines.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct BoxNode {
     center: [f64; 3],
     axes: Matrix3<f64>,
     half: [f64; 3],
     first: u32,
-    count: u32,
+    under: u32,
+}
+
+// Two cache lines a node: the descent reads one node pair per box test.
+const _: () = assert!(std::mem::size_of::<BoxNode>() == 128);
+
+impl BoxNode {
+    /// True for a leaf (its triangles its own).
+    #[inline]
+    fn is_leaf(&self) -> bool {
+        self.under as usize <= LEAF_TRIANGLES
+    }
+
+    /// The triangles below its second child (the split gives the first half, rounded down).
+    #[inline]
+    fn second_under(&self) -> u32 {
+        self.under - self.under / 2
+    }
 }
 
 /// A body's triangles in a box hierarchy (the body's frame: the tool's own, or an object's
@@ -54,8 +71,9 @@ pub struct TriangleTree {
 }
 
 /// The stack a descent of two trees works on: reserved once ([`TriangleTree::stack_for`]), so
-/// that [`TriangleTree::near_leaf_pairs`] never allocates.
-pub type TreePairStack = Vec<(u32, u32)>;
+/// that [`TriangleTree::near_leaf_pairs`] never allocates. Each entry is a tool node, an object
+/// node and the rank of their first triangle pair ([`TriangleTree::descend`]).
+pub type TreePairStack = Vec<(u32, u32, u64)>;
 
 impl TriangleTree {
     /// The hierarchy of `triangles` (mm), each placed by `pose` (the identity for a tool):
@@ -161,7 +179,7 @@ impl TriangleTree {
         object: &Self,
         margin: f64,
         stack: &mut TreePairStack,
-        visit: impl FnMut(std::ops::Range<u32>, std::ops::Range<u32>) -> bool,
+        mut visit: impl FnMut(std::ops::Range<u32>, std::ops::Range<u32>) -> bool,
     ) {
         Self::start_descent(stack);
         self.descend(
@@ -172,14 +190,14 @@ impl TriangleTree {
             margin,
             stack,
             usize::MAX,
-            visit,
+            |tools, parts, _| visit(tools, parts),
         );
     }
 
     /// Sets `stack` for a descent from the two roots ([`TriangleTree::descend`]).
     pub fn start_descent(stack: &mut TreePairStack) {
         stack.clear();
-        stack.push((0, 0));
+        stack.push((0, 0, 0));
     }
 
     /// Goes on with the descent `stack` holds ([`TriangleTree::start_descent`], then earlier
@@ -189,6 +207,13 @@ impl TriangleTree {
     /// (`sweep` in mm, the world's axes; zero for the pose alone). Returns true when the
     /// descent is over (every leaf pair visited, or `visit` returned false); false leaves the
     /// rest on the stack.
+    ///
+    /// `visit(tools, parts, rank)` also gets the leaf pair's rank: every triangle pair of the
+    /// two trees has a place in the order a descent visits them, whatever it prunes and
+    /// wherever the tool is (the node to split is chosen by size alone), and triangle pair
+    /// `(i, j)` of this leaf pair is at `rank + (i - tools.start) · parts.len() + (j -
+    /// parts.start)`. Ranks rise as a descent goes on, so two lists of the same trees' pairs,
+    /// listed in order at different poses, are merged in one walk.
     #[allow(clippy::too_many_arguments)]
     pub fn descend(
         &self,
@@ -199,7 +224,7 @@ impl TriangleTree {
         margin: f64,
         stack: &mut TreePairStack,
         steps: usize,
-        mut visit: impl FnMut(std::ops::Range<u32>, std::ops::Range<u32>) -> bool,
+        mut visit: impl FnMut(std::ops::Range<u32>, std::ops::Range<u32>, u64) -> bool,
     ) -> bool {
         let swept = sweep.iter().any(|&v| v != 0.0);
         if self.nodes.is_empty() || object.nodes.is_empty() {
@@ -207,7 +232,7 @@ impl TriangleTree {
             return true;
         }
         for _ in 0..steps {
-            let Some((a, b)) = stack.pop() else {
+            let Some((a, b, rank)) = stack.pop() else {
                 return true;
             };
             let (na, nb) = (&self.nodes[a as usize], &object.nodes[b as usize]);
@@ -228,21 +253,23 @@ impl TriangleTree {
             if boxes_apart(&offset, &half, &turn, &nb.half, margin) {
                 continue;
             }
-            match (na.count > 0, nb.count > 0) {
+            match (na.is_leaf(), nb.is_leaf()) {
                 (true, true) => {
-                    if !visit(na.first..na.first + na.count, nb.first..nb.first + nb.count) {
+                    let (tools, parts) =
+                        (na.first..na.first + na.under, nb.first..nb.first + nb.under);
+                    if !visit(tools, parts, rank) {
                         stack.clear();
                         return true;
                     }
                 }
                 // Descend the larger box (by its longest side), or the one that is not a leaf.
-                (false, true) => push_children(stack, na.first, b, true),
-                (true, false) => push_children(stack, nb.first, a, false),
+                (false, true) => push_tool_children(stack, na, b, nb, rank),
+                (true, false) => push_object_children(stack, nb, a, na, rank),
                 (false, false) => {
                     if longest(&na.half) >= longest(&nb.half) {
-                        push_children(stack, na.first, b, true);
+                        push_tool_children(stack, na, b, nb, rank);
                     } else {
-                        push_children(stack, nb.first, a, false);
+                        push_object_children(stack, nb, a, na, rank);
                     }
                 }
             }
@@ -295,10 +322,32 @@ fn plane_of(t: &Triangle) -> ([f64; 3], f64) {
 /// Pushes `first`'s pair of children, each with `other` (`tool`: the children are the tool's).
 /// A pop pushes two pairs a level deeper on one side, leaving one behind per level, so the
 /// stack never holds more than the two trees' depths together: its reserve is not outgrown.
-fn push_children(stack: &mut TreePairStack, first: u32, other: u32, tool: bool) {
-    for child in [first, first + 1] {
-        stack.push(if tool { (child, other) } else { (other, child) });
-    }
+/// Pushes the children of tool node `parent` against object node `other` (`other_node`), the
+/// pair's first triangle pair at `rank`: the second child is popped first, so its pairs come
+/// first.
+fn push_tool_children(
+    stack: &mut TreePairStack,
+    parent: &BoxNode,
+    other: u32,
+    other_node: &BoxNode,
+    rank: u64,
+) {
+    let after = u64::from(parent.second_under()) * u64::from(other_node.under);
+    stack.push((parent.first, other, rank + after));
+    stack.push((parent.first + 1, other, rank));
+}
+
+/// [`push_tool_children`] with the object's node split, against tool node `other`.
+fn push_object_children(
+    stack: &mut TreePairStack,
+    parent: &BoxNode,
+    other: u32,
+    other_node: &BoxNode,
+    rank: u64,
+) {
+    let after = u64::from(other_node.under) * u64::from(parent.second_under());
+    stack.push((other, parent.first, rank + after));
+    stack.push((other, parent.first + 1, rank));
 }
 
 fn longest(h: &[f64; 3]) -> f64 {
@@ -392,7 +441,7 @@ fn box_of(tris: &[Triangle], order: &[u32]) -> BoxNode {
         axes,
         half: std::array::from_fn(|k| 0.5 * (hi[k] - lo[k])),
         first: 0,
-        count: 0,
+        under: order.len() as u32,
     }
 }
 
@@ -410,7 +459,6 @@ fn split(
     *depth = (*depth).max(level);
     if order.len() <= LEAF_TRIANGLES {
         nodes[node].first = start as u32;
-        nodes[node].count = order.len() as u32;
         return;
     }
     // Split at the median along the box's longest axis.
@@ -430,7 +478,7 @@ fn split(
     nodes.push(box_of(tris, left));
     nodes.push(box_of(tris, right));
     nodes[node].first = first as u32;
-    nodes[node].count = 0;
+    debug_assert_eq!(nodes[node].second_under() as usize, right.len());
     split(tris, left, start, first, nodes, level + 1, depth);
     split(tris, right, start + mid, first + 1, nodes, level + 1, depth);
 }
@@ -550,7 +598,7 @@ mod tests {
                 margin,
                 &mut stack,
                 usize::MAX,
-                |ta, ob| {
+                |ta, ob, _| {
                     swept_pairs += 1;
                     for i in ta {
                         for j in ob.clone() {
@@ -597,10 +645,20 @@ mod tests {
         let (rot, t) = (q.rotation_matrix(), q.translation());
         let mut stack = TriangleTree::stack_for(&tool, &object);
         let mut whole = Vec::new();
-        tool.near_leaf_pairs(&rot, &t, &object, 0.3, &mut stack, |a, b| {
-            whole.push((a, b));
-            true
-        });
+        TriangleTree::start_descent(&mut stack);
+        tool.descend(
+            &rot,
+            &t,
+            &Vector3::zeros(),
+            &object,
+            0.3,
+            &mut stack,
+            usize::MAX,
+            |a, b, rank| {
+                whole.push((a, b, rank));
+                true
+            },
+        );
         for steps in [1, 3, 50] {
             let mut sliced = Vec::new();
             TriangleTree::start_descent(&mut stack);
@@ -613,8 +671,8 @@ mod tests {
                 0.3,
                 &mut stack,
                 steps,
-                |a, b| {
-                    sliced.push((a, b));
+                |a, b, rank| {
+                    sliced.push((a, b, rank));
                     true
                 },
             ) {
@@ -624,6 +682,61 @@ mod tests {
             assert!(slices > 0 && stack.capacity() == tool.depth() + object.depth() + 2);
         }
         assert!(!whole.is_empty());
+    }
+
+    #[test]
+    fn every_triangle_pair_keeps_its_rank_at_every_pose_and_ranks_rise_along_a_descent() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let tool = TriangleTree::build(&sheet(5, true, &mut rng), &Pose::identity());
+        let object = TriangleTree::build(&sheet(7, false, &mut rng), &Pose::identity());
+        let mut stack = TriangleTree::stack_for(&tool, &object);
+        // The ranks of the triangle pairs a descent at `q` within `margin` lists, in order.
+        let mut ranked = |q: &Pose, sweep: Vector3<f64>, margin: f64| {
+            let mut out = Vec::new();
+            TriangleTree::start_descent(&mut stack);
+            tool.descend(
+                &q.rotation_matrix(),
+                &q.translation(),
+                &sweep,
+                &object,
+                margin,
+                &mut stack,
+                usize::MAX,
+                |tools, parts, rank| {
+                    let n = parts.len() as u64;
+                    for i in tools.clone() {
+                        for j in parts.clone() {
+                            let at = u64::from(i - tools.start) * n + u64::from(j - parts.start);
+                            out.push(((i, j), rank + at));
+                        }
+                    }
+                    true
+                },
+            );
+            out
+        };
+        // With a margin past both parts every pair is listed: each rank once, 0 to all - 1.
+        let all = ranked(&Pose::identity(), Vector3::zeros(), 1e3);
+        let count = tool.len() * object.len();
+        assert_eq!(all.len(), count);
+        let mut ranks: Vec<u64> = all.iter().map(|p| p.1).collect();
+        ranks.sort_unstable();
+        assert!(ranks.iter().enumerate().all(|(k, &r)| r == k as u64));
+        let rank_of: std::collections::HashMap<(u32, u32), u64> = all.into_iter().collect();
+        let mut seen = 0;
+        for case in 0..20 {
+            let q = random_pose(&mut rng, 0.5);
+            let sweep = Vector3::new(0.3, -0.2, 0.1) * (case % 3) as f64;
+            let listed = ranked(&q, sweep, [0.05, 0.3, 1.0][case % 3]);
+            seen += listed.len();
+            for w in listed.windows(2) {
+                assert!(w[0].1 < w[1].1, "case {case}: ranks fall from {w:?}");
+            }
+            for (pair, rank) in &listed {
+                assert_eq!(rank_of[pair], *rank, "case {case}: {pair:?}");
+            }
+        }
+        assert!(seen > 1000, "too few pairs listed: {seen}");
     }
 
     #[test]

@@ -437,6 +437,8 @@ impl GodObject {
         deadline: Option<Instant>,
     ) -> bool {
         let swept = *path != Vector3::zeros();
+        // A ball region's centre, where a list it takes moves its bounds to.
+        let ball = (!swept).then_some(center);
         let covered = |span: &NearSpan| {
             farthest_on_path(center, path, &|q| self.span_bound(span, q)) + margin <= span.reach
         };
@@ -464,7 +466,7 @@ impl GodObject {
             ahead.purpose == (NearPurpose::Region { wide: true }) && ahead.done && ahead.dropped > 0
         };
         let resumed_over = under_way_covers && wide_over(&self.run.regions.near_ahead);
-        if self.take_near_list(under_way_covers) {
+        if self.take_near_list(under_way_covers, ball) {
             return true;
         }
         let extra = self.run.regions.near_extra;
@@ -491,7 +493,7 @@ impl GodObject {
             if !self.advance_near(deadline) {
                 return false;
             }
-            if self.take_near_list(true) {
+            if self.take_near_list(true, ball) {
                 return true;
             }
         }
@@ -505,7 +507,7 @@ impl GodObject {
             reach: margin,
         };
         self.begin_near(own, NearPurpose::Region { wide: false });
-        self.advance_near(deadline) && self.take_near_list(true)
+        self.advance_near(deadline) && self.take_near_list(true, ball)
     }
 
     /// Starts a near list for `span` in `detector.next_near` (one under way is dropped).
@@ -517,6 +519,7 @@ impl GodObject {
         self.detector.next_near.clear();
         self.detector.next_apart.clear();
         self.detector.next_gaps.clear();
+        self.detector.next_ranks.clear();
         TriangleTree::start_descent(&mut self.detector.next_stack);
     }
 
@@ -544,22 +547,36 @@ impl GodObject {
             let object = ahead.object;
             let part_tree = &meshes.objects[object];
             let tool_tree = &meshes.tool;
+            // The ranks go on from the objects before this one: one order over every object.
+            let before: u64 = meshes.objects[..object]
+                .iter()
+                .map(|o| o.len() as u64)
+                .sum();
+            let first_rank = tool_tree.len() as u64 * before;
             let list = &mut detector.next_near;
             let bounds = &mut detector.next_apart;
             let gaps = &mut detector.next_gaps;
+            let ranks = &mut detector.next_ranks;
             // Each tool triangle posed once for the list (a tool leaf meets several object
             // leaves), and kept while the descent goes on over frames.
             let mut posed = detector.list_poses.at(&rot, &t, &sweep);
             let mut dropped = 0;
-            let visit = |tools: std::ops::Range<u32>, parts: std::ops::Range<u32>| {
+            let visit = |tools: std::ops::Range<u32>, parts: std::ops::Range<u32>, rank: u64| {
                 let leaves = LeafTriangles {
                     tool_tree,
                     part_tree,
                     object,
                     tools,
                     parts,
+                    rank: first_rank + rank,
                 };
-                dropped += leaves.push_near(&mut posed, &t, next.reach, list, bounds, gaps);
+                let into = NearInto {
+                    list: &mut *list,
+                    bounds: &mut *bounds,
+                    gaps: &mut *gaps,
+                    ranks: &mut *ranks,
+                };
+                dropped += leaves.push_near(&mut posed, &t, next.reach, into);
                 count_all || dropped == 0
             };
             let over = tool_tree.descend(
@@ -598,7 +615,7 @@ impl GodObject {
         self.begin_near(*span, NearPurpose::Region { wide: false });
         self.advance_near(None);
         let dropped = self.run.regions.near_ahead.dropped;
-        self.take_near_list(true);
+        self.take_near_list(true, None);
         dropped
     }
 
@@ -655,7 +672,7 @@ impl GodObject {
     /// span); returns whether it did. One not done, or one that does not cover the region, is
     /// dropped (a list built ahead is when the current one is spent), and so is a region's
     /// wide list past the storage (false: the region lists its own pairs instead).
-    fn take_near_list(&mut self, covers: bool) -> bool {
+    fn take_near_list(&mut self, covers: bool, ball: Option<&Pose>) -> bool {
         let ahead = self.run.regions.near_ahead;
         let Some(at) = ahead.at else {
             return false;
@@ -665,14 +682,31 @@ impl GodObject {
         if !ahead.done || !covers || wide_over {
             return false;
         }
-        std::mem::swap(&mut self.detector.near, &mut self.detector.next_near);
-        std::mem::swap(&mut self.detector.near_apart, &mut self.detector.next_apart);
-        std::mem::swap(&mut self.detector.near_gaps, &mut self.detector.next_gaps);
-        // (Within the capacity reserved for the list: no allocation.)
-        let len = self.detector.near.len();
-        self.detector.near_edges.clear();
-        self.detector.near_edges.resize(len, NearestEdges::NONE);
-        self.detector.near_offset = 0.0;
+        // A list taken by a ball region inherits from the list in use
+        // ([`Heuristics::mesh_list_inherit`]), its bounds moved to the ball's centre (below).
+        // What the old list knew of its pairs' distances holds at its last filter's centre
+        // (its kept bounds less their offset): at the ball's centre, less the motion bound
+        // from there. (A path region filters it along its way from the first: moved to one
+        // pose of it, the bounds would lose the way's length.)
+        let heuristics = &self.params.heuristics;
+        let inherit = heuristics.mesh_list_inherit && heuristics.mesh_near_list;
+        let inherited = self
+            .run
+            .regions
+            .near_bounds_at
+            .zip(ball.filter(|_| inherit))
+            .map(|(last, centre)| {
+                let old_less = self.detector.near_offset + self.motion_bound(&last, centre);
+                let way = self.span_bound(&at, centre);
+                let turn = self.turn_bound(&at.at.rotation_matrix(), &centre.rotation_matrix());
+                (*centre, way, old_less, turn)
+            });
+        let detector = &mut self.detector;
+        std::mem::swap(&mut detector.near, &mut detector.next_near);
+        std::mem::swap(&mut detector.near_apart, &mut detector.next_apart);
+        std::mem::swap(&mut detector.near_gaps, &mut detector.next_gaps);
+        std::mem::swap(&mut detector.near_ranks, &mut detector.next_ranks);
+        detector.near_offset = 0.0;
         self.detector.near_turn = 0.0;
         self.detector.near_generation += 1;
         self.run.regions.near_bounds_at = None;
@@ -692,6 +726,22 @@ impl GodObject {
                 self.adapt_near_extra(at.reach, self.run.regions.near_extra);
             }
         }
+        // (After the extra reach is adapted: that reads the bounds the listing gave, as the
+        // next list's descent will.) Within the capacity reserved for the list: no allocation.
+        // The inheriting list's bounds are moved to the ball's centre, where it is filtered
+        // first: a listed bound holds anywhere on the span, so there less the motion bound
+        // from the span's pose; the pairs' directional gaps, taken at the span's turn, count
+        // the turn from there on.
+        let detector = &mut self.detector;
+        let len = detector.near.len();
+        detector.next_edges.clear();
+        detector.next_edges.resize(len, NearestEdges::NONE);
+        if let Some((centre, way, old_less, turn)) = inherited {
+            detector.inherit_near(way, old_less);
+            detector.near_turn = turn;
+            self.run.regions.near_bounds_at = Some(centre);
+        }
+        std::mem::swap(&mut detector.near_edges, &mut detector.next_edges);
         true
     }
 
@@ -1154,6 +1204,36 @@ fn plane_gap(a: &Triangle, b: &Triangle) -> f64 {
     signed_side_gap(a, &n, d).abs()
 }
 
+impl Detector {
+    /// Merges the near list just taken (`near`, its bounds and ranks) with the one it replaced
+    /// (in `next_near`, `next_apart` and `next_ranks`, its nearest edges still in
+    /// `near_edges`) in one walk by rank: each pair in both takes the old one's nearest edges
+    /// (into `next_edges`), and every bound is moved to one pose: the listed ones less `way`
+    /// (mm, the motion bound from the new span to it), and each pair in both takes the larger
+    /// of that and the old one's less `old_less` (mm, the old bounds' offset and the motion
+    /// bound from where they hold to it).
+    fn inherit_near(&mut self, way: f64, old_less: f64) {
+        let old_ranks = &self.next_ranks;
+        let old_len = old_ranks
+            .len()
+            .min(self.next_apart.len())
+            .min(self.near_edges.len());
+        let mut j = 0;
+        let new = self.near_ranks.iter().zip(&mut self.near_apart);
+        for (i, (&rank, bound)) in new.enumerate() {
+            *bound -= way;
+            while j < old_len && old_ranks[j] < rank {
+                j += 1;
+            }
+            if j < old_len && old_ranks[j] == rank {
+                debug_assert!(self.next_near[j] == self.near[i], "one rank, two pairs");
+                self.next_edges[i] = self.near_edges[j];
+                *bound = bound.max(self.next_apart[j] - old_less);
+            }
+        }
+    }
+}
+
 /// The triangles of a leaf pair of the triangle trees: the tool leaf's and object `object`'s.
 struct LeafTriangles<'a> {
     tool_tree: &'a TriangleTree,
@@ -1161,6 +1241,17 @@ struct LeafTriangles<'a> {
     object: usize,
     tools: std::ops::Range<u32>,
     parts: std::ops::Range<u32>,
+    /// The rank of its first triangle pair ([`TriangleTree::descend`]).
+    rank: u64,
+}
+
+/// Where a near list under way is pushed: its pairs and, in the same order, their bounds,
+/// gaps and ranks.
+struct NearInto<'a> {
+    list: &'a mut Vec<TriPair>,
+    bounds: &'a mut Vec<f64>,
+    gaps: &'a mut Vec<PairGap>,
+    ranks: &'a mut Vec<u64>,
 }
 
 impl LeafTriangles<'_> {
@@ -1173,13 +1264,19 @@ impl LeafTriangles<'_> {
         posed: &mut PosedTools<'_>,
         t: &Vector3<f64>,
         margin: f64,
-        list: &mut Vec<TriPair>,
-        bounds: &mut Vec<f64>,
-        gaps: &mut Vec<PairGap>,
+        into: NearInto<'_>,
     ) -> usize {
+        let NearInto {
+            list,
+            bounds,
+            gaps,
+            ranks,
+        } = into;
         let mut dropped = 0;
-        for tool in self.tools {
+        let width = self.parts.len() as u64;
+        for tool in self.tools.clone() {
             let tool_tri = posed.get(self.tool_tree, tool);
+            let row = self.rank + u64::from(tool - self.tools.start) * width;
             for part in self.parts.clone() {
                 let Some(apart) = tool_tri.separation_within(self.part_tree, part, margin, false)
                 else {
@@ -1191,6 +1288,7 @@ impl LeafTriangles<'_> {
                     let (n, d) = self.part_tree.plane(part);
                     let beyond = signed_side_gap(&tool_tri.corners, &n, d);
                     bounds.push(apart);
+                    ranks.push(row + u64::from(part - self.parts.start));
                     gaps.push(if beyond == 0.0 {
                         PairGap::NONE
                     } else {
@@ -2295,6 +2393,60 @@ mod tests {
         assert!(
             (with as f64) < 0.7 * without as f64,
             "{with} pairs posed with the directional gaps, {without} without"
+        );
+    }
+
+    /// A cube sliding and turning on a fine sheet, its base just off it: each new near list
+    /// takes the old one's bounds and nearest edges for the pairs they share, and its filters
+    /// still give every pair within the margin, while posing fewer pairs than lists that start
+    /// from their listed bounds.
+    #[test]
+    fn a_new_near_list_inherits_what_the_old_one_knew_and_misses_no_pair() {
+        let slide = |inherit: bool| {
+            let sheet = grid_sheet(40, 20.0, |x, y| 0.02 * (0.4 * x).sin() * (0.3 * y).cos());
+            let (mut god, tool, plate) =
+                cube_over_storing(&sheet, one_leaf([0.0; 3], 28.3), 20_000);
+            god.params.heuristics.mesh_list_inherit = inherit;
+            let (mut near_pairs, mut was, mut first_posed) = (0, None, 0);
+            for k in 0..300 {
+                let phase = k as f64 * 0.05;
+                // The base 0.03 mm over the sheet's mean plane (its cells ±0.02 mm off it).
+                let q = [
+                    -10.0 + 0.02 * k as f64,
+                    0.4 * phase.sin(),
+                    2.03,
+                    0.003 * (0.9 * phase).sin(),
+                    0.003 * (0.6 * phase).cos(),
+                    0.004 * k as f64,
+                ];
+                let pose = Pose::from_array(q);
+                let margin = 0.05;
+                god.detect(&pose, margin).unwrap();
+                let (list, posed) = (god.detector.near_generation, god.run.counts.near_posed);
+                god.narrow_phase(&pose, margin);
+                if god.detector.near_generation != list {
+                    first_posed += god.run.counts.near_posed - posed;
+                }
+                if let Some(was) = was {
+                    let was: [f64; 6] = was;
+                    god.run.motion.last_step = std::array::from_fn(|i| q[i] - was[i]);
+                    god.run.motion.last_motion = 0.03;
+                }
+                was = Some(q);
+                let far = Instant::now() + Duration::from_secs(1);
+                god.tend_near(&pose, 1e6, far);
+                near_pairs += every_pair_within_kept(&god, &tool, &plate, &pose, margin, k);
+            }
+            assert!(near_pairs > 5_000, "{near_pairs} pairs within the margin");
+            let counts = &god.run.counts;
+            assert!(counts.near_taken > 5, "{} lists taken", counts.near_taken);
+            first_posed
+        };
+        let without = slide(false);
+        let with = slide(true);
+        assert!(
+            (with as f64) < 0.8 * without as f64,
+            "a new list's first filter posed {with} pairs with the inheritance, {without} without"
         );
     }
 

@@ -67,6 +67,10 @@ pub(super) struct Detector {
     /// Each of `near`'s pairs' nearest edges where last measured (same order): tried first
     /// the next time ([`collide::triangle_distance_from`]).
     pub(super) near_edges: Vec<collide::NearestEdges>,
+    /// Each of `near`'s pairs' rank in the descent's order ([`TriangleTree::descend`], the
+    /// objects' one after another; rising along the list): a new list is merged with the one
+    /// it replaces by them ([`Heuristics::mesh_list_inherit`]).
+    pub(super) near_ranks: Vec<u64>,
     /// Exact distances of `contacts` (same order) with the tool at one pose (rotation,
     /// translation): where the narrow phase listed them, or the last answer checked. Rows
     /// linearised at that pose reuse them.
@@ -94,6 +98,9 @@ pub(super) struct Detector {
     pub(super) next_near: Vec<TriPair>,
     pub(super) next_apart: Vec<f64>,
     pub(super) next_gaps: Vec<PairGap>,
+    pub(super) next_ranks: Vec<u64>,
+    /// Room for a new list's nearest edges while they are drawn from the old list's.
+    pub(super) next_edges: Vec<collide::NearestEdges>,
     pub(super) next_stack: collide::TreePairStack,
 }
 
@@ -159,6 +166,9 @@ impl Detector {
             next_gaps: Vec::with_capacity(contacts_cap),
             near_turn: 0.0,
             near_edges: Vec::with_capacity(contacts_cap),
+            near_ranks: Vec::with_capacity(contacts_cap),
+            next_ranks: Vec::with_capacity(contacts_cap),
+            next_edges: Vec::with_capacity(contacts_cap),
             contact_nearest: Vec::with_capacity(contacts_cap),
             nearest_known: Vec::with_capacity(contacts_cap),
             nearest_at: None,
