@@ -70,10 +70,60 @@ pub struct TriangleTree {
     depth: usize,
 }
 
-/// The stack a descent of two trees works on: reserved once ([`TriangleTree::stack_for`]), so
-/// that [`TriangleTree::near_leaf_pairs`] never allocates. Each entry is a tool node, an object
-/// node and the rank of their first triangle pair ([`TriangleTree::descend`]).
-pub type TreePairStack = Vec<(u32, u32, u64)>;
+/// What a descent of two trees works on, reserved once ([`TriangleTree::stack_for`]) so that
+/// [`TriangleTree::near_leaf_pairs`] and [`TriangleTree::descend`] never allocate: the stack
+/// of node pairs still to test (a tool node, an object node and the rank of their first
+/// triangle pair, [`TriangleTree::descend`]), and the tool's boxes posed for the descent under
+/// way. A tool box is tested against many object boxes: posed once, its test takes one matrix
+/// product, not two.
+#[derive(Clone, Debug, Default)]
+pub struct TreePairStack {
+    pairs: Vec<(u32, u32, u64)>,
+    /// Tool node `i`'s axes and centre in the world where `stamp[i] == current`.
+    posed: Vec<(Matrix3<f64>, Vector3<f64>)>,
+    stamp: Vec<u32>,
+    current: u32,
+}
+
+impl TreePairStack {
+    /// Node pairs the stack holds at most without growing.
+    pub fn capacity(&self) -> usize {
+        self.pairs.capacity()
+    }
+
+    /// True when no node pair is left to test.
+    pub fn is_empty(&self) -> bool {
+        self.pairs.is_empty()
+    }
+
+    /// Empties it and forgets every posed box (the next descent may be at another pose).
+    fn restart(&mut self) {
+        self.pairs.clear();
+        self.current = self.current.wrapping_add(1);
+        if self.current == 0 {
+            // The stamps came round: none may pass for current.
+            self.stamp.iter_mut().for_each(|s| *s = 0);
+            self.current = 1;
+        }
+    }
+
+    /// Tool node `i` (`node`) posed at `(rot, t)`: its axes and centre in the world.
+    #[inline]
+    fn posed(
+        &mut self,
+        i: u32,
+        node: &BoxNode,
+        rot: &Matrix3<f64>,
+        t: &Vector3<f64>,
+    ) -> (Matrix3<f64>, Vector3<f64>) {
+        let i = i as usize;
+        if self.stamp[i] != self.current {
+            self.posed[i] = (rot * node.axes, rot * Vector3::from(node.center) + t);
+            self.stamp[i] = self.current;
+        }
+        self.posed[i]
+    }
+}
 
 impl TriangleTree {
     /// The hierarchy of `triangles` (mm), each placed by `pose` (the identity for a tool):
@@ -161,9 +211,15 @@ impl TriangleTree {
         self.triangles.iter().flatten().copied()
     }
 
-    /// A stack deep enough for any descent of `a` against `b` (allocates; once).
+    /// A stack deep enough for any descent of `a` (the tool) against `b`, with room for the
+    /// tool's posed boxes (allocates; once).
     pub fn stack_for(a: &Self, b: &Self) -> TreePairStack {
-        Vec::with_capacity(a.depth + b.depth + 2)
+        TreePairStack {
+            pairs: Vec::with_capacity(a.depth + b.depth + 2),
+            posed: vec![(Matrix3::zeros(), Vector3::zeros()); a.nodes.len()],
+            stamp: vec![0; a.nodes.len()],
+            current: 1,
+        }
     }
 
     /// Calls `visit(tool_triangles, object_triangles)` with the leaf ranges of every leaf pair
@@ -196,8 +252,8 @@ impl TriangleTree {
 
     /// Sets `stack` for a descent from the two roots ([`TriangleTree::descend`]).
     pub fn start_descent(stack: &mut TreePairStack) {
-        stack.clear();
-        stack.push((0, 0, 0));
+        stack.restart();
+        stack.pairs.push((0, 0, 0));
     }
 
     /// Goes on with the descent `stack` holds ([`TriangleTree::start_descent`], then earlier
@@ -227,19 +283,22 @@ impl TriangleTree {
         mut visit: impl FnMut(std::ops::Range<u32>, std::ops::Range<u32>, u64) -> bool,
     ) -> bool {
         let swept = sweep.iter().any(|&v| v != 0.0);
-        if self.nodes.is_empty() || object.nodes.is_empty() {
-            stack.clear();
+        if self.nodes.is_empty() || object.nodes.is_empty() || stack.posed.len() < self.nodes.len()
+        {
+            // (A stack made for another tool has no room for this one's boxes: nothing listed
+            // rather than a panic; the engine makes its stacks for its own tool.)
+            stack.pairs.clear();
             return true;
         }
         for _ in 0..steps {
-            let Some((a, b, rank)) = stack.pop() else {
+            let Some((a, b, rank)) = stack.pairs.pop() else {
                 return true;
             };
             let (na, nb) = (&self.nodes[a as usize], &object.nodes[b as usize]);
             // The tool box in the object box's axes: its rotation and centre.
-            let turn = nb.axes.transpose() * (rot * na.axes);
-            let mut offset = nb.axes.transpose()
-                * (rot * Vector3::from(na.center) + t - Vector3::from(nb.center));
+            let (axes, centre) = stack.posed(a, na, rot, t);
+            let turn = nb.axes.transpose() * axes;
+            let mut offset = nb.axes.transpose() * (centre - Vector3::from(nb.center));
             let mut half = na.half;
             if swept {
                 // The box swept along `sweep` lies in the box about its middle position grown
@@ -258,18 +317,18 @@ impl TriangleTree {
                     let (tools, parts) =
                         (na.first..na.first + na.under, nb.first..nb.first + nb.under);
                     if !visit(tools, parts, rank) {
-                        stack.clear();
+                        stack.pairs.clear();
                         return true;
                     }
                 }
                 // Descend the larger box (by its longest side), or the one that is not a leaf.
-                (false, true) => push_tool_children(stack, na, b, nb, rank),
-                (true, false) => push_object_children(stack, nb, a, na, rank),
+                (false, true) => push_tool_children(&mut stack.pairs, na, b, nb, rank),
+                (true, false) => push_object_children(&mut stack.pairs, nb, a, na, rank),
                 (false, false) => {
                     if longest(&na.half) >= longest(&nb.half) {
-                        push_tool_children(stack, na, b, nb, rank);
+                        push_tool_children(&mut stack.pairs, na, b, nb, rank);
                     } else {
-                        push_object_children(stack, nb, a, na, rank);
+                        push_object_children(&mut stack.pairs, nb, a, na, rank);
                     }
                 }
             }
@@ -319,14 +378,12 @@ fn plane_of(t: &Triangle) -> ([f64; 3], f64) {
     (n.into(), n.dot(&a))
 }
 
-/// Pushes `first`'s pair of children, each with `other` (`tool`: the children are the tool's).
-/// A pop pushes two pairs a level deeper on one side, leaving one behind per level, so the
-/// stack never holds more than the two trees' depths together: its reserve is not outgrown.
 /// Pushes the children of tool node `parent` against object node `other` (`other_node`), the
 /// pair's first triangle pair at `rank`: the second child is popped first, so its pairs come
-/// first.
+/// first. A pop pushes two pairs a level deeper on one side, leaving one behind per level, so
+/// the stack never holds more than the two trees' depths together: its reserve is not outgrown.
 fn push_tool_children(
-    stack: &mut TreePairStack,
+    stack: &mut Vec<(u32, u32, u64)>,
     parent: &BoxNode,
     other: u32,
     other_node: &BoxNode,
@@ -339,7 +396,7 @@ fn push_tool_children(
 
 /// [`push_tool_children`] with the object's node split, against tool node `other`.
 fn push_object_children(
-    stack: &mut TreePairStack,
+    stack: &mut Vec<(u32, u32, u64)>,
     parent: &BoxNode,
     other: u32,
     other_node: &BoxNode,
@@ -685,22 +742,23 @@ mod tests {
     }
 
     #[test]
-    fn every_triangle_pair_keeps_its_rank_at_every_pose_and_ranks_rise_along_a_descent() {
+    fn every_pair_keeps_its_rank_at_every_pose_and_a_reused_stack_lists_as_a_fresh_one() {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let tool = TriangleTree::build(&sheet(5, true, &mut rng), &Pose::identity());
         let object = TriangleTree::build(&sheet(7, false, &mut rng), &Pose::identity());
         let mut stack = TriangleTree::stack_for(&tool, &object);
         // The ranks of the triangle pairs a descent at `q` within `margin` lists, in order.
-        let mut ranked = |q: &Pose, sweep: Vector3<f64>, margin: f64| {
+        // One stack for every descent: each start forgets the tool boxes posed for the last.
+        let ranked = |stack: &mut TreePairStack, q: &Pose, sweep: Vector3<f64>, margin: f64| {
             let mut out = Vec::new();
-            TriangleTree::start_descent(&mut stack);
+            TriangleTree::start_descent(stack);
             tool.descend(
                 &q.rotation_matrix(),
                 &q.translation(),
                 &sweep,
                 &object,
                 margin,
-                &mut stack,
+                stack,
                 usize::MAX,
                 |tools, parts, rank| {
                     let n = parts.len() as u64;
@@ -716,7 +774,7 @@ mod tests {
             out
         };
         // With a margin past both parts every pair is listed: each rank once, 0 to all - 1.
-        let all = ranked(&Pose::identity(), Vector3::zeros(), 1e3);
+        let all = ranked(&mut stack, &Pose::identity(), Vector3::zeros(), 1e3);
         let count = tool.len() * object.len();
         assert_eq!(all.len(), count);
         let mut ranks: Vec<u64> = all.iter().map(|p| p.1).collect();
@@ -727,7 +785,11 @@ mod tests {
         for case in 0..20 {
             let q = random_pose(&mut rng, 0.5);
             let sweep = Vector3::new(0.3, -0.2, 0.1) * (case % 3) as f64;
-            let listed = ranked(&q, sweep, [0.05, 0.3, 1.0][case % 3]);
+            let margin = [0.05, 0.3, 1.0][case % 3];
+            let listed = ranked(&mut stack, &q, sweep, margin);
+            // The same as a descent on a stack that never posed a box.
+            let mut fresh = TriangleTree::stack_for(&tool, &object);
+            assert_eq!(listed, ranked(&mut fresh, &q, sweep, margin), "case {case}");
             seen += listed.len();
             for w in listed.windows(2) {
                 assert!(w[0].1 < w[1].1, "case {case}: ranks fall from {w:?}");

@@ -143,11 +143,11 @@ impl Detector {
         meshes: Option<&Meshes>,
     ) -> Self {
         let contacts_cap = if meshes.is_some() { cap } else { 0 };
-        let next_stack = meshes.map_or_else(Vec::new, |m| {
+        let next_stack = meshes.map_or_else(collide::TreePairStack::default, |m| {
             m.objects
                 .iter()
                 .map(|o| TriangleTree::stack_for(&m.tool, o))
-                .max_by_key(Vec::capacity)
+                .max_by_key(collide::TreePairStack::capacity)
                 .unwrap_or_default()
         });
         Self {
