@@ -1,0 +1,71 @@
+//! The triangle trees' descent (the mesh mode's listing of triangle pairs near each other,
+//! `TriangleTree::near_leaf_pairs` and `descend`): a round peg 15 mm long, 256 facets round,
+//! in a hole 0.05 mm wider and 50 mm deep, every leaf pair within a margin of 0.15 mm listed
+//! (the peg's whole side is near the wall: a tight fit's near list), at rest and swept 0.2 mm
+//! down the hole.
+//!
+//! Run: `cargo bench -p collide --bench descent` (add `-- --quick` for a short run).
+
+use std::f64::consts::TAU;
+use std::hint::black_box;
+
+use collide::{Pose, Triangle, TriangleTree};
+use criterion::{BenchmarkId, Criterion};
+use nalgebra::Vector3;
+
+/// The side of a cylinder of radius `r` (mm) along z from 0 to `len`, `round` facets round and
+/// `rings` along.
+fn cylinder(r: f64, round: usize, rings: usize, len: f64) -> Vec<Triangle> {
+    let p = |i: usize, j: usize| {
+        let a = i as f64 / round as f64 * TAU;
+        [r * a.cos(), r * a.sin(), j as f64 * len / rings as f64]
+    };
+    let mut out = Vec::with_capacity(2 * round * rings);
+    for i in 0..round {
+        for j in 0..rings {
+            out.push([p(i, j), p(i + 1, j), p(i + 1, j + 1)]);
+            out.push([p(i, j), p(i + 1, j + 1), p(i, j + 1)]);
+        }
+    }
+    out
+}
+
+fn bench(c: &mut Criterion) {
+    let peg = TriangleTree::build(&cylinder(10.0, 256, 12, 15.0), &Pose::identity());
+    let hole = TriangleTree::build(&cylinder(10.05, 256, 40, 50.0), &Pose::identity());
+    let mut stack = TriangleTree::stack_for(&peg, &hole);
+    // 5 mm in, 0.01 mm off the axis and tilted 1 mrad.
+    let q = Pose::from_array([0.01, 0.0, 5.0, 0.001, 0.0, 0.0]);
+    let (rot, t) = (q.rotation_matrix(), q.translation());
+    let mut group = c.benchmark_group("descent");
+    group.sample_size(20);
+    for (name, sweep) in [
+        ("peg in hole", Vector3::zeros()),
+        ("peg in hole, swept", Vector3::new(0.0, 0.0, -0.2)),
+    ] {
+        group.bench_function(BenchmarkId::new("leaf pairs", name), |b| {
+            b.iter(|| {
+                let mut pairs = 0usize;
+                TriangleTree::start_descent(&mut stack);
+                peg.descend(
+                    black_box(&rot),
+                    black_box(&t),
+                    &sweep,
+                    &hole,
+                    0.15,
+                    &mut stack,
+                    usize::MAX,
+                    |tools, parts, _| {
+                        pairs += tools.len() * parts.len();
+                        true
+                    },
+                );
+                pairs
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion::criterion_group!(benches, bench);
+criterion::criterion_main!(benches);
