@@ -508,11 +508,8 @@ impl GodObject {
         // In contact, the next frames' regions come from a neighbour list kept ahead.
         let used = out.margin_mm.max(self.params.tuning.min_allow_mm + f.skin);
         self.tend_neighbours(&q_safe, used, f.clock.deadline);
-        self.tend_near(
-            &q_safe,
-            self.params.tuning.near_ahead_share * self.params.budget_us,
-            f.clock.deadline,
-        );
+        let slice_us = self.near_slice_us(&q_safe, f.clock.elapsed_us());
+        self.tend_near(&q_safe, slice_us, f.clock.deadline);
         self.run.lists.idle_given = false;
         out.penetration_mm = f.progress.pen_safe;
         out.q_g = q_safe.to_array();

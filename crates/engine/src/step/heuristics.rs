@@ -77,6 +77,13 @@ pub struct Heuristics {
     /// its first filter does not pose again every pair the old list's filters had found apart
     /// (faces lying on each other: ~4 500 pairs a new list, apart sideways).
     pub mesh_list_inherit: bool,
+    /// The mesh mode's frame fill: the next near list's slice fills the frame up to
+    /// [`Tuning::near_fill_share`](crate::Tuning::near_fill_share) of the budget, or is the pace
+    /// its descent needs to be done in time where that is more, rather than a full
+    /// [`Tuning::near_ahead_share`](crate::Tuning::near_ahead_share) added to whatever the
+    /// frame's own work took: a frame that filtered a tight fit's list does not also take a
+    /// full slice while the next list is on time.
+    pub mesh_near_fill: bool,
 }
 
 impl Default for Heuristics {
@@ -107,6 +114,7 @@ impl Heuristics {
         mesh_thin_paths: true,
         mesh_held_press: true,
         mesh_list_inherit: true,
+        mesh_near_fill: true,
     };
 
     /// Every heuristic off.
@@ -130,10 +138,11 @@ impl Heuristics {
         mesh_thin_paths: false,
         mesh_held_press: false,
         mesh_list_inherit: false,
+        mesh_near_fill: false,
     };
 
     /// The names of the switches (as the bench's ablation study prints them), in order.
-    pub const NAMES: [&'static str; 19] = [
+    pub const NAMES: [&'static str; 20] = [
         "region-reuse",
         "path-regions",
         "slab-regions",
@@ -153,6 +162,7 @@ impl Heuristics {
         "mesh-thin-paths",
         "mesh-held-press",
         "mesh-list-inherit",
+        "mesh-near-fill",
     ];
 
     /// The switch called `name` ([`Heuristics::NAMES`]), for reading and setting.
@@ -177,6 +187,7 @@ impl Heuristics {
             "mesh-thin-paths" => &mut self.mesh_thin_paths,
             "mesh-held-press" => &mut self.mesh_held_press,
             "mesh-list-inherit" => &mut self.mesh_list_inherit,
+            "mesh-near-fill" => &mut self.mesh_near_fill,
             _ => return None,
         })
     }

@@ -129,6 +129,14 @@ const TILTED_TARGET_LEAST: f64 = 0.5;
 /// 64th pair, it cost 2 µs of a 5 000-pair list's filter).
 const FILTER_CLOCK_PAIRS: usize = 256;
 
+/// How far the tool has used a near list ([`GodObject::near_use`]): its motion bound off the
+/// list's span (mm), its share along the sweep (0 to 1), and the frames until it is spent.
+struct NearUse {
+    used: f64,
+    along: f64,
+    left: f64,
+}
+
 /// Bisections of a step whose end has meeting triangles, toward the last free pose on it.
 const BACKTRACK_STEPS: u32 = 8;
 
@@ -799,30 +807,13 @@ impl GodObject {
             return;
         };
         let extra = self.run.regions.near_extra;
-        let sweep = Vector3::from(span.sweep);
-        let len2 = sweep.norm_squared();
-        let along = detect::segment_share(&(q.translation() - span.at.translation()), &sweep);
-        let used = self.span_bound(&span, q);
-        // Frames until the list is spent: the tool leaves its reach at the pace its motion
-        // bound grows off the sweep (a turn, a step across), or runs off the sweep's end.
-        let len = len2.sqrt();
-        let step = Vector3::from(self.run.motion.last_step);
-        let along_speed = if len > 0.0 {
-            (step.dot(&sweep) / len).max(0.0)
-        } else {
-            0.0
-        };
-        let off_speed = (self.run.motion.last_motion - along_speed).max(1e-9);
-        let mut left = (extra - used).max(0.0) / off_speed;
-        if along_speed > 0.0 {
-            left = left.min((1.0 - along) * len / along_speed);
-        }
+        let NearUse { used, along, left } = self.near_use(&span, q);
         // The next list starts once the tool has used its start share of this one, or
         // earlier where its descent, a slice a frame at the last one's cost, would not be
         // done by then.
         let build = self.near_descent_frames();
         if used < NEAR_AHEAD_START * extra
-            && (len2 == 0.0 || along < NEAR_AHEAD_START)
+            && (span.sweep == [0.0; 3] || along < NEAR_AHEAD_START)
             && left > build / NEAR_AHEAD_START
         {
             return;
@@ -836,6 +827,70 @@ impl GodObject {
         };
         self.begin_near(next, NearPurpose::Ahead);
         self.advance_near(Some(end));
+    }
+
+    /// How far the tool at `q` has used the near list of `span`: its motion bound off the span
+    /// (mm), its share along the sweep, and the frames until it is spent (the tool leaves its
+    /// reach at the pace its motion bound grows off the sweep, a turn or a step across, or runs
+    /// off the sweep's end), at the last frame's pace.
+    fn near_use(&self, span: &NearSpan, q: &Pose) -> NearUse {
+        let extra = self.run.regions.near_extra;
+        let sweep = Vector3::from(span.sweep);
+        let len = sweep.norm();
+        let along = detect::segment_share(&(q.translation() - span.at.translation()), &sweep);
+        let used = self.span_bound(span, q);
+        let step = Vector3::from(self.run.motion.last_step);
+        let along_speed = if len > 0.0 {
+            (step.dot(&sweep) / len).max(0.0)
+        } else {
+            0.0
+        };
+        let off_speed = (self.run.motion.last_motion - along_speed).max(1e-9);
+        let mut left = (extra - used).max(0.0) / off_speed;
+        if along_speed > 0.0 {
+            left = left.min((1.0 - along) * len / along_speed);
+        }
+        NearUse { used, along, left }
+    }
+
+    /// The time (µs) this frame gives the next near list's slice when the tool is at `q` and
+    /// the frame's own work took `elapsed_us`: a full [`Tuning::near_ahead_share`] of the
+    /// budget, or with [`Heuristics::mesh_near_fill`] what is left of
+    /// [`Tuning::near_fill_share`] of it, or the pace the list's descent needs to be done in
+    /// time if that is more (its rest at the last descent's cost over the start share of the
+    /// frames until the list in use is spent: the margin the start rule leaves), at most the
+    /// full slice. A region's list under way, wanted now, a list with none in use to outlast,
+    /// and one past the last descent's cost take the full slice.
+    pub(super) fn near_slice_us(&self, q: &Pose, elapsed_us: f64) -> f64 {
+        let budget = self.params.budget_us;
+        let full = self.params.tuning.near_ahead_share * budget;
+        let room = self.params.tuning.near_fill_share * budget - elapsed_us;
+        if !self.params.heuristics.mesh_near_fill || room >= full {
+            return full;
+        }
+        let regions = &self.run.regions;
+        let ahead = &regions.near_ahead;
+        let in_use = regions
+            .near_at
+            .filter(|_| self.params.heuristics.mesh_near_list);
+        let Some(span) =
+            in_use.filter(|_| ahead.at.is_none() || ahead.purpose == NearPurpose::Ahead)
+        else {
+            return full;
+        };
+        let spent = if ahead.at.is_some() {
+            ahead.spent_us
+        } else {
+            0.0
+        };
+        let rest = regions.near_descent_us - spent;
+        if rest <= 0.0 {
+            // Past the last descent's cost (or none known): behind, the full slice.
+            return full;
+        }
+        let left = NEAR_AHEAD_START * self.near_use(&span, q).left;
+        let needed = rest / left.max(1.0);
+        room.max(needed).clamp(0.0, full)
     }
 
     /// The two triangles of `c` with the tool at `(rot, t)`: the tool's posed, the object's.
@@ -1863,6 +1918,53 @@ mod tests {
         god.run.motion.last_motion = 0.016;
         god.run.regions.near_descent_us = slice_us;
         assert_eq!(god.near_sweep(), [0.0; 3]);
+    }
+
+    /// The next list's slice fills a frame to its share of the budget while the list is on
+    /// time, and is the full slice where its frame is light, where it is behind (past the last
+    /// descent's cost, or not done in time at the fill's pace), or with the fill off.
+    #[test]
+    fn a_slice_fills_the_frame_only_while_the_next_list_is_on_time() {
+        let (mut god, _, _) = cube_over_sheet();
+        let q = Pose::from_array([0.0, 0.0, 2.4, 0.0, 0.0, 0.0]);
+        god.detect(&q, 0.1).unwrap();
+        god.narrow_phase(&q, 0.1);
+        assert!(god.run.regions.near_at.is_some());
+        let budget = god.params.budget_us;
+        let full = god.params.tuning.near_ahead_share * budget;
+        let fill = god.params.tuning.near_fill_share * budget;
+        // Sliding a thousandth of the extra reach a frame: a thousand frames left.
+        let extra = god.run.regions.near_extra;
+        god.run.motion.last_step = [1e-3 * extra, 0.0, 0.0];
+        god.run.motion.last_motion = 1e-3 * extra;
+        god.run.regions.near_descent_us = 2.0 * full;
+        // A light frame: the full slice.
+        assert_eq!(god.near_slice_us(&q, 10.0), full);
+        // A frame that took most of the fill: what is left of it.
+        assert!((god.near_slice_us(&q, fill - 20.0) - 20.0).abs() < 1e-9);
+        // A frame past the fill, the list on time: its pace (two slices over 500 frames).
+        let paced = god.near_slice_us(&q, 2.0 * fill);
+        assert!(paced > 0.0 && paced < 0.01 * full, "{paced} µs");
+        // Twice as fast, with 500 frames left (250 at the start share): still its pace.
+        god.run.motion.last_motion = 2e-3 * extra;
+        let faster = god.near_slice_us(&q, 2.0 * fill);
+        assert!(
+            (faster - 2.0 * paced).abs() < 1e-9 * full,
+            "{faster} against {paced}"
+        );
+        // The descent would not be done in time at the fill's pace: the full slice.
+        god.run.motion.last_motion = 0.5 * extra;
+        assert_eq!(god.near_slice_us(&q, 2.0 * fill), full);
+        // Behind: a list under way past the last descent's cost.
+        god.run.motion.last_motion = 1e-3 * extra;
+        god.run.regions.near_ahead =
+            NearAhead::start(god.run.regions.near_at.unwrap(), NearPurpose::Ahead);
+        god.run.regions.near_ahead.spent_us = 3.0 * full;
+        assert_eq!(god.near_slice_us(&q, 2.0 * fill), full);
+        // Off: the full slice whatever the frame took.
+        god.run.regions.near_ahead = NearAhead::IDLE;
+        god.params.heuristics.mesh_near_fill = false;
+        assert_eq!(god.near_slice_us(&q, 2.0 * fill), full);
     }
 
     #[test]

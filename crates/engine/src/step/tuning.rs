@@ -376,6 +376,13 @@ pub struct Tuning {
     /// Halved / doubled over the zoo in the mesh mode: mean frame time ×1.01 / ×1.01, p99 ×1.01 /
     /// ×1.06 (doubling costs more; halving stays within the runs' spread).
     pub near_ahead_share: f64,
+    /// With [`Heuristics::mesh_near_fill`](crate::Heuristics::mesh_near_fill), the next near
+    /// list's slice fills the frame up to this share of the budget, or gives it the pace its
+    /// descent needs to be done in time if that is more (at most
+    /// [`Tuning::near_ahead_share`] of the budget either way): a frame's time is then the larger
+    /// of its own work and this, not their sum, where the list is on time. A fifth keeps a
+    /// frame that builds ahead within a 4 kHz loop's period wherever its own work leaves room.
+    pub near_fill_share: f64,
     /// A tool left behind that moved at least this far (mm) in its last frame is falling toward
     /// the hand: its path region is the straight way there.
     ///
@@ -601,6 +608,7 @@ impl Tuning {
         near_list_mm: 0.25,
         near_list_pairs: 3000,
         near_ahead_share: 0.15,
+        near_fill_share: 0.2,
         fall_min_step_mm: 0.1,
         fall_min_cos: 0.9,
         slab_rest_frames: 100,
@@ -669,6 +677,7 @@ impl Tuning {
             "near-list-mm" => self.near_list_mm,
             "near-list-pairs" => self.near_list_pairs as f64,
             "near-ahead-share" => self.near_ahead_share,
+            "near-fill-share" => self.near_fill_share,
             "fall-min-step-mm" => self.fall_min_step_mm,
             "fall-min-cos" => self.fall_min_cos,
             "slab-rest-frames" => f64::from(self.slab_rest_frames),
@@ -740,6 +749,7 @@ impl Tuning {
             "near-list-mm" => self.near_list_mm = value,
             "near-list-pairs" => self.near_list_pairs = value.round() as usize,
             "near-ahead-share" => self.near_ahead_share = value,
+            "near-fill-share" => self.near_fill_share = value,
             "fall-min-step-mm" => self.fall_min_step_mm = value,
             "fall-min-cos" => self.fall_min_cos = value,
             "slab-rest-frames" => self.slab_rest_frames = value.round() as u32,
@@ -839,7 +849,7 @@ impl Tuning {
     }
 
     /// Every field's name: the field's with dashes, as the tuning study names it.
-    pub const NAMES: [&'static str; 63] = [
+    pub const NAMES: [&'static str; 64] = [
         "pass-headroom",
         "detect-reserve",
         "pair-target",
@@ -874,6 +884,7 @@ impl Tuning {
         "near-list-mm",
         "near-list-pairs",
         "near-ahead-share",
+        "near-fill-share",
         "fall-min-step-mm",
         "fall-min-cos",
         "slab-rest-frames",
