@@ -283,20 +283,24 @@ impl TriangleTree {
         mut visit: impl FnMut(std::ops::Range<u32>, std::ops::Range<u32>, u64) -> bool,
     ) -> bool {
         let swept = sweep.iter().any(|&v| v != 0.0);
-        if self.nodes.is_empty() || object.nodes.is_empty() || stack.posed.len() < self.nodes.len()
-        {
-            // (A stack made for another tool has no room for this one's boxes: nothing listed
-            // rather than a panic; the engine makes its stacks for its own tool.)
+        if self.nodes.is_empty() || object.nodes.is_empty() {
             stack.pairs.clear();
             return true;
         }
+        // A stack made for a smaller tool has no room for this one's boxes: they are posed at
+        // each test instead (the same pairs, more slowly).
+        let keep_posed = stack.posed.len() >= self.nodes.len();
         for _ in 0..steps {
             let Some((a, b, rank)) = stack.pairs.pop() else {
                 return true;
             };
             let (na, nb) = (&self.nodes[a as usize], &object.nodes[b as usize]);
             // The tool box in the object box's axes: its rotation and centre.
-            let (axes, centre) = stack.posed(a, na, rot, t);
+            let (axes, centre) = if keep_posed {
+                stack.posed(a, na, rot, t)
+            } else {
+                (rot * na.axes, rot * Vector3::from(na.center) + t)
+            };
             let turn = nb.axes.transpose() * axes;
             let mut offset = nb.axes.transpose() * (centre - Vector3::from(nb.center));
             let mut half = na.half;
@@ -746,6 +750,7 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let tool = TriangleTree::build(&sheet(5, true, &mut rng), &Pose::identity());
         let object = TriangleTree::build(&sheet(7, false, &mut rng), &Pose::identity());
+        let small_tool = TriangleTree::build(&sheet(1, false, &mut rng), &Pose::identity());
         let mut stack = TriangleTree::stack_for(&tool, &object);
         // The ranks of the triangle pairs a descent at `q` within `margin` lists, in order.
         // One stack for every descent: each start forgets the tool boxes posed for the last.
@@ -787,9 +792,12 @@ mod tests {
             let sweep = Vector3::new(0.3, -0.2, 0.1) * (case % 3) as f64;
             let margin = [0.05, 0.3, 1.0][case % 3];
             let listed = ranked(&mut stack, &q, sweep, margin);
-            // The same as a descent on a stack that never posed a box.
+            // The same as a descent on a stack that never posed a box, and on one made for a
+            // smaller tool (no room to keep this one's boxes posed).
             let mut fresh = TriangleTree::stack_for(&tool, &object);
             assert_eq!(listed, ranked(&mut fresh, &q, sweep, margin), "case {case}");
+            let mut small = TriangleTree::stack_for(&small_tool, &object);
+            assert_eq!(listed, ranked(&mut small, &q, sweep, margin), "case {case}");
             seen += listed.len();
             for w in listed.windows(2) {
                 assert!(w[0].1 < w[1].1, "case {case}: ranks fall from {w:?}");
