@@ -705,38 +705,30 @@ mod tests {
         let q = random_pose(&mut rng, 0.6);
         let (rot, t) = (q.rotation_matrix(), q.translation());
         let mut stack = TriangleTree::stack_for(&tool, &object);
-        let mut whole = Vec::new();
-        TriangleTree::start_descent(&mut stack);
-        tool.descend(
-            &rot,
-            &t,
-            &Vector3::zeros(),
-            &object,
-            0.3,
-            &mut stack,
-            usize::MAX,
-            |a, b, rank| {
-                whole.push((a, b, rank));
-                true
-            },
-        );
-        for steps in [1, 3, 50] {
-            let mut sliced = Vec::new();
-            TriangleTree::start_descent(&mut stack);
-            let mut slices = 0;
-            while !tool.descend(
+        // `steps` box tests of the descent under way, its leaf pairs pushed onto `out`.
+        let go_on = |stack: &mut TreePairStack, steps: usize, out: &mut Vec<_>| {
+            tool.descend(
                 &rot,
                 &t,
                 &Vector3::zeros(),
                 &object,
                 0.3,
-                &mut stack,
+                stack,
                 steps,
                 |a, b, rank| {
-                    sliced.push((a, b, rank));
+                    out.push((a, b, rank));
                     true
                 },
-            ) {
+            )
+        };
+        let mut whole = Vec::new();
+        TriangleTree::start_descent(&mut stack);
+        go_on(&mut stack, usize::MAX, &mut whole);
+        for steps in [1, 3, 50] {
+            let mut sliced = Vec::new();
+            TriangleTree::start_descent(&mut stack);
+            let mut slices = 0;
+            while !go_on(&mut stack, steps, &mut sliced) {
                 slices += 1;
             }
             assert_eq!(sliced, whole, "{steps} steps a slice");

@@ -2454,6 +2454,14 @@ mod tests {
         );
     }
 
+    /// The cube over a 20 mm sheet of 40 × 40 cells gently waved (±0.02 mm), so that no two
+    /// cells lie in one plane (flat faces would be cut again into other triangles at set-up),
+    /// with room for 20 000 pairs.
+    fn cube_over_waved_sheet() -> (GodObject, Vec<Triangle>, Vec<Triangle>) {
+        let sheet = grid_sheet(40, 20.0, |x, y| 0.02 * (0.4 * x).sin() * (0.3 * y).cos());
+        cube_over_storing(&sheet, one_leaf([0.0; 3], 28.3), 20_000)
+    }
+
     /// A cube gliding over a sheet of fine cells, rocking and turning as it goes: each filter
     /// still gives every triangle pair within its margin (against every pair measured), while
     /// the pairs' directional gaps (the cells' normals, the world's z) spare the posing of the
@@ -2462,11 +2470,7 @@ mod tests {
     #[test]
     fn a_tool_gliding_over_a_sheet_keeps_its_pairs_apart_by_their_gaps_and_misses_none() {
         let glide = |directions: bool| {
-            // Gently waved, so that no two cells lie in one plane (flat faces would be cut
-            // again into other triangles at set-up).
-            let sheet = grid_sheet(40, 20.0, |x, y| 0.02 * (0.4 * x).sin() * (0.3 * y).cos());
-            let (mut god, tool, plate) =
-                cube_over_storing(&sheet, one_leaf([0.0; 3], 28.3), 20_000);
+            let (mut god, tool, plate) = cube_over_waved_sheet();
             god.params.heuristics.mesh_pair_directions = directions;
             let mut near_pairs = 0;
             for k in 0..400 {
@@ -2505,9 +2509,7 @@ mod tests {
     #[test]
     fn a_new_near_list_inherits_what_the_old_one_knew_and_misses_no_pair() {
         let slide = |inherit: bool| {
-            let sheet = grid_sheet(40, 20.0, |x, y| 0.02 * (0.4 * x).sin() * (0.3 * y).cos());
-            let (mut god, tool, plate) =
-                cube_over_storing(&sheet, one_leaf([0.0; 3], 28.3), 20_000);
+            let (mut god, tool, plate) = cube_over_waved_sheet();
             god.params.heuristics.mesh_list_inherit = inherit;
             let (mut near_pairs, mut was, mut first_posed) = (0, None, 0);
             for k in 0..300 {
