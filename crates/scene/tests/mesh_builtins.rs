@@ -180,6 +180,49 @@ fn spline_tight_is_the_spline_at_a_tenth_of_a_millimetre_and_goes_in_on_the_mesh
     );
 }
 
+/// `spline-tight`'s turn on the hub's face, keys misaligned: the hand 2 mm into the face turns
+/// the shaft at the scene's pace. The keys' edges cross the keyways' edges, whose rows stay open
+/// in truth where a trust region stops the answer; re-linearising on the same pairs then stops
+/// it where it is. With the bound answer going to a new region at once, fewer frames take
+/// three passes or more, and the shaft turns as far.
+#[test]
+fn a_shaft_turned_on_its_hubs_face_goes_on_from_a_bound_answer_in_a_new_region() {
+    let cache = common::test_cache();
+    let tight = scene::scenes::builtin("spline-tight", &cache).unwrap();
+    let half_pitch = 0.5 * spline_scene::tight_params().pitch();
+    let at = |alpha: f64| [0.0, 0.0, -spline_scene::PRESS_MM, 0.0, 0.0, alpha];
+    // Pressed onto the face, then a quarter of the way to the keys' alignment at the scene's
+    // steepest pace (half a pitch over 1.2 s, smoothed).
+    let above = [0.0, 0.0, 0.5, 0.0, 0.0, half_pitch];
+    let script = Script::starting_at(above)
+        .then(0.1, at(half_pitch), Ease::Smooth)
+        .hold(0.05)
+        .then(0.3, at(0.75 * half_pitch), Ease::Linear);
+    let end = script.duration();
+    let mut scene = tight;
+    scene.start = Pose::from_array(above);
+    scene.motion = Motion::Script(script);
+    let turned = |bound_detects: bool| {
+        let mut s = scene.clone();
+        s.solver.heuristics.mesh_bound_detects = bound_detects;
+        let (_, frames) = run_goal(&s, Geometry::Mesh, end);
+        let heavy = frames.iter().filter(|r| r.frame.passes >= 3).count();
+        let last = frames.last().unwrap().frame.q_g;
+        (heavy, last)
+    };
+    let (heavy_on, last_on) = turned(true);
+    let (heavy_off, last_off) = turned(false);
+    assert!(
+        heavy_off >= 10 && 2 * heavy_on <= heavy_off,
+        "frames of three passes or more: {heavy_on} going on from a bound answer, {heavy_off} re-linearising first"
+    );
+    // Both end at the hand's turn, resting on the face.
+    for last in [last_on, last_off] {
+        assert!((last[5] - 0.75 * half_pitch).abs() < 1e-3, "{last:?}");
+        assert!(last[2].abs() < 0.01, "{last:?}");
+    }
+}
+
 /// `probe`: its parts closed and the pocket as wide as stated; the tip reaches the floor on the
 /// mesh and rests on it pressed, and stops short on the spheres.
 #[test]

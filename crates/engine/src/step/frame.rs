@@ -414,8 +414,13 @@ impl GodObject {
             self.run.regions.cached_bound = binds;
         }
         f.clock.end_pass();
+        // In the mesh mode a bound answer whose rows are still open goes to a new region at
+        // once ([`Heuristics::mesh_bound_detects`]): its next pass linearises at the answer
+        // either way.
+        let bound_goes_on =
+            binds && self.bodies.meshes.is_some() && self.params.heuristics.mesh_bound_detects;
         let c = &mut f.course;
-        if pen <= f.tol && slack <= CONVERGED_MM {
+        if pen <= f.tol && (slack <= CONVERGED_MM || bound_goes_on) {
             if !binds {
                 f.progress.reached = true;
                 return Flow::Stop;

@@ -84,6 +84,12 @@ pub struct Heuristics {
     /// frame's own work took: a frame that filtered a tight fit's list does not also take a
     /// full slice while the next list is on time.
     pub mesh_near_fill: bool,
+    /// The mesh mode's bound answers: an answer stopped by its trust region goes on in a new
+    /// region about it at once, even where rows holding it are still open in truth, rather
+    /// than first re-linearising on the same pairs, whose trust region stops it where it is
+    /// (a shaft turned on its hub's face, its keys' edges crossing the keyways': nine in ten
+    /// such passes did not move the tool).
+    pub mesh_bound_detects: bool,
 }
 
 impl Default for Heuristics {
@@ -115,6 +121,7 @@ impl Heuristics {
         mesh_held_press: true,
         mesh_list_inherit: true,
         mesh_near_fill: true,
+        mesh_bound_detects: true,
     };
 
     /// Every heuristic off.
@@ -139,10 +146,11 @@ impl Heuristics {
         mesh_held_press: false,
         mesh_list_inherit: false,
         mesh_near_fill: false,
+        mesh_bound_detects: false,
     };
 
     /// The names of the switches (as the bench's ablation study prints them), in order.
-    pub const NAMES: [&'static str; 20] = [
+    pub const NAMES: [&'static str; 21] = [
         "region-reuse",
         "path-regions",
         "slab-regions",
@@ -163,6 +171,7 @@ impl Heuristics {
         "mesh-held-press",
         "mesh-list-inherit",
         "mesh-near-fill",
+        "mesh-bound-detects",
     ];
 
     /// The switch called `name` ([`Heuristics::NAMES`]), for reading and setting.
@@ -188,6 +197,7 @@ impl Heuristics {
             "mesh-held-press" => &mut self.mesh_held_press,
             "mesh-list-inherit" => &mut self.mesh_list_inherit,
             "mesh-near-fill" => &mut self.mesh_near_fill,
+            "mesh-bound-detects" => &mut self.mesh_bound_detects,
             _ => return None,
         })
     }
