@@ -107,13 +107,20 @@ pub fn rotation_log(rot: &Matrix3<f64>) -> Vector3<f64> {
 /// An axis-aligned box (tool frame, mm) holding points of a tool, typically its leaf centres:
 /// a turn moves them by at most the angle times their largest distance from the turn's axis,
 /// which for a long tool turning about its own axis is far less than the angle times its reach
-/// (a shaft of radius 17.7 mm and length 56.5 mm turning about its axis).
+/// (`spline-tight`'s shaft, 13 mm in radius and 50 mm long, about its axis).
+///
+/// It also keeps the points' largest distance from each of the tool frame's three axes: a tool
+/// built about one of them (a shaft along its `z`) turns about it by its true radius, where the
+/// box's corners are farther by up to `sqrt(2)` (a round shaft's square box).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CentreBox {
     /// Least corner (tool frame, mm).
     pub lo: Vector3<f64>,
     /// Greatest corner (tool frame, mm).
     pub hi: Vector3<f64>,
+    /// The points' largest distance (mm) from the tool frame's `x`, `y` and `z` axes through
+    /// its origin: no more than the box's corners'.
+    pub radial: Vector3<f64>,
 }
 
 impl CentreBox {
@@ -121,13 +128,23 @@ impl CentreBox {
     pub fn of_points(points: impl IntoIterator<Item = [f64; 3]>) -> Self {
         let mut points = points.into_iter().map(Vector3::from);
         let Some(first) = points.next() else {
-            return Self {
-                lo: Vector3::zeros(),
-                hi: Vector3::zeros(),
-            };
+            return Self::of_box(Vector3::zeros(), Vector3::zeros());
         };
-        let (lo, hi) = points.fold((first, first), |(lo, hi), c| (lo.inf(&c), hi.sup(&c)));
-        Self { lo, hi }
+        let radial_of =
+            |c: &Vector3<f64>| Vector3::new(c.y.hypot(c.z), c.x.hypot(c.z), c.x.hypot(c.y));
+        let (lo, hi, radial) = points
+            .fold((first, first, radial_of(&first)), |(lo, hi, radial), c| {
+                (lo.inf(&c), hi.sup(&c), radial.sup(&radial_of(&c)))
+            });
+        Self { lo, hi, radial }
+    }
+
+    /// The box from `lo` to `hi` (tool frame, mm) and any points inside it: the distances
+    /// from the axes are the corners'.
+    pub fn of_box(lo: Vector3<f64>, hi: Vector3<f64>) -> Self {
+        let far = lo.abs().sup(&hi.abs());
+        let radial = Vector3::new(far.y.hypot(far.z), far.x.hypot(far.z), far.x.hypot(far.y));
+        Self { lo, hi, radial }
     }
 
     /// Corner `c` (0–7: bit 0 x, bit 1 y, bit 2 z high).
@@ -147,7 +164,7 @@ impl CentreBox {
     /// The largest distance (mm) of a point of the box, the tool at rotation `r`, from the
     /// unit world axis `u` through the tool origin: `|u × R p|` is convex in `p`, so its
     /// largest value over the box is at a corner.
-    pub fn arm(&self, r: &Matrix3<f64>, u: &Vector3<f64>) -> f64 {
+    pub fn corner_arm(&self, r: &Matrix3<f64>, u: &Vector3<f64>) -> f64 {
         let a = r.transpose() * u;
         (0..8)
             .map(|c| a.cross(&self.corner(c)).norm_squared())
@@ -155,7 +172,20 @@ impl CentreBox {
             .sqrt()
     }
 
-    /// How far (mm) a point of the box moves at most when the tool turns from `r_a` to `r_b`
+    /// The largest distance (mm) of a point held, the tool at rotation `r`, from the unit
+    /// world axis `u` through the tool origin: the least of [`CentreBox::corner_arm`] and a
+    /// bound about each tool axis `e`. With `a = R^T u` and a point `p = s e + q`, `q ⊥ e`,
+    /// `|s|` at most the box's extent along `e` and `|q|` the points' distance from `e`:
+    /// `|a × p| <= |s| |a × e| + |q|`.
+    pub fn arm(&self, r: &Matrix3<f64>, u: &Vector3<f64>) -> f64 {
+        let a = r.transpose() * u;
+        let along = self.lo.abs().sup(&self.hi.abs());
+        (0..3)
+            .map(|k| along[k] * (1.0 - a[k] * a[k]).max(0.0).sqrt() + self.radial[k])
+            .fold(self.corner_arm(r, u), f64::min)
+    }
+
+    /// How far (mm) a point held moves at most when the tool turns from `r_a` to `r_b`
     /// (about its origin): with `R_b R_a^T = exp(θ û)`, a point `x = R_a p` moves by
     /// `2 sin(θ/2) |û × x| <= θ |û × x|`, and so does every point of the shortest turn between
     /// them. `θ · reach` (the box's) where the axis is not defined (a non-finite input).
@@ -225,9 +255,10 @@ impl Pose {
 mod tests {
     use super::*;
 
-    /// Every point of a centre box moves by at most its turn bound, for random boxes, turns and
-    /// points; the bound is the angle times the radius for a ring turning about its axis, and
-    /// never more than the angle times the box's reach.
+    /// Every point held by a centre box moves by at most its turn bound, for random points,
+    /// turns and boxes; the bound is the angle times the radius for a ring turning about its
+    /// axis (the box's corners are `sqrt(2)` farther), never more than the angle times the
+    /// box's reach, and a box of a box's corners bounds every point inside it.
     #[test]
     fn a_centre_box_bounds_every_points_turn_on_its_arm() {
         use rand::{Rng, SeedableRng};
@@ -241,24 +272,38 @@ mod tests {
         };
         let mut tight = 0;
         for _ in 0..2000 {
-            let (a, b) = (v(&mut rng, 30.0), v(&mut rng, 30.0));
-            let centres = CentreBox::of_points([a.into(), b.into()]);
+            // Points about a random axis of the tool frame, or anywhere.
+            let stretch = match rng.random_range(0..4) {
+                k @ 0..=2 => Vector3::from_fn(|i, _| if i == k { 30.0 } else { 3.0 }),
+                _ => Vector3::repeat(30.0),
+            };
+            let points: Vec<Vector3<f64>> = (0..12)
+                .map(|_| v(&mut rng, 1.0).component_mul(&stretch))
+                .collect();
+            let held = CentreBox::of_points(points.iter().map(|p| [p.x, p.y, p.z]));
+            let boxed = CentreBox::of_box(held.lo, held.hi);
             let r_a = rotation_exp(&v(&mut rng, 3.0));
             let r_b = rotation_exp(&v(&mut rng, 0.3)) * r_a;
-            let bound = centres.turn_bound(&r_a, &r_b);
+            let bound = held.turn_bound(&r_a, &r_b);
             let angle = rotation_log(&(r_b * r_a.transpose())).norm();
-            assert!(bound <= angle * centres.reach() + 1e-9);
+            assert!(bound <= angle * held.reach() + 1e-9);
+            assert!(bound <= boxed.turn_bound(&r_a, &r_b) + 1e-9);
             let mut largest = 0.0f64;
-            for _ in 0..20 {
+            for p in &points {
+                let moved = (r_b * p - r_a * p).norm();
+                assert!(moved <= bound + 1e-9, "{moved} > {bound}");
+                largest = largest.max(moved);
+            }
+            // Any point inside the box, for the box's own bound.
+            for _ in 0..8 {
                 let t = Vector3::new(
                     rng.random_range(0.0..1.0),
                     rng.random_range(0.0..1.0),
                     rng.random_range(0.0..1.0),
                 );
-                let p = centres.lo + (centres.hi - centres.lo).component_mul(&t);
+                let p = held.lo + (held.hi - held.lo).component_mul(&t);
                 let moved = (r_b * p - r_a * p).norm();
-                assert!(moved <= bound + 1e-9, "{moved} > {bound}");
-                largest = largest.max(moved);
+                assert!(moved <= boxed.turn_bound(&r_a, &r_b) + 1e-9);
             }
             tight += usize::from(largest > 0.5 * bound);
         }
@@ -266,12 +311,19 @@ mod tests {
             tight > 1000,
             "{tight} of 2000 bounds within twice the motion"
         );
-        // A ring of radius 2 mm, 40 mm long, turned 0.1 rad about its own axis: 0.2 mm on
-        // the box's corner arm 2·sqrt(2), against 2 mm on the reach.
-        let shaft = CentreBox::of_points([[-2.0, -2.0, -20.0], [2.0, 2.0, 20.0]]);
+        // A ring of radius 2 mm, 40 mm long, turned 0.1 rad about its own axis: 0.2 mm on its
+        // radius, against 0.1 · 2·sqrt(2) on the box's corners and 2 mm on the reach.
+        let ring = (0..64).flat_map(|i| {
+            let a = f64::from(i) * std::f64::consts::TAU / 64.0;
+            [-20.0, 20.0].map(|z| [2.0 * a.cos(), 2.0 * a.sin(), z])
+        });
+        let shaft = CentreBox::of_points(ring);
         let turned = rotation_exp(&Vector3::new(0.0, 0.0, 0.1));
         let about = shaft.turn_bound(&Matrix3::identity(), &turned);
-        assert!((about - 0.1 * 8f64.sqrt()).abs() < 1e-12, "{about}");
+        assert!((about - 0.1 * 2.0).abs() < 1e-12, "{about}");
+        let corners = CentreBox::of_box(shaft.lo, shaft.hi);
+        let boxed = corners.turn_bound(&Matrix3::identity(), &turned);
+        assert!((boxed - 0.1 * 8f64.sqrt()).abs() < 1e-12, "{boxed}");
         assert!(about < 0.15 * 0.1 * shaft.reach());
         assert_eq!(shaft.turn_bound(&turned, &turned), 0.0);
         let empty = CentreBox::of_points(std::iter::empty());

@@ -320,7 +320,11 @@ impl GodObject {
             // (`|w × p| <= |w_u| arm + |w_across| reach`) the budget splits into 0.6 about the
             // axis (by the arm) and 0.28 about each axis across (by `reach`): `0.6 + sqrt(2)
             // 0.28 < 1`. Taken where it turns farther than the ball's 0.85 of the budget.
-            let arm = self.bodies.centres.arm(rot_lin, &axis).min(reach);
+            // The box's corners' arm, not the tighter `CentreBox::arm` of the motion bounds:
+            // the split was tuned on it, and the tighter arm let the keyed shaft's reused
+            // regions bind more often (frames of three passes 14 -> 23, against 15 -> 4 on
+            // `spline-tight`'s turn).
+            let arm = self.bodies.centres.corner_arm(rot_lin, &axis).min(reach);
             let by_arm = TURN_ALONG_BY_ARM * budget * reach / arm.max(1e-12);
             if by_arm > 0.85 * budget && arm > 0.0 {
                 (
@@ -444,7 +448,7 @@ mod tests {
                         let (axes, n) = axes(&mut g, trust);
                         assert_eq!(axes.len(), 6);
                         let axis = turn.normalize();
-                        let arm = centres.arm(&Matrix3::identity(), &axis).min(reach);
+                        let arm = centres.corner_arm(&Matrix3::identity(), &axis).min(reach);
                         for signs in 0..64u32 {
                             let mut dq = [0.0; 6];
                             for (k, (u, w)) in axes.iter().enumerate() {

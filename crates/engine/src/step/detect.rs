@@ -933,10 +933,7 @@ impl GodObject {
             LEVER_MAX_TESTS,
         )
         .and_then(|(lo, hi)| {
-            let near = CentreBox {
-                lo: Vector3::from(lo),
-                hi: Vector3::from(hi),
-            };
+            let near = CentreBox::of_box(Vector3::from(lo), Vector3::from(hi));
             let reach = near.reach().min(self.bodies.reach);
             // Worth it only where the near leaves turn on a shorter arm than the tool.
             (reach < 0.9 * self.bodies.reach).then_some(Lever { near, reach })
@@ -1356,15 +1353,13 @@ pub(super) mod tests {
             assert!(moved <= bound + 1e-9, "moved {moved} > bound {bound}");
             assert!(bound <= turn.norm() * g.reach() + 1e-9);
         }
-        // About the shaft's axis (at identity: world z), by 0.1 rad.
+        // About the shaft's axis (at identity: world z), by 0.1 rad: on its rings' radius of
+        // 12 mm (its box's corners are 12·sqrt(2) out).
         let about = g.turn_bound(
             &Matrix3::identity(),
             &rotation_exp(&Vector3::new(0.0, 0.0, 0.1)),
         );
-        assert!(
-            (about - 0.1 * (12.0f64 * 12.0 * 2.0).sqrt()).abs() < 1e-6,
-            "{about}"
-        );
+        assert!((about - 0.1 * 12.0).abs() < 1e-6, "{about}");
         assert!(
             about < 0.35 * 0.1 * g.reach(),
             "{about} vs reach {}",
