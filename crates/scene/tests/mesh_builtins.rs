@@ -223,6 +223,52 @@ fn a_shaft_turned_on_its_hubs_face_goes_on_from_a_bound_answer_in_a_new_region()
     }
 }
 
+/// `spline-tight`'s drop: the shaft pressed 2 mm onto the hub's face and turned until its keys
+/// come over the keyways falls 2 mm at once. Balls kept small by the dense face contact creep
+/// a few hundredths of a millimetre a pass; a pass that went straight toward the hand until its
+/// trust region held it starts the fall's straight path in the same frame. The drop's first
+/// frame goes more than half the way (without: under a quarter, waiting for a frame's step of
+/// 0.1 mm), and the shaft reaches the hand's depth in the next.
+#[test]
+fn a_shaft_whose_keys_come_over_the_keyways_falls_in_its_first_frame() {
+    let cache = common::test_cache();
+    let tight = scene::scenes::builtin("spline-tight", &cache).unwrap();
+    let quarter_pitch = 0.25 * spline_scene::tight_params().pitch();
+    let at = |alpha: f64| [0.0, 0.0, -spline_scene::PRESS_MM, 0.0, 0.0, alpha];
+    let above = [0.0, 0.0, 0.5, 0.0, 0.0, quarter_pitch];
+    let script = Script::starting_at(above)
+        .then(0.1, at(quarter_pitch), Ease::Smooth)
+        .hold(0.05)
+        .then(0.3, at(0.0), Ease::Linear)
+        .hold(0.05);
+    let end = script.duration();
+    let mut scene = tight;
+    scene.start = Pose::from_array(above);
+    scene.motion = Motion::Script(script);
+    let drop = |falls: bool| {
+        let mut s = scene.clone();
+        s.solver.heuristics.mesh_region_falls = falls;
+        let (_, frames) = run_goal(&s, Geometry::Mesh, end);
+        let start = frames
+            .iter()
+            .position(|r| r.frame.q_g[2] < -0.01)
+            .expect("the shaft never dropped");
+        let reached = frames[start..]
+            .iter()
+            .position(|r| r.frame.q_g[2] < -1.9)
+            .expect("the shaft never reached the hand's depth");
+        (frames[start].frame.q_g[2], reached + 1)
+    };
+    let (first_on, frames_on) = drop(true);
+    let (first_off, _) = drop(false);
+    assert!(
+        first_on < -1.0 && first_off > -0.5,
+        "the drop's first frame: to z = {first_on} mm falling from a held pass, {first_off} \
+         waiting for a step"
+    );
+    assert!(frames_on <= 2, "the drop took {frames_on} frames");
+}
+
 /// `probe`: its parts closed and the pocket as wide as stated; the tip reaches the floor on the
 /// mesh and rests on it pressed, and stops short on the spheres.
 #[test]

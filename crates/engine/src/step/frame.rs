@@ -4,6 +4,11 @@
 
 use super::*;
 
+/// A pass held by its trust region that went at least this share of its region's width
+/// straight toward the goal shows a falling tool ([`Heuristics::mesh_region_falls`]): a ball
+/// stopped by contacts, or by a turn, goes less far along the way.
+const FALL_REGION_SHARE: f64 = 0.5;
+
 /// An answer no farther than this (mm, every point of the tool) from its linearisation pose is
 /// taken as that pose in the mesh mode: far below any tolerance of the step.
 const STILL_ANSWER_MM: f64 = 1e-9;
@@ -129,6 +134,10 @@ pub(super) struct Course {
     /// Where the last pass started, when it crept (its answer within [`Tuning::creep_share`] of its
     /// region's width).
     pub(super) crept_from: Option<Pose>,
+    /// The last pass was held by its trust region, not by contacts, having gone at least half
+    /// its region's width straight toward the goal ([`Heuristics::mesh_region_falls`]): the
+    /// tool falls free where the regions' sizes, not the parts, hold it back.
+    pub(super) fell: bool,
 }
 
 /// A frame's working state, carried from stage to stage: plain values, on the stack.
@@ -199,6 +208,7 @@ impl GodObject {
                 recentred_in_frame: false,
                 min_path_len: 0.0,
                 crept_from: None,
+                fell: false,
             },
         }
     }
@@ -357,6 +367,7 @@ impl GodObject {
         (n_pairs, n_rows): (usize, usize),
     ) -> Flow {
         let t2 = Instant::now();
+        f.course.fell = false;
         let (q_lin, region) = (f.course.q_lin, f.course.region);
         let moved = self.distance_from_region(lin, &region, &q_new, dq);
         let moved_across = region.slab.map_or(0.0, |(n, across)| {
@@ -419,6 +430,16 @@ impl GodObject {
         // either way.
         let bound_goes_on =
             binds && self.bodies.meshes.is_some() && self.params.heuristics.mesh_bound_detects;
+        f.course.fell = binds
+            && pen <= f.tol
+            && self.bodies.meshes.is_some()
+            && self.params.heuristics.mesh_region_falls
+            && {
+                let step = q_new.translation() - q_lin.translation();
+                let way = f.goal.translation() - q_lin.translation();
+                step.norm() >= FALL_REGION_SHARE * region.width
+                    && step.dot(&way) >= self.params.tuning.fall_min_cos * step.norm() * way.norm()
+            };
         let c = &mut f.course;
         if pen <= f.tol && (slack <= CONVERGED_MM || bound_goes_on) {
             if !binds {
@@ -497,6 +518,7 @@ impl GodObject {
         let m = &mut self.run.motion;
         m.pen_g = f.progress.pen_safe;
         m.behind = !f.progress.reached;
+        m.fell = m.behind && f.course.fell;
         m.contacts_g = out.contacts;
         m.last_motion = last_motion;
         for k in 0..3 {

@@ -90,6 +90,12 @@ pub struct Heuristics {
     /// (a shaft turned on its hub's face, its keys' edges crossing the keyways': nine in ten
     /// such passes did not move the tool).
     pub mesh_bound_detects: bool,
+    /// The mesh mode's region falls: a tool whose last pass went straight toward the goal
+    /// until its trust region (not its contacts) held it, in this frame or at the end of the
+    /// last, takes the straight way there as a path (the fall of a tool left behind), rather
+    /// than waiting for a frame's step of [`Tuning::fall_min_step_mm`](crate::Tuning::fall_min_step_mm):
+    /// balls the pair density keeps small creep where the tool falls free.
+    pub mesh_region_falls: bool,
 }
 
 impl Default for Heuristics {
@@ -122,6 +128,7 @@ impl Heuristics {
         mesh_list_inherit: true,
         mesh_near_fill: true,
         mesh_bound_detects: true,
+        mesh_region_falls: true,
     };
 
     /// Every heuristic off.
@@ -147,10 +154,11 @@ impl Heuristics {
         mesh_list_inherit: false,
         mesh_near_fill: false,
         mesh_bound_detects: false,
+        mesh_region_falls: false,
     };
 
     /// The names of the switches (as the bench's ablation study prints them), in order.
-    pub const NAMES: [&'static str; 21] = [
+    pub const NAMES: [&'static str; 22] = [
         "region-reuse",
         "path-regions",
         "slab-regions",
@@ -172,6 +180,7 @@ impl Heuristics {
         "mesh-list-inherit",
         "mesh-near-fill",
         "mesh-bound-detects",
+        "mesh-region-falls",
     ];
 
     /// The switch called `name` ([`Heuristics::NAMES`]), for reading and setting.
@@ -198,6 +207,7 @@ impl Heuristics {
             "mesh-list-inherit" => &mut self.mesh_list_inherit,
             "mesh-near-fill" => &mut self.mesh_near_fill,
             "mesh-bound-detects" => &mut self.mesh_bound_detects,
+            "mesh-region-falls" => &mut self.mesh_region_falls,
             _ => return None,
         })
     }

@@ -211,16 +211,33 @@ impl GodObject {
             f.cap
         };
         // A tool left behind while falling (the last frame ran out before its optimum with
-        // the tool moving on toward the goal): its path is the straight way there.
+        // the tool moving on toward the goal): its path is the straight way there. In the mesh
+        // mode also a tool whose last pass (in this frame, or the last frame's) went straight
+        // toward the goal until its trust region held it ([`Course::fell`]): balls the pair
+        // density keeps small creep a few hundredths of a millimetre a pass where the tool
+        // falls free (a shaft dropping 2 mm into its keyways as they align).
         let falling = {
             let step = Vector3::from(self.run.motion.last_step);
             let way = goal.translation() - q_lin.translation();
-            self.run.motion.behind
-                && step.norm() >= self.params.tuning.fall_min_step_mm
-                && step.dot(&way) >= self.params.tuning.fall_min_cos * step.norm() * way.norm()
+            let toward =
+                step.dot(&way) >= self.params.tuning.fall_min_cos * step.norm() * way.norm();
+            f.course.fell
+                || self.run.motion.behind
+                    && toward
+                    && (step.norm() >= self.params.tuning.fall_min_step_mm || self.run.motion.fell)
         };
+        // A falling path's width: the least, or in the mesh mode with thin paths as thin as
+        // keeps out a wall that stands a little off the tool along the way (the keyways' walls
+        // 0.1 mm off the dropping shaft's keys: ~2 300 pairs a path at the least width, ~150
+        // at half the wall's distance less the skin).
         let path_width = if falling {
-            self.params.tuning.path_width_min_mm
+            let wall = self.run.regions.near_standoff - f.skin;
+            let min_width = self.params.tuning.path_width_min_mm;
+            if h.mesh_thin_paths && self.bodies.meshes.is_some() && wall > 0.0 {
+                (0.5 * wall).min(min_width)
+            } else {
+                min_width
+            }
         } else {
             self.path_width()
         };

@@ -267,6 +267,7 @@ impl RunState {
                 hand_offset: (Vector3::zeros(), Vector3::zeros()),
                 prediction_error: 0.0,
                 behind: false,
+                fell: false,
                 pen_g: 0.0,
                 contacts_g: 0,
             },
@@ -355,6 +356,9 @@ pub(super) struct Motion {
     pub(super) prediction_error: f64,
     /// The last frame ended before the constrained optimum (passes or time ran out).
     pub(super) behind: bool,
+    /// The last frame's last pass was held by its region's trust region, not by contacts, on a
+    /// way straight toward the goal ([`Course::fell`](super::frame::Course)).
+    pub(super) fell: bool,
     /// Overlap (mm) and touching pairs at `q_g`, as the last frame measured them.
     pub(super) pen_g: f64,
     pub(super) contacts_g: u32,
