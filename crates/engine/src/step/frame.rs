@@ -4,10 +4,11 @@
 
 use super::*;
 
-/// A pass held by its trust region that went at least this share of its region's width
-/// straight toward the goal shows a falling tool ([`Heuristics::mesh_region_falls`]): a ball
-/// stopped by contacts, or by a turn, goes less far along the way.
-const FALL_REGION_SHARE: f64 = 0.5;
+/// A ball held by its trust region whose pass went at least this share of its width straight
+/// toward the goal shows a falling tool ([`Heuristics::mesh_region_falls`]): a ball stopped by
+/// contacts, or by a turn, goes less far along the way. (A path held by its trust region is
+/// followed by a longer one.)
+const FALL_REGION_SHARE: f64 = 0.25;
 
 /// An answer no farther than this (mm, every point of the tool) from its linearisation pose is
 /// taken as that pose in the mesh mode: far below any tolerance of the step.
@@ -134,8 +135,8 @@ pub(super) struct Course {
     /// Where the last pass started, when it crept (its answer within [`Tuning::creep_share`] of its
     /// region's width).
     pub(super) crept_from: Option<Pose>,
-    /// The last pass was held by its trust region, not by contacts, having gone at least half
-    /// its region's width straight toward the goal ([`Heuristics::mesh_region_falls`]): the
+    /// The last pass, a ball, was held by its trust region, not by contacts, having gone at
+    /// least a quarter of its width straight toward the goal ([`Heuristics::mesh_region_falls`]): the
     /// tool falls free where the regions' sizes, not the parts, hold it back.
     pub(super) fell: bool,
 }
@@ -432,6 +433,7 @@ impl GodObject {
             binds && self.bodies.meshes.is_some() && self.params.heuristics.mesh_bound_detects;
         f.course.fell = binds
             && pen <= f.tol
+            && region.sweep.is_none()
             && self.bodies.meshes.is_some()
             && self.params.heuristics.mesh_region_falls
             && {
@@ -518,7 +520,9 @@ impl GodObject {
         let m = &mut self.run.motion;
         m.pen_g = f.progress.pen_safe;
         m.behind = !f.progress.reached;
-        m.fell = m.behind && f.course.fell;
+        // A frame that ended before any pass was solved (its region's listing stopped at the
+        // deadline) keeps the last frame's fall: the next frame goes on with that region.
+        m.fell = m.behind && (f.course.fell || m.fell && !f.progress.solved_in_frame);
         m.contacts_g = out.contacts;
         m.last_motion = last_motion;
         for k in 0..3 {
