@@ -177,7 +177,9 @@ impl NeighbourList {
             // overflow, as one with too many pairs).
             columns: Columns::with_capacity(capacity, capacity * cuts_per_pair),
             reach: tool.reach(),
-            centres: CentreBox::of_points(tool.leaves().map(|n| tool.center(n))),
+            // By the box's corners, as the leaf spheres' step was tuned (`CentreBox::axis_arms`).
+            centres: CentreBox::of_points(tool.leaves().map(|n| tool.center(n)))
+                .with_axis_arms(false),
             leaf_radius,
         }
     }

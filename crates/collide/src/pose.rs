@@ -121,6 +121,10 @@ pub struct CentreBox {
     /// The points' largest distance (mm) from the tool frame's `x`, `y` and `z` axes through
     /// its origin: no more than the box's corners'.
     pub radial: Vector3<f64>,
+    /// Whether [`CentreBox::arm`] bounds a turn about the tool's axes by `radial` too, or by
+    /// the corners alone (as the leaf spheres' step was tuned: there the tighter arm changed
+    /// the zoo's work both ways, and its cost showed on the bunny's 18 µs frames).
+    pub axis_arms: bool,
 }
 
 impl CentreBox {
@@ -136,7 +140,12 @@ impl CentreBox {
             .fold((first, first, radial_of(&first)), |(lo, hi, radial), c| {
                 (lo.inf(&c), hi.sup(&c), radial.sup(&radial_of(&c)))
             });
-        Self { lo, hi, radial }
+        Self {
+            lo,
+            hi,
+            radial,
+            axis_arms: true,
+        }
     }
 
     /// The box from `lo` to `hi` (tool frame, mm) and any points inside it: the distances
@@ -144,7 +153,20 @@ impl CentreBox {
     pub fn of_box(lo: Vector3<f64>, hi: Vector3<f64>) -> Self {
         let far = lo.abs().sup(&hi.abs());
         let radial = Vector3::new(far.y.hypot(far.z), far.x.hypot(far.z), far.x.hypot(far.y));
-        Self { lo, hi, radial }
+        Self {
+            lo,
+            hi,
+            radial,
+            axis_arms: false,
+        }
+    }
+
+    /// The same box with [`CentreBox::axis_arms`] set to `on`.
+    pub fn with_axis_arms(self, on: bool) -> Self {
+        Self {
+            axis_arms: on,
+            ..self
+        }
     }
 
     /// Corner `c` (0–7: bit 0 x, bit 1 y, bit 2 z high).
@@ -173,11 +195,14 @@ impl CentreBox {
     }
 
     /// The largest distance (mm) of a point held, the tool at rotation `r`, from the unit
-    /// world axis `u` through the tool origin: the least of [`CentreBox::corner_arm`] and a
-    /// bound about each tool axis `e`. With `a = R^T u` and a point `p = s e + q`, `q ⊥ e`,
+    /// world axis `u` through the tool origin: [`CentreBox::corner_arm`], or with
+    /// [`CentreBox::axis_arms`] the least of that and a bound about each tool axis `e`. With `a = R^T u` and a point `p = s e + q`, `q ⊥ e`,
     /// `|s|` at most the box's extent along `e` and `|q|` the points' distance from `e`:
     /// `|a × p| <= |s| |a × e| + |q|`.
     pub fn arm(&self, r: &Matrix3<f64>, u: &Vector3<f64>) -> f64 {
+        if !self.axis_arms {
+            return self.corner_arm(r, u);
+        }
         let a = r.transpose() * u;
         let along = self.lo.abs().sup(&self.hi.abs());
         (0..3)
@@ -324,6 +349,8 @@ mod tests {
         let corners = CentreBox::of_box(shaft.lo, shaft.hi);
         let boxed = corners.turn_bound(&Matrix3::identity(), &turned);
         assert!((boxed - 0.1 * 8f64.sqrt()).abs() < 1e-12, "{boxed}");
+        let by_corners = shaft.with_axis_arms(false);
+        assert_eq!(by_corners.turn_bound(&Matrix3::identity(), &turned), boxed);
         assert!(about < 0.15 * 0.1 * shaft.reach());
         assert_eq!(shaft.turn_bound(&turned, &turned), 0.0);
         let empty = CentreBox::of_points(std::iter::empty());

@@ -1353,13 +1353,16 @@ pub(super) mod tests {
             assert!(moved <= bound + 1e-9, "moved {moved} > bound {bound}");
             assert!(bound <= turn.norm() * g.reach() + 1e-9);
         }
-        // About the shaft's axis (at identity: world z), by 0.1 rad: on its rings' radius of
-        // 12 mm (its box's corners are 12·sqrt(2) out).
+        // About the shaft's axis (at identity: world z), by 0.1 rad: on the leaf spheres by its
+        // box's corners, 12·sqrt(2) out (`CentreBox::axis_arms` is the mesh mode's).
         let about = g.turn_bound(
             &Matrix3::identity(),
             &rotation_exp(&Vector3::new(0.0, 0.0, 0.1)),
         );
-        assert!((about - 0.1 * 12.0).abs() < 1e-6, "{about}");
+        assert!(
+            (about - 0.1 * (12.0f64 * 12.0 * 2.0).sqrt()).abs() < 1e-6,
+            "{about}"
+        );
         assert!(
             about < 0.35 * 0.1 * g.reach(),
             "{about} vs reach {}",

@@ -337,7 +337,9 @@ impl GodObject {
                 .map(|p| Vector3::from(p).norm())
                 .fold(reach, f64::max)
         });
-        let centres = CentreBox::of_points(tool.leaves().map(|n| tool.center(n)).chain(corners));
+        // The axes' arms in the mesh mode only (`CentreBox::axis_arms`).
+        let centres = CentreBox::of_points(tool.leaves().map(|n| tool.center(n)).chain(corners))
+            .with_axis_arms(meshes.is_some());
         let ws = CollideWorkspace::for_trees(&tool, &objects);
         let faces = objects.iter().any(|o| o.face_cut_count() > 0);
         let tool_slots = (0..tool.len()).map(|n| tool.slot(n) + 1).max().unwrap_or(0);
