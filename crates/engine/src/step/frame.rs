@@ -521,8 +521,11 @@ impl GodObject {
         m.pen_g = f.progress.pen_safe;
         m.behind = !f.progress.reached;
         // A frame that ended before any pass was solved (its region's listing stopped at the
-        // deadline) keeps the last frame's fall: the next frame goes on with that region.
-        m.fell = m.behind && (f.course.fell || m.fell && !f.progress.solved_in_frame);
+        // deadline) keeps the last frame's fall, once: the next frame goes on with that
+        // region's list under way; a second such frame drops the fall.
+        let carried = m.fell && !m.fell_carried && !f.progress.solved_in_frame;
+        m.fell = m.behind && (f.course.fell || carried);
+        m.fell_carried = carried && !f.course.fell;
         m.contacts_g = out.contacts;
         m.last_motion = last_motion;
         for k in 0..3 {

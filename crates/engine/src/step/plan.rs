@@ -21,6 +21,11 @@ pub(super) const ROWS_RESERVE_MIN_PAIRS: usize = 256;
 /// wall is better held by balls.
 const THIN_PATH_LEAST_SHARE: f64 = 0.25;
 
+/// A fall seen in a held pass ([`Heuristics::mesh_region_falls`]) takes its path only where
+/// the path, kept off a wall standing near, is at least this share of
+/// [`Tuning::path_width_min_mm`] wide.
+const FALL_LEAST_WIDTH_SHARE: f64 = 0.25;
+
 /// A region as planned before its pairs are listed.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct RegionPlan {
@@ -216,22 +221,30 @@ impl GodObject {
         // toward the goal until its trust region held it ([`Course::fell`]): balls the pair
         // density keeps small creep a few hundredths of a millimetre a pass where the tool
         // falls free (a shaft dropping 2 mm into its keyways as they align).
+        // Only where the falling path keeps a wall standing off the tool out and is still a
+        // quarter of the least path width (below), or no wall stands near: a peg 0.02 mm from
+        // its hole's wall, its balls held by their trust regions on the way down, would list
+        // the whole wall along the path frame after frame, or slide down a path too thin to
+        // centre it in.
+        let wall = self.run.regions.near_standoff - f.skin;
+        let falls_clear =
+            0.5 * wall >= FALL_LEAST_WIDTH_SHARE * self.params.tuning.path_width_min_mm;
         let falling = {
             let step = Vector3::from(self.run.motion.last_step);
             let way = goal.translation() - q_lin.translation();
             let toward =
                 step.dot(&way) >= self.params.tuning.fall_min_cos * step.norm() * way.norm();
-            f.course.fell
+            falls_clear && f.course.fell
                 || self.run.motion.behind
                     && toward
-                    && (step.norm() >= self.params.tuning.fall_min_step_mm || self.run.motion.fell)
+                    && (step.norm() >= self.params.tuning.fall_min_step_mm
+                        || falls_clear && self.run.motion.fell)
         };
         // A falling path's width: the least, or in the mesh mode with thin paths as thin as
         // keeps out a wall that stands a little off the tool along the way (the keyways' walls
         // 0.1 mm off the dropping shaft's keys: ~2 300 pairs a path at the least width, ~150
         // at half the wall's distance less the skin).
         let path_width = if falling {
-            let wall = self.run.regions.near_standoff - f.skin;
             let min_width = self.params.tuning.path_width_min_mm;
             if h.mesh_thin_paths && self.bodies.meshes.is_some() && wall > 0.0 {
                 (0.5 * wall).min(min_width)

@@ -268,6 +268,7 @@ impl RunState {
                 prediction_error: 0.0,
                 behind: false,
                 fell: false,
+                fell_carried: false,
                 pen_g: 0.0,
                 contacts_g: 0,
             },
@@ -359,6 +360,8 @@ pub(super) struct Motion {
     /// The last frame's last pass was held by its region's trust region, not by contacts, on a
     /// way straight toward the goal ([`Course::fell`](super::frame::Course)).
     pub(super) fell: bool,
+    /// `fell` was carried through a frame that solved no pass (once only).
+    pub(super) fell_carried: bool,
     /// Overlap (mm) and touching pairs at `q_g`, as the last frame measured them.
     pub(super) pen_g: f64,
     pub(super) contacts_g: u32,
