@@ -180,6 +180,24 @@ fn spline_tight_is_the_spline_at_a_tenth_of_a_millimetre_and_goes_in_on_the_mesh
     );
 }
 
+/// `spline-tight` with its hand lowered from 0.5 mm above the hub's face to 2 mm into it at the
+/// keys' misalignment `from` (rad), held 0.05 s, turned to `to` over 0.3 s at a steady pace, and
+/// held `hold` s; with the script's length (s).
+fn pressed_and_turned(from: f64, to: f64, hold: f64) -> (Scene, f64) {
+    let mut scene = scene::scenes::builtin("spline-tight", &common::test_cache()).unwrap();
+    let at = |alpha: f64| [0.0, 0.0, -spline_scene::PRESS_MM, 0.0, 0.0, alpha];
+    let above = [0.0, 0.0, 0.5, 0.0, 0.0, from];
+    let script = Script::starting_at(above)
+        .then(0.1, at(from), Ease::Smooth)
+        .hold(0.05)
+        .then(0.3, at(to), Ease::Linear)
+        .hold(hold);
+    let end = script.duration();
+    scene.start = Pose::from_array(above);
+    scene.motion = Motion::Script(script);
+    (scene, end)
+}
+
 /// `spline-tight`'s turn on the hub's face, keys misaligned: the hand 2 mm into the face turns
 /// the shaft at the scene's pace. The keys' edges cross the keyways' edges, whose rows stay open
 /// in truth where a trust region stops the answer; re-linearising on the same pairs then stops
@@ -187,21 +205,10 @@ fn spline_tight_is_the_spline_at_a_tenth_of_a_millimetre_and_goes_in_on_the_mesh
 /// three passes or more, and the shaft turns as far.
 #[test]
 fn a_shaft_turned_on_its_hubs_face_goes_on_from_a_bound_answer_in_a_new_region() {
-    let cache = common::test_cache();
-    let tight = scene::scenes::builtin("spline-tight", &cache).unwrap();
     let half_pitch = 0.5 * spline_scene::tight_params().pitch();
-    let at = |alpha: f64| [0.0, 0.0, -spline_scene::PRESS_MM, 0.0, 0.0, alpha];
-    // Pressed onto the face, then a quarter of the way to the keys' alignment at the scene's
-    // steepest pace (half a pitch over 1.2 s, smoothed).
-    let above = [0.0, 0.0, 0.5, 0.0, 0.0, half_pitch];
-    let script = Script::starting_at(above)
-        .then(0.1, at(half_pitch), Ease::Smooth)
-        .hold(0.05)
-        .then(0.3, at(0.75 * half_pitch), Ease::Linear);
-    let end = script.duration();
-    let mut scene = tight;
-    scene.start = Pose::from_array(above);
-    scene.motion = Motion::Script(script);
+    // A quarter of the way to the keys' alignment at the scene's steepest pace (half a pitch
+    // over 1.2 s, smoothed).
+    let (scene, end) = pressed_and_turned(half_pitch, 0.75 * half_pitch, 0.0);
     let turned = |bound_detects: bool| {
         let mut s = scene.clone();
         s.solver.heuristics.mesh_bound_detects = bound_detects;
@@ -231,20 +238,8 @@ fn a_shaft_turned_on_its_hubs_face_goes_on_from_a_bound_answer_in_a_new_region()
 /// 0.1 mm), and the shaft reaches the hand's depth in the next.
 #[test]
 fn a_shaft_whose_keys_come_over_the_keyways_falls_in_its_first_frame() {
-    let cache = common::test_cache();
-    let tight = scene::scenes::builtin("spline-tight", &cache).unwrap();
     let quarter_pitch = 0.25 * spline_scene::tight_params().pitch();
-    let at = |alpha: f64| [0.0, 0.0, -spline_scene::PRESS_MM, 0.0, 0.0, alpha];
-    let above = [0.0, 0.0, 0.5, 0.0, 0.0, quarter_pitch];
-    let script = Script::starting_at(above)
-        .then(0.1, at(quarter_pitch), Ease::Smooth)
-        .hold(0.05)
-        .then(0.3, at(0.0), Ease::Linear)
-        .hold(0.05);
-    let end = script.duration();
-    let mut scene = tight;
-    scene.start = Pose::from_array(above);
-    scene.motion = Motion::Script(script);
+    let (scene, end) = pressed_and_turned(quarter_pitch, 0.0, 0.05);
     let drop = |falls: bool| {
         let mut s = scene.clone();
         s.solver.heuristics.mesh_region_falls = falls;
