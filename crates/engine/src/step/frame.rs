@@ -136,8 +136,9 @@ pub(super) struct Course {
     /// region's width).
     pub(super) crept_from: Option<Pose>,
     /// The last pass, a ball, was held by its trust region, not by contacts, having gone at
-    /// least a quarter of its width straight toward the goal ([`Heuristics::mesh_region_falls`]): the
-    /// tool falls free where the regions' sizes, not the parts, hold it back.
+    /// least a quarter of its width straight toward the goal
+    /// ([`Heuristics::mesh_region_falls`]): the tool falls free where the regions' sizes, not
+    /// the parts, hold it back.
     pub(super) fell: bool,
 }
 

@@ -220,8 +220,8 @@ impl GodObject {
         // mode also a tool whose last pass (in this frame, or the last frame's) went straight
         // toward the goal until its trust region held it ([`Course::fell`]): balls the pair
         // density keeps small creep a few hundredths of a millimetre a pass where the tool
-        // falls free (a shaft dropping 2 mm into its keyways as they align).
-        // Only where the falling path keeps a wall standing off the tool out and is still a
+        // falls free (a shaft dropping 2 mm into its keyways as they align). Such a fall is
+        // taken only where the falling path keeps a wall standing off the tool out and is still a
         // quarter of the least path width (below), or no wall stands near: a peg 0.02 mm from
         // its hole's wall, its balls held by their trust regions on the way down, would list
         // the whole wall along the path frame after frame, or slide down a path too thin to
