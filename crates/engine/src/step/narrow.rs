@@ -1662,6 +1662,14 @@ mod tests {
     use super::*;
     use spheretree::Sphere;
 
+    impl GodObject {
+        /// The leaf pairs within `margin` (mm) of touching at `q`, then their triangle pairs.
+        fn detect_triangles(&mut self, q: &Pose, margin: f64) {
+            self.detect(q, margin).unwrap();
+            self.narrow_phase(q, margin);
+        }
+    }
+
     /// A closed box mesh, `half` its half-extents (mm), centred at `c`.
     fn box_mesh(c: [f64; 3], half: [f64; 3]) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
         let v: Vec<[f64; 3]> = (0..8)
@@ -1807,8 +1815,7 @@ mod tests {
             |(mut god, _, _): (GodObject, Vec<Triangle>, Vec<Triangle>), q: Pose| {
                 god.params.tuning.near_list_pairs = 4;
                 let extra = god.run.regions.near_extra;
-                god.detect(&q, 0.1).unwrap();
-                god.narrow_phase(&q, 0.1);
+                god.detect_triangles(&q, 0.1);
                 assert!(god.run.regions.near_at.is_some());
                 assert!(god.detector.near.len() > 4, "{}", god.detector.near.len());
                 god.run.regions.near_extra / extra
@@ -1827,8 +1834,7 @@ mod tests {
         let q = Pose::from_array([0.0, 0.0, 2.45, 0.0, 0.0, 0.0]);
         let listed = |max_pairs: usize| {
             let (mut god, _, _) = cube_over_sheet_storing(max_pairs);
-            god.detect(&q, 0.25).unwrap();
-            god.narrow_phase(&q, 0.25);
+            god.detect_triangles(&q, 0.25);
             god
         };
         let whole = listed(EngineConfig::default().max_pairs);
@@ -1927,8 +1933,7 @@ mod tests {
     fn a_slice_fills_the_frame_only_while_the_next_list_is_on_time() {
         let (mut god, _, _) = cube_over_sheet();
         let q = Pose::from_array([0.0, 0.0, 2.4, 0.0, 0.0, 0.0]);
-        god.detect(&q, 0.1).unwrap();
-        god.narrow_phase(&q, 0.1);
+        god.detect_triangles(&q, 0.1);
         assert!(god.run.regions.near_at.is_some());
         let budget = god.params.budget_us;
         let full = god.params.tuning.near_ahead_share * budget;
@@ -1976,8 +1981,7 @@ mod tests {
         let start = |god: &mut GodObject, descent_slices: f64| {
             god.run.regions.near_at = None;
             god.run.regions.near_ahead = NearAhead::IDLE;
-            god.detect(&q0, 0.1).unwrap();
-            god.narrow_phase(&q0, 0.1);
+            god.detect_triangles(&q0, 0.1);
             let extra = god.run.regions.near_extra;
             // Turning in place, a tenth of the extra reach a frame: spent in ten frames, a
             // tenth of it used so far.
@@ -2146,8 +2150,7 @@ mod tests {
         let allow_at = |gap: f64| {
             let mut god = cube_over_fine_grid();
             let q = Pose::from_array([0.0, 0.0, 2.0 + gap, 0.0, 0.0, 0.0]);
-            god.detect(&q, 0.12).unwrap();
-            god.narrow_phase(&q, 0.12);
+            god.detect_triangles(&q, 0.12);
             assert!(god.detector.near.len() > 500, "{}", god.detector.near.len());
             god.standoff_allow(skin)
         };
@@ -2169,8 +2172,7 @@ mod tests {
         // sheet, its region measures the cells under the cube and gives the floor back.
         let mut god = cube_over_fine_grid();
         let q = Pose::from_array([0.0, 0.0, 2.05, 0.0, 0.0, 0.0]);
-        god.detect(&q, 0.12).unwrap();
-        god.narrow_phase(&q, 0.12);
+        god.detect_triangles(&q, 0.12);
         let room = god.standoff_allow(skin);
         let slid = Pose::from_array([room, 0.0, 2.05, 0.0, 0.0, 0.0]);
         god.narrow_phase(&slid, room + skin);
@@ -2186,8 +2188,7 @@ mod tests {
         // whose room would be under the floor.)
         let mut god = cube_over_fine_grid();
         let q = Pose::from_array([0.0, 0.0, 2.037, 0.0, 0.016, 0.0]);
-        god.detect(&q, 0.1).unwrap();
-        god.narrow_phase(&q, 0.1);
+        god.detect_triangles(&q, 0.1);
         let near = god.detector.contacts.len();
         assert!(near >= 500, "{near}");
         god.params.tuning.ball_pair_target = near as f64;
@@ -2287,8 +2288,7 @@ mod tests {
             Pose::from_array([0.0, 0.0, 2.3, 0.0, 0.0, 0.0]),
             Pose::from_array([0.3, 0.0, 2.3, 0.0, 0.0, 0.0]),
         );
-        god.detect(&q0, 0.1).unwrap();
-        god.narrow_phase(&q0, 0.1);
+        god.detect_triangles(&q0, 0.1);
         // Started about q1, but no slice of its descent done.
         god.tend_near(&q1, 0.0, far);
         let ahead = god.run.regions.near_ahead;
@@ -2313,8 +2313,7 @@ mod tests {
             p
         };
         let (mut fresh, _, _) = cube_over_sheet();
-        fresh.detect(&q1, 0.15).unwrap();
-        fresh.narrow_phase(&q1, 0.15);
+        fresh.detect_triangles(&q1, 0.15);
         assert!(!pairs(&fresh).is_empty());
         assert_eq!(pairs(&god), pairs(&fresh));
     }
@@ -2330,8 +2329,7 @@ mod tests {
         let ahead_at = |god: &mut GodObject| {
             god.run.regions.near_at = None;
             god.run.regions.near_ahead = NearAhead::IDLE;
-            god.detect(&q0, 0.1).unwrap();
-            god.narrow_phase(&q0, 0.1);
+            god.detect_triangles(&q0, 0.1);
             let wide = god.run.regions.near_at.unwrap().reach;
             // Half the extra reach used: the next list, built whole here, is about q1.
             god.tend_near(&q1, 1e6, far);
@@ -2420,8 +2418,7 @@ mod tests {
             let pose = Pose::from_array(q);
             let margin = [0.05, 0.2, 0.6][(k / 20) % 3];
             let before = god.run.regions.near_at;
-            god.detect(&pose, margin).unwrap();
-            god.narrow_phase(&pose, margin);
+            god.detect_triangles(&pose, margin);
             // The next list built ahead in slices of a few µs (one step's speed known), and
             // lists swept along the last step.
             god.run.motion.last_motion = step;
@@ -2487,8 +2484,7 @@ mod tests {
                     0.01 * phase,
                 ]);
                 let margin = 0.1;
-                god.detect(&q, margin).unwrap();
-                god.narrow_phase(&q, margin);
+                god.detect_triangles(&q, margin);
                 near_pairs += every_pair_within_kept(&god, &tool, &plate, &q, margin, k);
             }
             assert!(near_pairs > 500, "{near_pairs} pairs within the margin");
@@ -2564,8 +2560,7 @@ mod tests {
         // reproduce bit for bit).
         let q0 = Pose::from_array([5.0, 5.0, 1.003, 0.0, 0.0, 0.7]);
         let hand = Pose::from_array([4.0, 5.5, 0.0, 0.0, 0.0, 0.2]);
-        god.detect(&q0, 1.0).unwrap();
-        god.narrow_phase(&q0, 1.0);
+        god.detect_triangles(&q0, 1.0);
         let lin0 = god.linearization(&q0, &hand).unwrap();
         let n = god.fill_rows(&lin0, None);
         let mut dq = lin0.delta();
@@ -2718,8 +2713,7 @@ mod tests {
             let hand = Pose::from_array([x0 + 0.01, 0.0, 1.95, 0.0, 0.0, 0.0]);
             let mut way = Vec::new();
             for _ in 0..3 {
-                god.detect(&q, 2.0).unwrap();
-                god.narrow_phase(&q, 2.0);
+                god.detect_triangles(&q, 2.0);
                 let lin = god.linearization(&q, &hand).unwrap();
                 let n = god.fill_rows(&lin, None);
                 let (dq, _, status, _) = god.solve(n, n, &lin.delta()).unwrap();
@@ -2764,8 +2758,7 @@ mod tests {
         // Tilted and turned so that one corner is lowest: the nearest features are unique.
         let q = Pose::from_array([0.3, -0.2, 3.1, 0.31, -0.17, 0.4]);
         let hand = Pose::from_array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
-        god.detect(&q, 2.0).unwrap();
-        god.narrow_phase(&q, 2.0);
+        god.detect_triangles(&q, 2.0);
         assert!(!god.detector.contacts.is_empty());
         let lin = god.linearization(&q, &hand).unwrap();
         let n = god.fill_rows(&lin, None);
@@ -2939,8 +2932,7 @@ mod tests {
     fn a_step_through_the_plate_is_cut_back_to_the_last_free_pose_on_the_way() {
         let (mut god, tool, plate) = cube_on_plate();
         let q = Pose::from_array([0.0, 0.0, 2.5, 0.0, 0.0, 0.0]);
-        god.detect(&q, 3.0).unwrap();
-        god.narrow_phase(&q, 3.0);
+        god.detect_triangles(&q, 3.0);
         let lin = god
             .linearization(&q, &Pose::from_array([0.0, 0.0, 0.5, 0.0, 0.0, 0.0]))
             .unwrap();
