@@ -57,10 +57,11 @@ pub struct Heuristics {
     /// pass.
     pub mesh_tilted_targets: bool,
     /// The mesh mode's pair directions: a near-list pair a region's filter found apart keeps
-    /// the gap of the box or plane that showed it, along that fixed direction of the world,
-    /// and the next filters drop it while the tool's translation along that direction (and
-    /// its turn) leave the gap beyond their margin, rather than posing it again: a peg going
-    /// down its hole moves along the wall, not toward it.
+    /// the gap of the box, plane or edge that showed it, along that fixed direction of the
+    /// world, and the next filters drop it while the tool's translation along that direction
+    /// (and its turn) leave the gap beyond their margin, or while the gap measured again on
+    /// the tool triangle's own corners does, rather than posing it again: a peg going down
+    /// its hole moves along the wall, not toward it.
     pub mesh_pair_directions: bool,
     /// The mesh mode's thin paths: a tool held short of a wall by its standoff room (the
     /// wall's pairs kept out of its balls) moves along a path as thin as that room, however

@@ -30,10 +30,16 @@ pub(super) struct TriPair {
 /// with the tool's translation along `way` only (and the turn), so a tool sliding along a wall
 /// keeps its gaps to the wall, where the motion bound of the way would pose the pair again
 /// frame after frame ([`GodObject::narrow_phase_along`]).
+///
+/// The object's triangle lies wholly below `high` (mm) along `way`, so the gap at any pose is
+/// also the tool's triangle's lowest corner along `way` less `high`: [`PairGap::exact_at`]
+/// measures that from the tool's own corners, with no turn offset, where the turns summed
+/// since the gap was taken (the whole tool's, not the pair's) have worn it down.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct PairGap {
     way: [f64; 3],
     level: f64,
+    high: f64,
 }
 
 impl PairGap {
@@ -41,15 +47,24 @@ impl PairGap {
     pub(super) const NONE: Self = Self {
         way: [0.0; 3],
         level: f64::NEG_INFINITY,
+        high: f64::INFINITY,
     };
 
-    /// A gap of `gap` (mm) along `way` (unit, world) with the tool's translation at `t` (mm)
-    /// and the turn offset at `turn` (mm); lowered by a rounding's worth.
-    fn new(gap: f64, way: [f64; 3], t: &Vector3<f64>, turn: f64) -> Self {
+    /// A gap of `gap` (mm) along `way` (unit, world) with the tool's triangle at `corners`
+    /// (world, mm), its translation at `t` (mm) and the turn offset at `turn` (mm); lowered by
+    /// a rounding's worth.
+    fn new(gap: f64, way: [f64; 3], corners: &Triangle, t: &Vector3<f64>, turn: f64) -> Self {
+        let lowest = lowest_along(&way, corners);
         Self {
             way,
             level: gap - dot(&way, t.as_ref()) + turn - GAP_ROUNDING_MM,
+            high: lowest - gap,
         }
+    }
+
+    /// Whether a gap is known.
+    fn is_known(&self) -> bool {
+        self.level > f64::NEG_INFINITY
     }
 
     /// The least gap (mm) with the tool's translation at `t` (mm) moved along `path` (mm) by
@@ -57,6 +72,29 @@ impl PairGap {
     fn at(&self, t: &Vector3<f64>, path: &Vector3<f64>, turn: f64) -> f64 {
         dot(&self.way, t.as_ref()) + dot(&self.way, path.as_ref()).min(0.0) + self.level - turn
     }
+
+    /// The gap (mm) with the tool at `(rot, t)` whose triangle has the corners `in_tool` (tool
+    /// frame, mm), not moved along a path: its lowest corner along the way less `high`,
+    /// lowered by a rounding's worth. Taken as the pair's gap at the current turn offset
+    /// `turn` (mm), it is its new level.
+    fn exact_at(
+        &mut self,
+        in_tool: &Triangle,
+        rot: &Matrix3<f64>,
+        t: &Vector3<f64>,
+        turn: f64,
+    ) -> f64 {
+        let way = Vector3::from(self.way);
+        let in_tool_way: [f64; 3] = (rot.transpose() * way).into();
+        let gap = lowest_along(&in_tool_way, in_tool) + way.dot(t) - self.high - GAP_ROUNDING_MM;
+        self.level = self.level.max(gap - way.dot(t) + turn);
+        gap
+    }
+}
+
+/// The least of the corners of `t` along `way`.
+fn lowest_along(way: &[f64; 3], t: &Triangle) -> f64 {
+    dot(way, &t[0]).min(dot(way, &t[1])).min(dot(way, &t[2]))
 }
 
 /// How far (mm) the triangle `a` lies beyond the triangle `b` along `way`: the least of
@@ -72,21 +110,24 @@ fn projected_gap(a: &Triangle, b: &Triangle, way: &[f64; 3]) -> f64 {
 const GAP_ROUNDING_MM: f64 = 1e-9;
 
 /// The world direction (unit) a translation of the tool along which widens the gap found
-/// `along` ([`PosedTriangle::separation_upto_along`]), the object triangle's plane normal
-/// `part_normal` and the posed tool triangle's `tool_normal` (world): ±1 the object's normal,
-/// the tool's triangle in front of its plane (+) or behind it (−); ±2 the tool's normal, the
-/// object's triangle in front (+) or behind (−); ±3, ±4, ±5 the world's x, y, z, the tool's
-/// box above (+) or below (−).
-fn gap_way(along: i8, part_normal: &[f64; 3], tool_normal: &[f64; 3]) -> [f64; 3] {
+/// `along` ([`PosedTriangle::separation_upto_along`]) between the posed tool triangle `tool`
+/// and triangle `i` of `part`: ±1 the object's normal, the tool's triangle in front of its
+/// plane (+) or behind it (−); ±2 the tool's normal, the object's triangle in front (+) or
+/// behind (−); ±3, ±4, ±5 the world's x, y, z, the tool's box above (+) or below (−); 6, 7, 8
+/// away from the tool's edge 0, 1, 2 (its outward normal reversed: the object lies beyond
+/// it); 9, 10, 11 the outward normal of the object's edge 0, 1, 2 (the tool lies beyond it).
+fn gap_way(along: i8, tool: &PosedTriangle, part: &TriangleTree, i: u32) -> [f64; 3] {
     let side = f64::from(along.signum());
     match along.abs() {
-        1 => part_normal.map(|v| side * v),
-        2 => tool_normal.map(|v| -side * v),
-        k => {
+        1 => part.plane(i).0.map(|v| side * v),
+        2 => tool.normal.map(|v| -side * v),
+        k @ 3..=5 => {
             let mut e = [0.0; 3];
-            e[usize::from(k.unsigned_abs()).saturating_sub(3).min(2)] = side;
+            e[usize::from(k.unsigned_abs()) - 3] = side;
             e
         }
+        k @ 6..=8 => tool.edges[usize::from(k.unsigned_abs()) - 6].0.map(|v| -v),
+        k => part.edges(i)[usize::from(k.unsigned_abs()).saturating_sub(9).min(2)].0,
     }
 }
 
@@ -321,7 +362,14 @@ impl GodObject {
                     continue;
                 }
                 let i = k * FILTER_CLOCK_PAIRS + j;
-                let here = detector.near_gaps[i].at(&t, path, turn);
+                let gap = &mut detector.near_gaps[i];
+                let mut here = gap.at(&t, path, turn);
+                if here <= margin && directions && gap.is_known() {
+                    // Worn down by the whole tool's turns: the pair's own corners tell.
+                    let in_tool = meshes.tool.triangle(detector.near[i].tool);
+                    here = gap.exact_at(in_tool, &rot, &t, turn)
+                        + dot(&gap.way, path.as_ref()).min(0.0);
+                }
                 if here > margin {
                     if anchored {
                         *kept = kept.max(keep(here));
@@ -353,8 +401,9 @@ impl GodObject {
                                 *kept = keep(apart);
                             }
                             if directions && along != 0 {
-                                let way = gap_way(along, &part_tree.plane(c.part).0, &tool.normal);
-                                detector.near_gaps[i] = PairGap::new(apart, way, &t, turn);
+                                let way = gap_way(along, tool, part_tree, c.part);
+                                detector.near_gaps[i] =
+                                    PairGap::new(apart, way, &tool.corners, &t, turn);
                             }
                             continue;
                         }
@@ -372,7 +421,8 @@ impl GodObject {
                             let part = part_tree.triangle(c.part);
                             let gap = projected_gap(&tool.corners, part, &way);
                             if gap > margin {
-                                detector.near_gaps[i] = PairGap::new(gap, way, &t, turn);
+                                detector.near_gaps[i] =
+                                    PairGap::new(gap, way, &tool.corners, &t, turn);
                             }
                         }
                         d
@@ -1347,7 +1397,13 @@ impl LeafTriangles<'_> {
                     gaps.push(if beyond == 0.0 {
                         PairGap::NONE
                     } else {
-                        PairGap::new(beyond.abs(), n.map(|v| beyond.signum() * v), t, 0.0)
+                        PairGap::new(
+                            beyond.abs(),
+                            n.map(|v| beyond.signum() * v),
+                            &tool_tri.corners,
+                            t,
+                            0.0,
+                        )
                     });
                     list.push(TriPair {
                         object: self.object as u32,
@@ -1559,8 +1615,8 @@ impl PosedTriangle {
         self.edges_beyond(part, i, planes)
     }
 
-    /// [`PosedTriangle::separation_upto`], with the way the bound runs where a box or plane
-    /// gave it ([`gap_way`]; 0 where an edge did).
+    /// [`PosedTriangle::separation_upto`], with the way the bound runs ([`gap_way`]; 0 where
+    /// no test put the pair apart).
     fn separation_upto_along(
         &self,
         part: &TriangleTree,
@@ -1576,8 +1632,7 @@ impl PosedTriangle {
         if planes.0 > margin || !edges {
             return planes;
         }
-        let with_edges = self.edges_beyond(part, i, planes.0);
-        (with_edges, if with_edges > planes.0 { 0 } else { planes.1 })
+        self.edges_beyond_along(part, i, planes)
     }
 
     /// The larger of `bound` and how far either triangle lies wholly beyond one of the other's
@@ -1585,21 +1640,31 @@ impl PosedTriangle {
     /// its triangle). Faces lying on each other are apart only sideways, where neither plane
     /// nor a box along the world's axes tells them apart: a fan's slivers on a ring of facets.
     fn edges_beyond(&self, part: &TriangleTree, i: u32, bound: f64) -> f64 {
-        let lowest =
-            |m: &[f64; 3], t: &Triangle| dot(m, &t[0]).min(dot(m, &t[1])).min(dot(m, &t[2]));
+        self.edges_beyond_along(part, i, (bound, 0)).0
+    }
+
+    /// [`PosedTriangle::edges_beyond`] with the way its bound runs ([`gap_way`]), `bound`
+    /// being the other tests' with theirs.
+    fn edges_beyond_along(&self, part: &TriangleTree, i: u32, bound: (f64, i8)) -> (f64, i8) {
         let other = part.triangle(i);
         let mut best = bound;
-        for (m, e) in &self.edges {
+        for (k, (m, e)) in (6..).zip(&self.edges) {
             if *m != [0.0; 3] {
                 // The tool's edge moves along the sweep by a share of its reach along m.
                 let reach = dot(m, &self.sweep).max(0.0);
-                best = best.max(lowest(m, other) - e - reach);
+                let gap = lowest_along(m, other) - e - reach;
+                if gap > best.0 {
+                    best = (gap, k);
+                }
             }
         }
-        for (m, e) in part.edges(i) {
+        for (k, (m, e)) in (9..).zip(part.edges(i)) {
             if *m != [0.0; 3] {
                 let back = dot(m, &self.sweep).min(0.0);
-                best = best.max(lowest(m, &self.corners) + back - e);
+                let gap = lowest_along(m, &self.corners) + back - e;
+                if gap > best.0 {
+                    best = (gap, k);
+                }
             }
         }
         best
@@ -3026,7 +3091,7 @@ mod tests {
                         assert_eq!(posed.separation_upto(&part_tree, j, margin, true), bound);
                         if along != 0 && sweep == Vector3::zeros() {
                             named += 1;
-                            let way = gap_way(along, &part_tree.plane(j).0, &posed.normal);
+                            let way = gap_way(along, &posed, &part_tree, j);
                             let gap = projected_gap(&posed.corners, part_tree.triangle(j), &way);
                             assert!(gap >= bound - 1e-12, "{gap} along {along} under {bound}");
                         }
@@ -3035,6 +3100,73 @@ mod tests {
             }
         }
         assert!(named > 10_000, "{named} bounds with a way");
+    }
+
+    /// A gap taken where a pair was found apart (any of its ways, swept or not), measured
+    /// again on the tool's own corners at another pose, never exceeds how far apart the two
+    /// triangles lie along its way there (so never their distance), and is that separation
+    /// where the first gap was (no sweep).
+    #[test]
+    fn a_gap_measured_again_on_the_tools_corners_never_exceeds_the_separation() {
+        let mut r = uniform(97531);
+        let (tool_tree, part_tree) = random_trees(&mut r, 25, 1.5);
+        let (mut checked, mut tight) = (0, 0);
+        for k in 0..30 {
+            let q = Pose::from_array([r(), r(), r(), 3.0 * r(), 1.5 * r(), 3.0 * r()]);
+            let (rot, t) = (q.rotation_matrix(), q.translation());
+            let sweep = if k % 2 == 0 {
+                Vector3::zeros()
+            } else {
+                Vector3::new(0.3 * r(), 0.3 * r(), 0.3 * r())
+            };
+            let later = Pose::from_array([
+                q.q[0] + 0.2 * r(),
+                q.q[1] + 0.2 * r(),
+                q.q[2] + 0.2 * r(),
+                q.q[3] + 0.3 * r(),
+                q.q[4] + 0.3 * r(),
+                q.q[5] + 0.3 * r(),
+            ]);
+            let (rot_b, t_b) = (later.rotation_matrix(), later.translation());
+            for i in 0..tool_tree.len() as u32 {
+                let posed = PosedTriangle::of(&tool_tree, i, &rot, &t).swept(&sweep);
+                let at_b = PosedTriangle::of(&tool_tree, i, &rot_b, &t_b);
+                for j in 0..part_tree.len() as u32 {
+                    let (apart, along) = posed.separation_upto_along(&part_tree, j, 0.0, true);
+                    if along == 0 {
+                        continue;
+                    }
+                    let way = gap_way(along, &posed, &part_tree, j);
+                    let mut gap = PairGap::new(apart, way, &posed.corners, &t, 0.0);
+                    let in_tool = tool_tree.triangle(i);
+                    let part = part_tree.triangle(j);
+                    let there = projected_gap(&at_b.corners, part, &way);
+                    let again = gap.exact_at(in_tool, &rot_b, &t_b, 0.0);
+                    assert!(again <= there + 1e-12, "{again} over {there} along {along}");
+                    let distance = triangle_distance(&at_b.corners, part).distance;
+                    assert!(
+                        again <= distance + 1e-12,
+                        "{again} over the distance {distance}"
+                    );
+                    checked += 1;
+                    if sweep == Vector3::zeros() {
+                        let here = gap.exact_at(in_tool, &rot, &t, 0.0);
+                        let separation = projected_gap(&posed.corners, part, &way);
+                        // Less only by the rounding's allowance.
+                        assert!(here <= separation, "{here} over {separation}");
+                        assert!(
+                            separation - here < 2.0 * GAP_ROUNDING_MM,
+                            "{here}, {separation}"
+                        );
+                        tight += 1;
+                    }
+                }
+            }
+        }
+        assert!(
+            checked > 5_000 && tight > 2_000,
+            "{checked} gaps, {tight} where taken"
+        );
     }
 
     #[test]
