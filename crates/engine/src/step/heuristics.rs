@@ -83,7 +83,8 @@ pub struct Heuristics {
     /// its descent needs to be done in time where that is more, rather than a full
     /// [`Tuning::near_ahead_share`](crate::Tuning::near_ahead_share) added to whatever the
     /// frame's own work took: a frame that filtered a tight fit's list does not also take a
-    /// full slice while the next list is on time.
+    /// full slice while the next list is on time. Paced (the loop's wait given to the
+    /// engine), the wait builds the list ahead while the list in use lasts.
     pub mesh_near_fill: bool,
     /// The mesh mode's bound answers: an answer stopped by its trust region goes on in a new
     /// region about it at once, even where rows holding it are still open in truth, rather

@@ -153,6 +153,11 @@ const NEAR_THIN_SHARE: f64 = 0.75;
 /// earlier, it has more frames to be built in.
 const NEAR_AHEAD_START: f64 = 0.5;
 
+/// Frames the list in use must still last for a paced frame to leave the next list's
+/// building to the loop's wait ([`GodObject::near_slice_us`]): one wait, of a few hundred
+/// microseconds, and one to spare.
+const NEAR_IDLE_LEFT_FRAMES: f64 = 2.0;
+
 /// Width (mm) and count of the bins the near list's pair bounds are counted in, each region,
 /// for the distance within which it holds a ball's pair target ([`GodObject::standoff_allow`]):
 /// a 0.0025 mm grain up to 0.1 mm, on the stack.
@@ -910,12 +915,15 @@ impl GodObject {
     /// time if that is more (its rest at the last descent's cost over the start share of the
     /// frames until the list in use is spent: the margin the start rule leaves), at most the
     /// full slice. A region's list under way, wanted now, a list with none in use to outlast,
-    /// and one past the last descent's cost take the full slice.
+    /// and one past the last descent's cost take the full slice. A paced frame (the loop's
+    /// wait before it given to [`GodObject::idle`]) gives none while the list in use lasts
+    /// [`NEAR_IDLE_LEFT_FRAMES`] more: the wait builds it.
     pub(super) fn near_slice_us(&self, q: &Pose, elapsed_us: f64) -> f64 {
         let budget = self.params.budget_us;
         let full = self.params.tuning.near_ahead_share * budget;
         let room = self.params.tuning.near_fill_share * budget - elapsed_us;
-        if !self.params.heuristics.mesh_near_fill || room >= full {
+        let paced = self.run.lists.idle_given;
+        if !self.params.heuristics.mesh_near_fill || (room >= full && !paced) {
             return full;
         }
         let regions = &self.run.regions;
@@ -928,6 +936,12 @@ impl GodObject {
         else {
             return full;
         };
+        if self.run.lists.idle_given && self.near_use(&span, q).left >= NEAR_IDLE_LEFT_FRAMES {
+            // A paced loop's wait builds the list ahead ([`GodObject::idle`], hundreds of
+            // microseconds a period): the frame leaves it to the wait while the list in use
+            // lasts.
+            return 0.0;
+        }
         let spent = if ahead.at.is_some() {
             ahead.spent_us
         } else {
@@ -1993,7 +2007,8 @@ mod tests {
 
     /// The next list's slice fills a frame to its share of the budget while the list is on
     /// time, and is the full slice where its frame is light, where it is behind (past the last
-    /// descent's cost, or not done in time at the fill's pace), or with the fill off.
+    /// descent's cost, or not done in time at the fill's pace), or with the fill off; paced,
+    /// it is left to the loop's wait while the list in use lasts.
     #[test]
     fn a_slice_fills_the_frame_only_while_the_next_list_is_on_time() {
         let (mut god, _, _) = cube_over_sheet();
@@ -2031,9 +2046,21 @@ mod tests {
             NearAhead::start(god.run.regions.near_at.unwrap(), NearPurpose::Ahead);
         god.run.regions.near_ahead.spent_us = 3.0 * full;
         assert_eq!(god.near_slice_us(&q, 2.0 * fill), full);
-        // Off: the full slice whatever the frame took.
+        // Paced (the loop's wait given to the engine): none while the list in use lasts two
+        // frames more, light frame or heavy; the usual slice where it is nearly spent.
         god.run.regions.near_ahead = NearAhead::IDLE;
+        god.run.lists.idle_given = true;
+        assert_eq!(god.near_slice_us(&q, 10.0), 0.0);
+        assert_eq!(god.near_slice_us(&q, 2.0 * fill), 0.0);
+        god.run.motion.last_motion = 0.9 * extra;
+        assert_eq!(god.near_slice_us(&q, 10.0), full);
+        assert_eq!(god.near_slice_us(&q, 2.0 * fill), full);
+        god.run.motion.last_motion = 1e-3 * extra;
+        god.run.lists.idle_given = false;
+        // Off: the full slice whatever the frame took, paced or not.
         god.params.heuristics.mesh_near_fill = false;
+        assert_eq!(god.near_slice_us(&q, 2.0 * fill), full);
+        god.run.lists.idle_given = true;
         assert_eq!(god.near_slice_us(&q, 2.0 * fill), full);
     }
 
