@@ -62,6 +62,15 @@ impl PairGap {
         }
     }
 
+    /// The same gap taken at the turn offset `new` (mm) of another list where this one's is
+    /// `old` (both summed to the same pose).
+    fn relevelled(&self, old: f64, new: f64) -> Self {
+        Self {
+            level: self.level - old + new,
+            ..*self
+        }
+    }
+
     /// Whether a gap is known.
     fn is_known(&self) -> bool {
         self.level > f64::NEG_INFINITY
@@ -90,6 +99,14 @@ impl PairGap {
         self.level = self.level.max(gap - way.dot(t) + turn);
         gap
     }
+}
+
+/// Where a ball region takes a new near list ([`Detector::inherit_near`]): the ball's centre's
+/// translation (mm), and the turn offsets (mm) of the old list and of the new one summed to it.
+pub(super) struct InheritedTurns {
+    at: Vector3<f64>,
+    old: f64,
+    new: f64,
 }
 
 /// The least of the corners of `t` along `way`.
@@ -761,8 +778,19 @@ impl GodObject {
             .map(|(last, centre)| {
                 let old_less = self.detector.near_offset + self.motion_bound(&last, centre);
                 let way = self.span_bound(&at, centre);
-                let turn = self.turn_bound(&at.at.rotation_matrix(), &centre.rotation_matrix());
-                (*centre, way, old_less, turn)
+                let r_centre = centre.rotation_matrix();
+                let turn = self.turn_bound(&at.at.rotation_matrix(), &r_centre);
+                // The old list's directional gaps count its turns summed to its last filter,
+                // and on to the ball's centre.
+                let old_turn =
+                    self.detector.near_turn + self.turn_bound(&last.rotation_matrix(), &r_centre);
+                let turns = InheritedTurns {
+                    at: centre.translation(),
+                    old: old_turn,
+                    new: turn,
+                };
+                let gaps = self.params.heuristics.mesh_pair_directions && old_turn.is_finite();
+                (*centre, way, old_less, turn, gaps.then_some(turns))
             });
         let detector = &mut self.detector;
         std::mem::swap(&mut detector.near, &mut detector.next_near);
@@ -799,8 +827,8 @@ impl GodObject {
         let len = detector.near.len();
         detector.next_edges.clear();
         detector.next_edges.resize(len, NearestEdges::NONE);
-        if let Some((centre, way, old_less, turn)) = inherited {
-            detector.inherit_near(way, old_less);
+        if let Some((centre, way, old_less, turn, turns)) = inherited {
+            detector.inherit_near(way, old_less, turns.as_ref());
             detector.near_turn = turn;
             self.run.regions.near_bounds_at = Some(centre);
         }
@@ -1331,15 +1359,24 @@ impl Detector {
     /// (mm, the motion bound from the new span to it), and each pair in both takes the larger
     /// of that and the old one's less `old_less` (mm, the old bounds' offset and the motion
     /// bound from where they hold to it).
-    fn inherit_near(&mut self, way: f64, old_less: f64) {
+    ///
+    /// With `turns`, each pair in both also takes the old one's directional gap where that is
+    /// the wider at the pose (`turns.at`), re-levelled from the old list's turn offset there to
+    /// the new one's ([`PairGap::relevelled`]): a gap sideways that a filter found, kept, where
+    /// the new list knows only the plane's.
+    fn inherit_near(&mut self, way: f64, old_less: f64, turns: Option<&InheritedTurns>) {
         let old_ranks = &self.next_ranks;
         let old_len = old_ranks
             .len()
             .min(self.next_apart.len())
-            .min(self.near_edges.len());
+            .min(self.near_edges.len())
+            .min(self.next_gaps.len());
         let mut j = 0;
-        let new = self.near_ranks.iter().zip(&mut self.near_apart);
-        for (i, (&rank, bound)) in new.enumerate() {
+        let new = self
+            .near_ranks
+            .iter()
+            .zip(self.near_apart.iter_mut().zip(self.near_gaps.iter_mut()));
+        for (i, (&rank, (bound, gap))) in new.enumerate() {
             *bound -= way;
             while j < old_len && old_ranks[j] < rank {
                 j += 1;
@@ -1348,6 +1385,14 @@ impl Detector {
                 debug_assert!(self.next_near[j] == self.near[i], "one rank, two pairs");
                 self.next_edges[i] = self.near_edges[j];
                 *bound = bound.max(self.next_apart[j] - old_less);
+                let old = &self.next_gaps[j];
+                if let Some(turns) = turns.filter(|_| old.is_known()) {
+                    let zero = Vector3::zeros();
+                    let old_here = old.at(&turns.at, &zero, turns.old);
+                    if old_here > gap.at(&turns.at, &zero, turns.new) {
+                        *gap = old.relevelled(turns.old, turns.new);
+                    }
+                }
             }
         }
     }
