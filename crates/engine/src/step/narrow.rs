@@ -3099,6 +3099,20 @@ mod tests {
         }
     }
 
+    /// A pose about the origin from `r` (mm, rad): within 1 mm and turned up to 3 rad.
+    fn random_pose(r: &mut impl FnMut() -> f64) -> Pose {
+        Pose::from_array([r(), r(), r(), 3.0 * r(), 1.5 * r(), 3.0 * r()])
+    }
+
+    /// No sweep for even `k`, else one of up to 0.3 mm along each axis from `r`.
+    fn every_other_sweep(r: &mut impl FnMut() -> f64, k: usize) -> Vector3<f64> {
+        if k.is_multiple_of(2) {
+            Vector3::zeros()
+        } else {
+            Vector3::new(0.3 * r(), 0.3 * r(), 0.3 * r())
+        }
+    }
+
     /// A tree of one triangle, as given (mm).
     fn one_triangle(t: Triangle) -> TriangleTree {
         TriangleTree::build(&[t], &Pose::identity())
@@ -3138,13 +3152,9 @@ mod tests {
         let (tool_tree, part_tree) = random_trees(&mut r, 30, 1.5);
         let mut named = 0;
         for k in 0..40 {
-            let q = Pose::from_array([r(), r(), r(), 3.0 * r(), 1.5 * r(), 3.0 * r()]);
+            let q = random_pose(&mut r);
             let (rot, t) = (q.rotation_matrix(), q.translation());
-            let sweep = if k % 2 == 0 {
-                Vector3::zeros()
-            } else {
-                Vector3::new(0.3 * r(), 0.3 * r(), 0.3 * r())
-            };
+            let sweep = every_other_sweep(&mut r, k);
             for i in 0..tool_tree.len() as u32 {
                 let posed = PosedTriangle::of(&tool_tree, i, &rot, &t).swept(&sweep);
                 for j in 0..part_tree.len() as u32 {
@@ -3184,13 +3194,9 @@ mod tests {
         let (tool_tree, part_tree) = random_trees(&mut r, 25, 1.5);
         let (mut checked, mut tight) = (0, 0);
         for k in 0..30 {
-            let q = Pose::from_array([r(), r(), r(), 3.0 * r(), 1.5 * r(), 3.0 * r()]);
+            let q = random_pose(&mut r);
             let (rot, t) = (q.rotation_matrix(), q.translation());
-            let sweep = if k % 2 == 0 {
-                Vector3::zeros()
-            } else {
-                Vector3::new(0.3 * r(), 0.3 * r(), 0.3 * r())
-            };
+            let sweep = every_other_sweep(&mut r, k);
             let later = Pose::from_array([
                 q.q[0] + 0.2 * r(),
                 q.q[1] + 0.2 * r(),
@@ -3269,7 +3275,7 @@ mod tests {
         let (tool_tree, part_tree) = random_trees(&mut r, 40, 1.5);
         let (mut dropped_by_boxes, mut checked) = (0, 0);
         for _ in 0..50 {
-            let q = Pose::from_array([r(), r(), r(), 3.0 * r(), 1.5 * r(), 3.0 * r()]);
+            let q = random_pose(&mut r);
             let (rot, t) = (q.rotation_matrix(), q.translation());
             for i in 0..tool_tree.len() as u32 {
                 let posed = PosedTriangle::of(&tool_tree, i, &rot, &t);
@@ -3321,7 +3327,7 @@ mod tests {
         let (tool_tree, part_tree) = random_trees(&mut r, 20, 2.0);
         let (mut apart, mut checked) = (0, 0);
         for _ in 0..30 {
-            let q = Pose::from_array([r(), r(), r(), 3.0 * r(), 1.5 * r(), 3.0 * r()]);
+            let q = random_pose(&mut r);
             let (rot, t) = (q.rotation_matrix(), q.translation());
             let sweep = Vector3::new(2.0 * r(), 2.0 * r(), 2.0 * r());
             for i in 0..tool_tree.len() as u32 {
