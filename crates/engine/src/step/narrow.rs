@@ -964,7 +964,7 @@ impl GodObject {
         else {
             return full;
         };
-        if self.run.lists.idle_given && self.near_use(&span, q).left >= NEAR_IDLE_LEFT_FRAMES {
+        if paced && self.near_use(&span, q).left >= NEAR_IDLE_LEFT_FRAMES {
             // A paced loop's wait builds the list ahead ([`GodObject::idle`], hundreds of
             // microseconds a period): the frame leaves it to the wait while the list in use
             // lasts.
