@@ -326,6 +326,7 @@ impl RunState {
                 near_listed: 0,
                 near_taken: 0,
                 near_posed: 0,
+                near_direct: 0,
             },
             friction: FrictionMemory {
                 sliding: false,
@@ -561,8 +562,10 @@ pub(super) struct WorkCounts {
     /// The mesh mode's near lists: listed in a frame's own time, and built ahead and taken.
     pub(super) near_listed: u64,
     pub(super) near_taken: u64,
-    /// Near-list pairs the regions' filters posed (their bounds did not settle them).
+    /// Near-list pairs the regions' filters posed (their bounds did not settle them), and of
+    /// those the ones measured at once, near by their upper bound ([`PairGap::upper`]).
     pub(super) near_posed: u64,
+    pub(super) near_direct: u64,
 }
 
 /// Friction's stick or slip, and the contact it acts in.
