@@ -5,10 +5,11 @@
 //! Each node holds an oriented box in its body's frame, along the principal axes of its
 //! triangles' corners (a patch of a curved wall gets a box as thin as the patch's bulge, where
 //! an axis-aligned one would be as thick as the patch is wide across the axes). With the tool
-//! placed, a tool node's box is tested against an object node's by the separating axis theorem
-//! (the three axes of each box and the nine cross products). The object's box is grown by the
-//! margin on every side, which holds the margin's ball around it, so no pair of triangles
-//! within the margin is ever pruned. Boxes, not spheres: a long thin facet of a machined part
+//! placed, a tool node's box is tested against an object node's on the three axes of each box
+//! (the separating axis theorem's face axes; the nine cross products of edges, which the full
+//! test adds, cost more than the pairs they prune: see [`boxes_apart`]). The object's box is
+//! grown by the margin on every side, which holds the margin's ball around it, so no pair of
+//! triangles within the margin is ever pruned. Boxes, not spheres: a long thin facet of a machined part
 //! (a cylinder's side) has a sphere as wide as its length, but a box as thin as the facet.
 
 use nalgebra::{Matrix3, Vector3};
@@ -417,7 +418,15 @@ fn longest(h: &[f64; 3]) -> f64 {
 
 /// True when the tool's box (centre `d` and axes the columns of `r`, in the object box's
 /// axes; half extents `ha`) and the object's box (centred at the origin, half extents `hb`)
-/// grown by `margin` on every side have a separating axis.
+/// grown by `margin` on every side are apart along one of their six face axes.
+///
+/// A conservative test: the nine cross products of the boxes' edges, the rest of the
+/// separating axis theorem, are left out. Most box pairs a descent meets are not apart (two
+/// walls within the margin, box after box), and for those all fifteen axes were computed to
+/// prune few pairs: a pair the edges alone would part is pruned at its leaves by its
+/// triangles' own tests, and the list is the same. Per-frame minima with no deadline, three
+/// runs: every scene of the mesh zoo, the built-ins and the fit study's pegs lighter or equal
+/// (the frames' time −0.4 to −11 %, their p99 0 to −19 %).
 fn boxes_apart(
     d: &Vector3<f64>,
     ha: &[f64; 3],
@@ -441,22 +450,6 @@ fn boxes_apart(
         let s = d[0] * r[(0, j)] + d[1] * r[(1, j)] + d[2] * r[(2, j)];
         if s.abs() > ha[j] + rb {
             return true;
-        }
-    }
-    // Cross products of object axis i with tool axis j: along e_i × r_j, the offset's length
-    // is d[i2]·r(i1, j) − d[i1]·r(i2, j) (i1, i2 the other two object axes), the object box's
-    // reach hb[i1]·|r(i2, j)| + hb[i2]·|r(i1, j)| and the tool box's, by its other two axes,
-    // ha[j1]·|r(i, j2)| + ha[j2]·|r(i, j1)|.
-    for i in 0..3 {
-        let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
-        for j in 0..3 {
-            let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
-            let s = d[i2] * r[(i1, j)] - d[i1] * r[(i2, j)];
-            let rb = hb[i1] * a[(i2, j)] + hb[i2] * a[(i1, j)];
-            let ra = ha[j1] * a[(i, j2)] + ha[j2] * a[(i, j1)];
-            if s.abs() > ra + rb {
-                return true;
-            }
         }
     }
     false
