@@ -344,8 +344,9 @@ impl Engine {
         &self.run.frame
     }
 
-    /// Brings the collision trees into cache until `until` ([`GodObject::warm_caches`]): for a
-    /// paced loop's wait before a frame. Changes no state.
+    /// Brings the collision trees (in the mesh mode the near list first) into cache until
+    /// `until` ([`GodObject::warm_caches`]): for a paced loop's wait before a frame. Changes no
+    /// state.
     ///
     /// # Real-time
     /// No allocation; returns within a few µs of `until`.

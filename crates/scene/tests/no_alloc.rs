@@ -243,42 +243,45 @@ fn mesh_mode_frames_do_not_allocate() {
 }
 
 /// Warming the caches before each frame (as a paced loop does in its spin) allocates nothing
-/// and changes no frame: the spline run (no time budget) with and without it gives the same
-/// frames, bit for bit (its trees are the largest, so a warm-up is cut by its time limit as
+/// and changes no frame: the spline run and the probe down its pocket on the mesh (its near
+/// list warmed first), each with no time budget, give the same frames with and without it,
+/// bit for bit (the spline's trees are the largest, so a warm-up is cut by its time limit as
 /// well as run to the end).
 #[test]
 fn warming_the_caches_allocates_nothing_and_changes_no_frame() {
     use std::time::{Duration, Instant};
-    let mut scene = scene::scenes::builtin("spline", &common::test_cache()).unwrap();
-    // No time budget: frames then depend on nothing but their input.
-    scene.solver.budget_us = engine::config::BUDGET_US.hi;
-    let traj = scene.trajectory();
-    let run = |warm: Option<Duration>| {
-        let mut engine = scene.engine().unwrap();
-        engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
-        let mut frames = Vec::with_capacity(traj.len());
-        let mut allocs = 0;
-        for (i, s) in traj.samples.iter().enumerate() {
-            if let Some(limit) = warm {
-                // Every other frame warms the whole trees (no limit in effect).
-                let until = if i % 2 == 0 {
-                    Instant::now() + limit
-                } else {
-                    Instant::now() + Duration::from_secs(1)
-                };
-                allocs += count_allocations(|| engine.warm_caches(until)).1;
+    for name in ["spline", "probe"] {
+        let mut scene = scene::scenes::builtin(name, &common::test_cache()).unwrap();
+        // No time budget: frames then depend on nothing but their input.
+        scene.solver.budget_us = engine::config::BUDGET_US.hi;
+        let traj = scene.trajectory();
+        let run = |warm: Option<Duration>| {
+            let mut engine = scene.engine().unwrap();
+            engine.reset(&Pose::from_array(traj.samples[0].q)).unwrap();
+            let mut frames = Vec::with_capacity(traj.len());
+            let mut allocs = 0;
+            for (i, s) in traj.samples.iter().enumerate() {
+                if let Some(limit) = warm {
+                    // Every other frame warms the whole trees (no limit in effect).
+                    let until = if i % 2 == 0 {
+                        Instant::now() + limit
+                    } else {
+                        Instant::now() + Duration::from_secs(1)
+                    };
+                    allocs += count_allocations(|| engine.warm_caches(until)).1;
+                }
+                let f = *engine.step(s.t, &Pose::from_array(s.q));
+                frames.push((f.q_g, f.wrench, f.pairs));
             }
-            let f = *engine.step(s.t, &Pose::from_array(s.q));
-            frames.push((f.q_g, f.wrench, f.pairs));
+            (frames, allocs)
+        };
+        let (plain, _) = run(None);
+        let (warmed, allocs) = run(Some(Duration::from_micros(50)));
+        assert_eq!(allocs, 0, "{name}: {allocs} (de)allocations while warming");
+        assert_eq!(plain.len(), warmed.len());
+        for (i, (a, b)) in plain.iter().zip(&warmed).enumerate() {
+            assert_eq!(a, b, "{name}: frame {i}");
         }
-        (frames, allocs)
-    };
-    let (plain, _) = run(None);
-    let (warmed, allocs) = run(Some(Duration::from_micros(50)));
-    assert_eq!(allocs, 0, "{allocs} (de)allocations while warming");
-    assert_eq!(plain.len(), warmed.len());
-    for (i, (a, b)) in plain.iter().zip(&warmed).enumerate() {
-        assert_eq!(a, b, "frame {i}");
     }
 }
 

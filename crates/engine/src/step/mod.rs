@@ -448,16 +448,23 @@ impl GodObject {
             .map_or_else(ReductionAudit::default, |a| std::mem::take(&mut a.1))
     }
 
-    /// Brings the trees' traversal arrays into cache until `until`: a chunk of each tree in
-    /// turn, top levels first ([`collide::PackedTree::warm_chunk`]). A paced loop calls it as
-    /// its spin before a deadline begins, so that the frame's traversals do not start from
-    /// memory that the wait let go cold. Changes no state (frames are the same with or
-    /// without it).
+    /// Brings the trees' traversal arrays into cache until `until`: in the mesh mode the near
+    /// list first (its pairs' bounds and gaps, which the next region's filter reads whole),
+    /// then a chunk of each tree in turn, top levels first
+    /// ([`collide::PackedTree::warm_chunk`]). A paced loop calls it as its spin before a
+    /// deadline begins, so that the frame's filter and traversals do not start from memory
+    /// that the wait let go cold (the next list's descent in the wait reads as much again).
+    /// Changes no state (frames are the same with or without it).
     ///
     /// # Real-time
     /// No allocation; returns within one chunk's reads (a few µs) of `until`.
     pub fn warm_caches(&self, until: Instant) {
         let mut acc = 0u32;
+        for k in 0.. {
+            if !self.detector.warm_near_chunk(k, &mut acc) || Instant::now() >= until {
+                break;
+            }
+        }
         for k in 0.. {
             let mut read = self.bodies.tool.warm_chunk(k, &mut acc);
             for o in &self.bodies.objects {

@@ -1375,7 +1375,36 @@ fn plane_gap(a: &Triangle, b: &Triangle) -> f64 {
     signed_side_gap(a, &n, d).abs()
 }
 
+/// Near-list pairs read between two clock reads while the caches are warmed
+/// ([`Detector::warm_near_chunk`]): about 60 KB, a few µs.
+const WARM_NEAR_PAIRS: usize = 1024;
+
 impl Detector {
+    /// Reads chunk `k` of the near list's pairs, bounds and gaps (folding them into `acc`);
+    /// false past its end.
+    pub(super) fn warm_near_chunk(&self, k: usize, acc: &mut u32) -> bool {
+        let first = k.saturating_mul(WARM_NEAR_PAIRS);
+        let len = self
+            .near
+            .len()
+            .min(self.near_apart.len())
+            .min(self.near_gaps.len());
+        if first >= len {
+            return false;
+        }
+        let end = (first + WARM_NEAR_PAIRS).min(len);
+        let mut a = *acc;
+        for i in first..end {
+            a = a
+                .wrapping_add(self.near[i].tool)
+                .wrapping_add(self.near_apart[i].to_bits() as u32)
+                .wrapping_add(self.near_gaps[i].level.to_bits() as u32)
+                .wrapping_add(self.near_gaps[i].upper.to_bits() as u32);
+        }
+        *acc = a;
+        true
+    }
+
     /// Merges the near list just taken (`near`, its bounds and ranks) with the one it replaced
     /// (in `next_near`, `next_apart` and `next_ranks`, its nearest edges still in
     /// `near_edges`) in one walk by rank: each pair in both takes the old one's nearest edges
