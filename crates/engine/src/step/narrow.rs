@@ -2689,6 +2689,30 @@ mod tests {
         );
     }
 
+    /// Step `k` of the cube sliding over the waved sheet: `along` mm a step along x, swaying
+    /// `sway` mm in y, rocked by up to `rock` rad about x and y, turning `twist` rad a step;
+    /// its base 0.03 mm over the sheet's mean plane (its cells ±0.02 mm off it).
+    fn slide_over_sheet(k: usize, [along, sway, rock, twist]: [f64; 4]) -> [f64; 6] {
+        let phase = k as f64 * 0.05;
+        [
+            -10.0 + along * k as f64,
+            sway * phase.sin(),
+            2.03,
+            rock * (0.9 * phase).sin(),
+            rock * (0.6 * phase).cos(),
+            twist * k as f64,
+        ]
+    }
+
+    /// Gives `god` the step from `was` to `q` as its last, and `motion` (mm) as its last
+    /// motion bound: what the lists ahead are swept and started by.
+    fn note_step(god: &mut GodObject, q: &[f64; 6], was: Option<[f64; 6]>, motion: f64) {
+        if let Some(was) = was {
+            god.run.motion.last_step = std::array::from_fn(|i| q[i] - was[i]);
+            god.run.motion.last_motion = motion;
+        }
+    }
+
     /// A cube sliding and turning on a fine sheet, its base just off it: each new near list
     /// takes the old one's bounds and nearest edges for the pairs they share, and its filters
     /// still give every pair within the margin, while posing fewer pairs than lists that start
@@ -2700,16 +2724,7 @@ mod tests {
             god.params.heuristics.mesh_list_inherit = inherit;
             let (mut near_pairs, mut was, mut first_posed) = (0, None, 0);
             for k in 0..300 {
-                let phase = k as f64 * 0.05;
-                // The base 0.03 mm over the sheet's mean plane (its cells ±0.02 mm off it).
-                let q = [
-                    -10.0 + 0.02 * k as f64,
-                    0.4 * phase.sin(),
-                    2.03,
-                    0.003 * (0.9 * phase).sin(),
-                    0.003 * (0.6 * phase).cos(),
-                    0.004 * k as f64,
-                ];
+                let q = slide_over_sheet(k, [0.02, 0.4, 0.003, 0.004]);
                 let pose = Pose::from_array(q);
                 let margin = 0.05;
                 god.detect(&pose, margin).unwrap();
@@ -2718,11 +2733,7 @@ mod tests {
                 if god.detector.near_generation != list {
                     first_posed += god.run.counts.near_posed - posed;
                 }
-                if let Some(was) = was {
-                    let was: [f64; 6] = was;
-                    god.run.motion.last_step = std::array::from_fn(|i| q[i] - was[i]);
-                    god.run.motion.last_motion = 0.03;
-                }
+                note_step(&mut god, &q, was, 0.03);
                 was = Some(q);
                 let far = Instant::now() + Duration::from_secs(1);
                 god.tend_near(&pose, 1e6, far);
@@ -2750,15 +2761,7 @@ mod tests {
         let (mut god, tool, plate) = cube_over_waved_sheet();
         let (mut near_pairs, mut was) = (0, None);
         for k in 0..300 {
-            let phase = k as f64 * 0.05;
-            let q = [
-                -10.0 + 0.01 * k as f64,
-                0.2 * phase.sin(),
-                2.03,
-                0.002 * (0.9 * phase).sin(),
-                0.002 * (0.6 * phase).cos(),
-                0.002 * k as f64,
-            ];
+            let q = slide_over_sheet(k, [0.01, 0.2, 0.002, 0.002]);
             let pose = Pose::from_array(q);
             let margin = 0.05;
             let direct = god.run.counts.near_direct;
@@ -2770,11 +2773,7 @@ mod tests {
                 direct <= contacts,
                 "step {k}: {direct} pairs measured at once, {contacts} near"
             );
-            if let Some(was) = was {
-                let was: [f64; 6] = was;
-                god.run.motion.last_step = std::array::from_fn(|i| q[i] - was[i]);
-                god.run.motion.last_motion = 0.015;
-            }
+            note_step(&mut god, &q, was, 0.015);
             was = Some(q);
             near_pairs += every_pair_within_kept(&god, &tool, &plate, &pose, margin, k);
             let meshes = god.bodies.meshes.as_ref().unwrap();
