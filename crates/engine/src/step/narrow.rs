@@ -367,9 +367,10 @@ impl GodObject {
         };
         // The distances the check of an answer measured here (the last region's pairs, from
         // this same list) are this region's own: faces lying on each other measure hundreds.
-        let reuse = !swept
-            && previous.at == Some((rot, t))
-            && previous.list == Some(detector.near_generation);
+        // A path region takes them too (a tilted peg pushed down its hole): measured at its
+        // centre, they are the distances its own filter would measure there.
+        let reuse =
+            previous.at == Some((rot, t)) && previous.list == Some(detector.near_generation);
         let mut from_check = 0;
         let mut tools = detector.tool_poses.at(&rot, &t, path);
         let mut stopped_at = None;
@@ -426,9 +427,11 @@ impl GodObject {
                     && detector.reuse_from.get(from_check) == Some(&index)
                     && detector.reuse_known[from_check])
                     .then(|| detector.reuse_nearest[from_check]);
+                // Along a path a pair measured beyond the margin may still come within it: it
+                // is held against the path's bound first, as a pair measured afresh is.
                 let d = match checked {
-                    Some(d) => d,
-                    None => {
+                    Some(d) if !swept || d.meet || d.distance <= margin => d,
+                    _ => {
                         posed_count += 1;
                         let tool = tools.get(&meshes.tool, c.tool);
                         let part_tree = &meshes.objects[c.object as usize];
@@ -450,11 +453,13 @@ impl GodObject {
                             }
                             continue;
                         }
-                        let d = triangle_distance_from(
-                            &tool.corners,
-                            part_tree.triangle(c.part),
-                            &mut detector.near_edges[i],
-                        );
+                        let d = checked.unwrap_or_else(|| {
+                            triangle_distance_from(
+                                &tool.corners,
+                                part_tree.triangle(c.part),
+                                &mut detector.near_edges[i],
+                            )
+                        });
                         if directions && d.distance > margin {
                             // Apart beyond the margin: along the way from the object's nearest
                             // point to the tool's, the two lie that far apart (measured on their
@@ -2855,54 +2860,75 @@ mod tests {
 
     #[test]
     fn a_region_at_a_checked_answer_filters_with_the_checks_distances_equal_to_fresh_ones() {
-        let god_on_grid = cube_over_fine_grid();
-        let mut god = god_on_grid;
-        // The cube's face 0.003 mm over a sheet of fine cells, turned about the vertical: a
-        // few hundred facing pairs touch.
-        let q0 = Pose::from_array([0.0, 0.0, 2.003, 0.0, 0.0, 0.3]);
-        let hand = Pose::from_array([-0.5, 0.2, 0.0, 0.0, 0.0, 0.25]);
+        // A ball region, and a path region sliding along the sheet: the touching pairs are
+        // within the margin, and their distances are taken.
+        for path in [Vector3::zeros(), Vector3::new(0.02, -0.01, 0.0)] {
+            let (_, kept, posed_reusing, posed_fresh) =
+                filters_at_a_checked_answer_as_afresh(&path, 0.05);
+            assert!(kept > 100, "{kept} pairs within the margin along {path:?}");
+            assert!(
+                posed_reusing + 100 <= posed_fresh,
+                "{posed_reusing} pairs posed reusing the check's distances, {posed_fresh} afresh, along {path:?}"
+            );
+        }
+    }
+
+    /// The region of margin `margin` along `path` (mm) centred at a checked answer, filtered
+    /// taking the check's distances and afresh, on two identical engines (a filter leaves
+    /// bounds the next one uses): the same pairs kept, with the same distances. Returns the
+    /// engine that took them, the pairs kept and the pairs posed by each filter.
+    fn filters_at_a_checked_answer_as_afresh(
+        path: &Vector3<f64>,
+        margin: f64,
+    ) -> (GodObject, usize, u64, u64) {
+        let filtered = |reuse: bool| {
+            let mut god = cube_over_fine_grid();
+            // The cube's face 0.003 mm over a sheet of fine cells, turned about the vertical:
+            // a few hundred facing pairs touch.
+            let q0 = Pose::from_array([0.0, 0.0, 2.003, 0.0, 0.0, 0.3]);
+            let hand = Pose::from_array([-0.5, 0.2, 0.0, 0.0, 0.0, 0.25]);
+            god.detect(&q0, 1.0).unwrap();
+            god.narrow_phase(&q0, 0.05);
+            let lin0 = god.linearization(&q0, &hand).unwrap();
+            let n = god.fill_rows(&lin0, None);
+            let mut dq = lin0.delta();
+            dq[0] += 0.001;
+            dq[5] -= 0.0002;
+            let q1 = lin0.configuration(&dq);
+            let _ = god.mesh_gaps_at(&q0, &q1, &dq, n);
+            let checked = god.detector.nearest_known.iter().filter(|k| **k).count();
+            assert!(checked > 100, "the check measured {checked} pairs");
+            if !reuse {
+                god.detector.nearest_at = None;
+            }
+            // The next region is centred at the answer: the check's distances are its own.
+            let posed = god.run.counts.near_posed;
+            god.narrow_phase_along(&q1, margin, path);
+            let posed = god.run.counts.near_posed - posed;
+            (god, posed)
+        };
+        let (reusing, posed_reusing) = filtered(true);
+        let (fresh, posed_fresh) = filtered(false);
+        let (kept, taken) = (
+            &reusing.detector.contacts,
+            &reusing.detector.contact_nearest,
+        );
+        assert!(
+            *kept == fresh.detector.contacts,
+            "the pairs kept differ from those kept afresh along {path:?}"
+        );
+        assert!(
+            *taken == fresh.detector.contact_nearest,
+            "the distances taken differ from those measured afresh along {path:?}"
+        );
+        let kept = kept.len();
+        (reusing, kept, posed_reusing, posed_fresh)
+    }
+
+    #[test]
+    fn a_region_away_from_a_checked_answer_measures_its_own_distances() {
+        let (mut god, ..) = filters_at_a_checked_answer_as_afresh(&Vector3::zeros(), 0.05);
         let margin = 0.05;
-        god.detect(&q0, 1.0).unwrap();
-        god.narrow_phase(&q0, margin);
-        let lin0 = god.linearization(&q0, &hand).unwrap();
-        let n = god.fill_rows(&lin0, None);
-        let mut dq = lin0.delta();
-        dq[0] += 0.001;
-        dq[5] -= 0.0002;
-        let q1 = lin0.configuration(&dq);
-        let _ = god.mesh_gaps_at(&q0, &q1, &dq, n);
-        let checked = god.detector.nearest_known.iter().filter(|k| **k).count();
-        assert!(checked > 100, "the check measured {checked} pairs");
-        // The next region is centred at the answer: the check's distances are its own.
-        let posed = god.run.counts.near_posed;
-        god.narrow_phase(&q1, margin);
-        let posed_reusing = god.run.counts.near_posed - posed;
-        let reused = (
-            god.detector.contacts.clone(),
-            god.detector.contact_nearest.clone(),
-        );
-        assert!(
-            reused.0.len() > 100,
-            "{} pairs within the margin",
-            reused.0.len()
-        );
-        // The same region measured afresh.
-        god.detector.nearest_at = None;
-        let posed = god.run.counts.near_posed;
-        god.narrow_phase(&q1, margin);
-        let posed_fresh = god.run.counts.near_posed - posed;
-        assert!(
-            reused.0 == god.detector.contacts,
-            "the pairs kept differ from those kept afresh"
-        );
-        assert!(
-            reused.1 == god.detector.contact_nearest,
-            "the distances taken differ from those measured afresh"
-        );
-        assert!(
-            posed_reusing + checked as u64 <= posed_fresh + 10,
-            "{posed_reusing} pairs posed reusing {checked} distances, {posed_fresh} afresh"
-        );
         // A region anywhere else measures its own.
         let q2 = Pose::from_array([0.0, 0.0, 2.003, 0.0, 0.0, 0.31]);
         god.narrow_phase(&q2, margin);
