@@ -57,6 +57,7 @@ mod mesh_leaves;
 mod near;
 mod neighbours;
 mod packed;
+mod pages;
 mod pose;
 mod probe;
 mod team;
@@ -74,6 +75,7 @@ pub use mesh_leaves::{MeshLeaves, MeshLeavesError};
 pub use near::near_box;
 pub use neighbours::{BackgroundList, ListStatus, NeighbourList};
 pub use packed::{PackedTree, WARM_CHUNK_NODES};
+pub use pages::{touch_pages, PAGE_BYTES};
 pub use pose::{rotation_exp, rotation_log, rotation_zyx, rotation_zyx_partials, CentreBox, Pose};
 pub use probe::{FreeSpaceProbe, ProbeStatus};
 pub use team::{

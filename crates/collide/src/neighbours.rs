@@ -66,9 +66,10 @@ struct Columns {
 
 impl Columns {
     /// Room for `capacity` pairs and `cuts` face cuts.
+    /// Room for `capacity` pairs and `cuts` face cuts, resident ([`crate::touch_pages`]).
     fn with_capacity(capacity: usize, cuts: usize) -> Self {
         let column = || Vec::with_capacity(capacity);
-        Self {
+        let mut columns = Self {
             px: column(),
             py: column(),
             pz: column(),
@@ -79,7 +80,13 @@ impl Columns {
             r_object: column(),
             face: Vec::with_capacity(capacity),
             cuts: Vec::with_capacity(cuts),
+        };
+        for c in columns.all() {
+            crate::touch_pages(c);
         }
+        crate::touch_pages(&mut columns.face);
+        crate::touch_pages(&mut columns.cuts);
+        columns
     }
 
     fn all(&mut self) -> [&mut Vec<f64>; 8] {
@@ -160,6 +167,8 @@ impl NeighbourList {
     pub fn for_trees(tool: &PackedTree, objects: &[PackedTree], capacity: usize) -> Self {
         let leaf_radius = tool.leaves().map(|n| tool.radius(n)).fold(0.0, f64::max);
         let cuts_per_pair = objects.iter().map(|o| o.max_leaf_cuts()).max().unwrap_or(0);
+        let mut pairs = Vec::with_capacity(capacity);
+        crate::touch_pages(&mut pairs);
         Self {
             ws: {
                 let mut ws = CollideWorkspace::for_trees(tool, objects);
@@ -171,7 +180,7 @@ impl NeighbourList {
             status: ListStatus::Empty,
             object: 0,
             resume: false,
-            pairs: Vec::with_capacity(capacity),
+            pairs,
             // A leaf carries its own cuts and its ancestors' crossing it: room for every pair's
             // leaf to carry as many as any leaf does (a list whose cuts did not fit would
             // overflow, as one with too many pairs).

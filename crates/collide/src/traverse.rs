@@ -603,6 +603,8 @@ impl CollideWorkspace {
         if self.second.capacity() < need {
             self.second.reserve(need - self.second.len());
         }
+        crate::touch_pages(&mut self.stack);
+        crate::touch_pages(&mut self.second);
         let n = tool.len();
         if self.wx.len() < n {
             self.wx.resize(n, 0.0);

@@ -215,12 +215,18 @@ impl TriangleTree {
     /// A stack deep enough for any descent of `a` (the tool) against `b`, with room for the
     /// tool's posed boxes (allocates; once).
     pub fn stack_for(a: &Self, b: &Self) -> TreePairStack {
-        TreePairStack {
+        let mut stack = TreePairStack {
             pairs: Vec::with_capacity(a.depth + b.depth + 2),
             posed: vec![(Matrix3::zeros(), Vector3::zeros()); a.nodes.len()],
             stamp: vec![0; a.nodes.len()],
             current: 1,
-        }
+        };
+        // Resident from the start ([`crate::touch_pages`]): a zeroed buffer's pages are mapped
+        // at their first write, which would be a frame's.
+        crate::touch_pages(&mut stack.pairs);
+        crate::touch_pages(&mut stack.posed);
+        crate::touch_pages(&mut stack.stamp);
+        stack
     }
 
     /// Calls `visit(tool_triangles, object_triangles)` with the leaf ranges of every leaf pair

@@ -127,6 +127,21 @@ pub fn thread_cpu_time() -> Duration {
     )
 }
 
+/// Page faults this thread has taken so far, minor and major (Linux:
+/// `getrusage(RUSAGE_THREAD)`): a first write to memory the kernel has not yet mapped stops the
+/// thread for a few microseconds, which a haptic frame must not do.
+///
+/// # Panics
+/// If the counters cannot be read (never on Linux).
+pub fn thread_page_faults() -> u64 {
+    // SAFETY: an all-zero `rusage` is a valid value of the plain C struct getrusage fills in.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: getrusage writes into the struct we own; RUSAGE_THREAD is valid on Linux.
+    let rc = unsafe { libc::getrusage(libc::RUSAGE_THREAD, &mut usage) };
+    assert_eq!(rc, 0, "getrusage(RUSAGE_THREAD) failed");
+    u64::try_from(usage.ru_minflt + usage.ru_majflt).unwrap_or(0)
+}
+
 /// SplitMix64 (Steele, Lea and Flood, 2014): a tiny seeded generator, plenty for driving
 /// fuzz mutations and random devices; the same seed gives the same sequence everywhere.
 #[derive(Clone, Debug)]

@@ -377,8 +377,8 @@ impl GodObject {
                 next_neighbours,
             },
             qp: QpBuffers {
-                rows: vec![[0.0; 6]; cap + 12],
-                rhs: vec![0.0; cap + 12],
+                rows: resident(vec![[0.0; 6]; cap + 12]),
+                rhs: resident(vec![0.0; cap + 12]),
                 solver,
                 rows_solver,
                 audit: None,
@@ -661,6 +661,12 @@ impl GodObject {
 
 /// The tool's tree, the objects' placed trees, and the meshes when the mesh mode has them.
 type AttachedMeshes = (SphereTree, Vec<(SphereTree, Pose)>, Option<Meshes>);
+
+/// `v` with its storage resident ([`collide::touch_pages`]).
+fn resident<T: Copy>(mut v: Vec<T>) -> Vec<T> {
+    collide::touch_pages(&mut v);
+    v
+}
 
 /// In the mesh mode (asked for, and every body with its mesh), the sphere-trees' top levels
 /// grown to hold the triangles and the triangles' own box trees; else the trees as given and no

@@ -1560,6 +1560,12 @@ impl ToolPoses {
         }
     }
 
+    /// Makes its storage resident ([`collide::touch_pages`]).
+    pub(super) fn touch_pages(&mut self) {
+        collide::touch_pages(&mut self.posed);
+        collide::touch_pages(&mut self.stamp);
+    }
+
     /// The triangles at `(rot, t)` moved along `sweep` (mm): those posed elsewhere are posed
     /// again when asked for.
     fn at(&mut self, rot: &Matrix3<f64>, t: &Vector3<f64>, sweep: &Vector3<f64>) -> PosedTools<'_> {

@@ -150,7 +150,7 @@ impl Detector {
                 .max_by_key(collide::TreePairStack::capacity)
                 .unwrap_or_default()
         });
-        Self {
+        let mut detector = Self {
             ws,
             team,
             pairs: Vec::with_capacity(cap),
@@ -184,7 +184,40 @@ impl Detector {
             contact_gaps: vec![0.0; contacts_cap],
             contact_points: vec![[0.0; 3]; contacts_cap],
             row_targets: vec![0.0; contacts_cap],
-        }
+        };
+        detector.touch_pages();
+        detector
+    }
+
+    /// Makes every buffer's storage resident ([`collide::touch_pages`]): a frame that first
+    /// writes past one's high-water mark (a near list longer than any before it) takes no page
+    /// fault.
+    fn touch_pages(&mut self) {
+        use collide::touch_pages as touch;
+        touch(&mut self.pairs);
+        touch(&mut self.face_seen);
+        touch(&mut self.contacts);
+        touch(&mut self.near);
+        touch(&mut self.next_near);
+        touch(&mut self.next_apart);
+        touch(&mut self.near_apart);
+        touch(&mut self.near_gaps);
+        touch(&mut self.next_gaps);
+        touch(&mut self.near_edges);
+        touch(&mut self.near_ranks);
+        touch(&mut self.next_ranks);
+        touch(&mut self.next_edges);
+        touch(&mut self.contact_nearest);
+        touch(&mut self.nearest_known);
+        touch(&mut self.contact_from);
+        touch(&mut self.reuse_nearest);
+        touch(&mut self.reuse_known);
+        touch(&mut self.reuse_from);
+        touch(&mut self.contact_gaps);
+        touch(&mut self.contact_points);
+        touch(&mut self.row_targets);
+        self.tool_poses.touch_pages();
+        self.list_poses.touch_pages();
     }
 }
 
