@@ -37,10 +37,10 @@ fn frames_of_a_fresh_engine_take_no_page_fault() {
         let scene = scene::scenes::builtin(name, &cache).unwrap();
         let (faults, most, frames) = faults_in_frames(&scene);
         assert!(frames > 4000, "{name}: {frames} frames");
-        // A stray fault or two (a page of the stack, of the allocator's own state) is the
-        // machine's; hundreds are the engine's buffers.
+        // A few stray faults (a page of the stack, of the allocator's own state, of code the
+        // machine paged out) are the machine's; hundreds are the engine's buffers.
         assert!(
-            faults <= 8 && most <= 2,
+            faults <= 16 && most <= 4,
             "{name}: {faults} page faults in {frames} frames, {most} in one"
         );
     }
