@@ -65,7 +65,6 @@ struct Columns {
 }
 
 impl Columns {
-    /// Room for `capacity` pairs and `cuts` face cuts.
     /// Room for `capacity` pairs and `cuts` face cuts, resident ([`crate::touch_pages`]).
     fn with_capacity(capacity: usize, cuts: usize) -> Self {
         let column = || Vec::with_capacity(capacity);

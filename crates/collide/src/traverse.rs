@@ -603,6 +603,7 @@ impl CollideWorkspace {
         if self.second.capacity() < need {
             self.second.reserve(need - self.second.len());
         }
+        // Resident: the first write to a page of them would be a frame's.
         crate::touch_pages(&mut self.stack);
         crate::touch_pages(&mut self.second);
         let n = tool.len();
