@@ -21,15 +21,25 @@ pub fn touch_pages<T: Copy>(v: &mut Vec<T>) {
         // No storage (and a capacity without end).
         return;
     }
-    // One element per page at least: the written elements are at most a page apart.
+    // One element per page at least: the written elements start at most a page apart, and
+    // the last one ends the storage (whose last page may hold no other's start).
     let stride = (PAGE_BYTES / size_of::<T>()).max(1);
-    for x in v.iter_mut().step_by(stride) {
+    let touch = |x: &mut T| {
         // Written back through an opaque value, so that the store is not dropped as a no-op.
         *x = std::hint::black_box(*x);
+    };
+    v.iter_mut().step_by(stride).for_each(touch);
+    if let Some(x) = v.last_mut() {
+        touch(x);
     }
-    for slot in v.spare_capacity_mut().iter_mut().step_by(stride) {
+    let zero = |slot: &mut MaybeUninit<T>| {
         *slot = MaybeUninit::zeroed();
         std::hint::black_box(&*slot);
+    };
+    let spare = v.spare_capacity_mut();
+    spare.iter_mut().step_by(stride).for_each(zero);
+    if let Some(slot) = spare.last_mut() {
+        zero(slot);
     }
 }
 

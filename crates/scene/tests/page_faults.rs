@@ -45,3 +45,25 @@ fn frames_of_a_fresh_engine_take_no_page_fault() {
         );
     }
 }
+
+/// A buffer touched at set-up ([`collide::touch_pages`]) is then written whole, every element
+/// of its capacity, without a fault: elements of a size that does not divide a page, in
+/// storage that starts off a page's edge (a large allocation's header), to its last page.
+#[test]
+fn a_touched_buffer_takes_no_fault_when_written_whole() {
+    const CAPACITY: usize = 1 << 18;
+    let mut odd: Vec<[u64; 3]> = Vec::with_capacity(CAPACITY);
+    odd.extend((0..1000u64).map(|i| [i; 3]));
+    collide::touch_pages(&mut odd);
+    let mut plain: Vec<f64> = Vec::with_capacity(CAPACITY);
+    collide::touch_pages(&mut plain);
+    let before = devkit::thread_page_faults();
+    odd.resize(odd.capacity(), [7; 3]);
+    plain.resize(plain.capacity(), 7.0);
+    let faults = devkit::thread_page_faults() - before;
+    assert_eq!(
+        faults, 0,
+        "{faults} page faults writing touched buffers whole"
+    );
+    assert_eq!(odd[999], [999; 3]);
+}
