@@ -245,6 +245,7 @@ fn in_the_mesh_mode_the_shipped_step_and_each_mesh_switch_off_answer_as_the_refe
         (without("mesh-near-fill"), 8),
         (without("mesh-bound-detects"), 8),
         (without("mesh-region-falls"), 8),
+        (without("mesh-slow-growth"), 8),
     ] {
         check_in(MESH_SCENES, Geometry::Mesh, heuristics, stride);
     }

@@ -187,6 +187,11 @@ const NEAR_AHEAD_START: f64 = 0.5;
 /// microseconds, and one to spare.
 const NEAR_IDLE_LEFT_FRAMES: f64 = 2.0;
 
+/// Least growth (times the margin) a ball's slow growth is measured for
+/// ([`Heuristics::mesh_slow_growth`]): a list that reaches less farther is about to be
+/// replaced.
+const SLOW_GROWTH_LEAST: f64 = 1.25;
+
 /// Width (mm) and count of the bins the near list's pair bounds are counted in, each region,
 /// for the distance within which it holds a ball's pair target ([`GodObject::standoff_allow`]):
 /// a 0.0025 mm grain up to 0.1 mm, on the stack.
@@ -298,6 +303,7 @@ impl GodObject {
         // Every pose of the region is within the margin of the path, within its length of the
         // centre.
         self.run.regions.contacts_at = Some((*center, margin + path.norm()));
+        self.run.regions.slow_growth_to = None;
         if self.detector.pairs.is_empty() {
             // Free space: no wall stands near.
             self.run.regions.near_standoff = f64::INFINITY;
@@ -358,8 +364,11 @@ impl GodObject {
         // stands ([`GodObject::standoff_allow`]).
         let mut bins = [0u32; STANDOFF_BINS];
         let mut measured = 0usize;
+        // Pairs within the margin (and below, those a ball twice as wide could hold).
+        let mut within = 0usize;
         let mut count = |apart: f64| {
             measured += 1;
+            within += usize::from(apart <= margin);
             let bin = (apart.max(0.0) / STANDOFF_BIN_MM) as usize;
             if let Some(n) = bins.get_mut(bin) {
                 *n += 1;
@@ -507,13 +516,35 @@ impl GodObject {
             self.run.regions.contacts_at = None;
             return;
         }
+        let target = self.params.tuning.ball_pair_target;
+        // A ball that held more than its target, and at least the thinning share of the pairs
+        // one up to twice as wide could hold (by their bounds here, as far as the list
+        // reaches): a smaller ball sheds few of its pairs, a wider one gains few.
+        if !swept && within as f64 > target && self.params.heuristics.mesh_slow_growth {
+            let reach = self
+                .run
+                .regions
+                .near_at
+                .map_or(0.0, |span| span.reach - self.span_bound(&span, center));
+            let wide = (2.0 * margin).min(reach);
+            if wide >= SLOW_GROWTH_LEAST * margin {
+                let wider = self
+                    .detector
+                    .near_apart
+                    .iter()
+                    .filter(|&&kept| kept - offset <= wide)
+                    .count();
+                if within as f64 >= NEAR_THIN_SHARE * wider as f64 {
+                    self.run.regions.slow_growth_to = Some(wide);
+                }
+            }
+        }
         // A region that measured a ball's pair target finds where the wall stands; one kept
         // short of it that measured under half the target leaves that as found (a new list
         // too: the wall is where the tool is, not where a list was listed, and each reset
         // listed the wall whole once a list); one that measured more found the tool on
         // something nearer than the wall (a face it was pushed onto), where a smaller ball no
         // longer halves the work.
-        let target = self.params.tuning.ball_pair_target;
         if (measured as f64) >= 0.5 * target && (measured as f64) < target {
             self.run.regions.near_standoff = f64::INFINITY;
         } else if measured as f64 >= target {
@@ -1993,6 +2024,43 @@ mod tests {
     fn cube_over_sheet_storing(max_pairs: usize) -> (GodObject, Vec<Triangle>, Vec<Triangle>) {
         let sheet = grid_sheet(20, 20.0, |x, y| 0.3 * (0.4 * x).sin() * (0.3 * y).cos());
         cube_over_storing(&sheet, one_leaf([0.0; 3], 28.3), max_pairs)
+    }
+
+    /// A ball over its pair target may be followed by a wider one only where a wider one
+    /// would hold few more pairs: a cube resting on a plate has every pair touching (a
+    /// smaller ball sheds none of them, a wider one gains none), a cube over a wavy sheet has
+    /// its pairs spread past the margin (a wider one gains many).
+    #[test]
+    fn a_dense_ball_grows_only_where_a_wider_one_would_hold_few_more_pairs() {
+        let growth_after_a_dense_ball =
+            |(mut god, _, _): (GodObject, Vec<Triangle>, Vec<Triangle>), q: Pose, on: bool| {
+                god.params.tuning.ball_pair_target = 2.0;
+                god.params.heuristics.mesh_slow_growth = on;
+                let margin = 0.1;
+                god.detect_triangles(&q, margin);
+                assert!(
+                    god.detector.contacts.len() > 2,
+                    "{}",
+                    god.detector.contacts.len()
+                );
+                god.run.regions.slow_growth_to.map(|wide| wide / margin)
+            };
+        let resting = Pose::from_array([0.0, 0.0, 2.001, 0.0, 0.0, 0.0]);
+        let grown = growth_after_a_dense_ball(cube_on_plate(), resting, true);
+        assert!(
+            grown.is_some_and(|g| (SLOW_GROWTH_LEAST..=2.0).contains(&g)),
+            "{grown:?}"
+        );
+        assert_eq!(
+            growth_after_a_dense_ball(cube_on_plate(), resting, false),
+            None
+        );
+        // Over the sheet, 12 pairs within the margin and 52 within twice it.
+        let above = Pose::from_array([0.0, 0.0, 2.28, 0.0, 0.0, 0.0]);
+        assert_eq!(
+            growth_after_a_dense_ball(cube_over_sheet(), above, true),
+            None
+        );
     }
 
     /// A near list longer than its target reaches half as far next time only where that

@@ -100,11 +100,20 @@ impl GodObject {
         // count near the target by taking smaller regions (more passes).
         let h = self.params.heuristics;
         let dense_cap = if h.density_sizing {
-            self.run
+            let by_density = self
+                .run
                 .regions
                 .density
-                .margin_for(self.params.tuning.ball_pair_target)
-                - skin
+                .margin_for(self.params.tuning.ball_pair_target);
+            // Pairs that grew slower than the margin: a smaller ball sheds few of them, a
+            // wider one gains few ([`Heuristics::mesh_slow_growth`]).
+            let slow = self
+                .run
+                .regions
+                .slow_growth_to
+                .filter(|_| h.mesh_slow_growth)
+                .unwrap_or(0.0);
+            by_density.max(slow) - skin
         } else {
             f64::INFINITY
         };

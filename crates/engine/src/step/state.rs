@@ -326,6 +326,7 @@ impl RunState {
                 mesh_contact_us: 0.0,
                 overflow_floor: f64::INFINITY,
                 near_standoff: f64::INFINITY,
+                slow_growth_to: None,
                 near_ahead: NearAhead::IDLE,
             },
             solve: SolveMemory {
@@ -453,6 +454,10 @@ pub(super) struct RegionMemory {
     /// (`f64::INFINITY`: fewer pairs, or no list): a tight fit's wall standing a little off
     /// the tool ([`GodObject::standoff_allow`]).
     pub(super) near_standoff: f64,
+    /// How wide (mm) a ball may be after the last ball region, whose triangle pairs were
+    /// more than its target and grew slower than its margin: up to twice its margin, as far
+    /// as the list showed few more ([`Heuristics::mesh_slow_growth`]); `None` otherwise.
+    pub(super) slow_growth_to: Option<f64>,
     /// The region centre and margin (mm) `detector.contacts` was listed for.
     pub(super) contacts_at: Option<(Pose, f64)>,
     /// Where the near list's pair bounds hold (the last region that filtered it), or `None`:
