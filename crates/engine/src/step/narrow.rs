@@ -528,12 +528,7 @@ impl GodObject {
                 .map_or(0.0, |span| span.reach - self.span_bound(&span, center));
             let wide = (2.0 * margin).min(reach);
             if wide >= SLOW_GROWTH_LEAST * margin {
-                let wider = self
-                    .detector
-                    .near_apart
-                    .iter()
-                    .filter(|&&kept| kept - offset <= wide)
-                    .count();
+                let wider = self.detector.near_pairs_within(offset, wide);
                 if within as f64 >= NEAR_THIN_SHARE * wider as f64 {
                     self.run.regions.slow_growth_to = Some(wide);
                 }
@@ -905,13 +900,9 @@ impl GodObject {
     fn adapt_near_extra(&mut self, reach: f64, extra: f64) {
         let len = self.detector.near.len();
         let halved = reach - 0.5 * extra;
-        let offset = self.detector.near_offset;
         let within_half = self
             .detector
-            .near_apart
-            .iter()
-            .filter(|&&kept| kept - offset <= halved)
-            .count();
+            .near_pairs_within(self.detector.near_offset, halved);
         let thins = within_half as f64 <= NEAR_THIN_SHARE * len as f64;
         let tuning = &self.params.tuning;
         self.run.regions.near_extra = if len > tuning.near_list_pairs && thins {

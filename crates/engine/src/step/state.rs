@@ -105,6 +105,15 @@ pub(super) struct Detector {
 }
 
 impl Detector {
+    /// The near list's pairs whose kept bound, less `offset` (mm: the list's offset where the
+    /// bounds are taken), is at most `within` (mm).
+    pub(super) fn near_pairs_within(&self, offset: f64, within: f64) -> usize {
+        self.near_apart
+            .iter()
+            .filter(|&&kept| kept - offset <= within)
+            .count()
+    }
+
     /// Makes the contacts' kept exact distances those of the tool at `(rot, t)`: none known
     /// where they were measured elsewhere.
     pub(super) fn hold_distances_at(&mut self, rot: Matrix3<f64>, t: Vector3<f64>) {
