@@ -379,7 +379,7 @@ impl GodObject {
         // A path region takes them too (a tilted peg pushed down its hole): measured at its
         // centre, they are the distances its own filter would measure there.
         let reuse =
-            previous.at == Some((rot, t)) && previous.list == Some(detector.near_generation);
+            previous.at == Some((rot, t)) && detector.reuse_list == Some(detector.near_generation);
         let mut from_check = 0;
         let mut tools = detector.tool_poses.at(&rot, &t, path);
         let mut stopped_at = None;
@@ -855,6 +855,9 @@ impl GodObject {
         detector.near_offset = 0.0;
         self.detector.near_turn = 0.0;
         self.detector.near_generation += 1;
+        // The last region's checked distances name the old list's pairs: they name the new
+        // one's (a region at the checked answer takes them on its new list too).
+        self.detector.carry_reuse_to_new_list();
         self.run.regions.near_bounds_at = None;
         self.run.regions.near_listed_at = Some(at.at);
         match ahead.purpose {
@@ -1430,6 +1433,38 @@ impl Detector {
         }
         *acc = a;
         true
+    }
+
+    /// Makes the last region's checked distances (`reuse_*`), which name the pairs of the
+    /// list just replaced (now in `next_near`, `next_ranks`), name the same pairs of the list
+    /// just taken, by rank; those it does not hold are dropped. Nothing where they name
+    /// another list.
+    fn carry_reuse_to_new_list(&mut self) {
+        if self.reuse_list.map(|l| l + 1) != Some(self.near_generation) {
+            return;
+        }
+        let (old_ranks, new_ranks) = (&self.next_ranks, &self.near_ranks);
+        let mut i = 0;
+        let mut kept = 0;
+        for k in 0..self.reuse_from.len() {
+            let Some(&rank) = old_ranks.get(self.reuse_from[k] as usize) else {
+                continue;
+            };
+            while i < new_ranks.len() && new_ranks[i] < rank {
+                i += 1;
+            }
+            if i < new_ranks.len() && new_ranks[i] == rank {
+                debug_assert!(self.next_near[self.reuse_from[k] as usize] == self.near[i]);
+                self.reuse_from[kept] = i as u32;
+                self.reuse_nearest[kept] = self.reuse_nearest[k];
+                self.reuse_known[kept] = self.reuse_known[k];
+                kept += 1;
+            }
+        }
+        self.reuse_from.truncate(kept);
+        self.reuse_nearest.truncate(kept);
+        self.reuse_known.truncate(kept);
+        self.reuse_list = Some(self.near_generation);
     }
 
     /// Merges the near list just taken (`near`, its bounds and ranks) with the one it replaced
@@ -2929,7 +2964,7 @@ mod tests {
         // within the margin, and their distances are taken.
         for path in [Vector3::zeros(), Vector3::new(0.02, -0.01, 0.0)] {
             let (_, kept, posed_reusing, posed_fresh) =
-                filters_at_a_checked_answer_as_afresh(&path, 0.05);
+                filters_at_a_checked_answer_as_afresh(&path, 0.05, false);
             assert!(kept > 100, "{kept} pairs within the margin along {path:?}");
             assert!(
                 posed_reusing + 100 <= posed_fresh,
@@ -2938,13 +2973,30 @@ mod tests {
         }
     }
 
+    /// The same where the region takes a new near list (the old one no longer covering it, as
+    /// when a tool moving on is handed the list built ahead): the check named the old list's
+    /// pairs, and the new list's same pairs take their distances.
+    #[test]
+    fn a_region_at_a_checked_answer_on_a_new_list_takes_the_checks_distances() {
+        let (god, kept, posed_reusing, posed_fresh) =
+            filters_at_a_checked_answer_as_afresh(&Vector3::zeros(), 0.05, true);
+        assert!(kept > 100, "{kept} pairs within the margin");
+        assert_eq!(god.detector.reuse_list, Some(god.detector.near_generation));
+        assert!(
+            posed_reusing + 100 <= posed_fresh,
+            "{posed_reusing} pairs posed reusing the check's distances, {posed_fresh} afresh"
+        );
+    }
+
     /// The region of margin `margin` along `path` (mm) centred at a checked answer, filtered
     /// taking the check's distances and afresh, on two identical engines (a filter leaves
-    /// bounds the next one uses): the same pairs kept, with the same distances. Returns the
-    /// engine that took them, the pairs kept and the pairs posed by each filter.
+    /// bounds the next one uses), on a `new_list` or the one the check's pairs came from: the
+    /// same pairs kept, with the same distances. Returns the engine that took them, the pairs
+    /// kept and the pairs posed by each filter.
     fn filters_at_a_checked_answer_as_afresh(
         path: &Vector3<f64>,
         margin: f64,
+        new_list: bool,
     ) -> (GodObject, usize, u64, u64) {
         let filtered = |reuse: bool| {
             let mut god = cube_over_fine_grid();
@@ -2966,10 +3018,16 @@ mod tests {
             if !reuse {
                 god.detector.nearest_at = None;
             }
+            let generation = god.detector.near_generation;
+            if new_list {
+                // The list in use no longer serves: the region lists a new one.
+                god.run.regions.near_at = None;
+            }
             // The next region is centred at the answer: the check's distances are its own.
             let posed = god.run.counts.near_posed;
             god.narrow_phase_along(&q1, margin, path);
             let posed = god.run.counts.near_posed - posed;
+            assert_eq!(god.detector.near_generation > generation, new_list);
             (god, posed)
         };
         let (reusing, posed_reusing) = filtered(true);
@@ -2992,7 +3050,7 @@ mod tests {
 
     #[test]
     fn a_region_away_from_a_checked_answer_measures_its_own_distances() {
-        let (mut god, ..) = filters_at_a_checked_answer_as_afresh(&Vector3::zeros(), 0.05);
+        let (mut god, ..) = filters_at_a_checked_answer_as_afresh(&Vector3::zeros(), 0.05, false);
         let margin = 0.05;
         // A region anywhere else measures its own.
         let q2 = Pose::from_array([0.0, 0.0, 2.003, 0.0, 0.0, 0.31]);

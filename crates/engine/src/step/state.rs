@@ -89,6 +89,8 @@ pub(super) struct Detector {
     pub(super) reuse_nearest: Vec<collide::TriangleDistance>,
     pub(super) reuse_known: Vec<bool>,
     pub(super) reuse_from: Vec<u32>,
+    /// The near list (`near_generation`) whose positions `reuse_from` names.
+    pub(super) reuse_list: Option<u64>,
     /// The tool's triangles posed at the pose being measured (empty in sphere mode).
     pub(super) tool_poses: ToolPoses,
     /// The tool's triangles posed for the near list under way (its span's pose and sweep).
@@ -127,9 +129,9 @@ impl Detector {
     /// measured) for the next region's filter ([`Detector::reuse_nearest`]); returns where
     /// they hold.
     pub(super) fn keep_checked_distances(&mut self) -> CheckedDistances {
+        self.reuse_list = self.contacts_list.take();
         let kept = CheckedDistances {
             at: self.nearest_at.take(),
-            list: self.contacts_list.take(),
         };
         std::mem::swap(&mut self.contact_nearest, &mut self.reuse_nearest);
         std::mem::swap(&mut self.nearest_known, &mut self.reuse_known);
@@ -187,6 +189,7 @@ impl Detector {
             reuse_nearest: Vec::with_capacity(contacts_cap),
             reuse_known: Vec::with_capacity(contacts_cap),
             reuse_from: Vec::with_capacity(contacts_cap),
+            reuse_list: None,
             tool_poses: ToolPoses::new(meshes.map_or(0, |m| m.tool.len())),
             list_poses: ToolPoses::new(meshes.map_or(0, |m| m.tool.len())),
             next_stack,
@@ -231,10 +234,9 @@ impl Detector {
 }
 
 /// Where the distances [`Detector::keep_checked_distances`] kept were measured: the tool's
-/// pose (rotation, translation, mm) and the near list their pairs came from.
+/// pose (rotation, translation, mm).
 pub(super) struct CheckedDistances {
     pub(super) at: Option<(Matrix3<f64>, Vector3<f64>)>,
-    pub(super) list: Option<u64>,
 }
 
 /// The work kept ahead of need, a slice per frame.
