@@ -98,13 +98,13 @@ pub struct Heuristics {
     /// than waiting for a frame's step of [`Tuning::fall_min_step_mm`](crate::Tuning::fall_min_step_mm):
     /// balls the pair density keeps small creep where the tool falls free.
     pub mesh_region_falls: bool,
-    /// The mesh mode's slow growth: a ball whose triangle pairs grow slower than its margin
-    /// (fewer than twice as many within it as within half of it, by their exact distances)
-    /// and that held more than [`Tuning::ball_pair_target`](crate::Tuning::ball_pair_target)
-    /// may be followed by one up to twice as wide, rather than be shrunk toward the target by
-    /// the pair density's power law, which no smaller ball would meet: a pole's fan of
-    /// triangles on another's holds ~2 000 pairs at any margin, and balls at the dense floor
-    /// moved the tool 0.017 mm a pass, 1.8 mm behind the hand.
+    /// The mesh mode's slow growth: a ball that held more than
+    /// [`Tuning::ball_pair_target`](crate::Tuning::ball_pair_target) triangle pairs within its
+    /// margin, at least 3/4 of those the near list's bounds put within a ball up to twice as
+    /// wide, may be followed by one that wide, rather than be shrunk toward the target by the
+    /// pair density's power law, which no smaller ball would meet: a pole's fan of triangles
+    /// on another's holds ~2 000 pairs at any margin, and balls at the dense floor moved the
+    /// tool 0.017 mm a pass, 1.8 mm behind the hand.
     pub mesh_slow_growth: bool,
 }
 
