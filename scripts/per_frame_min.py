@@ -28,7 +28,7 @@ import subprocess
 import sys
 import tempfile
 
-TIME_COLUMNS = {"cd_us", "opt_us", "total_us"}
+TIME_COLUMNS = {"cd_us", "opt_us", "total_us", "ahead_us"}
 
 
 def percentile(values, p):

@@ -892,8 +892,14 @@ fn print_human(s: &RunSummary, out: &Path) {
         println!("  tree: {}", t.describe());
     }
     println!(
-        "  total µs  p50 {:.1}  p99 {:.1}  max {:.1}   (cd p99 {:.1}, opt p99 {:.1})",
-        s.total_us.p50, s.total_us.p99, s.total_us.max, s.cd_us.p99, s.opt_us.p99
+        "  total µs  p50 {:.1}  p99 {:.1}  max {:.1}   (cd p99 {:.1}, opt p99 {:.1}; own work p99 {:.1}, lists ahead p99 {:.1})",
+        s.total_us.p50,
+        s.total_us.p99,
+        s.total_us.max,
+        s.cd_us.p99,
+        s.opt_us.p99,
+        s.own_us.p99,
+        s.ahead_us.p99
     );
     println!(
         "  pairs p50 {:.0} max {:.0}; iterations p99 {:.0}; penetration max {:.4} mm",

@@ -95,15 +95,15 @@ fn bunny_run_writes_frames_summary_plots_and_replays_identically() {
     let (header, rows) = csv_rows(&out.join("frames.csv"));
     assert_eq!(
         header,
-        "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,splits,scanned,mesh_penetration_mm"
+        "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,splits,scanned,ahead_us,mesh_penetration_mm"
     );
     assert_eq!(rows.len() as u64, summary["frames"].as_u64().unwrap());
     assert!(rows
         .iter()
-        .all(|r| r.len() == 29 && r[..28].iter().all(|v| v.is_finite())));
+        .all(|r| r.len() == 30 && r[..29].iter().all(|v| v.is_finite())));
     // The bunny scene keeps its meshes: every frame near the other bunny is measured at the
     // mesh level.
-    let measured = rows.iter().filter(|r| r[28].is_finite()).count() as u64;
+    let measured = rows.iter().filter(|r| r[29].is_finite()).count() as u64;
     let mesh = &summary["mesh_penetration_mm"];
     assert_eq!(mesh["frames"].as_u64(), Some(measured));
     assert_eq!(mesh["contact_frames"].as_u64(), Some(measured));
@@ -113,6 +113,8 @@ fn bunny_run_writes_frames_summary_plots_and_replays_identically() {
         "cd_us",
         "opt_us",
         "total_us",
+        "ahead_us",
+        "own_us",
         "pairs",
         "iterations",
         "penetration_mm",
@@ -292,24 +294,27 @@ fn run_measures_the_mesh_penetration_of_a_mesh_scene_and_says_when_it_cannot() {
     let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let text = std::fs::read_to_string(out.join("frames.csv")).unwrap();
     let header = text.lines().next().unwrap();
-    assert!(header.ends_with(",scanned,mesh_penetration_mm"), "{header}");
+    assert!(
+        header.ends_with(",scanned,ahead_us,mesh_penetration_mm"),
+        "{header}"
+    );
     let (_, rows) = csv_rows(&out.join("frames.csv"));
     let zg_at = 9;
-    let measured: Vec<&Vec<f64>> = rows.iter().filter(|r| r[28].is_finite()).collect();
+    let measured: Vec<&Vec<f64>> = rows.iter().filter(|r| r[29].is_finite()).collect();
     // Measured where the ball holding the tool's box (radius 10√3 mm about its centre) reaches
     // the object's box (top face z = 10): by the parts alone, whatever the engine listed.
     // Empty at the end, the tool's centre 20 mm over that face.
     assert!(measured.len() > 100, "{} frames measured", measured.len());
-    assert!(rows.last().unwrap()[28].is_nan());
+    assert!(rows.last().unwrap()[29].is_nan());
     for r in &rows {
         let reach = r[zg_at] - 10.0 - 10.0 * 3f64.sqrt();
         if reach.abs() > 1e-6 {
-            assert_eq!(r[28].is_finite(), reach < 0.0, "z {}", r[zg_at]);
+            assert_eq!(r[29].is_finite(), reach < 0.0, "z {}", r[zg_at]);
         }
     }
     // The trees keep the boxes apart: the meshes do not overlap (the tree sits on or above
     // the mesh contact height).
-    assert!(measured.iter().all(|r| (0.0..=0.01).contains(&r[28])));
+    assert!(measured.iter().all(|r| (0.0..=0.01).contains(&r[29])));
     let mesh = &summary["mesh_penetration_mm"];
     assert_eq!(mesh["frames"].as_u64(), Some(measured.len() as u64));
     assert_eq!(mesh["stride"].as_u64(), Some(1));
@@ -338,7 +343,7 @@ fn run_measures_the_mesh_penetration_of_a_mesh_scene_and_says_when_it_cannot() {
         "{stdout}"
     );
     let (_, rows) = csv_rows(&out.join("frames.csv"));
-    assert!(rows.iter().all(|r| r.len() == 29 && r[28].is_nan()));
+    assert!(rows.iter().all(|r| r.len() == 30 && r[29].is_nan()));
     let pairs_at = 19;
     assert!(
         rows.iter().any(|r| r[pairs_at] > 0.0),

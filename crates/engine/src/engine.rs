@@ -158,6 +158,10 @@ pub struct Frame {
     pub opt_us: f64,
     /// Time of the whole step (without the safety layer), µs.
     pub total_us: f64,
+    /// Part of `total_us` the frame spent on lists for later frames: the next neighbour
+    /// list's or mesh near list's slice, built ahead of need, µs. `total_us - ahead_us` is
+    /// the frame's own work.
+    pub ahead_us: f64,
     /// Detection work of the frame: node pairs split by its traversals, its free-space probe
     /// slices and its neighbour-list build slices (a build also counts the pairs it lists), in
     /// node pairs. The bounded near-part search is not counted. Unlike the times, the counts

@@ -742,7 +742,7 @@ impl PyEngine {
     /// released: reset at the first row, one step per row. Returns a dict of numpy arrays
     /// named as the columns of frames.csv (`t`, `xh`..`ah`, `xg`..`ag`, `fx`..`tz`, `pairs`,
     /// `cd_us`, `opt_us`, `total_us`, `iters`, `penetration_mm`, `passes`, `status`, `splits`,
-    /// `scanned`).
+    /// `scanned`, `ahead_us`).
     #[pyo3(signature = (trajectory=None))]
     fn run<'py>(
         &mut self,

@@ -128,7 +128,8 @@ pub fn columns(records: &[FrameRecord]) -> Vec<(&'static str, Column)> {
                 25 => count(&|r| r.frame.passes),
                 26 => Column::Status(records.iter().map(|r| r.frame.status.name()).collect()),
                 27 => count(&|r| r.frame.splits),
-                _ => count(&|r| r.frame.scanned),
+                28 => count(&|r| r.frame.scanned),
+                _ => real(&|r| r.frame.ahead_us),
             };
             (name, col)
         })

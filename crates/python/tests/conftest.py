@@ -15,7 +15,7 @@ BUNNY_OBJ = REPO / "assets" / "bunny.obj"
 # alone and two runs agree value for value (crates/scene/tests/engine_replay.rs).
 BUDGET_US = 1_000_000.0
 # frames.csv's wall-clock columns, left out of comparisons.
-TIMING_COLUMNS = ("cd_us", "opt_us", "total_us")
+TIMING_COLUMNS = ("cd_us", "opt_us", "total_us", "ahead_us")
 
 # frames.csv's columns that `haptic6d run` measures after the run, beyond the engine's frame
 # (the replay has none of them): not read.

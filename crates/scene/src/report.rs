@@ -12,11 +12,11 @@ use crate::Goal;
 use engine::step::FrameStatus;
 
 /// The header of `frames.csv`.
-pub const FRAMES_HEADER: &str = "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,splits,scanned";
+pub const FRAMES_HEADER: &str = "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,splits,scanned,ahead_us";
 
 /// The header of the `frames.csv` that `haptic6d run` writes: [`FRAMES_HEADER`] (the engine's
 /// columns, as [`frames_csv`] writes them) and then [`MESH_PENETRATION_COLUMN`].
-pub const RUN_FRAMES_HEADER: &str = "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,splits,scanned,mesh_penetration_mm";
+pub const RUN_FRAMES_HEADER: &str = "t,xh,yh,zh,gh,bh,ah,xg,yg,zg,gg,bg,ag,fx,fy,fz,tx,ty,tz,pairs,cd_us,opt_us,total_us,iters,penetration_mm,passes,status,splits,scanned,ahead_us,mesh_penetration_mm";
 
 /// The last column of `haptic6d run`'s `frames.csv`: the mesh-level penetration of the tool
 /// mesh into the object meshes at the graphic pose, mm; empty on frames not measured.
@@ -62,7 +62,7 @@ fn frame_fields(s: &mut String, f: &FrameRecord) {
     }
     let _ = write!(
         s,
-        ",{},{:.3},{:.3},{:.3},{},{},{},{},{},{}",
+        ",{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{:.3}",
         o.pairs,
         o.cd_us,
         o.opt_us,
@@ -72,7 +72,8 @@ fn frame_fields(s: &mut String, f: &FrameRecord) {
         o.passes,
         o.status.name(),
         o.splits,
-        o.scanned
+        o.scanned,
+        o.ahead_us
     );
 }
 
@@ -177,6 +178,10 @@ pub struct RunSummary {
     pub opt_us: Summary,
     /// Whole step per frame, µs.
     pub total_us: Summary,
+    /// Part of the step spent on lists for later frames, µs ([`engine::Frame::ahead_us`]).
+    pub ahead_us: Summary,
+    /// The step less that part: the frame's own work, µs.
+    pub own_us: Summary,
     /// Leaf pairs per frame.
     pub pairs: Summary,
     /// Solver iterations per frame (summed over passes).
@@ -301,6 +306,8 @@ pub fn summarize(
         cd_us: Summary::of(frames.iter().map(|f| f.frame.cd_us)),
         opt_us: Summary::of(frames.iter().map(|f| f.frame.opt_us)),
         total_us: Summary::of(frames.iter().map(|f| f.frame.total_us)),
+        ahead_us: Summary::of(frames.iter().map(|f| f.frame.ahead_us)),
+        own_us: Summary::of(frames.iter().map(|f| f.frame.total_us - f.frame.ahead_us)),
         pairs: Summary::of(frames.iter().map(|f| f64::from(f.frame.pairs))),
         iterations: Summary::of(frames.iter().map(|f| f64::from(f.frame.iterations))),
         passes: Summary::of(frames.iter().map(|f| f64::from(f.frame.passes))),

@@ -30,6 +30,7 @@ fn untimed(frames: &[FrameOutput]) -> Vec<FrameOutput> {
             cd_us: 0.0,
             opt_us: 0.0,
             total_us: 0.0,
+            ahead_us: 0.0,
             ..*f
         })
         .collect()

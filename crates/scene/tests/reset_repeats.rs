@@ -29,6 +29,7 @@ fn untimed(frame: &Frame) -> Frame {
         cd_us: 0.0,
         opt_us: 0.0,
         total_us: 0.0,
+        ahead_us: 0.0,
         ..*frame
     }
 }

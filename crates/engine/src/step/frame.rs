@@ -542,6 +542,7 @@ impl GodObject {
         );
         // In contact, the next frames' regions come from a neighbour list kept ahead.
         let used = out.margin_mm.max(self.params.tuning.min_allow_mm + f.skin);
+        let own_us = f.clock.elapsed_us();
         self.tend_neighbours(&q_safe, used, f.clock.deadline);
         let slice_us = self.near_slice_us(&q_safe, f.clock.elapsed_us());
         self.tend_near(&q_safe, slice_us, f.clock.deadline);
@@ -555,5 +556,6 @@ impl GodObject {
         out.splits = self.run.counts.frame_splits.min(u64::from(u32::MAX)) as u32;
         out.scanned = self.run.counts.frame_scanned.min(u64::from(u32::MAX)) as u32;
         out.total_us = f.clock.elapsed_us();
+        out.ahead_us = out.total_us - own_us;
     }
 }
