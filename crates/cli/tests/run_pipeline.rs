@@ -101,6 +101,15 @@ fn bunny_run_writes_frames_summary_plots_and_replays_identically() {
     assert!(rows
         .iter()
         .all(|r| r.len() == 30 && r[..29].iter().all(|v| v.is_finite())));
+    // The lists ahead are part of a frame's time (`ahead_us` within `total_us`), and some
+    // frames build them (the leaf spheres' neighbour lists, tens of microseconds a slice).
+    let (total_at, ahead_at) = (22, 28);
+    assert!(rows
+        .iter()
+        .all(|r| (0.0..=r[total_at]).contains(&r[ahead_at])));
+    assert!(rows.iter().any(|r| r[ahead_at] > 10.0));
+    let own_p99 = summary["own_us"]["p99"].as_f64().unwrap();
+    assert!(own_p99 > 0.0 && own_p99 <= summary["total_us"]["max"].as_f64().unwrap());
     // The bunny scene keeps its meshes: every frame near the other bunny is measured at the
     // mesh level.
     let measured = rows.iter().filter(|r| r[29].is_finite()).count() as u64;
