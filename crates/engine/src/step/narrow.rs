@@ -393,6 +393,11 @@ impl GodObject {
             moved
         };
         let keep = |bound: f64| bound + offset;
+        // Each chunk in two passes: a tight one over its bounds and gaps that passes over the
+        // pairs they hold beyond the margin (a tight fit's wall, moving along it: thousands a
+        // region, a few nanoseconds each) and notes the rest, then the rest, each as below.
+        // In one loop with the rest's work, the wall's pairs cost twice as much.
+        let mut rest = [(0u16, 0.0f64); FILTER_CLOCK_PAIRS];
         for (k, bounds) in detector
             .near_apart
             .chunks_mut(FILTER_CLOCK_PAIRS)
@@ -402,18 +407,35 @@ impl GodObject {
                 stopped_at = Some(k * FILTER_CLOCK_PAIRS);
                 break;
             }
-            for (j, kept) in bounds.iter_mut().enumerate() {
+            let first = k * FILTER_CLOCK_PAIRS;
+            let gaps = &detector.near_gaps[first..first + bounds.len()];
+            let mut held = 0;
+            for (j, (kept, gap)) in bounds.iter_mut().zip(gaps).enumerate() {
                 if *kept - offset > margin {
                     continue;
                 }
-                let i = k * FILTER_CLOCK_PAIRS + j;
+                let here = gap.at(&t, path, turn);
+                if here > margin {
+                    if anchored {
+                        *kept = kept.max(keep(here));
+                    }
+                    continue;
+                }
+                // (A chunk is at most 256 pairs.)
+                rest[held] = (j as u16, here);
+                held += 1;
+            }
+            for &(j, gap_here) in &rest[..held] {
+                let j = usize::from(j);
+                let kept = &mut bounds[j];
+                let i = first + j;
                 let gap = &mut detector.near_gaps[i];
-                let mut here = gap.at(&t, path, turn);
+                let mut here = gap_here;
                 // Measured within the margin, and not moved farther than the rest of it since:
                 // near still, whatever its gap or separation (the contacts of a tight fit,
                 // thousands a region); its distance is measured at once.
-                let near = here <= margin && anchored && gap.upper + offset <= margin;
-                if here <= margin && directions && gap.is_known() && !near {
+                let near = anchored && gap.upper + offset <= margin;
+                if directions && gap.is_known() && !near {
                     // Worn down by the whole tool's turns: the pair's own corners tell.
                     let in_tool = meshes.tool.triangle(detector.near[i].tool);
                     here = gap.exact_at(in_tool, &rot, &t, turn)
