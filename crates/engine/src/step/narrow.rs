@@ -396,7 +396,8 @@ impl GodObject {
         // Each chunk in two passes: a tight one over its bounds and gaps that passes over the
         // pairs they hold beyond the margin (a tight fit's wall, moving along it: thousands a
         // region, a few nanoseconds each) and notes the rest, then the rest, each as below.
-        // In one loop with the rest's work, the wall's pairs cost twice as much.
+        // In one loop with the rest's work, a tilting peg's filters took a sixth longer (112
+        // against 94 ms a run).
         let mut rest = [(0u16, 0.0f64); FILTER_CLOCK_PAIRS];
         for (k, bounds) in detector
             .near_apart
