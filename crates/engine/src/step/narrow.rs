@@ -399,6 +399,7 @@ impl GodObject {
         // In one loop with the rest's work, a tilting peg's filters took a sixth longer (112
         // against 94 ms a run).
         let mut rest = [(0u16, 0.0f64); FILTER_CLOCK_PAIRS];
+        let mut held_at = [0u16; FILTER_CLOCK_PAIRS];
         for (k, bounds) in detector
             .near_apart
             .chunks_mut(FILTER_CLOCK_PAIRS)
@@ -410,21 +411,27 @@ impl GodObject {
             }
             let first = k * FILTER_CLOCK_PAIRS;
             let gaps = &detector.near_gaps[first..first + bounds.len()];
+            // The pairs past their kept bound, then those of them past their gap too, noted
+            // without a branch: a wall's pairs fall either way at random (with a branch each,
+            // the tilted pegs' and `spline-tight`'s heaviest frames were 4–8 % heavier).
+            let mut past = 0;
+            for (j, kept) in bounds.iter().enumerate() {
+                // (A chunk is at most 256 pairs, and `past` at most `j` here.)
+                held_at[past] = j as u16;
+                past += usize::from(!(*kept - offset > margin));
+            }
             let mut held = 0;
-            for (j, (kept, gap)) in bounds.iter_mut().zip(gaps).enumerate() {
-                if *kept - offset > margin {
-                    continue;
+            for &j in &held_at[..past] {
+                let j = usize::from(j);
+                let here = gaps[j].at(&t, path, turn);
+                let apart = here > margin;
+                if anchored {
+                    let kept = &mut bounds[j];
+                    let raised = kept.max(keep(here));
+                    *kept = if apart { raised } else { *kept };
                 }
-                let here = gap.at(&t, path, turn);
-                if here > margin {
-                    if anchored {
-                        *kept = kept.max(keep(here));
-                    }
-                    continue;
-                }
-                // (A chunk is at most 256 pairs.)
                 rest[held] = (j as u16, here);
-                held += 1;
+                held += usize::from(!apart);
             }
             for &(j, gap_here) in &rest[..held] {
                 let j = usize::from(j);
@@ -436,6 +443,11 @@ impl GodObject {
                 // near still, whatever its gap or separation (the contacts of a tight fit,
                 // thousands a region); its distance is measured at once.
                 let near = anchored && gap.upper + offset <= margin;
+                // Measured within the margin by the last filter that measured it: most likely
+                // near again (a tight fit's contacts under a moving tool, ~1 000 a region), so
+                // its distance is measured first, and the separation, which can only show it
+                // apart, only where the distance does.
+                let was_near = !swept && anchored && gap.upper + offset - moved <= margin;
                 if directions && gap.is_known() && !near {
                     // Worn down by the whole tool's turns: the pair's own corners tell.
                     let in_tool = meshes.tool.triangle(detector.near[i].tool);
@@ -467,11 +479,20 @@ impl GodObject {
                         posed_count += 1;
                         let tool = tools.get(&meshes.tool, c.tool);
                         let part_tree = &meshes.objects[c.object as usize];
-                        // Along a path: the least over it (a bound at the centre too).
+                        let measured_first = (was_near && !near).then(|| {
+                            triangle_distance_from(
+                                &tool.corners,
+                                part_tree.triangle(c.part),
+                                &mut detector.near_edges[i],
+                            )
+                        });
                         let (apart, along) = if near {
                             direct_count += 1;
                             (0.0, 0)
+                        } else if measured_first.is_some_and(|d| d.meet || d.distance <= margin) {
+                            (0.0, 0)
                         } else {
+                            // Along a path: the least over it (a bound at the centre too).
                             tool.separation_upto_along(part_tree, c.part, margin, true)
                         };
                         if apart > margin {
@@ -485,7 +506,7 @@ impl GodObject {
                             }
                             continue;
                         }
-                        let d = checked.unwrap_or_else(|| {
+                        let d = checked.or(measured_first).unwrap_or_else(|| {
                             triangle_distance_from(
                                 &tool.corners,
                                 part_tree.triangle(c.part),
