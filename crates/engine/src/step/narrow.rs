@@ -418,7 +418,7 @@ impl GodObject {
             for (j, kept) in bounds.iter().enumerate() {
                 // (A chunk is at most 256 pairs, and `past` at most `j` here.)
                 held_at[past] = j as u16;
-                past += usize::from(!(*kept - offset > margin));
+                past += usize::from(*kept - offset <= margin);
             }
             let mut held = 0;
             for &j in &held_at[..past] {
