@@ -94,6 +94,12 @@ impl PairGap {
         dot(&self.way, t.as_ref()) + dot(&self.way, path.as_ref()).min(0.0) + self.level - turn
     }
 
+    /// [`PairGap::at`] for a region with no path (`t` the tool's translation, mm, as an array):
+    /// one dot product fewer, for a filter's thousands of pairs.
+    fn at_centre(&self, t: &[f64; 3], turn: f64) -> f64 {
+        dot(&self.way, t) + self.level - turn
+    }
+
     /// The gap (mm) with the tool at `(rot, t)` whose triangle has the corners `in_tool` (tool
     /// frame, mm), not moved along a path: its lowest corner along the way less `high`,
     /// lowered by a rounding's worth. Taken as the pair's gap at the current turn offset
@@ -430,7 +436,7 @@ impl GodObject {
                 let here = if swept {
                     gap.at(&t, path, turn)
                 } else {
-                    dot(&gap.way, &tt) + gap.level - turn
+                    gap.at_centre(&tt, turn)
                 };
                 let apart = here > margin;
                 if anchored {
