@@ -65,6 +65,58 @@ fn bench(c: &mut Criterion) {
         });
     }
     group.finish();
+
+    // A longer peg of long facets (a machined part's flat faces merged) 5 mm into a hole with a
+    // top face: the near part of the tool noted, and not.
+    let peg = TriangleTree::build(&cylinder(10.0, 256, 1, 40.0), &Pose::identity());
+    let mut block = cylinder(10.05, 256, 1, 50.0);
+    block.extend(annulus(10.05, 20.0, 256, 50.0));
+    let block = TriangleTree::build(&block, &Pose::identity());
+    let mut stack = TriangleTree::stack_for(&peg, &block);
+    let q = Pose::from_array([0.01, 0.0, 45.0, 0.02, 0.0, 0.0]);
+    let (rot, t) = (q.rotation_matrix(), q.translation());
+    let mut group = c.benchmark_group("near part");
+    group.sample_size(20);
+    for (name, wide) in [("not noted", f64::NEG_INFINITY), ("noted", 1.05)] {
+        group.bench_function(BenchmarkId::new("peg at the mouth", name), |b| {
+            b.iter(|| {
+                let mut pairs = 0usize;
+                TriangleTree::start_descent(&mut stack);
+                stack.note_near_part(wide);
+                peg.descend(
+                    black_box(&rot),
+                    black_box(&t),
+                    &Vector3::zeros(),
+                    &block,
+                    0.25,
+                    &mut stack,
+                    usize::MAX,
+                    |tools, parts, _| {
+                        pairs += tools.len() * parts.len();
+                        true
+                    },
+                );
+                (pairs, stack.near_part())
+            })
+        });
+    }
+    group.finish();
+}
+
+/// A flat ring at height `z` (mm) from radius `r0` to `r1`, `round` facets round, facing up.
+fn annulus(r0: f64, r1: f64, round: usize, z: f64) -> Vec<Triangle> {
+    let p = |r: f64, i: usize| {
+        let a = i as f64 / round as f64 * TAU;
+        [r * a.cos(), r * a.sin(), z]
+    };
+    (0..round)
+        .flat_map(|i| {
+            [
+                [p(r0, i), p(r1, i), p(r1, i + 1)],
+                [p(r0, i), p(r1, i + 1), p(r0, i + 1)],
+            ]
+        })
+        .collect()
 }
 
 criterion::criterion_group!(benches, bench);

@@ -17,6 +17,25 @@ use nalgebra::{Matrix3, Vector3};
 use crate::triangle::Triangle;
 use crate::Pose;
 
+/// A descent's pose for its near part ([`TreePairStack::note`]): the inverse of the tool's
+/// rotation and its absolute values, the world point at the tool origin half-way along the
+/// sweep, and the half sweep's reach along the tool's axes (mm).
+struct ToolFrame {
+    inverse: Matrix3<f64>,
+    inverse_abs: Matrix3<f64>,
+    origin_in_tool: Vector3<f64>,
+    sweep_half: Vector3<f64>,
+}
+
+/// A rank's flag for a node pair a descent tests for the near part alone
+/// ([`TreePairStack::note_near_part`]): apart by the margin, not by the near part's.
+const NOTING_ONLY: u64 = 1 << 63;
+
+/// Half the longest side (mm) of an object box whose cut of a tool box the near part takes
+/// ([`TreePairStack::cut`]); a larger one is split first: a wide flat face under a tilted tool
+/// would cut its box by little.
+const NEAR_PART_GRAIN_MM: f64 = 1.0;
+
 /// Triangles per leaf at most: a leaf pair measures up to this squared many triangle pairs,
 /// against one box test per node pair above it.
 pub const LEAF_TRIANGLES: usize = 4;
@@ -49,6 +68,19 @@ impl BoxNode {
     fn second_under(&self) -> u32 {
         self.under - self.under / 2
     }
+
+    /// Its box's box along the frame's axes (lowest and highest corner), mm.
+    fn frame_bounds(&self) -> ([f64; 3], [f64; 3]) {
+        let reach: [f64; 3] = std::array::from_fn(|k| {
+            (0..3)
+                .map(|j| self.axes[(k, j)].abs() * self.half[j])
+                .sum::<f64>()
+        });
+        (
+            std::array::from_fn(|k| self.center[k] - reach[k]),
+            std::array::from_fn(|k| self.center[k] + reach[k]),
+        )
+    }
 }
 
 /// A body's triangles in a box hierarchy (the body's frame: the tool's own, or an object's
@@ -68,6 +100,9 @@ pub struct TriangleTree {
     edges: Vec<[([f64; 3], f64); 3]>,
     /// Each triangle's index in the mesh it came from.
     origin: Vec<u32>,
+    /// Each node's box along the frame's axes (lowest and highest corner), mm: what a descent
+    /// notes of the tool's near part ([`TreePairStack::note_near_part`]).
+    node_bounds: Vec<([f64; 3], [f64; 3])>,
     depth: usize,
 }
 
@@ -77,13 +112,33 @@ pub struct TriangleTree {
 /// triangle pair, [`TriangleTree::descend`]), and the tool's boxes posed for the descent under
 /// way. A tool box is tested against many object boxes: posed once, its test takes one matrix
 /// product, not two.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct TreePairStack {
     pairs: Vec<(u32, u32, u64)>,
     /// Tool node `i`'s axes and centre in the world where `stamp[i] == current`.
     posed: Vec<(Matrix3<f64>, Vector3<f64>)>,
     stamp: Vec<u32>,
     current: u32,
+    /// The margin (mm) within which the descents note the tool's near part (none noted at
+    /// `-inf`), and the box of what they noted (tool frame, mm; empty with `lo > hi`).
+    near_wide: f64,
+    near_lo: [f64; 3],
+    near_hi: [f64; 3],
+}
+
+impl Default for TreePairStack {
+    /// An empty stack with no room reserved, noting no near part.
+    fn default() -> Self {
+        Self {
+            pairs: Vec::new(),
+            posed: Vec::new(),
+            stamp: Vec::new(),
+            current: 1,
+            near_wide: f64::NEG_INFINITY,
+            near_lo: [f64::INFINITY; 3],
+            near_hi: [f64::NEG_INFINITY; 3],
+        }
+    }
 }
 
 impl TreePairStack {
@@ -95,6 +150,67 @@ impl TreePairStack {
     /// True when no node pair is left to test.
     pub fn is_empty(&self) -> bool {
         self.pairs.is_empty()
+    }
+
+    /// From now on, the descents on this stack (over any objects, until the next call) note
+    /// the *near part* of the tool: a box (tool frame) holding every point of the tool within
+    /// `wide` (mm, more than the descents' margin) of some object triangle anywhere on their
+    /// sweep. A box pair apart by the margin but not by `wide` (not descended) notes its tool
+    /// box, and a leaf pair visited its tool leaf's, each cut to where it may be within `wide`
+    /// of the object's box ([`TreePairStack::cut`]). A tool point within `wide` of an object
+    /// triangle lies in both boxes of one such pair.
+    pub fn note_near_part(&mut self, wide: f64) {
+        self.near_wide = wide;
+        self.near_lo = [f64::INFINITY; 3];
+        self.near_hi = [f64::NEG_INFINITY; 3];
+    }
+
+    /// The near part noted since [`TreePairStack::note_near_part`] (lowest and highest corner,
+    /// tool frame, mm): `None` where none is noted, `Some` of an empty box (`lo > hi`) where no
+    /// tool triangle was near.
+    pub fn near_part(&self) -> Option<([f64; 3], [f64; 3])> {
+        (self.near_wide > f64::NEG_INFINITY).then_some((self.near_lo, self.near_hi))
+    }
+
+    /// The part of the tool box `tool` (tool frame, mm) that may be within the near part's
+    /// margin of the object box `object` (the world's axes, mm): the tool box cut by the
+    /// object box grown by the margin and swept back along the tool's sweep, seen in the tool
+    /// frame (`frame`); `None` where nothing of it is, or the near part holds it already. A
+    /// long facet's box beside a wall is cut to the stretch of it along the wall.
+    #[inline]
+    fn cut(
+        &self,
+        (lo, hi): &([f64; 3], [f64; 3]),
+        (olo, ohi): &([f64; 3], [f64; 3]),
+        frame: &ToolFrame,
+    ) -> Option<[(f64, f64); 3]> {
+        let mut cut = [(0.0, 0.0); 3];
+        let mut held = true;
+        for k in 0..3 {
+            let row = frame.inverse.row(k);
+            let abs = frame.inverse_abs.row(k);
+            let (mut c, mut h) = (-frame.origin_in_tool[k], frame.sweep_half[k]);
+            for j in 0..3 {
+                c += row[j] * 0.5 * (olo[j] + ohi[j]);
+                h += abs[j] * (0.5 * (ohi[j] - olo[j]) + self.near_wide);
+            }
+            let (l, u) = (lo[k].max(c - h), hi[k].min(c + h));
+            if l > u {
+                return None;
+            }
+            held &= self.near_lo[k] <= l && u <= self.near_hi[k];
+            cut[k] = (l, u);
+        }
+        (!held).then_some(cut)
+    }
+
+    /// Adds `cut` ([`TreePairStack::cut`]) to the near part.
+    #[inline]
+    fn note(&mut self, cut: &[(f64, f64); 3]) {
+        for (k, &(l, u)) in cut.iter().enumerate() {
+            self.near_lo[k] = self.near_lo[k].min(l);
+            self.near_hi[k] = self.near_hi[k].max(u);
+        }
     }
 
     /// Empties it and forgets every posed box (the next descent may be at another pose).
@@ -147,6 +263,7 @@ impl TriangleTree {
         let planes = triangles.iter().map(plane_of).collect();
         let bounds = triangles.iter().map(bounds_of).collect();
         let edges = triangles.iter().map(edges_of).collect();
+        let node_bounds = nodes.iter().map(BoxNode::frame_bounds).collect();
         Self {
             nodes,
             triangles,
@@ -154,6 +271,7 @@ impl TriangleTree {
             bounds,
             edges,
             origin: order,
+            node_bounds,
             depth,
         }
     }
@@ -220,6 +338,9 @@ impl TriangleTree {
             posed: vec![(Matrix3::zeros(), Vector3::zeros()); a.nodes.len()],
             stamp: vec![0; a.nodes.len()],
             current: 1,
+            near_wide: f64::NEG_INFINITY,
+            near_lo: [f64::INFINITY; 3],
+            near_hi: [f64::NEG_INFINITY; 3],
         };
         // Resident from the start ([`crate::touch_pages`]): a zeroed buffer's pages are mapped
         // at their first write, which would be a frame's.
@@ -297,6 +418,13 @@ impl TriangleTree {
         // A stack made for a smaller tool has no room for this one's boxes: they are posed at
         // each test instead (the same pairs, more slowly).
         let keep_posed = stack.posed.len() >= self.nodes.len();
+        let inverse = rot.transpose();
+        let frame = ToolFrame {
+            inverse,
+            inverse_abs: inverse.abs(),
+            origin_in_tool: inverse * (t + 0.5 * sweep),
+            sweep_half: (inverse * sweep).abs() * 0.5,
+        };
         for _ in 0..steps {
             let Some((a, b, rank)) = stack.pairs.pop() else {
                 return true;
@@ -320,11 +448,43 @@ impl TriangleTree {
                     *h += 0.5 * turn.column(k).dot(&along).abs();
                 }
             }
-            if boxes_apart(&offset, &half, &turn, &nb.half, margin) {
+            let noting_only = rank & NOTING_ONLY != 0;
+            if noting_only || boxes_apart(&offset, &half, &turn, &nb.half, margin) {
+                // Apart by the margin: only the near part may still want it, where the two are
+                // within its margin.
+                // (No cut: nothing of the tool box there, or all of it noted already.)
+                let wanted = stack.near_wide > margin
+                    && stack
+                        .cut(
+                            &self.node_bounds[a as usize],
+                            &object.node_bounds[b as usize],
+                            &frame,
+                        )
+                        .is_some()
+                    && !boxes_apart(&offset, &half, &turn, &nb.half, stack.near_wide);
+                if wanted {
+                    // Down to the tool's leaves, cut triangle by triangle; the object's boxes
+                    // split while large (seen at a slant from the tool, a large one cuts
+                    // little).
+                    if !nb.is_leaf() && longest(&nb.half) > NEAR_PART_GRAIN_MM {
+                        push_object_children(&mut stack.pairs, nb, a, na, NOTING_ONLY);
+                    } else if !na.is_leaf() {
+                        push_tool_children(&mut stack.pairs, na, b, nb, NOTING_ONLY);
+                    } else {
+                        self.note_cut(stack, na, &object.node_bounds[b as usize], &frame);
+                    }
+                }
                 continue;
             }
             match (na.is_leaf(), nb.is_leaf()) {
                 (true, true) => {
+                    if stack.near_wide > f64::NEG_INFINITY {
+                        let object_bounds = &object.node_bounds[b as usize];
+                        let cut = stack.cut(&self.node_bounds[a as usize], object_bounds, &frame);
+                        if cut.is_some() {
+                            self.note_cut(stack, na, object_bounds, &frame);
+                        }
+                    }
                     let (tools, parts) =
                         (na.first..na.first + na.under, nb.first..nb.first + nb.under);
                     if !visit(tools, parts, rank) {
@@ -345,6 +505,25 @@ impl TriangleTree {
             }
         }
         stack.is_empty()
+    }
+}
+
+impl TriangleTree {
+    /// Notes in the near part the part of each triangle of the tool leaf `leaf` near an object
+    /// box `object` ([`TreePairStack::cut`]): cut one by one, since a leaf of a few long facets
+    /// of different faces has a box far wider than they are.
+    fn note_cut(
+        &self,
+        stack: &mut TreePairStack,
+        leaf: &BoxNode,
+        object: &([f64; 3], [f64; 3]),
+        frame: &ToolFrame,
+    ) {
+        for i in leaf.first..leaf.first + leaf.under {
+            if let Some(cut) = stack.cut(&self.bounds[i as usize], object, frame) {
+                stack.note(&cut);
+            }
+        }
     }
 }
 
@@ -631,6 +810,121 @@ mod tests {
             assert!(stack.capacity() == tool.depth() + object.depth() + 2);
             let _ = leaf_pairs;
         }
+    }
+
+    #[test]
+    fn the_near_part_holds_every_point_of_the_tool_near_an_object_anywhere_on_the_sweep() {
+        let mut rng = ChaCha8Rng::seed_from_u64(31);
+        let mut smaller = 0;
+        for case in 0..16 {
+            // Long facets on the tool in half the cases: their leaves are cut to the stretch
+            // near the object.
+            let tool_tris = sheet(4, case % 2 == 0, &mut rng);
+            let object_tris = sheet(8, case % 3 == 0, &mut rng);
+            let tool = TriangleTree::build(&tool_tris, &Pose::identity());
+            let object = TriangleTree::build(&object_tris, &Pose::identity());
+            let mut stack = TriangleTree::stack_for(&tool, &object);
+            let mut q = random_pose(&mut rng, 0.9);
+            // Tilted 0.5–1 rad, so that part of the tool stands off the sheet.
+            let mut a = q.to_array();
+            a[3] = rng.random_range(0.5..1.0) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+            q = Pose::from_array(a);
+            let (rot, t) = (q.rotation_matrix(), q.translation());
+            let r = |rng: &mut ChaCha8Rng| rng.random_range(-1.0..1.0);
+            let sweep = if case % 4 < 2 {
+                Vector3::zeros()
+            } else {
+                Vector3::new(r(&mut rng), r(&mut rng), 0.3 * r(&mut rng))
+            };
+            let margin = [0.02, 0.1, 0.3][case % 3];
+            let wide = margin + [0.2, 0.8][case % 2];
+            TriangleTree::start_descent(&mut stack);
+            stack.note_near_part(wide);
+            tool.descend(
+                &rot,
+                &t,
+                &sweep,
+                &object,
+                margin,
+                &mut stack,
+                usize::MAX,
+                |_, _, _| true,
+            );
+            let (lo, hi) = stack.near_part().expect("noted");
+            let inside =
+                |p: &Vector3<f64>| (0..3).all(|k| lo[k] - 1e-9 <= p[k] && p[k] <= hi[k] + 1e-9);
+            // Sampled over the tool's triangles and along the sweep: every point within `wide`
+            // of an object triangle is in it.
+            let mut near_points = 0;
+            for step in 0..=6 {
+                let at = t + sweep * (f64::from(step) / 6.0);
+                for tri in &tool_tris {
+                    for (u, v) in (0..=4).flat_map(|u| (0..=4 - u).map(move |v| (u, v))) {
+                        let (u, v) = (f64::from(u) / 4.0, f64::from(v) / 4.0);
+                        let p = Vector3::from(tri[0]) * (1.0 - u - v)
+                            + Vector3::from(tri[1]) * u
+                            + Vector3::from(tri[2]) * v;
+                        let world: [f64; 3] = (rot * p + at).into();
+                        let near = object_tris.iter().any(|b| {
+                            let c = crate::triangle::closest_on_triangle(&world, b);
+                            (Vector3::from(c) - Vector3::from(world)).norm() <= wide
+                        });
+                        if near {
+                            near_points += 1;
+                            assert!(
+                                inside(&p),
+                                "case {case}: tool point {p:?} within {wide} mm of the object at s = {step}/6 outside the near part {lo:?}..{hi:?}"
+                            );
+                        }
+                    }
+                }
+            }
+            // And it is no bigger than the tool: where part of the tool stands off, smaller.
+            let whole = crate::CentreBox::of_points(tool.corners());
+            if near_points > 0
+                && (0..3).any(|k| lo[k] > whole.lo[k] + 0.5 || hi[k] < whole.hi[k] - 0.5)
+            {
+                smaller += 1;
+            }
+        }
+        // Nothing within the margin, all of it within the near part's: the whole tool.
+        let square = |z: f64, half: f64| -> Vec<Triangle> {
+            let p = |x: f64, y: f64| [x * half, y * half, z];
+            vec![
+                [p(-1.0, -1.0), p(1.0, -1.0), p(1.0, 1.0)],
+                [p(-1.0, -1.0), p(1.0, 1.0), p(-1.0, 1.0)],
+            ]
+        };
+        let tool = TriangleTree::build(&square(0.0, 1.0), &Pose::identity());
+        let object = TriangleTree::build(&square(-0.5, 3.0), &Pose::identity());
+        let mut stack = TriangleTree::stack_for(&tool, &object);
+        TriangleTree::start_descent(&mut stack);
+        stack.note_near_part(1.0);
+        let (rot, t) = (Matrix3::identity(), Vector3::zeros());
+        let mut visited = 0;
+        tool.descend(
+            &rot,
+            &t,
+            &Vector3::zeros(),
+            &object,
+            0.1,
+            &mut stack,
+            usize::MAX,
+            |_, _, _| {
+                visited += 1;
+                true
+            },
+        );
+        assert_eq!(visited, 0);
+        let (lo, hi) = stack.near_part().expect("noted");
+        assert!(
+            lo[0] <= -1.0 && lo[1] <= -1.0 && hi[0] >= 1.0 && hi[1] >= 1.0,
+            "{lo:?}..{hi:?}"
+        );
+        assert!(
+            smaller >= 4,
+            "the near part was smaller than the tool in {smaller} of 16 cases"
+        );
     }
 
     #[test]

@@ -246,6 +246,8 @@ fn in_the_mesh_mode_the_shipped_step_and_each_mesh_switch_off_answer_as_the_refe
         (without("mesh-bound-detects"), 8),
         (without("mesh-region-falls"), 8),
         (without("mesh-slow-growth"), 8),
+        (without("mesh-near-part"), 8),
+        (without("mesh-slice-ceiling"), 8),
     ] {
         check_in(MESH_SCENES, Geometry::Mesh, heuristics, stride);
     }

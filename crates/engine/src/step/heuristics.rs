@@ -106,6 +106,23 @@ pub struct Heuristics {
     /// on another's holds ~2 000 pairs at any margin, and balls at the dense floor moved the
     /// tool 0.017 mm a pass, 1.8 mm behind the hand.
     pub mesh_slow_growth: bool,
+    /// The mesh mode's near part: a near list's descent notes the part of the tool within
+    /// [`Tuning::near_part_mm`](crate::Tuning::near_part_mm) beyond its reach of the objects
+    /// (a box in the tool frame), and its pairs' bounds and gaps wear by that part's motion,
+    /// not the whole tool's: a tilted peg straightening in a hole's mouth turns about its tip,
+    /// where the wall is, on an arm of ~10 mm, its whole 40 mm on one of ~41. The list serves
+    /// while the near part moves less than its reach beyond a region's margin, and the rest of
+    /// the tool less than that and the near part's margin. Noted again only where the last
+    /// near part lengthened its list's use ([`Tuning::near_part_pays`](crate::Tuning::near_part_pays)).
+    pub mesh_near_part: bool,
+    /// The mesh mode's slice ceiling: the next near list's slice never takes a frame past
+    /// [`Tuning::near_ceiling_share`](crate::Tuning::near_ceiling_share) of the budget while
+    /// the list in use still holds the last region's margin for two more frames at the last
+    /// frame's pace; only a list in use about to be spent takes its slice whatever the frame
+    /// took. A tight fit's lists are taken late (its regions are narrower than the one a list
+    /// was listed for, so a list serves past its extra reach), and the next one then starts
+    /// with its pace asking for a full slice in frames already heavy with a filter.
+    pub mesh_slice_ceiling: bool,
 }
 
 impl Default for Heuristics {
@@ -140,6 +157,8 @@ impl Heuristics {
         mesh_bound_detects: true,
         mesh_region_falls: true,
         mesh_slow_growth: true,
+        mesh_near_part: true,
+        mesh_slice_ceiling: true,
     };
 
     /// Every heuristic off.
@@ -167,10 +186,12 @@ impl Heuristics {
         mesh_bound_detects: false,
         mesh_region_falls: false,
         mesh_slow_growth: false,
+        mesh_near_part: false,
+        mesh_slice_ceiling: false,
     };
 
     /// The names of the switches (as the bench's ablation study prints them), in order.
-    pub const NAMES: [&'static str; 23] = [
+    pub const NAMES: [&'static str; 25] = [
         "region-reuse",
         "path-regions",
         "slab-regions",
@@ -194,6 +215,8 @@ impl Heuristics {
         "mesh-bound-detects",
         "mesh-region-falls",
         "mesh-slow-growth",
+        "mesh-near-part",
+        "mesh-slice-ceiling",
     ];
 
     /// The switch called `name` ([`Heuristics::NAMES`]), for reading and setting.
@@ -222,6 +245,8 @@ impl Heuristics {
             "mesh-bound-detects" => &mut self.mesh_bound_detects,
             "mesh-region-falls" => &mut self.mesh_region_falls,
             "mesh-slow-growth" => &mut self.mesh_slow_growth,
+            "mesh-near-part" => &mut self.mesh_near_part,
+            "mesh-slice-ceiling" => &mut self.mesh_slice_ceiling,
             _ => return None,
         })
     }

@@ -193,6 +193,15 @@ const NEAR_AHEAD_START: f64 = 0.5;
 /// microseconds, and one to spare.
 const NEAR_IDLE_LEFT_FRAMES: f64 = 2.0;
 
+/// Frames the list in use must still hold for [`Heuristics::mesh_slice_ceiling`] to keep the
+/// next list's slice under its ceiling: one to take the next list in, and one to spare.
+const NEAR_CEILING_LEFT_FRAMES: f64 = 2.0;
+
+/// Lists begun without a near part after one that did not pay
+/// ([`Tuning::near_part_pays`]): a tenth of a descent's cost spared on each, while the tool's
+/// motion changes little from list to list (a shaft sliding down its hole).
+pub(crate) const NEAR_PART_REST_LISTS: u32 = 8;
+
 /// Least growth (times the margin) a ball's slow growth is measured for
 /// ([`Heuristics::mesh_slow_growth`]): a list that reaches less farther is about to be
 /// replaced.
@@ -333,7 +342,7 @@ impl GodObject {
         // beyond its margin, where the way back to the list's pose would not.
         let anchored = self.params.heuristics.mesh_near_list;
         let moved = match self.run.regions.near_bounds_at.filter(|_| anchored) {
-            Some(at) => farthest(&|q| self.motion_bound(&at, q)),
+            Some(at) => farthest(&|q| self.list_motion_bound(&at, q)),
             None => self
                 .run
                 .regions
@@ -352,7 +361,7 @@ impl GodObject {
             .filter(|_| anchored)
             .or(self.run.regions.near_listed_at);
         let turned = last_centre.map_or(f64::INFINITY, |at| {
-            self.turn_bound(&at.rotation_matrix(), &center.rotation_matrix())
+            self.list_turn_bound(&at.rotation_matrix(), &center.rotation_matrix())
         });
         let turn = if anchored {
             self.detector.near_turn += turned;
@@ -681,6 +690,7 @@ impl GodObject {
                     [0.0; 3]
                 },
                 reach: margin + if wide { extra } else { 0.0 },
+                near: None,
             };
             self.begin_near(span, NearPurpose::Region { wide });
             if !self.advance_near(deadline) {
@@ -698,6 +708,7 @@ impl GodObject {
             at: *center,
             sweep: (*path).into(),
             reach: margin,
+            near: None,
         };
         self.begin_near(own, NearPurpose::Region { wide: false });
         self.advance_near(deadline) && self.take_near_list(true, ball)
@@ -714,6 +725,18 @@ impl GodObject {
         self.detector.next_gaps.clear();
         self.detector.next_ranks.clear();
         TriangleTree::start_descent(&mut self.detector.next_stack);
+        // The list's pairs move with the part of the tool near the objects: its descent notes
+        // that part ([`GodObject::span_bound`]).
+        // (Not where the last near part did not pay: see `take_near_list`.)
+        let regions = &mut self.run.regions;
+        let noting = self.params.heuristics.mesh_near_part && regions.near_part_rest == 0;
+        regions.near_part_rest = regions.near_part_rest.saturating_sub(1);
+        let wide = if noting {
+            span.reach + self.params.tuning.near_part_mm
+        } else {
+            f64::NEG_INFINITY
+        };
+        self.detector.next_stack.note_near_part(wide);
     }
 
     /// Goes on descending the tool's triangle tree, swept along the span, against each
@@ -796,6 +819,20 @@ impl GodObject {
             }
         }
         ahead.done = ahead.object >= meshes.objects.len();
+        if ahead.done {
+            // Its descent noted its near part (none near: the origin alone, no arm), which
+            // the list's span holds from now on.
+            ahead.at = Some(NearSpan {
+                near: detector.next_stack.near_part().map(|(lo, hi)| {
+                    if (0..3).all(|k| lo[k] <= hi[k]) {
+                        CentreBox::of_box(Vector3::from(lo), Vector3::from(hi))
+                    } else {
+                        CentreBox::of_box(Vector3::zeros(), Vector3::zeros())
+                    }
+                }),
+                ..next
+            });
+        }
         ahead.spent_us += started.elapsed().as_secs_f64() * 1e6;
         self.run.regions.near_ahead = ahead;
         ahead.done
@@ -815,9 +852,43 @@ impl GodObject {
     /// The motion bound (mm) of the tool at `q` from the nearest pose on `span`: no point of
     /// the tool is farther than this from where it was there.
     pub(super) fn span_bound(&self, span: &NearSpan, q: &Pose) -> f64 {
+        let (near, whole) = self.span_bounds(span, q);
+        match &span.near {
+            // A pair the list does not hold was beyond its reach on the span; a point of the
+            // tool outside the near part, beyond the reach and the near part's margin.
+            Some(_) => near.max(whole - self.params.tuning.near_part_mm),
+            None => whole,
+        }
+    }
+
+    /// The motion bounds (mm) of the tool at `q` from the nearest pose on `span`: of the points
+    /// of its near part (the whole tool's where none is known), and of the whole tool.
+    fn span_bounds(&self, span: &NearSpan, q: &Pose) -> (f64, f64) {
         let off = q.translation() - span.at.translation();
-        detect::segment_distance(&off, &Vector3::from(span.sweep))
-            + self.turn_bound(&span.at.rotation_matrix(), &q.rotation_matrix())
+        let off = detect::segment_distance(&off, &Vector3::from(span.sweep));
+        let (r_a, r_b) = (span.at.rotation_matrix(), q.rotation_matrix());
+        let whole = off + self.turn_bound(&r_a, &r_b);
+        let near = off + self.bodies.part_turn_bound(span.near.as_ref(), &r_a, &r_b);
+        (near, whole)
+    }
+
+    /// How far (mm) a tool triangle of a pair of the list in use moves at most when the tool
+    /// turns from `r_a` to `r_b`: the list's near part's turn bound.
+    pub(super) fn list_turn_bound(&self, r_a: &Matrix3<f64>, r_b: &Matrix3<f64>) -> f64 {
+        let part = self
+            .run
+            .regions
+            .near_at
+            .as_ref()
+            .and_then(|s| s.near.as_ref());
+        self.bodies.part_turn_bound(part, r_a, r_b)
+    }
+
+    /// [`GodObject::motion_bound`] for the tool triangles of the list in use's pairs: the
+    /// translation plus [`GodObject::list_turn_bound`].
+    pub(super) fn list_motion_bound(&self, a: &Pose, b: &Pose) -> f64 {
+        let dt = (b.translation() - a.translation()).norm();
+        dt + self.list_turn_bound(&a.rotation_matrix(), &b.rotation_matrix())
     }
 
     /// The sweep (mm) of a new near list: the tool's last step times a number of frames, no
@@ -875,12 +946,23 @@ impl GodObject {
         if !ahead.done || !covers || wide_over {
             return false;
         }
+
         // A list taken by a ball region inherits from the list in use
         // ([`Heuristics::mesh_list_inherit`]), its bounds moved to the ball's centre (below).
         // What the old list knew of its pairs' distances holds at its last filter's centre
         // (its kept bounds less their offset): at the ball's centre, less the motion bound
         // from there. (A path region filters it along its way from the first: moved to one
         // pose of it, the bounds would lose the way's length.)
+        // A near part that bounded the tool's motion, where its list is given up, hardly less
+        // than the whole tool's did not lengthen its use: the next lists are listed without one.
+        if let Some(old) = self.run.regions.near_at.filter(|s| s.near.is_some()) {
+            let whole = self.span_bounds(&old, &at.at).1;
+            if whole > 0.0
+                && self.span_bound(&old, &at.at) >= self.params.tuning.near_part_pays * whole
+            {
+                self.run.regions.near_part_rest = NEAR_PART_REST_LISTS;
+            }
+        }
         let heuristics = &self.params.heuristics;
         let inherit = heuristics.mesh_list_inherit && heuristics.mesh_near_list;
         let inherited = self
@@ -889,21 +971,45 @@ impl GodObject {
             .near_bounds_at
             .zip(ball.filter(|_| inherit))
             .map(|(last, centre)| {
-                let old_less = self.detector.near_offset + self.motion_bound(&last, centre);
+                let old_less = self.detector.near_offset + self.list_motion_bound(&last, centre);
                 let way = self.span_bound(&at, centre);
+                // A list's bounds and gaps hold for the points of its own near part (of the whole
+                // tool where it has none). The old list's hold for its near part's points; the
+                // rest of the tool was beyond its reach and the near part's margin where it was
+                // listed, at the ball's centre at least `off` from the objects. So a bound is
+                // taken up to `off`, and a gap only where the old near part holds the new one.
+                let old_span = self.run.regions.near_at;
+                let old_part = old_span.and_then(|s| s.near);
+                let off = old_span
+                    .filter(|_| old_part.is_some())
+                    .map_or(f64::INFINITY, |s| {
+                        s.reach + self.params.tuning.near_part_mm - self.span_bounds(&s, centre).1
+                    });
+                let nested = match (&at.near, &old_part) {
+                    (_, None) => true,
+                    (Some(new), Some(old)) => {
+                        (0..3).all(|k| old.lo[k] <= new.lo[k] && new.hi[k] <= old.hi[k])
+                    }
+                    (None, Some(_)) => false,
+                };
                 let r_centre = centre.rotation_matrix();
-                let turn = self.turn_bound(&at.at.rotation_matrix(), &r_centre);
+                let turn = self.bodies.part_turn_bound(
+                    at.near.as_ref(),
+                    &at.at.rotation_matrix(),
+                    &r_centre,
+                );
                 // The old list's directional gaps count its turns summed to its last filter,
                 // and on to the ball's centre.
-                let old_turn =
-                    self.detector.near_turn + self.turn_bound(&last.rotation_matrix(), &r_centre);
+                let old_turn = self.detector.near_turn
+                    + self.list_turn_bound(&last.rotation_matrix(), &r_centre);
                 let turns = InheritedTurns {
                     at: centre.translation(),
                     old: old_turn,
                     new: turn,
                 };
-                let gaps = self.params.heuristics.mesh_pair_directions && old_turn.is_finite();
-                (*centre, way, old_less, turn, gaps.then_some(turns))
+                let gaps =
+                    self.params.heuristics.mesh_pair_directions && old_turn.is_finite() && nested;
+                (*centre, way, (old_less, off), turn, gaps.then_some(turns))
             });
         let detector = &mut self.detector;
         std::mem::swap(&mut detector.near, &mut detector.next_near);
@@ -1019,6 +1125,7 @@ impl GodObject {
             at: self.pose_ahead(q, frames),
             sweep: self.near_sweep(),
             reach: span.reach,
+            near: None,
         };
         self.begin_near(next, NearPurpose::Ahead);
         self.advance_near(Some(end));
@@ -1057,8 +1164,42 @@ impl GodObject {
     /// full slice. A region's list under way, wanted now, a list with none in use to outlast,
     /// and one past the last descent's cost take the full slice. A paced frame (the loop's
     /// wait before it given to [`GodObject::idle`]) gives none while the list in use lasts
-    /// [`NEAR_IDLE_LEFT_FRAMES`] more: the wait builds it.
+    /// [`NEAR_IDLE_LEFT_FRAMES`] more: the wait builds it. With
+    /// [`Heuristics::mesh_slice_ceiling`], never past [`Tuning::near_ceiling_share`] of the
+    /// budget, the frame's own work included, while the list in use holds
+    /// [`NEAR_CEILING_LEFT_FRAMES`] more ([`GodObject::near_frames_held`]).
     pub(super) fn near_slice_us(&self, q: &Pose, elapsed_us: f64) -> f64 {
+        let slice = self.near_slice_paced_us(q, elapsed_us);
+        if !self.params.heuristics.mesh_slice_ceiling {
+            return slice;
+        }
+        let regions = &self.run.regions;
+        let ahead = &regions.near_ahead;
+        let in_use = regions
+            .near_at
+            .filter(|_| self.params.heuristics.mesh_near_list)
+            .filter(|_| ahead.at.is_none() || ahead.purpose == NearPurpose::Ahead);
+        match in_use {
+            Some(span) if self.near_frames_held(&span, q) >= NEAR_CEILING_LEFT_FRAMES => {
+                let ceiling = self.params.tuning.near_ceiling_share * self.params.budget_us;
+                slice.min((ceiling - elapsed_us).max(0.0))
+            }
+            _ => slice,
+        }
+    }
+
+    /// Frames the near list of `span` still holds a region of the last region's margin with
+    /// the tool at `q`, at the last frame's pace: its reach less that margin and its use, over
+    /// the last frame's motion bound. A list is spent later than its extra reach says where
+    /// the regions it serves are narrower than the one it was listed for (a tight fit's).
+    fn near_frames_held(&self, span: &NearSpan, q: &Pose) -> f64 {
+        let margin = self.run.regions.contacts_at.map_or(0.0, |(_, m)| m);
+        let room = span.reach - margin - self.span_bound(span, q);
+        room.max(0.0) / self.run.motion.last_motion.max(1e-9)
+    }
+
+    /// [`GodObject::near_slice_us`] before its ceiling.
+    fn near_slice_paced_us(&self, q: &Pose, elapsed_us: f64) -> f64 {
         let budget = self.params.budget_us;
         let full = self.params.tuning.near_ahead_share * budget;
         let room = self.params.tuning.near_fill_share * budget - elapsed_us;
@@ -1537,7 +1678,12 @@ impl Detector {
     /// the wider at the pose (`turns.at`), re-levelled from the old list's turn offset there to
     /// the new one's ([`PairGap::relevelled`]): a gap sideways that a filter found, kept, where
     /// the new list knows only the plane's.
-    fn inherit_near(&mut self, way: f64, old_less: f64, turns: Option<&InheritedTurns>) {
+    fn inherit_near(
+        &mut self,
+        way: f64,
+        (old_less, cap): (f64, f64),
+        turns: Option<&InheritedTurns>,
+    ) {
         let old_ranks = &self.next_ranks;
         let old_len = old_ranks
             .len()
@@ -1557,7 +1703,7 @@ impl Detector {
             if j < old_len && old_ranks[j] == rank {
                 debug_assert!(self.next_near[j] == self.near[i], "one rank, two pairs");
                 self.next_edges[i] = self.near_edges[j];
-                *bound = bound.max(self.next_apart[j] - old_less);
+                *bound = bound.max((self.next_apart[j] - old_less).min(cap));
                 let old = &self.next_gaps[j];
                 if let Some(turns) = turns.filter(|_| old.is_known()) {
                     let zero = Vector3::zeros();
@@ -2186,6 +2332,7 @@ mod tests {
             at: q,
             sweep: [0.0; 3],
             reach: 0.25,
+            near: None,
         };
         assert_eq!(own.list_near(&span), 0);
         let own_len = own.detector.near.len();
@@ -2274,6 +2421,8 @@ mod tests {
     #[test]
     fn a_slice_fills_the_frame_only_while_the_next_list_is_on_time() {
         let (mut god, _, _) = cube_over_sheet();
+        // (The ceiling has a test of its own, below.)
+        god.params.heuristics.mesh_slice_ceiling = false;
         let q = Pose::from_array([0.0, 0.0, 2.4, 0.0, 0.0, 0.0]);
         god.detect_triangles(&q, 0.1);
         assert!(god.run.regions.near_at.is_some());
@@ -2324,6 +2473,41 @@ mod tests {
         assert_eq!(god.near_slice_us(&q, 2.0 * fill), full);
         god.run.lists.idle_given = true;
         assert_eq!(god.near_slice_us(&q, 2.0 * fill), full);
+    }
+
+    #[test]
+    fn a_slice_keeps_the_frame_under_its_ceiling_while_the_list_in_use_holds() {
+        let (mut god, _, _) = cube_over_sheet();
+        let q = Pose::from_array([0.0, 0.0, 2.4, 0.0, 0.0, 0.0]);
+        god.detect_triangles(&q, 0.1);
+        let span = god.run.regions.near_at.unwrap();
+        let budget = god.params.budget_us;
+        let full = god.params.tuning.near_ahead_share * budget;
+        let ceiling = god.params.tuning.near_ceiling_share * budget;
+        // Sliding a thousandth of the extra reach a frame, the next list behind (under way
+        // past the last descent's cost): a full slice without the ceiling.
+        let extra = god.run.regions.near_extra;
+        god.run.motion.last_step = [1e-3 * extra, 0.0, 0.0];
+        god.run.motion.last_motion = 1e-3 * extra;
+        god.run.regions.near_descent_us = 2.0 * full;
+        god.run.regions.near_ahead = NearAhead::start(span, NearPurpose::Ahead);
+        god.run.regions.near_ahead.spent_us = 3.0 * full;
+        assert!(god.near_frames_held(&span, &q) > 100.0);
+        // A light frame: the full slice, under the ceiling.
+        assert_eq!(god.near_slice_us(&q, 10.0), full);
+        // A frame whose own work took most of the ceiling: what is left under it.
+        assert!((god.near_slice_us(&q, ceiling - 30.0) - 30.0).abs() < 1e-9);
+        // A frame past it: none.
+        assert_eq!(god.near_slice_us(&q, ceiling + 10.0), 0.0);
+        // The list in use spent within a frame or two (a frame's motion of its reach): the full
+        // slice, whatever the frame took.
+        god.run.motion.last_motion = span.reach;
+        assert!(god.near_frames_held(&span, &q) < NEAR_CEILING_LEFT_FRAMES);
+        assert_eq!(god.near_slice_us(&q, ceiling + 10.0), full);
+        // Off: the full slice.
+        god.run.motion.last_motion = 1e-3 * extra;
+        god.params.heuristics.mesh_slice_ceiling = false;
+        assert_eq!(god.near_slice_us(&q, ceiling + 10.0), full);
     }
 
     #[test]
@@ -2751,6 +2935,8 @@ mod tests {
         // so that the near list is reused, listed again, swept along the last step, and taken
         // from the list built ahead.
         let (mut reused, mut relisted, mut near_pairs, mut swept) = (0, 0, 0, 0);
+        // Lists whose near part leaves the cube's top out (it bobs 2–4 mm above the sheet).
+        let mut with_part = 0;
         // Lists come out long for this sheet's few hundred pairs: their extra reach shrinks,
         // and they are swept along the motion instead.
         god.params.tuning.near_list_pairs = 60;
@@ -2784,6 +2970,13 @@ mod tests {
             } else {
                 relisted += 1;
                 swept += usize::from(god.run.regions.near_at.is_some_and(|s| s.sweep != [0.0; 3]));
+                with_part += usize::from(
+                    god.run
+                        .regions
+                        .near_at
+                        .and_then(|s| s.near)
+                        .is_some_and(|p| p.hi.z < 1.0),
+                );
             }
             near_pairs += every_pair_within_kept(&god, &tool, &sheet, &pose, margin, k);
         }
@@ -2792,16 +2985,120 @@ mod tests {
             reused > 100
                 && relisted > 20
                 && swept > 10
+                && with_part > 10
                 && near_pairs > 1000
                 && counts.near_taken > 2,
-            "reused {reused}, listed {relisted} ({swept} swept), near pairs {near_pairs}, {} \
-             lists taken from ahead and {} listed in the frame",
+            "reused {reused}, listed {relisted} ({swept} swept, {with_part} with a near part), \
+             near pairs {near_pairs}, {} lists taken from ahead and {} listed in the frame",
             counts.near_taken,
             counts.near_listed
         );
         eprintln!(
             "reused {reused}, listed {relisted} ({swept} swept), taken {}, listed in frame {}",
             counts.near_taken, counts.near_listed
+        );
+    }
+
+    /// A bar 40 mm long (its near end's centre at the tool origin, along the tool's `x`) over a
+    /// gently waved sheet with a 1.5 mm step under its far quarter, lowered by turning about
+    /// the bottom edge of its near end, held 0.1 mm off the sheet, until it is just over the
+    /// step: the near end is the near part of each list, the far quarter comes down on an arm
+    /// four times the near part's. A list serves while its near part moves less than its reach
+    /// beyond the margin, and the rest of the bar less than that and the near part's margin
+    /// more: the far quarter is listed before it comes near (with the near part's bound alone,
+    /// its pairs with the step are missed).
+    #[test]
+    fn a_bar_lowered_about_its_near_end_finds_its_far_end_as_it_comes_down() {
+        let (tv, tt) = box_mesh([20.0, 0.0, 0.0], [20.0, 1.0, 1.0]);
+        let (pv, pt) = grid_sheet(50, 45.0, |x, y| {
+            let step = if (30.0..=38.0).contains(&x) { 1.5 } else { 0.0 };
+            step + 0.02 * (0.7 * x).sin() * (0.5 * y).cos()
+        });
+        let params = EngineConfig {
+            geometry: Geometry::Mesh,
+            ..EngineConfig::default()
+        };
+        let mut god = GodObject::with_meshes(
+            &one_leaf([20.0, 0.0, 0.0], 20.2),
+            Some(MeshRef {
+                vertices: &tv,
+                triangles: &tt,
+            }),
+            &[(one_leaf([0.0; 3], 64.0), Pose::identity())],
+            &[Some(MeshRef {
+                vertices: &pv,
+                triangles: &pt,
+            })],
+            params,
+        )
+        .unwrap();
+        let tris = |v: &[[f64; 3]], t: &[[u32; 3]]| -> Vec<Triangle> {
+            t.iter().map(|t| t.map(|i| v[i as usize])).collect()
+        };
+        let (tool, sheet) = (tris(&tv, &tt), tris(&pv, &pt));
+        // A narrow near part: the rest of the bar spends a list soon after it.
+        god.params.tuning.near_part_mm = 0.3;
+        let pose_at = |a: f64| {
+            // Turned by -a about y: the far end up by 40 sin a; the near end's bottom edge,
+            // (0, y, -1) in the tool, at height 0.1.
+            let (s, c) = a.sin_cos();
+            Pose::from_array([-s, 0.0, 0.1 + c, 0.0, -a, 0.0])
+        };
+        let frames = 400;
+        let (mut with_part, mut far_pairs) = (0, 0);
+        let mut was = pose_at(0.4);
+        for k in 0..=frames {
+            let pose = pose_at(0.4 - 0.35 * f64::from(k) / f64::from(frames));
+            let margin = [0.05, 0.2][(k / 25) as usize % 2];
+            god.detect_triangles(&pose, margin);
+            god.run.motion.last_motion = god.motion_bound(&was, &pose);
+            god.run.motion.last_step = (pose.translation() - was.translation()).into();
+            god.tend_near(&pose, 20.0, Instant::now() + Duration::from_secs(1));
+            with_part += usize::from(
+                god.run
+                    .regions
+                    .near_at
+                    .and_then(|s| s.near)
+                    .is_some_and(|p| p.hi.x < 20.0),
+            );
+            every_pair_within_kept(&god, &tool, &sheet, &pose, margin, k as usize);
+            // Pairs with the step.
+            let meshes = god.bodies.meshes.as_ref().unwrap();
+            far_pairs += god
+                .detector
+                .contacts
+                .iter()
+                .filter(|c| {
+                    meshes.objects[0]
+                        .triangle(c.part)
+                        .iter()
+                        .all(|p| p[2] > 1.0)
+                })
+                .count();
+            was = pose;
+        }
+        // The rule itself: from a list's pose, a turn about the near end that moves the near
+        // part by less than the reach but the far end past the reach and the near part's margin
+        // spends the list.
+        let q0 = pose_at(0.3);
+        god.run.regions.near_part_rest = 0;
+        god.detect_triangles(&q0, 0.05);
+        let span = god.run.regions.near_at.expect("a list");
+        let part = span.near.expect("its near part");
+        assert!(part.hi.x < 15.0, "{part:?}");
+        let (near, whole) = god.span_bounds(&span, &pose_at(0.3 - 0.025));
+        assert!(
+            near + 0.05 < span.reach && whole - 0.3 + 0.05 > span.reach,
+            "{near} {whole}"
+        );
+        assert!(god.span_bound(&span, &pose_at(0.3 - 0.025)) + 0.05 > span.reach);
+        // A turn a fifth as large: the near part's bound, far under the whole bar's.
+        let small = pose_at(0.3 - 0.005);
+        let (near, whole) = god.span_bounds(&span, &small);
+        assert!(near < 0.5 * whole && god.span_bound(&span, &small) == near);
+        assert!(
+            with_part > 50 && far_pairs > 5,
+            "{with_part} frames on a list with a near part, {far_pairs} far pairs kept"
         );
     }
 

@@ -22,6 +22,22 @@ pub(super) struct Bodies {
 }
 
 impl Bodies {
+    /// How far (mm) a point of the box `part` (tool frame) moves at most when the tool turns
+    /// from `r_a` to `r_b`: its own arm's bound, no more than the whole tool's.
+    pub(super) fn part_turn_bound(
+        &self,
+        part: Option<&CentreBox>,
+        r_a: &Matrix3<f64>,
+        r_b: &Matrix3<f64>,
+    ) -> f64 {
+        let whole = self.turn_bound(r_a, r_b);
+        part.map_or(whole, |p| {
+            p.turn_bound(r_a, r_b)
+                .min(rotation_angle(r_b, r_a) * p.reach())
+                .min(whole)
+        })
+    }
+
     /// [`GodObject::turn_bound`]: how far (mm) a point of the tool moves at most when it turns
     /// from `r_a` to `r_b`.
     pub(super) fn turn_bound(&self, r_a: &Matrix3<f64>, r_b: &Matrix3<f64>) -> f64 {
@@ -327,6 +343,7 @@ impl RunState {
                 slab_rest: 0,
                 slab_next_rest: tuning.slab_rest_frames,
                 near_at: None,
+                near_part_rest: 0,
                 contacts_at: None,
                 near_bounds_at: None,
                 near_listed_at: None,
@@ -443,6 +460,9 @@ pub(super) struct RegionMemory {
     pub(super) slab_next_rest: u32,
     /// The mesh mode's near list: where `detector.near` holds (`None`: no list).
     pub(super) near_at: Option<NearSpan>,
+    /// Near lists to begin without noting their near part, after one whose near part did not
+    /// pay ([`Heuristics::mesh_near_part`]).
+    pub(super) near_part_rest: u32,
     /// How far beyond the region's margin the next near list reaches, mm: [`Tuning::near_list_mm`],
     /// quartered each time a list overflows its storage and doubled back each time one fits.
     pub(super) near_extra: f64,
@@ -490,6 +510,10 @@ pub(super) struct NearSpan {
     pub(super) at: Pose,
     pub(super) sweep: [f64; 3],
     pub(super) reach: f64,
+    /// The list's near part of the tool (tool frame), noted by its descent once it is done:
+    /// every tool triangle within [`Tuning::near_part_mm`] beyond the reach of some object
+    /// triangle on the span. `None`: not known, the whole tool's bound holds.
+    pub(super) near: Option<CentreBox>,
 }
 
 /// What a mesh-mode near list under way is for.

@@ -369,6 +369,22 @@ pub struct Tuning {
     /// Halved / doubled over the zoo in the mesh mode: mean frame time ×1.00 / ×1.01, p99 ×1.00 /
     /// ×1.00 (both within the runs' spread: not critical on these scenes).
     pub near_list_pairs: usize,
+    /// With [`Heuristics::mesh_near_part`](crate::Heuristics::mesh_near_part), a near list's
+    /// near part holds every point of the tool within this much (mm) beyond the list's reach of
+    /// the objects: the rest of the tool may move this much farther than the near part before
+    /// the list is spent. Wider, more of the tool is near (a longer arm); narrower, a turn of
+    /// the whole tool spends the list sooner.
+    pub near_part_mm: f64,
+    /// With [`Heuristics::mesh_slice_ceiling`](crate::Heuristics::mesh_slice_ceiling), the next
+    /// near list's slice takes a frame to this share of the budget at most while the list in
+    /// use still holds two more frames: under the p99 target of a quarter of the budget, with
+    /// the frames' own work of a tight fit (~200 µs at p99) below it.
+    pub near_ceiling_share: f64,
+    /// With [`Heuristics::mesh_near_part`](crate::Heuristics::mesh_near_part), a list whose near
+    /// part bounded the tool's motion at its end to no less than this share of the whole
+    /// tool's bound did not pay for its noting (a tenth of a descent's cost): the next
+    /// eight lists are listed without one.
+    pub near_part_pays: f64,
     /// The next near list is built ahead in slices of at most this share of the frame's budget
     /// (after the frame's own work, never past its deadline): a whole list of a tight fit's wall
     /// costs a few budgets, so it is spread over the frames the current list still serves.
@@ -612,6 +628,9 @@ impl Tuning {
         list_target_pairs: 3000.0,
         near_list_mm: 0.25,
         near_list_pairs: 3000,
+        near_part_mm: 0.8,
+        near_ceiling_share: 0.22,
+        near_part_pays: 0.9,
         near_ahead_share: 0.15,
         near_fill_share: 0.2,
         fall_min_step_mm: 0.1,
@@ -681,6 +700,9 @@ impl Tuning {
             "list-target-pairs" => self.list_target_pairs,
             "near-list-mm" => self.near_list_mm,
             "near-list-pairs" => self.near_list_pairs as f64,
+            "near-part-mm" => self.near_part_mm,
+            "near-ceiling-share" => self.near_ceiling_share,
+            "near-part-pays" => self.near_part_pays,
             "near-ahead-share" => self.near_ahead_share,
             "near-fill-share" => self.near_fill_share,
             "fall-min-step-mm" => self.fall_min_step_mm,
@@ -753,6 +775,9 @@ impl Tuning {
             "list-target-pairs" => self.list_target_pairs = value,
             "near-list-mm" => self.near_list_mm = value,
             "near-list-pairs" => self.near_list_pairs = value.round() as usize,
+            "near-part-mm" => self.near_part_mm = value,
+            "near-ceiling-share" => self.near_ceiling_share = value,
+            "near-part-pays" => self.near_part_pays = value,
             "near-ahead-share" => self.near_ahead_share = value,
             "near-fill-share" => self.near_fill_share = value,
             "fall-min-step-mm" => self.fall_min_step_mm = value,
@@ -854,7 +879,7 @@ impl Tuning {
     }
 
     /// Every field's name: the field's with dashes, as the tuning study names it.
-    pub const NAMES: [&'static str; 64] = [
+    pub const NAMES: [&'static str; 67] = [
         "pass-headroom",
         "detect-reserve",
         "pair-target",
@@ -888,6 +913,9 @@ impl Tuning {
         "list-target-pairs",
         "near-list-mm",
         "near-list-pairs",
+        "near-part-mm",
+        "near-ceiling-share",
+        "near-part-pays",
         "near-ahead-share",
         "near-fill-share",
         "fall-min-step-mm",
