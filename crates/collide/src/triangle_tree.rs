@@ -155,10 +155,12 @@ impl TreePairStack {
     /// From now on, the descents on this stack (over any objects, until the next call) note
     /// the *near part* of the tool: a box (tool frame) holding every point of the tool within
     /// `wide` (mm, more than the descents' margin) of some object triangle anywhere on their
-    /// sweep. A box pair apart by the margin but not by `wide` (not descended) notes its tool
-    /// box, and a leaf pair visited its tool leaf's, each cut to where it may be within `wide`
-    /// of the object's box ([`TreePairStack::cut`]). A tool point within `wide` of an object
-    /// triangle lies in both boxes of one such pair.
+    /// sweep. A box pair apart by the margin but not by `wide` is followed down for the near
+    /// part alone (no leaf pair of it visited) to the tool's leaves, the object's boxes split
+    /// while large; each such leaf pair, and each leaf pair visited, notes its tool triangles'
+    /// boxes, each cut to where it may be within `wide` of the object's box
+    /// ([`TreePairStack::cut`]). A tool point within `wide` of an object triangle lies in both
+    /// boxes of one such pair.
     pub fn note_near_part(&mut self, wide: f64) {
         self.near_wide = wide;
         self.near_lo = [f64::INFINITY; 3];
@@ -451,8 +453,8 @@ impl TriangleTree {
             let noting_only = rank & NOTING_ONLY != 0;
             if noting_only || boxes_apart(&offset, &half, &turn, &nb.half, margin) {
                 // Apart by the margin: only the near part may still want it, where the two are
-                // within its margin.
-                // (No cut: nothing of the tool box there, or all of it noted already.)
+                // within its margin (no cut: nothing of the tool box there, or all of it noted
+                // already).
                 let wanted = stack.near_wide > margin
                     && stack
                         .cut(
