@@ -158,9 +158,9 @@ impl TreePairStack {
     /// sweep. A box pair apart by the margin but not by `wide` is followed down for the near
     /// part alone (no leaf pair of it visited) to the tool's leaves, the object's boxes split
     /// while large; each such leaf pair, and each leaf pair visited, notes its tool triangles'
-    /// boxes, each cut to where it may be within `wide` of the object's box
-    /// ([`TreePairStack::cut`]). A tool point within `wide` of an object triangle lies in both
-    /// boxes of one such pair.
+    /// boxes, each cut to where it may be within `wide` of the object's box (seen in the tool
+    /// frame). A tool point within `wide` of an object triangle lies in both boxes of one such
+    /// pair.
     pub fn note_near_part(&mut self, wide: f64) {
         self.near_wide = wide;
         self.near_lo = [f64::INFINITY; 3];
