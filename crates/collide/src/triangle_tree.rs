@@ -748,6 +748,26 @@ mod tests {
         out
     }
 
+    /// A small bumpy sheet (the tool) and a larger one (the object), each with long thin
+    /// facets in some cases, their trees and a stack for their descents.
+    fn sheets(
+        case: usize,
+        rng: &mut ChaCha8Rng,
+    ) -> (
+        Vec<Triangle>,
+        Vec<Triangle>,
+        TriangleTree,
+        TriangleTree,
+        TreePairStack,
+    ) {
+        let tool_tris = sheet(4, case % 2 == 0, rng);
+        let object_tris = sheet(8, case % 3 == 0, rng);
+        let tool = TriangleTree::build(&tool_tris, &Pose::identity());
+        let object = TriangleTree::build(&object_tris, &Pose::identity());
+        let stack = TriangleTree::stack_for(&tool, &object);
+        (tool_tris, object_tris, tool, object, stack)
+    }
+
     fn random_pose(rng: &mut ChaCha8Rng, lift: f64) -> Pose {
         let r = |rng: &mut ChaCha8Rng, s: f64| rng.random_range(-s..s);
         Pose::from_array([
@@ -821,11 +841,7 @@ mod tests {
         for case in 0..16 {
             // Long facets on the tool in half the cases: their leaves are cut to the stretch
             // near the object.
-            let tool_tris = sheet(4, case % 2 == 0, &mut rng);
-            let object_tris = sheet(8, case % 3 == 0, &mut rng);
-            let tool = TriangleTree::build(&tool_tris, &Pose::identity());
-            let object = TriangleTree::build(&object_tris, &Pose::identity());
-            let mut stack = TriangleTree::stack_for(&tool, &object);
+            let (tool_tris, object_tris, tool, object, mut stack) = sheets(case, &mut rng);
             let mut q = random_pose(&mut rng, 0.9);
             // Tilted 0.5–1 rad, so that part of the tool stands off the sheet.
             let mut a = q.to_array();
@@ -933,11 +949,7 @@ mod tests {
     fn a_swept_descent_lists_every_pair_near_anywhere_on_the_sweep() {
         let mut rng = ChaCha8Rng::seed_from_u64(23);
         for case in 0..12 {
-            let tool_tris = sheet(4, case % 2 == 0, &mut rng);
-            let object_tris = sheet(8, case % 3 == 0, &mut rng);
-            let tool = TriangleTree::build(&tool_tris, &Pose::identity());
-            let object = TriangleTree::build(&object_tris, &Pose::identity());
-            let mut stack = TriangleTree::stack_for(&tool, &object);
+            let (tool_tris, object_tris, tool, object, mut stack) = sheets(case, &mut rng);
             let q = random_pose(&mut rng, 0.9);
             let (rot, t) = (q.rotation_matrix(), q.translation());
             let r = |rng: &mut ChaCha8Rng| rng.random_range(-1.5..1.5);

@@ -2418,22 +2418,28 @@ mod tests {
     /// time, and is the full slice where its frame is light, where it is behind (past the last
     /// descent's cost, or not done in time at the fill's pace), or with the fill off; paced,
     /// it is left to the loop's wait while the list in use lasts.
+    /// A near list taken over the sheet, the tool sliding a thousandth of its extra reach a
+    /// frame (a thousand frames left), the last descent two full slices long: the pose, the
+    /// extra reach (mm) and the full slice (µs).
+    fn sliding_slowly(god: &mut GodObject) -> (Pose, f64, f64) {
+        let q = Pose::from_array([0.0, 0.0, 2.4, 0.0, 0.0, 0.0]);
+        god.detect_triangles(&q, 0.1);
+        assert!(god.run.regions.near_at.is_some());
+        let full = god.params.tuning.near_ahead_share * god.params.budget_us;
+        let extra = god.run.regions.near_extra;
+        god.run.motion.last_step = [1e-3 * extra, 0.0, 0.0];
+        god.run.motion.last_motion = 1e-3 * extra;
+        god.run.regions.near_descent_us = 2.0 * full;
+        (q, extra, full)
+    }
+
     #[test]
     fn a_slice_fills_the_frame_only_while_the_next_list_is_on_time() {
         let (mut god, _, _) = cube_over_sheet();
         // (The ceiling has a test of its own, below.)
         god.params.heuristics.mesh_slice_ceiling = false;
-        let q = Pose::from_array([0.0, 0.0, 2.4, 0.0, 0.0, 0.0]);
-        god.detect_triangles(&q, 0.1);
-        assert!(god.run.regions.near_at.is_some());
-        let budget = god.params.budget_us;
-        let full = god.params.tuning.near_ahead_share * budget;
-        let fill = god.params.tuning.near_fill_share * budget;
-        // Sliding a thousandth of the extra reach a frame: a thousand frames left.
-        let extra = god.run.regions.near_extra;
-        god.run.motion.last_step = [1e-3 * extra, 0.0, 0.0];
-        god.run.motion.last_motion = 1e-3 * extra;
-        god.run.regions.near_descent_us = 2.0 * full;
+        let (q, extra, full) = sliding_slowly(&mut god);
+        let fill = god.params.tuning.near_fill_share * god.params.budget_us;
         // A light frame: the full slice.
         assert_eq!(god.near_slice_us(&q, 10.0), full);
         // A frame that took most of the fill: what is left of it.
@@ -2478,18 +2484,11 @@ mod tests {
     #[test]
     fn a_slice_keeps_the_frame_under_its_ceiling_while_the_list_in_use_holds() {
         let (mut god, _, _) = cube_over_sheet();
-        let q = Pose::from_array([0.0, 0.0, 2.4, 0.0, 0.0, 0.0]);
-        god.detect_triangles(&q, 0.1);
+        let (q, extra, full) = sliding_slowly(&mut god);
         let span = god.run.regions.near_at.unwrap();
-        let budget = god.params.budget_us;
-        let full = god.params.tuning.near_ahead_share * budget;
-        let ceiling = god.params.tuning.near_ceiling_share * budget;
-        // Sliding a thousandth of the extra reach a frame, the next list behind (under way
-        // past the last descent's cost): a full slice without the ceiling.
-        let extra = god.run.regions.near_extra;
-        god.run.motion.last_step = [1e-3 * extra, 0.0, 0.0];
-        god.run.motion.last_motion = 1e-3 * extra;
-        god.run.regions.near_descent_us = 2.0 * full;
+        let ceiling = god.params.tuning.near_ceiling_share * god.params.budget_us;
+        // The next list behind (under way past the last descent's cost): a full slice without
+        // the ceiling.
         god.run.regions.near_ahead = NearAhead::start(span, NearPurpose::Ahead);
         god.run.regions.near_ahead.spent_us = 3.0 * full;
         assert!(god.near_frames_held(&span, &q) > 100.0);
