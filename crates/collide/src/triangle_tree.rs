@@ -760,8 +760,8 @@ mod tests {
         TriangleTree,
         TreePairStack,
     ) {
-        let tool_tris = sheet(4, case % 2 == 0, rng);
-        let object_tris = sheet(8, case % 3 == 0, rng);
+        let tool_tris = sheet(4, case.is_multiple_of(2), rng);
+        let object_tris = sheet(8, case.is_multiple_of(3), rng);
         let tool = TriangleTree::build(&tool_tris, &Pose::identity());
         let object = TriangleTree::build(&object_tris, &Pose::identity());
         let stack = TriangleTree::stack_for(&tool, &object);
@@ -949,7 +949,7 @@ mod tests {
     fn a_swept_descent_lists_every_pair_near_anywhere_on_the_sweep() {
         let mut rng = ChaCha8Rng::seed_from_u64(23);
         for case in 0..12 {
-            let (tool_tris, object_tris, tool, object, mut stack) = sheets(case, &mut rng);
+            let (_, _, tool, object, mut stack) = sheets(case, &mut rng);
             let q = random_pose(&mut rng, 0.9);
             let (rot, t) = (q.rotation_matrix(), q.translation());
             let r = |rng: &mut ChaCha8Rng| rng.random_range(-1.5..1.5);
