@@ -127,7 +127,7 @@ pub struct BenchArgs {
     /// pass, so a slow spell of a shared machine does not read as a costly value.
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=10))]
     pub tuning_passes: u32,
-    /// What the tool touches in the zoo and fit studies (comma-separated): spheres (the
+    /// What the tool touches in the speed, zoo and fit studies (comma-separated): spheres (the
     /// trees' leaf spheres, the default), mesh (the parts' own triangles), or both; each scene
     /// is replayed once per mode, every row naming its mode.
     #[arg(long, value_delimiter = ',', default_value = "spheres")]
@@ -367,7 +367,8 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
             &[SolverKind::Dual, SolverKind::ActiveSet]
         };
         eprintln!("bench: speed study (plate scene)");
-        report.speed = crate::bench_speed::speed_study(&cache, args.quick, solvers, mode)?;
+        report.speed =
+            crate::bench_speed::speed_study(&cache, args.quick, solvers, &geometries, mode)?;
     }
     if wants("contact") {
         eprintln!("bench: contact study (flat on flat, spline phases)");

@@ -172,21 +172,30 @@ pub fn write_bench_plots(dir: &Path, replays: &[SceneReplays], report: &BenchRep
     }
     if !report.speed.is_empty() {
         // Drag against speed: slides (N against mm/s) and turns (N·mm against rad/s), one
-        // panel each, a line per tool and solver.
+        // panel each, a line per tool, solver and geometry mode.
         let lines = |motion: &str| -> Vec<Line> {
-            let mut keys: Vec<(String, String)> = Vec::new();
+            let mut keys: Vec<(String, String, String)> = Vec::new();
             for r in report.speed.iter().filter(|r| r.motion == motion) {
-                let k = (r.tool.clone(), r.solver.clone());
+                let k = (r.tool.clone(), r.solver.clone(), r.geometry.clone());
                 if !keys.contains(&k) {
                     keys.push(k);
                 }
             }
+            let modes = report
+                .speed
+                .iter()
+                .any(|r| r.geometry != report.speed[0].geometry);
             keys.into_iter()
-                .map(|(tool, solver)| {
+                .map(|(tool, solver, geometry)| {
                     let values = report
                         .speed
                         .iter()
-                        .filter(|r| r.motion == motion && r.tool == tool && r.solver == solver)
+                        .filter(|r| {
+                            r.motion == motion
+                                && r.tool == tool
+                                && r.solver == solver
+                                && r.geometry == geometry
+                        })
                         .map(|r| (r.speed, r.drag))
                         .collect();
                     // Puck and ball apart: a darker shade of the solver's colour for the ball.
@@ -196,7 +205,12 @@ pub fn write_bench_plots(dir: &Path, replays: &[SceneReplays], report: &BenchRep
                     } else {
                         c
                     };
-                    (format!("{tool}, {solver}"), color, values)
+                    let label = if modes {
+                        format!("{tool}, {solver}, {geometry}")
+                    } else {
+                        format!("{tool}, {solver}")
+                    };
+                    (label, color, values)
                 })
                 .collect()
         };

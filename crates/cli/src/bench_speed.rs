@@ -13,6 +13,9 @@
 //! - penetration (all frames), the largest force change between consecutive frames in contact
 //!   (contact onsets excluded), frame time p50 / p99 / max, and the frames that ended lagging
 //!   or kept the last safe pose.
+//!
+//! Each row is replayed in each geometry mode of `bench --geometry` (the leaf spheres by
+//! default, face-capped on the plate; `mesh`: the ball's and the plate's own triangles).
 
 use anyhow::Result;
 use collide::{rotation_log, Pose};
@@ -34,6 +37,8 @@ pub struct SpeedRow {
     pub speed: f64,
     /// Solver name.
     pub solver: String,
+    /// What the tool touched (`spheres` or `mesh`, as `[solver] geometry`).
+    pub geometry: String,
     /// Frames stepped.
     pub frames: usize,
     /// Frames at constant speed (where drag and lag are measured).
@@ -80,6 +85,7 @@ pub fn speed_study(
     cache: &TreeCache,
     quick: bool,
     solvers: &[SolverKind],
+    geometries: &[engine::Geometry],
     mode: crate::bench_contact::ReplayMode,
 ) -> Result<Vec<SpeedRow>> {
     let min_steady = if quick { 0.15 } else { 0.5 };
@@ -96,8 +102,11 @@ pub fn speed_study(
             if let Some(on) = mode.face_caps {
                 scene.solver.face_caps = on;
             }
-            for &kind in solvers {
-                rows.push(speed_row(&scene, tool, motion, &run, kind, mode.realtime)?);
+            for &geometry in geometries {
+                scene.solver.geometry = geometry;
+                for &kind in solvers {
+                    rows.push(speed_row(&scene, tool, motion, &run, kind, mode.realtime)?);
+                }
             }
         }
     }
@@ -164,6 +173,7 @@ fn speed_row(
         motion: name.into(),
         speed,
         solver: kind.name().into(),
+        geometry: scene.geometry().name().into(),
         frames: outputs.len(),
         steady_frames: drag.len(),
         drag: Summary::of(drag).mean,
@@ -184,18 +194,22 @@ pub fn speed_markdown(rows: &[SpeedRow]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "| tool | motion | speed | solver | frames | drag (N or N·mm) | lag mean / max (mm or rad) | max pen. mm | max ΔF N | total µs p50 / p99 / max | passes mean / max | lagging | kept last safe |"
+        "| tool | motion | speed | solver | geometry | frames | drag (N or N·mm) | lag mean / max (mm or rad) | max pen. mm | max ΔF N | total µs p50 / p99 / max | passes mean / max | lagging | kept last safe |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(
+        s,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
     for r in rows {
         let unit = if r.motion == "slide" { "mm/s" } else { "rad/s" };
         let _ = writeln!(
             s,
-            "| {} | {} | {} {unit} | {} | {} | {:.4} | {:.4} / {:.4} | {:.4} | {:.3} | {:.1} / {:.1} / {:.1} | {:.2} / {:.0} | {} | {} |",
+            "| {} | {} | {} {unit} | {} | {} | {} | {:.4} | {:.4} / {:.4} | {:.4} | {:.3} | {:.1} / {:.1} / {:.1} | {:.2} / {:.0} | {} | {} |",
             r.tool,
             r.motion,
             r.speed,
             r.solver,
+            r.geometry,
             r.frames,
             r.drag,
             r.lag_mean,

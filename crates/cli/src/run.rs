@@ -95,6 +95,14 @@ pub struct RunArgs {
     /// Face caps on object trees: on or off (default: the scene's; docs/DESIGN.md §Face caps).
     #[arg(long, value_parser = crate::parse_on_off)]
     pub face_caps: Option<bool>,
+    /// Heuristics of the frame step to switch off (comma-separated, as `bench --studies
+    /// ablation` names them, e.g. `mesh-near-fill,lever`), to see what each one does.
+    #[arg(long, value_delimiter = ',', value_name = "NAME")]
+    pub without: Vec<String>,
+    /// Tuned values of the frame step to set (comma-separated `name=value`, as `bench
+    /// --tuning-values` names them, e.g. `near-fill-share=0.1`).
+    #[arg(long, value_delimiter = ',', value_name = "NAME=VALUE")]
+    pub tuning: Vec<String>,
     /// Rotation coordinates: rotation-vector (default) or euler (the paper's).
     #[arg(long)]
     pub rotation: Option<String>,
@@ -642,6 +650,29 @@ pub fn run(args: RunArgs) -> Result<()> {
     if let Some(g) = geometry {
         scene.solver.geometry = g;
     }
+    for name in &args.without {
+        let Some(switch) = scene.solver.heuristics.switch_mut(name.trim()) else {
+            crate::usage_bail!(
+                "--without: no heuristic `{name}` (heuristics: {})",
+                engine::Heuristics::NAMES.join(", ")
+            );
+        };
+        *switch = false;
+    }
+    for pair in &args.tuning {
+        let parsed = pair
+            .split_once('=')
+            .and_then(|(name, v)| Some((name, v.trim().parse::<f64>().ok()?)));
+        let Some(next) = parsed.and_then(|(name, v)| scene.solver.tuning.with(name.trim(), v))
+        else {
+            crate::usage_bail!(
+                "--tuning: `{pair}` is not NAME=NUMBER with NAME one of {}",
+                engine::Tuning::NAMES.join(", ")
+            );
+        };
+        next.validate().context("--tuning")?;
+        scene.solver.tuning = next;
+    }
     if let Some(r) = rotation {
         scene.coupling.rotation = r;
     }
@@ -721,6 +752,13 @@ pub fn run(args: RunArgs) -> Result<()> {
         summary.load.push(format!(
             "geometry: {} asked, but not every body has a mesh (a tree read from a .sph file has no triangles): the leaf spheres are the geometry",
             scene.solver.geometry.name()
+        ));
+    }
+    if !args.without.is_empty() || !args.tuning.is_empty() {
+        summary.load.push(format!(
+            "step: heuristics off [{}], tuned values set [{}]",
+            args.without.join(", "),
+            args.tuning.join(", ")
         ));
     }
     let mesh_column = match mesh_penetration(&scene, &report.frames) {

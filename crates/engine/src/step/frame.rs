@@ -543,6 +543,7 @@ impl GodObject {
         // In contact, the next frames' regions come from a neighbour list kept ahead.
         let used = out.margin_mm.max(self.params.tuning.min_allow_mm + f.skin);
         let own_us = f.clock.elapsed_us();
+        self.note_own_work(own_us);
         self.tend_neighbours(&q_safe, used, f.clock.deadline);
         let slice_us = self.near_slice_us(&q_safe, f.clock.elapsed_us());
         self.tend_near(&q_safe, slice_us, f.clock.deadline);

@@ -123,6 +123,13 @@ pub struct Heuristics {
     /// was listed for, so a list serves past its extra reach), and the next one then starts
     /// with its pace asking for a full slice in frames already heavy with a filter.
     pub mesh_slice_ceiling: bool,
+    /// The mesh mode's fill level follows the frames' own work: the next near list's slice
+    /// fills a frame up to a running quantile of the frames' own work
+    /// ([`Tuning::own_above_share`](crate::Tuning::own_above_share)), at most
+    /// [`Tuning::near_fill_share`](crate::Tuning::near_fill_share) of the budget, or gives the
+    /// pace its descent needs where that is more, rather than filling every frame to the fixed
+    /// share: a scene whose frames take 20 µs is not lifted to 200 by the lists ahead.
+    pub mesh_fill_own_level: bool,
 }
 
 impl Default for Heuristics {
@@ -159,6 +166,7 @@ impl Heuristics {
         mesh_slow_growth: true,
         mesh_near_part: true,
         mesh_slice_ceiling: true,
+        mesh_fill_own_level: true,
     };
 
     /// Every heuristic off.
@@ -188,10 +196,11 @@ impl Heuristics {
         mesh_slow_growth: false,
         mesh_near_part: false,
         mesh_slice_ceiling: false,
+        mesh_fill_own_level: false,
     };
 
     /// The names of the switches (as the bench's ablation study prints them), in order.
-    pub const NAMES: [&'static str; 25] = [
+    pub const NAMES: [&'static str; 26] = [
         "region-reuse",
         "path-regions",
         "slab-regions",
@@ -217,6 +226,7 @@ impl Heuristics {
         "mesh-slow-growth",
         "mesh-near-part",
         "mesh-slice-ceiling",
+        "mesh-fill-own-level",
     ];
 
     /// The switch called `name` ([`Heuristics::NAMES`]), for reading and setting.
@@ -247,6 +257,7 @@ impl Heuristics {
             "mesh-slow-growth" => &mut self.mesh_slow_growth,
             "mesh-near-part" => &mut self.mesh_near_part,
             "mesh-slice-ceiling" => &mut self.mesh_slice_ceiling,
+            "mesh-fill-own-level" => &mut self.mesh_fill_own_level,
             _ => return None,
         })
     }

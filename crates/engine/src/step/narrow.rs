@@ -193,6 +193,19 @@ const NEAR_AHEAD_START: f64 = 0.5;
 /// microseconds, and one to spare.
 const NEAR_IDLE_LEFT_FRAMES: f64 = 2.0;
 
+/// The running quantile's step in the log of the frames' own work
+/// ([`Heuristics::mesh_fill_own_level`]): up this times the share below it after a frame
+/// above, down this times [`Tuning::own_above_share`] after one below, so that it settles
+/// where that share of the frames lies above it. At 0.1 and a share of 0.05, a level eight
+/// times too high comes down in ~420 frames, one eight times too low goes up in ~22 frames
+/// of work above it.
+const OWN_LEVEL_RATE: f64 = 0.1;
+
+/// A budget past this (µs) is no haptic frame's (the per-frame minima run with none): the fill
+/// level stays the fixed share there, so that frames do not depend on the clock and are the
+/// same run after run.
+const OWN_LEVEL_MAX_BUDGET_US: f64 = 10_000.0;
+
 /// Frames the list in use must still hold for [`Heuristics::mesh_slice_ceiling`] to keep the
 /// next list's slice under its ceiling: one to take the next list in, and one to spare.
 const NEAR_CEILING_LEFT_FRAMES: f64 = 2.0;
@@ -1198,11 +1211,41 @@ impl GodObject {
         room.max(0.0) / self.run.motion.last_motion.max(1e-9)
     }
 
+    /// Notes a frame's own work (µs, before the lists ahead) in the running quantile of
+    /// [`Heuristics::mesh_fill_own_level`].
+    pub(super) fn note_own_work(&mut self, own_us: f64) {
+        let x = own_us.max(0.1).ln();
+        let above = self.params.tuning.own_above_share;
+        let level = self.run.lists.own_level_ln.get_or_insert(x);
+        *level += if x > *level {
+            OWN_LEVEL_RATE * (1.0 - above)
+        } else {
+            -OWN_LEVEL_RATE * above
+        };
+    }
+
+    /// The level (µs) the next near list's slices fill a frame to: a fixed
+    /// [`Tuning::near_fill_share`] of the budget, or with [`Heuristics::mesh_fill_own_level`]
+    /// the running quantile of the frames' own work where that is lower.
+    fn fill_level_us(&self) -> f64 {
+        let budget = self.params.budget_us;
+        let fixed = self.params.tuning.near_fill_share * budget;
+        match self.run.lists.own_level_ln {
+            Some(level)
+                if self.params.heuristics.mesh_fill_own_level
+                    && budget <= OWN_LEVEL_MAX_BUDGET_US =>
+            {
+                level.exp().min(fixed)
+            }
+            _ => fixed,
+        }
+    }
+
     /// [`GodObject::near_slice_us`] before its ceiling.
     fn near_slice_paced_us(&self, q: &Pose, elapsed_us: f64) -> f64 {
         let budget = self.params.budget_us;
         let full = self.params.tuning.near_ahead_share * budget;
-        let room = self.params.tuning.near_fill_share * budget - elapsed_us;
+        let room = self.fill_level_us() - elapsed_us;
         let paced = self.run.lists.idle_given;
         if !self.params.heuristics.mesh_near_fill || (room >= full && !paced) {
             return full;
@@ -2479,6 +2522,52 @@ mod tests {
         assert_eq!(god.near_slice_us(&q, 2.0 * fill), full);
         god.run.lists.idle_given = true;
         assert_eq!(god.near_slice_us(&q, 2.0 * fill), full);
+    }
+
+    #[test]
+    fn the_fill_level_follows_the_frames_own_work() {
+        let (mut god, _, _) = cube_over_sheet();
+        god.params.heuristics.mesh_slice_ceiling = false;
+        let (q, _, full) = sliding_slowly(&mut god);
+        let fill = god.params.tuning.near_fill_share * god.params.budget_us;
+        // Before any frame: the fixed fill, so a light frame takes the full slice.
+        assert_eq!(god.fill_level_us(), fill);
+        assert_eq!(god.near_slice_us(&q, 10.0), full);
+        // One frame in ten takes 40 µs of its own, the rest 10: more than a twentieth above
+        // 10, so the level settles at 40 and a 10 µs frame is filled to it, not to the fill.
+        for i in 0..3000 {
+            god.note_own_work(if i % 10 == 0 { 40.0 } else { 10.0 });
+        }
+        let level = god.fill_level_us();
+        assert!((35.0..46.0).contains(&level), "{level} µs");
+        let slice = god.near_slice_us(&q, 10.0);
+        assert!((slice - (level - 10.0)).abs() < 1e-9, "{slice} µs");
+        // One in thirty-three: less than a twentieth above 10, so the level comes down to it
+        // and the slice is the list's pace and little more.
+        for i in 0..3000 {
+            god.note_own_work(if i % 33 == 0 { 40.0 } else { 10.0 });
+        }
+        let level = god.fill_level_us();
+        assert!((9.0..12.0).contains(&level), "{level} µs");
+        assert!(god.near_slice_us(&q, 10.0) < 2.5);
+        // Never above the fixed fill, however heavy the frames.
+        for _ in 0..200 {
+            god.note_own_work(5_000.0);
+        }
+        assert_eq!(god.fill_level_us(), fill);
+        // Off, the fixed fill: a light frame takes the full slice.
+        for _ in 0..3000 {
+            god.note_own_work(10.0);
+        }
+        assert!(god.fill_level_us() < 11.0);
+        god.params.heuristics.mesh_fill_own_level = false;
+        assert_eq!(god.near_slice_us(&q, 10.0), full);
+        // A budget no haptic frame has (the per-frame minima's): the fixed fill too, so that
+        // the frames do not depend on the clock.
+        god.params.heuristics.mesh_fill_own_level = true;
+        god.params.budget_us = 2.0 * OWN_LEVEL_MAX_BUDGET_US;
+        let fill = god.params.tuning.near_fill_share * god.params.budget_us;
+        assert_eq!(god.fill_level_us(), fill);
     }
 
     #[test]

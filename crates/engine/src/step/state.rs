@@ -379,6 +379,7 @@ impl RunState {
                 detections_per_frame: 0.0,
                 frame_detections: 0,
                 idle_given: false,
+                own_level_ln: None,
             },
             counts: WorkCounts {
                 frame_splits: 0,
@@ -619,6 +620,9 @@ pub(super) struct ListPacing {
     /// neighbour list is then built mostly there, so one is kept wherever it lasts (its build
     /// no longer costs the frames).
     pub(super) idle_given: bool,
+    /// The running quantile ([`Tuning::own_above_share`]) of the frames' own work, as the
+    /// natural log of µs; none before the first frame ([`Heuristics::mesh_fill_own_level`]).
+    pub(super) own_level_ln: Option<f64>,
 }
 
 /// The detection work of the frame and of the run.

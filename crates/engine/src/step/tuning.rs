@@ -406,6 +406,11 @@ pub struct Tuning {
     /// ×0.99 / ×0.98 (within the runs' spread: not critical on these scenes; the pegs it is
     /// for are not among them).
     pub near_fill_share: f64,
+    /// With [`Heuristics::mesh_fill_own_level`](crate::Heuristics::mesh_fill_own_level), the
+    /// share of the frames whose own work the fill level leaves above it (a running quantile
+    /// of that work): the slices fill frames up to what the frames' own work already reaches
+    /// in its upper tail, so that they do not set the p99 themselves.
+    pub own_above_share: f64,
     /// A tool left behind that moved at least this far (mm) in its last frame is falling toward
     /// the hand: its path region is the straight way there.
     ///
@@ -635,6 +640,7 @@ impl Tuning {
         near_part_pays: 0.9,
         near_ahead_share: 0.15,
         near_fill_share: 0.2,
+        own_above_share: 0.05,
         fall_min_step_mm: 0.1,
         fall_min_cos: 0.9,
         slab_rest_frames: 100,
@@ -707,6 +713,7 @@ impl Tuning {
             "near-part-pays" => self.near_part_pays,
             "near-ahead-share" => self.near_ahead_share,
             "near-fill-share" => self.near_fill_share,
+            "own-above-share" => self.own_above_share,
             "fall-min-step-mm" => self.fall_min_step_mm,
             "fall-min-cos" => self.fall_min_cos,
             "slab-rest-frames" => f64::from(self.slab_rest_frames),
@@ -782,6 +789,7 @@ impl Tuning {
             "near-part-pays" => self.near_part_pays = value,
             "near-ahead-share" => self.near_ahead_share = value,
             "near-fill-share" => self.near_fill_share = value,
+            "own-above-share" => self.own_above_share = value,
             "fall-min-step-mm" => self.fall_min_step_mm = value,
             "fall-min-cos" => self.fall_min_cos = value,
             "slab-rest-frames" => self.slab_rest_frames = value.round() as u32,
@@ -881,7 +889,7 @@ impl Tuning {
     }
 
     /// Every field's name: the field's with dashes, as the tuning study names it.
-    pub const NAMES: [&'static str; 67] = [
+    pub const NAMES: [&'static str; 68] = [
         "pass-headroom",
         "detect-reserve",
         "pair-target",
@@ -920,6 +928,7 @@ impl Tuning {
         "near-part-pays",
         "near-ahead-share",
         "near-fill-share",
+        "own-above-share",
         "fall-min-step-mm",
         "fall-min-cos",
         "slab-rest-frames",
