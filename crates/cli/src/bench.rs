@@ -447,20 +447,7 @@ pub fn run(mut args: BenchArgs) -> Result<()> {
                 );
             }
         }
-        let mut base = engine::Tuning::DEFAULT;
-        for pair in &args.tuning_base {
-            let parsed = pair
-                .split_once('=')
-                .and_then(|(name, v)| Some((name, v.trim().parse::<f64>().ok()?)));
-            let Some(next) = parsed.and_then(|(name, v)| base.with(name.trim(), v)) else {
-                crate::usage_bail!(
-                    "--tuning-base: `{pair}` is not NAME=NUMBER with NAME one of {}",
-                    engine::Tuning::NAMES.join(", ")
-                );
-            };
-            next.validate().context("--tuning-base")?;
-            base = next;
-        }
+        let base = crate::tuning_with(engine::Tuning::DEFAULT, &args.tuning_base, "--tuning-base")?;
         eprintln!("bench: tuning study (each tuned value of the step halved and doubled)");
         report.tuning = crate::bench_tuning::tuning_study(
             &cache,

@@ -164,6 +164,32 @@ fn one_line(s: &str) -> String {
     s.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
+/// `base` with each of `pairs` (`name=value`, names of [`engine::Tuning::NAMES`]) set in turn,
+/// checked; a usage error naming `flag` for a pair that is not NAME=NUMBER, a range error for
+/// a value out of its range.
+fn tuning_with(
+    base: engine::Tuning,
+    pairs: &[String],
+    flag: &str,
+) -> anyhow::Result<engine::Tuning> {
+    use anyhow::Context as _;
+    let mut tuning = base;
+    for pair in pairs {
+        let parsed = pair
+            .split_once('=')
+            .and_then(|(name, v)| Some((name, v.trim().parse::<f64>().ok()?)));
+        let Some(next) = parsed.and_then(|(name, v)| tuning.with(name.trim(), v)) else {
+            usage_bail!(
+                "{flag}: `{pair}` is not NAME=NUMBER with NAME one of {}",
+                engine::Tuning::NAMES.join(", ")
+            );
+        };
+        next.validate().with_context(|| flag.to_string())?;
+        tuning = next;
+    }
+    Ok(tuning)
+}
+
 /// `on`/`off` (also `true`/`false`) for a switch that overrides a scene's setting.
 fn parse_on_off(s: &str) -> Result<bool, String> {
     match s {

@@ -659,20 +659,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         };
         *switch = false;
     }
-    for pair in &args.tuning {
-        let parsed = pair
-            .split_once('=')
-            .and_then(|(name, v)| Some((name, v.trim().parse::<f64>().ok()?)));
-        let Some(next) = parsed.and_then(|(name, v)| scene.solver.tuning.with(name.trim(), v))
-        else {
-            crate::usage_bail!(
-                "--tuning: `{pair}` is not NAME=NUMBER with NAME one of {}",
-                engine::Tuning::NAMES.join(", ")
-            );
-        };
-        next.validate().context("--tuning")?;
-        scene.solver.tuning = next;
-    }
+    scene.solver.tuning = crate::tuning_with(scene.solver.tuning, &args.tuning, "--tuning")?;
     if let Some(r) = rotation {
         scene.coupling.rotation = r;
     }

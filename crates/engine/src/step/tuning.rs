@@ -835,18 +835,14 @@ impl Tuning {
         for name in Self::NAMES {
             let v = self.get(name).unwrap_or(f64::NAN);
             if !(v.is_finite() && v > 0.0) {
-                return Err(bad(name, v, "must be a finite number above 0"));
+                return Err(bad(name, v, "a finite number above 0"));
             }
             if name.ends_with("-share") && v > 1.0 {
-                return Err(bad(name, v, "must be a share in (0, 1]"));
+                return Err(bad(name, v, "a share in (0, 1]"));
             }
         }
         if self.detect_reserve >= 1.0 {
-            return Err(bad(
-                "detect-reserve",
-                self.detect_reserve,
-                "must be below 1",
-            ));
+            return Err(bad("detect-reserve", self.detect_reserve, "below 1"));
         }
         // Bounds that clamp a value must stay in order.
         for (low, lo, high, hi) in [
@@ -882,7 +878,7 @@ impl Tuning {
             ),
         ] {
             if lo > hi {
-                return Err(bad(low, lo, &format!("must be at most {high} ({hi})")));
+                return Err(bad(low, lo, &format!("at most {high} ({hi})")));
             }
         }
         Ok(())
