@@ -3300,6 +3300,44 @@ mod tests {
         );
     }
 
+    /// A pair both lists hold takes the larger of its new bound and the old one's less the
+    /// old offset, never more than the cap (how far off the objects the old list put the tool
+    /// outside its near part), and the old upper bound plus that offset; a pair only the new
+    /// list holds keeps its own bound less the way.
+    #[test]
+    fn an_inherited_bound_is_the_old_ones_less_its_offset_up_to_the_cap() {
+        let (mut god, _, _) = cube_over_sheet();
+        let q = Pose::from_array([0.0, 0.0, 2.4, 0.0, 0.0, 0.0]);
+        god.detect_triangles(&q, 0.1);
+        let n = god.detector.near.len();
+        assert!(n >= 4, "{n} pairs listed");
+        let (way, old_less) = (0.002, 0.5);
+        for (cap, expected) in [(0.3, 0.3), (f64::INFINITY, 4.5)] {
+            // The new list: every pair 0.01 mm apart as listed. The old list: the same pairs
+            // but the last, each 5 mm apart, its upper bound 7 mm.
+            let d = &mut god.detector;
+            d.near_apart.clear();
+            d.near_apart.resize(n, 0.01);
+            d.next_near = d.near[..n - 1].to_vec();
+            d.next_ranks = d.near_ranks[..n - 1].to_vec();
+            d.next_apart = vec![5.0; n - 1];
+            d.next_gaps = vec![PairGap::NONE; n - 1];
+            for g in &mut d.next_gaps {
+                g.upper = 7.0;
+            }
+            d.near_edges = vec![NearestEdges::NONE; n - 1];
+            d.next_edges = vec![NearestEdges::NONE; n];
+            d.inherit_near(way, (old_less, cap), None);
+            for i in 0..n - 1 {
+                let bound = d.near_apart[i];
+                assert!((bound - expected).abs() < 1e-12, "cap {cap}: {bound} mm");
+                assert!((d.near_gaps[i].upper - 7.5).abs() < 1e-12);
+            }
+            let own = d.near_apart[n - 1];
+            assert!((own - 0.008).abs() < 1e-12, "{own} mm");
+        }
+    }
+
     /// A cube sliding and turning just off a waved sheet, its lists built ahead and taken: the
     /// pairs measured near, no farther by the way since, are measured again at once (by their
     /// upper bounds, the ones a new list takes over too), and every filter still gives every
