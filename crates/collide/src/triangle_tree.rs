@@ -103,8 +103,17 @@ pub struct TriangleTree {
     /// Each node's box along the frame's axes (lowest and highest corner), mm: what a descent
     /// notes of the tool's near part ([`TreePairStack::note_near_part`]).
     node_bounds: Vec<([f64; 3], [f64; 3])>,
+    /// Each node: a leaf whose facets turn more than 45° apart ([`FACES_APART_COS`]: a box's
+    /// top and its side), whose box is far wider than any of them; a descent tests a tool leaf
+    /// against each of its facets' boxes before visiting the pair.
+    faces_apart: Vec<bool>,
     depth: usize,
 }
+
+/// Two facets of a leaf whose normals meet at more than 45° (this cosine) lie on different
+/// faces of a part ([`TriangleTree::descend`]); the facets of a curved surface at the usual
+/// tessellations turn a few degrees from one to the next.
+const FACES_APART_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
 
 /// What a descent of two trees works on, reserved once ([`TriangleTree::stack_for`]) so that
 /// [`TriangleTree::near_leaf_pairs`] and [`TriangleTree::descend`] never allocate: the stack
@@ -266,6 +275,23 @@ impl TriangleTree {
         let bounds = triangles.iter().map(bounds_of).collect();
         let edges = triangles.iter().map(edges_of).collect();
         let node_bounds = nodes.iter().map(BoxNode::frame_bounds).collect();
+        let faces_apart = nodes
+            .iter()
+            .map(|n| {
+                if !n.is_leaf() {
+                    return false;
+                }
+                let normals: Vec<[f64; 3]> = (n.first..n.first + n.under)
+                    .map(|i| plane_of(&triangles[i as usize]).0)
+                    .filter(|m| *m != [0.0; 3])
+                    .collect();
+                normals.iter().any(|a| {
+                    normals
+                        .iter()
+                        .any(|b| a[0] * b[0] + a[1] * b[1] + a[2] * b[2] < FACES_APART_COS)
+                })
+            })
+            .collect();
         Self {
             nodes,
             triangles,
@@ -274,6 +300,7 @@ impl TriangleTree {
             edges,
             origin: order,
             node_bounds,
+            faces_apart,
             depth,
         }
     }
@@ -489,6 +516,19 @@ impl TriangleTree {
                     }
                     let (tools, parts) =
                         (na.first..na.first + na.under, nb.first..nb.first + nb.under);
+                    // An object leaf of facets of different faces (a box's top and its sides)
+                    // has a box far wider than they are: a tool leaf near that box may be apart
+                    // from each of its facets, along the object's axes.
+                    if object.faces_apart[b as usize] {
+                        let (lo, hi) = leaf_bounds(&axes, &centre, &na.half, sweep, margin);
+                        let near = |j: u32| {
+                            let (low, high) = object.bounds(j);
+                            (0..3).all(|k| low[k] <= hi[k] && lo[k] <= high[k])
+                        };
+                        if !parts.clone().any(near) {
+                            continue;
+                        }
+                    }
                     if !visit(tools, parts, rank) {
                         stack.pairs.clear();
                         return true;
@@ -642,6 +682,21 @@ fn boxes_apart(
     false
 }
 
+/// The least and greatest coordinates (the object's frame, mm) of the tool box of `axes`,
+/// `centre` and `half`, swept along `sweep`, grown by `margin`.
+fn leaf_bounds(
+    axes: &Matrix3<f64>,
+    centre: &Vector3<f64>,
+    half: &[f64; 3],
+    sweep: &Vector3<f64>,
+    margin: f64,
+) -> ([f64; 3], [f64; 3]) {
+    let reach = axes.abs() * Vector3::from(*half);
+    let lo = std::array::from_fn(|k| centre[k] + sweep[k].min(0.0) - reach[k] - margin);
+    let hi = std::array::from_fn(|k| centre[k] + sweep[k].max(0.0) + reach[k] + margin);
+    (lo, hi)
+}
+
 /// The box of the triangles `order` names: along the principal axes of their corners (the
 /// eigenvectors of the corners' covariance), just holding every corner, mm.
 fn box_of(tris: &[Triangle], order: &[u32]) -> BoxNode {
@@ -778,6 +833,82 @@ mod tests {
             r(rng, 0.4),
             r(rng, 3.2),
         ])
+    }
+
+    /// The twelve facets of the box between `lo` and `hi` (mm).
+    fn box_facets(lo: [f64; 3], hi: [f64; 3]) -> Vec<Triangle> {
+        let c = |i: usize| -> [f64; 3] {
+            std::array::from_fn(|k| if i >> k & 1 == 1 { hi[k] } else { lo[k] })
+        };
+        // Each face as four corners in order around it.
+        let faces = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        faces
+            .iter()
+            .flat_map(|f| [[c(f[0]), c(f[1]), c(f[2])], [c(f[0]), c(f[2]), c(f[3])]])
+            .collect()
+    }
+
+    /// A leaf of a box's facets spans its faces, and its box is far wider than any of them:
+    /// a descent tests a tool leaf against each facet's box before visiting the pair. A bumpy
+    /// sheet over a plate's top, at random poses: every pair within the margin listed as brute
+    /// force finds it, and fewer leaf pairs visited than without the facets' test.
+    #[test]
+    fn a_leaf_of_a_boxs_faces_is_visited_only_where_a_facet_is_near() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let plate_tris = box_facets([-60.0, -60.0, -10.0], [60.0, 60.0, 0.0]);
+        let plate = TriangleTree::build(&plate_tris, &Pose::identity());
+        assert!(plate.faces_apart.iter().any(|&f| f));
+        let mut plain = plate.clone();
+        plain.faces_apart.fill(false);
+        let tool_tris = sheet(6, false, &mut rng);
+        let tool = TriangleTree::build(&tool_tris, &Pose::identity());
+        let mut stack = TriangleTree::stack_for(&tool, &plate);
+        let (mut with, mut without) = (0, 0);
+        for case in 0..40 {
+            let margin = [0.05, 0.5, 2.0][case % 3];
+            let x = rng.random_range(-40.0..40.0);
+            let q = Pose::from_array([x, x / 2.0, 0.35 + margin * 0.5, 0.1, -0.05, 0.3]);
+            let (rot, t) = (q.rotation_matrix(), q.translation());
+            let mut listed = std::collections::HashSet::new();
+            tool.near_leaf_pairs(&rot, &t, &plate, margin, &mut stack, |ta, ob| {
+                with += 1;
+                for i in ta {
+                    for j in ob.clone() {
+                        listed.insert((tool.origin(i), plate.origin(j)));
+                    }
+                }
+                true
+            });
+            tool.near_leaf_pairs(&rot, &t, &plain, margin, &mut stack, |_, _| {
+                without += 1;
+                true
+            });
+            let mut near = 0;
+            for (i, a) in tool_tris.iter().enumerate() {
+                let a = a.map(|c| (rot * Vector3::from(c) + t).into());
+                for (j, b) in plate_tris.iter().enumerate() {
+                    if triangle_distance(&a, b).distance <= margin {
+                        near += 1;
+                        assert!(
+                            listed.contains(&(i as u32, j as u32)),
+                            "case {case}: triangles {i} and {j} within {margin} mm not listed"
+                        );
+                    }
+                }
+            }
+            assert!(near > 0 || margin < 0.5, "case {case}: nothing near");
+        }
+        assert!(
+            2 * with < without,
+            "{with} leaf pairs visited with the facets' test, {without} without"
+        );
     }
 
     #[test]
