@@ -835,6 +835,30 @@ mod tests {
         ])
     }
 
+    /// The triangle pairs (their indices in the meshes given) of the leaf pairs a descent of
+    /// `tool` at `q` against `object` visits within `margin` (mm), and how many leaf pairs.
+    fn listed_pairs(
+        tool: &TriangleTree,
+        object: &TriangleTree,
+        q: &Pose,
+        margin: f64,
+        stack: &mut TreePairStack,
+    ) -> (std::collections::HashSet<(u32, u32)>, usize) {
+        let (rot, t) = (q.rotation_matrix(), q.translation());
+        let mut listed = std::collections::HashSet::new();
+        let mut visited = 0;
+        tool.near_leaf_pairs(&rot, &t, object, margin, stack, |ta, ob| {
+            visited += 1;
+            for i in ta {
+                for j in ob.clone() {
+                    listed.insert((tool.origin(i), object.origin(j)));
+                }
+            }
+            true
+        });
+        (listed, visited)
+    }
+
     /// The twelve facets of the box between `lo` and `hi` (mm).
     fn box_facets(lo: [f64; 3], hi: [f64; 3]) -> Vec<Triangle> {
         let c = |i: usize| -> [f64; 3] {
@@ -876,20 +900,9 @@ mod tests {
             let x = rng.random_range(-40.0..40.0);
             let q = Pose::from_array([x, x / 2.0, 0.35 + margin * 0.5, 0.1, -0.05, 0.3]);
             let (rot, t) = (q.rotation_matrix(), q.translation());
-            let mut listed = std::collections::HashSet::new();
-            tool.near_leaf_pairs(&rot, &t, &plate, margin, &mut stack, |ta, ob| {
-                with += 1;
-                for i in ta {
-                    for j in ob.clone() {
-                        listed.insert((tool.origin(i), plate.origin(j)));
-                    }
-                }
-                true
-            });
-            tool.near_leaf_pairs(&rot, &t, &plain, margin, &mut stack, |_, _| {
-                without += 1;
-                true
-            });
+            let (listed, visited) = listed_pairs(&tool, &plate, &q, margin, &mut stack);
+            with += visited;
+            without += listed_pairs(&tool, &plain, &q, margin, &mut stack).1;
             let mut near = 0;
             for (i, a) in tool_tris.iter().enumerate() {
                 let a = a.map(|c| (rot * Vector3::from(c) + t).into());
@@ -924,18 +937,7 @@ mod tests {
             let mut stack = TriangleTree::stack_for(&tool, &object);
             let margin = [0.0, 0.05, 0.5, 2.0][case % 4];
             let q = random_pose(&mut rng, 0.8);
-            let (rot, t) = (q.rotation_matrix(), q.translation());
-            let mut listed = std::collections::HashSet::new();
-            let mut leaf_pairs = 0;
-            tool.near_leaf_pairs(&rot, &t, &object, margin, &mut stack, |ta, ob| {
-                leaf_pairs += 1;
-                for i in ta {
-                    for j in ob.clone() {
-                        listed.insert((tool.origin(i), object.origin(j)));
-                    }
-                }
-                true
-            });
+            let (listed, _) = listed_pairs(&tool, &object, &q, margin, &mut stack);
             let place = |p: &Pose, tri: &Triangle| -> Triangle {
                 tri.map(|c| (p.rotation_matrix() * Vector3::from(c) + p.translation()).into())
             };
@@ -961,7 +963,6 @@ mod tests {
                 listed.len()
             );
             assert!(stack.capacity() == tool.depth() + object.depth() + 2);
-            let _ = leaf_pairs;
         }
     }
 
