@@ -43,7 +43,8 @@ pub const LEAF_TRIANGLES: usize = 4;
 /// One node: a box (centre and half extents, mm, along the columns of `axes`, the body's
 /// frame) over `under` triangles: a leaf's own, `first..first + under` of the tree's, where
 /// there are at most [`LEAF_TRIANGLES`]; else its two children's, nodes `first` and
-/// `first + 1`, the first holding half of them (rounded down). 128 bytes: two cache lines.
+/// `first + 1` (a median split gives the first half of them, rounded down; a split between
+/// faces, [`face_split`], any share). 128 bytes: two cache lines.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct BoxNode {
     center: [f64; 3],
@@ -61,12 +62,6 @@ impl BoxNode {
     #[inline]
     fn is_leaf(&self) -> bool {
         self.under as usize <= LEAF_TRIANGLES
-    }
-
-    /// The triangles below its second child (the split gives the first half, rounded down).
-    #[inline]
-    fn second_under(&self) -> u32 {
-        self.under - self.under / 2
     }
 
     /// Its box's box along the frame's axes (lowest and highest corner), mm.
@@ -255,20 +250,39 @@ impl TreePairStack {
 
 impl TriangleTree {
     /// The hierarchy of `triangles` (mm), each placed by `pose` (the identity for a tool):
-    /// split at the median centre along the longest side of the centres' box, down to
-    /// [`LEAF_TRIANGLES`] a leaf. Allocates; not real-time. An empty list gives an empty tree.
+    /// a node of a few triangles on two faces of a part (normals more than 45° apart: a
+    /// box's top and its sides) split between the faces, any other at the median centre
+    /// along its box's longest side, down to [`LEAF_TRIANGLES`] a leaf.
+    /// Allocates; not real-time. An empty list gives an empty tree.
     pub fn build(triangles: &[Triangle], pose: &Pose) -> Self {
+        Self::build_split(triangles, pose, true)
+    }
+
+    /// [`TriangleTree::build`], splitting between faces only with `face_splits` (else every
+    /// node at its median, as the mesh mode's switch `mesh-face-splits` off does).
+    pub fn build_split(triangles: &[Triangle], pose: &Pose, face_splits: bool) -> Self {
         let (rot, t) = (pose.rotation_matrix(), pose.translation());
         let placed: Vec<Triangle> = triangles
             .iter()
             .map(|tri| tri.map(|p| (rot * Vector3::from(p) + t).into()))
             .collect();
         let mut order: Vec<u32> = (0..placed.len() as u32).collect();
-        let mut nodes = Vec::with_capacity(2 * placed.len().div_ceil(LEAF_TRIANGLES) + 1);
+        // A split between faces may leave leaves of one triangle: at most one node a triangle
+        // and one between each two.
+        let mut nodes = Vec::with_capacity(2 * placed.len());
         let mut depth = 0;
         if !placed.is_empty() {
+            let normals: Vec<Vector3<f64>> = placed
+                .iter()
+                .map(|t| Vector3::from(plane_of(t).0))
+                .collect();
+            let splitter = Splitter {
+                tris: &placed,
+                normals: &normals,
+                face_splits,
+            };
             nodes.push(box_of(&placed, &order));
-            split(&placed, &mut order, 0, 0, &mut nodes, 1, &mut depth);
+            splitter.split(&mut order, 0, 0, &mut nodes, 1, &mut depth);
         }
         let triangles: Vec<Triangle> = order.iter().map(|&i| placed[i as usize]).collect();
         let planes = triangles.iter().map(plane_of).collect();
@@ -467,18 +481,19 @@ impl TriangleTree {
             };
             let turn = nb.axes.transpose() * axes;
             let mut offset = nb.axes.transpose() * (centre - Vector3::from(nb.center));
-            let mut half = na.half;
+            // The box swept along `sweep` is the box about its middle position plus the half
+            // sweep either way: its reach along any axis is the box's plus half the sweep's
+            // (the object's axes and the tool's alike).
+            let mut reach = SweepReach::default();
             if swept {
-                // The box swept along `sweep` lies in the box about its middle position grown
-                // along each of its axes by half the sweep's reach along that axis.
                 let along = nb.axes.transpose() * sweep;
                 offset += 0.5 * along;
-                for (k, h) in half.iter_mut().enumerate() {
-                    *h += 0.5 * turn.column(k).dot(&along).abs();
-                }
+                reach.object = along.map(|v| 0.5 * v.abs()).into();
+                reach.tool = std::array::from_fn(|k| 0.5 * turn.column(k).dot(&along).abs());
             }
+            let half = na.half;
             let noting_only = rank & NOTING_ONLY != 0;
-            if noting_only || boxes_apart(&offset, &half, &turn, &nb.half, margin) {
+            if noting_only || boxes_apart(&offset, &half, &turn, &nb.half, &reach, margin) {
                 // Apart by the margin: only the near part may still want it, where the two are
                 // within its margin (no cut: nothing of the tool box there, or all of it noted
                 // already).
@@ -490,15 +505,17 @@ impl TriangleTree {
                             &frame,
                         )
                         .is_some()
-                    && !boxes_apart(&offset, &half, &turn, &nb.half, stack.near_wide);
+                    && !boxes_apart(&offset, &half, &turn, &nb.half, &reach, stack.near_wide);
                 if wanted {
                     // Down to the tool's leaves, cut triangle by triangle; the object's boxes
                     // split while large (seen at a slant from the tool, a large one cuts
                     // little).
                     if !nb.is_leaf() && longest(&nb.half) > NEAR_PART_GRAIN_MM {
-                        push_object_children(&mut stack.pairs, nb, a, na, NOTING_ONLY);
+                        let second = object.second_under(nb);
+                        push_object_children(&mut stack.pairs, nb, second, a, na, NOTING_ONLY);
                     } else if !na.is_leaf() {
-                        push_tool_children(&mut stack.pairs, na, b, nb, NOTING_ONLY);
+                        let second = self.second_under(na);
+                        push_tool_children(&mut stack.pairs, na, second, b, nb, NOTING_ONLY);
                     } else {
                         self.note_cut(stack, na, &object.node_bounds[b as usize], &frame);
                     }
@@ -535,13 +552,13 @@ impl TriangleTree {
                     }
                 }
                 // Descend the larger box (by its longest side), or the one that is not a leaf.
-                (false, true) => push_tool_children(&mut stack.pairs, na, b, nb, rank),
-                (true, false) => push_object_children(&mut stack.pairs, nb, a, na, rank),
-                (false, false) => {
-                    if longest(&na.half) >= longest(&nb.half) {
-                        push_tool_children(&mut stack.pairs, na, b, nb, rank);
+                (leaf_a, leaf_b) => {
+                    if leaf_b || (!leaf_a && longest(&na.half) >= longest(&nb.half)) {
+                        let second = self.second_under(na);
+                        push_tool_children(&mut stack.pairs, na, second, b, nb, rank);
                     } else {
-                        push_object_children(&mut stack.pairs, nb, a, na, rank);
+                        let second = object.second_under(nb);
+                        push_object_children(&mut stack.pairs, nb, second, a, na, rank);
                     }
                 }
             }
@@ -551,6 +568,13 @@ impl TriangleTree {
 }
 
 impl TriangleTree {
+    /// The triangles below inner node `node`'s second child: its rank's share after the
+    /// first's (read from the child, whose node is popped next).
+    #[inline]
+    fn second_under(&self, node: &BoxNode) -> u32 {
+        self.nodes[node.first as usize + 1].under
+    }
+
     /// Notes in the near part the part of each triangle of the tool leaf `leaf` near an object
     /// box `object` ([`TreePairStack::cut`]): cut one by one, since a leaf of a few long facets
     /// of different faces has a box far wider than they are.
@@ -610,18 +634,20 @@ fn plane_of(t: &Triangle) -> ([f64; 3], f64) {
     (n.into(), n.dot(&a))
 }
 
-/// Pushes the children of tool node `parent` against object node `other` (`other_node`), the
-/// pair's first triangle pair at `rank`: the second child is popped first, so its pairs come
-/// first. A pop pushes two pairs a level deeper on one side, leaving one behind per level, so
-/// the stack never holds more than the two trees' depths together: its reserve is not outgrown.
+/// Pushes the children of tool node `parent` (`second_under` triangles below its second)
+/// against object node `other` (`other_node`), the pair's first triangle pair at `rank`: the
+/// second child is popped first, so its pairs come first. A pop pushes two pairs a level
+/// deeper on one side, leaving one behind per level, so the stack never holds more than the
+/// two trees' depths together: its reserve is not outgrown.
 fn push_tool_children(
     stack: &mut Vec<(u32, u32, u64)>,
     parent: &BoxNode,
+    second_under: u32,
     other: u32,
     other_node: &BoxNode,
     rank: u64,
 ) {
-    let after = u64::from(parent.second_under()) * u64::from(other_node.under);
+    let after = u64::from(second_under) * u64::from(other_node.under);
     stack.push((parent.first, other, rank + after));
     stack.push((parent.first + 1, other, rank));
 }
@@ -630,11 +656,12 @@ fn push_tool_children(
 fn push_object_children(
     stack: &mut Vec<(u32, u32, u64)>,
     parent: &BoxNode,
+    second_under: u32,
     other: u32,
     other_node: &BoxNode,
     rank: u64,
 ) {
-    let after = u64::from(other_node.under) * u64::from(parent.second_under());
+    let after = u64::from(other_node.under) * u64::from(second_under);
     stack.push((other, parent.first, rank + after));
     stack.push((other, parent.first + 1, rank));
 }
@@ -643,9 +670,18 @@ fn longest(h: &[f64; 3]) -> f64 {
     h[0].max(h[1]).max(h[2])
 }
 
+/// Half a tool box's sweep along each of the object box's axes and of its own, mm (zero for a
+/// box at one pose): the swept box reaches that much farther along each.
+#[derive(Clone, Copy, Debug, Default)]
+struct SweepReach {
+    object: [f64; 3],
+    tool: [f64; 3],
+}
+
 /// True when the tool's box (centre `d` and axes the columns of `r`, in the object box's
-/// axes; half extents `ha`) and the object's box (centred at the origin, half extents `hb`)
-/// grown by `margin` on every side are apart along one of their six face axes.
+/// axes; half extents `ha`; swept about that centre by `sweep`'s reach) and the object's box
+/// (centred at the origin, half extents `hb`) grown by `margin` on every side are apart along
+/// one of their six face axes.
 ///
 /// A conservative test: the nine cross products of the boxes' edges, the rest of the
 /// separating axis theorem, are left out. Most box pairs a descent meets are not apart (two
@@ -654,11 +690,17 @@ fn longest(h: &[f64; 3]) -> f64 {
 /// triangles' own tests, and the list is the same. Per-frame minima with no deadline, three
 /// runs: every scene of the mesh zoo, the built-ins and the fit study's pegs lighter or equal
 /// (the frames' time −0.4 to −11 %, their p99 0 to −19 %).
+///
+/// The sweep adds its own reach on each axis. Grown into the tool box's half extents instead
+/// (the box that holds the swept one), a slide along a face reached down into the face by the
+/// box's tilt: a ball's leaves, whose boxes tilt with its surface, swept 4 mm along a plate
+/// reached up to 2 mm farther across it.
 fn boxes_apart(
     d: &Vector3<f64>,
     ha: &[f64; 3],
     r: &Matrix3<f64>,
     hb: &[f64; 3],
+    sweep: &SweepReach,
     margin: f64,
 ) -> bool {
     let hb = [hb[0] + margin, hb[1] + margin, hb[2] + margin];
@@ -667,7 +709,7 @@ fn boxes_apart(
     // The object box's axes.
     for i in 0..3 {
         let ra = ha[0] * a[(i, 0)] + ha[1] * a[(i, 1)] + ha[2] * a[(i, 2)];
-        if d[i].abs() > hb[i] + ra {
+        if d[i].abs() > hb[i] + ra + sweep.object[i] {
             return true;
         }
     }
@@ -675,7 +717,7 @@ fn boxes_apart(
     for j in 0..3 {
         let rb = hb[0] * a[(0, j)] + hb[1] * a[(1, j)] + hb[2] * a[(2, j)];
         let s = d[0] * r[(0, j)] + d[1] * r[(1, j)] + d[2] * r[(2, j)];
-        if s.abs() > ha[j] + rb {
+        if s.abs() > ha[j] + sweep.tool[j] + rb {
             return true;
         }
     }
@@ -741,42 +783,124 @@ fn box_of(tris: &[Triangle], order: &[u32]) -> BoxNode {
     }
 }
 
-/// Makes node `node` (whose triangles are `order[start..start + order.len()]`) a leaf or
-/// splits it, children appended as a pair.
-fn split(
-    tris: &[Triangle],
-    order: &mut [u32],
-    start: usize,
-    node: usize,
-    nodes: &mut Vec<BoxNode>,
-    level: usize,
-    depth: &mut usize,
-) {
-    *depth = (*depth).max(level);
-    if order.len() <= LEAF_TRIANGLES {
-        nodes[node].first = start as u32;
-        return;
+/// Two faces' triangles are told apart by their normals' projections on an axis where these
+/// fall into two groups this far apart (2 sin 22.5°): every normal of one group then turns
+/// more than 45° ([`FACES_APART_COS`]) from every normal of the other, whatever the axis.
+const FACE_GAP: f64 = 0.765_366_864_730_18;
+
+/// A node of at most this many triangles is split between faces ([`face_split`]); a larger
+/// one at its median.
+const FACE_SPLIT_MAX_TRIANGLES: usize = 16;
+
+/// What the build splits: the placed triangles and their unit normals (zero for a degenerate
+/// triangle), and whether a node of two faces is split between them ([`face_split`]).
+struct Splitter<'a> {
+    tris: &'a [Triangle],
+    normals: &'a [Vector3<f64>],
+    face_splits: bool,
+}
+
+impl Splitter<'_> {
+    /// Makes node `node` (whose triangles are `order`, the tree's `start..start +
+    /// order.len()`) a leaf or splits it, children appended as a pair: between faces where
+    /// [`face_split`] finds two, else at the median centre along the box's longest axis.
+    fn split(
+        &self,
+        order: &mut [u32],
+        start: usize,
+        node: usize,
+        nodes: &mut Vec<BoxNode>,
+        level: usize,
+        depth: &mut usize,
+    ) {
+        *depth = (*depth).max(level);
+        if order.len() <= LEAF_TRIANGLES {
+            nodes[node].first = start as u32;
+            return;
+        }
+        let axes = nodes[node].axes;
+        let cut = if self.face_splits && order.len() <= FACE_SPLIT_MAX_TRIANGLES {
+            face_split(self.normals, order, &axes)
+        } else {
+            None
+        };
+        let cut = cut.unwrap_or_else(|| {
+            let half = nodes[node].half;
+            let long = (0..3)
+                .max_by(|&a, &b| half[a].total_cmp(&half[b]))
+                .unwrap_or(0);
+            let along = axes.column(long).into_owned();
+            let key = |i: u32| -> f64 {
+                let t = &self.tris[i as usize];
+                (Vector3::from(t[0]) + Vector3::from(t[1]) + Vector3::from(t[2])).dot(&along)
+            };
+            let mid = order.len() / 2;
+            order.select_nth_unstable_by(mid, |&a, &b| key(a).total_cmp(&key(b)));
+            mid
+        });
+        let first = nodes.len();
+        let (left, right) = order.split_at_mut(cut);
+        nodes.push(box_of(self.tris, left));
+        nodes.push(box_of(self.tris, right));
+        nodes[node].first = first as u32;
+        self.split(left, start, first, nodes, level + 1, depth);
+        self.split(right, start + cut, first + 1, nodes, level + 1, depth);
     }
-    // Split at the median along the box's longest axis.
-    let (axes, half) = (nodes[node].axes, nodes[node].half);
-    let long = (0..3)
-        .max_by(|&a, &b| half[a].total_cmp(&half[b]))
-        .unwrap_or(0);
-    let along = axes.column(long).into_owned();
-    let key = |i: u32| -> f64 {
-        let t = &tris[i as usize];
-        (Vector3::from(t[0]) + Vector3::from(t[1]) + Vector3::from(t[2])).dot(&along)
-    };
-    let mid = order.len() / 2;
-    order.select_nth_unstable_by(mid, |&a, &b| key(a).total_cmp(&key(b)));
-    let first = nodes.len();
-    let (left, right) = order.split_at_mut(mid);
-    nodes.push(box_of(tris, left));
-    nodes.push(box_of(tris, right));
-    nodes[node].first = first as u32;
-    debug_assert_eq!(nodes[node].second_under() as usize, right.len());
-    split(tris, left, start, first, nodes, level + 1, depth);
-    split(tris, right, start + mid, first + 1, nodes, level + 1, depth);
+}
+
+/// A split of `order` between two faces: where, along one of the node's axes (`axes`'
+/// columns) or the frame's, its triangles' normals project into two groups [`FACE_GAP`] or
+/// more apart, `order` is sorted along that axis and the count before the gap returned; of
+/// several such gaps, the one nearest the middle. `None` where the normals turn gradually
+/// (a curved surface: the median split is kept) or lie on one face.
+///
+/// A node of a box's top and its sides has a box, on the principal axes of their corners, that
+/// tilts off all of them and reaches far beyond each face: a tool near one face meets it and
+/// is taken down to its leaves. Split between the faces, each face's node is as flat as the
+/// face, and a tool near the top meets only the top's.
+fn face_split(normals: &[Vector3<f64>], order: &mut [u32], axes: &Matrix3<f64>) -> Option<usize> {
+    let n = order.len();
+    let mut best: Option<(usize, Vector3<f64>, usize)> = None;
+    let candidates = (0..3)
+        .map(|k| axes.column(k).into_owned())
+        .chain((0..3).map(|k| Vector3::ith(k, 1.0)));
+    let mut keys = Vec::with_capacity(n);
+    for axis in candidates {
+        // A gap of FACE_GAP holds a whole bin half as wide: a quick pass over the bins
+        // passes over the axes with none empty between the lowest key and the highest
+        // (a curved surface's), with no sort.
+        const BINS: usize = 6;
+        let bin = |key: f64| (((key + 1.0) / 2.0 * BINS as f64) as usize).min(BINS - 1);
+        let mut filled = [false; BINS];
+        for &i in order.iter() {
+            filled[bin(normals[i as usize].dot(&axis))] = true;
+        }
+        let (lo, hi) = (
+            filled.iter().position(|&f| f).unwrap_or(0),
+            filled.iter().rposition(|&f| f).unwrap_or(0),
+        );
+        if filled[lo..=hi].iter().all(|&f| f) {
+            continue;
+        }
+        keys.clear();
+        keys.extend(order.iter().map(|&i| normals[i as usize].dot(&axis)));
+        keys.sort_unstable_by(f64::total_cmp);
+        for cut in 1..n {
+            if keys[cut] - keys[cut - 1] >= FACE_GAP {
+                let balance = cut.min(n - cut);
+                if best.is_none_or(|(b, _, _)| balance > b) {
+                    best = Some((balance, axis, cut));
+                }
+            }
+        }
+    }
+    let (_, axis, cut) = best?;
+    order.sort_unstable_by(|&a, &b| {
+        normals[a as usize]
+            .dot(&axis)
+            .total_cmp(&normals[b as usize].dot(&axis))
+    });
+    Some(cut)
 }
 
 #[cfg(test)]
@@ -879,6 +1003,170 @@ mod tests {
             .collect()
     }
 
+    /// A latitude–longitude ball of `radius` (mm) resting on `z = 0` at the origin, `around`
+    /// facets round and `around / 2` rings: a fan of slivers at each pole.
+    fn ball_facets(radius: f64, around: usize) -> Vec<Triangle> {
+        use std::f64::consts::PI;
+        let rings = around / 2;
+        let at = |i: usize, j: usize| -> [f64; 3] {
+            let (th, ph) = (
+                PI * i as f64 / rings as f64,
+                2.0 * PI * j as f64 / around as f64,
+            );
+            [
+                radius * th.sin() * ph.cos(),
+                radius * th.sin() * ph.sin(),
+                radius * (1.0 - th.cos()),
+            ]
+        };
+        let mut out = Vec::new();
+        for i in 0..rings {
+            for j in 0..around {
+                let (a, b, c, d) = (at(i, j), at(i, j + 1), at(i + 1, j + 1), at(i + 1, j));
+                if i > 0 {
+                    out.push([a, b, c]);
+                }
+                if i + 1 < rings {
+                    out.push([a, c, d]);
+                }
+            }
+        }
+        out
+    }
+
+    /// The pairs (by the meshes' own indices) a descent from `q` along `sweep` lists within
+    /// `margin`, and how many box pairs it tested (one step each).
+    fn box_tests(
+        tool: &TriangleTree,
+        object: &TriangleTree,
+        q: &Pose,
+        sweep: &Vector3<f64>,
+        margin: f64,
+        stack: &mut TreePairStack,
+    ) -> (std::collections::HashSet<(u32, u32)>, usize) {
+        let (rot, t) = (q.rotation_matrix(), q.translation());
+        let mut listed = std::collections::HashSet::new();
+        TriangleTree::start_descent(stack);
+        let mut tests = 0;
+        loop {
+            tests += 1;
+            let done = tool.descend(&rot, &t, sweep, object, margin, stack, 1, |ta, ob, _| {
+                for i in ta {
+                    for j in ob.clone() {
+                        listed.insert((tool.origin(i), object.origin(j)));
+                    }
+                }
+                true
+            });
+            if done {
+                return (listed, tests);
+            }
+        }
+    }
+
+    /// A box's top and sides in one node have a box that tilts off all of them and reaches far
+    /// beyond each face. Split between its faces, the top's leaves lie as flat as the top, and a
+    /// ball on it, resting, lifted or sliding, is tested against far fewer of the plate's boxes
+    /// for the same pairs.
+    #[test]
+    fn a_box_is_split_between_its_faces_and_a_ball_on_its_top_meets_the_tops_boxes_alone() {
+        let plate_tris = box_facets([-60.0, -60.0, -10.0], [60.0, 60.0, 0.0]);
+        let by_faces = TriangleTree::build(&plate_tris, &Pose::identity());
+        let by_median = TriangleTree::build_split(&plate_tris, &Pose::identity(), false);
+        let mut top_leaves = 0;
+        for n in by_faces.nodes.iter().filter(|n| n.is_leaf()) {
+            let range = n.first..n.first + n.under;
+            let tops = range.filter(|&i| by_faces.plane(i).0[2] > 0.99).count();
+            if tops > 0 {
+                top_leaves += 1;
+                assert_eq!(
+                    tops, n.under as usize,
+                    "a leaf of the top holds other facets"
+                );
+                assert!(
+                    n.half.iter().any(|&h| h < 1e-9),
+                    "a leaf of the top is not flat"
+                );
+            }
+        }
+        assert_eq!(top_leaves, 1);
+        // The median split mixes the top with the sides.
+        assert!(by_median.faces_apart.iter().filter(|&&f| f).count() >= 3);
+        let ball_tris = ball_facets(5.0, 48);
+        let ball = TriangleTree::build(&ball_tris, &Pose::identity());
+        let mut stack = TriangleTree::stack_for(&ball, &by_faces);
+        let (mut by_faces_tests, mut by_median_tests) = (0, 0);
+        for case in 0..12 {
+            let x = -30.0 + 5.0 * case as f64;
+            let (lift, margin) = [(0.0, 0.05), (0.05, 0.3), (0.3, 1.0)][case % 3];
+            let q = Pose::from_array([x, x / 3.0, lift, 0.0, 0.0, 0.1 * case as f64]);
+            let sweep = Vector3::new(2.0 * (case % 2) as f64, 0.0, 0.0);
+            let (a, tests_a) = box_tests(&ball, &by_faces, &q, &sweep, margin, &mut stack);
+            let (b, tests_b) = box_tests(&ball, &by_median, &q, &sweep, margin, &mut stack);
+            // Every pair within the margin at the slide's start, by brute force, in both.
+            let (rot, t) = (q.rotation_matrix(), q.translation());
+            let mut near = 0;
+            for (i, tri) in ball_tris.iter().enumerate() {
+                let posed = tri.map(|c| (rot * Vector3::from(c) + t).into());
+                for (j, part) in plate_tris.iter().enumerate() {
+                    if triangle_distance(&posed, part).distance <= margin {
+                        near += 1;
+                        let pair = (i as u32, j as u32);
+                        assert!(
+                            a.contains(&pair) && b.contains(&pair),
+                            "case {case}: {pair:?}"
+                        );
+                    }
+                }
+            }
+            assert!(near > 0, "case {case}: nothing near");
+            by_faces_tests += tests_a;
+            by_median_tests += tests_b;
+        }
+        eprintln!("box tests: {by_faces_tests} split by faces, {by_median_tests} at medians");
+        assert!(
+            2 * by_faces_tests < by_median_tests,
+            "box pairs tested: {by_faces_tests} split by faces, {by_median_tests} at medians"
+        );
+    }
+
+    /// A box swept along a face reaches no farther across it than at either end. Grown into
+    /// the box's own extents, the sweep reached into the face by the box's tilt: a ball's
+    /// boxes, tilted with its surface, slid 4 mm along a plate reached down up to 2 mm farther.
+    /// Slid, the ball's lowest ring is the same all the way: the swept descent tests about as
+    /// many box pairs as one at the slide's start.
+    #[test]
+    fn a_box_slid_along_a_face_reaches_no_farther_across_it_than_at_its_ends() {
+        let plate_tris = box_facets([-60.0, -60.0, -10.0], [60.0, 60.0, 0.0]);
+        let plate = TriangleTree::build(&plate_tris, &Pose::identity());
+        let ball = TriangleTree::build(&ball_facets(5.0, 48), &Pose::identity());
+        let mut stack = TriangleTree::stack_for(&ball, &plate);
+        let (mut swept_tests, mut start_tests) = (0, 0);
+        for case in 0..8 {
+            let x = -20.0 + 5.0 * case as f64;
+            let margin = [0.05, 0.3][case % 2];
+            let q = Pose::from_array([x, 1.0, 0.02, 0.0, 0.0, 0.2 * case as f64]);
+            let sweep = Vector3::new(4.0, 1.0, 0.0);
+            let zero = Vector3::zeros();
+            let (swept, tests) = box_tests(&ball, &plate, &q, &sweep, margin, &mut stack);
+            let (start, at_start) = box_tests(&ball, &plate, &q, &zero, margin, &mut stack);
+            let end_pose =
+                Pose::from_translation_rotation(&(q.translation() + sweep), &q.rotation_matrix());
+            let (end, _) = box_tests(&ball, &plate, &end_pose, &zero, margin, &mut stack);
+            assert!(
+                start.is_subset(&swept) && end.is_subset(&swept),
+                "case {case}"
+            );
+            swept_tests += tests;
+            start_tests += at_start;
+        }
+        eprintln!("box tests: {swept_tests} swept, {start_tests} at the start");
+        assert!(
+            4 * swept_tests < 5 * start_tests,
+            "box pairs tested: {swept_tests} swept, {start_tests} at the slide's start"
+        );
+    }
+
     /// A leaf of a box's facets spans its faces, and its box is far wider than any of them:
     /// a descent tests a tool leaf against each facet's box before visiting the pair. A bumpy
     /// sheet over a plate's top, at random poses: every pair within the margin listed as brute
@@ -887,7 +1175,8 @@ mod tests {
     fn a_leaf_of_a_boxs_faces_is_visited_only_where_a_facet_is_near() {
         let mut rng = ChaCha8Rng::seed_from_u64(11);
         let plate_tris = box_facets([-60.0, -60.0, -10.0], [60.0, 60.0, 0.0]);
-        let plate = TriangleTree::build(&plate_tris, &Pose::identity());
+        // Split at medians, its leaves mix its top with its sides.
+        let plate = TriangleTree::build_split(&plate_tris, &Pose::identity(), false);
         assert!(plate.faces_apart.iter().any(|&f| f));
         let mut plain = plate.clone();
         plain.faces_apart.fill(false);
@@ -1180,7 +1469,15 @@ mod tests {
     fn every_pair_keeps_its_rank_at_every_pose_and_a_reused_stack_lists_as_a_fresh_one() {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let tool = TriangleTree::build(&sheet(5, true, &mut rng), &Pose::identity());
-        let object = TriangleTree::build(&sheet(7, false, &mut rng), &Pose::identity());
+        // A block under the sheet: its node is split between its faces, not in halves.
+        let mut parts = sheet(7, false, &mut rng);
+        parts.extend(box_facets([1.0, 1.0, -3.0], [3.0, 2.0, -1.5]));
+        let object = TriangleTree::build(&parts, &Pose::identity());
+        let uneven = object.nodes.iter().filter(|n| !n.is_leaf()).any(|n| {
+            let second = object.second_under(n);
+            second != n.under - n.under / 2
+        });
+        assert!(uneven, "no node split between faces");
         let small_tool = TriangleTree::build(&sheet(1, false, &mut rng), &Pose::identity());
         let mut stack = TriangleTree::stack_for(&tool, &object);
         // The ranks of the triangle pairs a descent at `q` within `margin` lists, in order.

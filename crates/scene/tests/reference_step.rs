@@ -237,6 +237,7 @@ fn in_the_mesh_mode_the_shipped_step_and_each_mesh_switch_off_answer_as_the_refe
         (without("mesh-near-list"), 8),
         (without("mesh-far-rows"), 8),
         (without("mesh-flat-faces"), 8),
+        (without("mesh-face-splits"), 8),
         (without("mesh-tilted-targets"), 8),
         (without("mesh-pair-directions"), 8),
         (without("mesh-thin-paths"), 8),

@@ -50,6 +50,11 @@ pub struct Heuristics {
     /// polygon are cut again into the fewest triangles at set-up (the surface unchanged), so a
     /// flat face cut into a grid or rings gives a few pairs instead of many.
     pub mesh_flat_faces: bool,
+    /// The mesh mode's face splits: a node of the triangle trees holding two faces of a part
+    /// (normals more than 45° apart) is split between the faces at set-up, not at its median,
+    /// so that a face's boxes are as flat as the face: a box's top and sides in one box tilt
+    /// up into a tool resting on the top.
+    pub mesh_face_splits: bool,
     /// The mesh mode's tilted targets: a triangle pair's row keeps its triangles apart by the
     /// row target times the cosine between its nearest direction and the nearer face's normal
     /// (at least half the target), so that a tool face resting at the target beside an object
@@ -155,6 +160,7 @@ impl Heuristics {
         mesh_near_list: true,
         mesh_far_rows: true,
         mesh_flat_faces: true,
+        mesh_face_splits: true,
         mesh_tilted_targets: true,
         mesh_pair_directions: true,
         mesh_thin_paths: true,
@@ -185,6 +191,7 @@ impl Heuristics {
         mesh_near_list: false,
         mesh_far_rows: false,
         mesh_flat_faces: false,
+        mesh_face_splits: false,
         mesh_tilted_targets: false,
         mesh_pair_directions: false,
         mesh_thin_paths: false,
@@ -200,7 +207,7 @@ impl Heuristics {
     };
 
     /// The names of the switches (as the bench's ablation study prints them), in order.
-    pub const NAMES: [&'static str; 26] = [
+    pub const NAMES: [&'static str; 27] = [
         "region-reuse",
         "path-regions",
         "slab-regions",
@@ -215,6 +222,7 @@ impl Heuristics {
         "mesh-near-list",
         "mesh-far-rows",
         "mesh-flat-faces",
+        "mesh-face-splits",
         "mesh-tilted-targets",
         "mesh-pair-directions",
         "mesh-thin-paths",
@@ -246,6 +254,7 @@ impl Heuristics {
             "mesh-near-list" => &mut self.mesh_near_list,
             "mesh-far-rows" => &mut self.mesh_far_rows,
             "mesh-flat-faces" => &mut self.mesh_flat_faces,
+            "mesh-face-splits" => &mut self.mesh_face_splits,
             "mesh-tilted-targets" => &mut self.mesh_tilted_targets,
             "mesh-pair-directions" => &mut self.mesh_pair_directions,
             "mesh-thin-paths" => &mut self.mesh_thin_paths,

@@ -703,7 +703,9 @@ fn attach_meshes(
                     .map(|t| t.map(|i| m.vertices[i as usize]))
                     .collect()
             };
-            Ok::<_, collide::MeshLeavesError>((grown, TriangleTree::build(&triangles, pose)))
+            let splits = params.heuristics.mesh_face_splits;
+            let tree = TriangleTree::build_split(&triangles, pose, splits);
+            Ok::<_, collide::MeshLeavesError>((grown, tree))
         };
         let tm = tool_mesh.as_ref().ok_or(EngineError::MeshNeedsDistance)?;
         let (grown, tool_triangles) =
