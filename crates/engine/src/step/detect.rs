@@ -1,6 +1,7 @@
 //! Detect: the regions of a frame (a ball about a pose, or a path along the predicted
 //! motion) and their leaf pairs, the prediction, the free-space proof and its background probe.
 
+use super::plan::Fall;
 use super::*;
 
 impl GodObject {
@@ -158,19 +159,24 @@ impl GodObject {
 
     /// Where this frame's answer is expected, as a motion from `q_lin`: the hand keeps last
     /// frame's offset from the graphic tool (`hand_offset`), so the tool moves as the hand
-    /// did. `None` when that motion is shorter than [`Tuning::min_sweep_mm`]; scaled down to `cap` mm.
-    /// Returns the sweep and its largest sphere motion (mm).
+    /// did. A falling tool ([`Fall`]) goes its way toward the hand instead. `None` when that
+    /// motion is shorter than [`Tuning::min_sweep_mm`]; scaled down to `cap` mm. Returns the
+    /// sweep and its largest sphere motion (mm).
     pub(super) fn predicted_sweep(
         &self,
         q_lin: &Pose,
         q_h: &Pose,
         cap: f64,
-        falling: bool,
+        fall: Option<Fall>,
     ) -> Option<(Sweep, f64)> {
-        let (v, w) = if falling {
-            (q_h.translation() - q_lin.translation(), Vector3::zeros())
-        } else {
-            self.expected_motion(q_lin, q_h)
+        let way = q_h.translation() - q_lin.translation();
+        let (v, w) = match fall {
+            Some(Fall::Straight) => (way, Vector3::zeros()),
+            Some(Fall::Along(step)) => {
+                let along = step.normalize();
+                (along * way.dot(&along).max(0.0), Vector3::zeros())
+            }
+            None => self.expected_motion(q_lin, q_h),
         };
         let length = v.norm() + w.norm() * self.bodies.reach;
         if length.is_nan() || length < self.params.tuning.min_sweep_mm {

@@ -140,6 +140,11 @@ pub(super) struct Course {
     /// ([`Heuristics::mesh_region_falls`]): the tool falls free where the regions' sizes, not
     /// the parts, hold it back.
     pub(super) fell: bool,
+    /// The region is a falling tool's path ([`GodObject::predicted_sweep`]).
+    pub(super) fall_path: bool,
+    /// The step (mm, world) of this frame's last falling path that its trust region held:
+    /// the frame's next falling paths go along it.
+    pub(super) fall_along: Option<Vector3<f64>>,
 }
 
 /// A frame's working state, carried from stage to stage: plain values, on the stack.
@@ -211,6 +216,8 @@ impl GodObject {
                 min_path_len: 0.0,
                 crept_from: None,
                 fell: false,
+                fall_path: false,
+                fall_along: None,
             },
         }
     }
@@ -265,6 +272,7 @@ impl GodObject {
         };
         if depth <= 0.5 * cached.width && across_ok && path_left && room && goes_on() {
             f.course.region = cached;
+            f.course.fall_path = false;
             f.course.trust = Some(trust);
             f.course.detect_now = false;
             f.course.reused = true;
@@ -432,6 +440,15 @@ impl GodObject {
         // either way.
         let bound_goes_on =
             binds && self.bodies.meshes.is_some() && self.params.heuristics.mesh_bound_detects;
+        // A falling path its trust slab held (a tool pressed on a face, left behind a fast
+        // hand: the way to the hand runs through the face): the frame's next falling paths go
+        // on along the step this pass made.
+        if f.course.fall_path && binds && pen <= f.tol {
+            let step = q_new.translation() - q_lin.translation();
+            if step.norm() > 0.0 {
+                f.course.fall_along = Some(step);
+            }
+        }
         f.course.fell = binds
             && pen <= f.tol
             && region.sweep.is_none()
@@ -534,6 +551,7 @@ impl GodObject {
         }
         m.last_turn =
             rotation_log(&(q_safe.rotation_matrix() * q_g.rotation_matrix().transpose())).into();
+
         m.prediction_error = error.max(0.9 * m.prediction_error);
         m.q_g = q_safe;
         m.hand_offset = (

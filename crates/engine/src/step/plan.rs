@@ -26,6 +26,16 @@ const THIN_PATH_LEAST_SHARE: f64 = 0.25;
 /// [`Tuning::path_width_min_mm`] wide.
 const FALL_LEAST_WIDTH_SHARE: f64 = 0.25;
 
+/// How a falling tool's path goes ([`GodObject::predicted_sweep`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Fall {
+    /// Straight to the goal.
+    Straight,
+    /// On along this step (mm, world), as far as the way to the goal goes along it: the step
+    /// of a falling path its trust region held.
+    Along(Vector3<f64>),
+}
+
 /// A region as planned before its pairs are listed.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct RegionPlan {
@@ -48,6 +58,8 @@ pub(super) struct RegionPlan {
     slab_used: bool,
     /// A path region: the sweep and its largest sphere motion (mm).
     sweep: Option<(Sweep, f64)>,
+    /// The path is a falling tool's ([`Fall`]).
+    fall_path: bool,
     /// The room (mm) a wall standing a little off the tool leaves a ball, where it holds the
     /// ball short of the rest of its allowance ([`GodObject::standoff_allow`]).
     standoff: Option<f64>,
@@ -158,6 +170,7 @@ impl GodObject {
             slab,
             slab_used: false,
             sweep: None,
+            fall_path: false,
             standoff,
             recentred: false,
             width: 0.0,
@@ -225,30 +238,39 @@ impl GodObject {
             f.cap
         };
         // A tool left behind while falling (the last frame ran out before its optimum with
-        // the tool moving on toward the goal): its path is the straight way there. In the mesh
-        // mode also a tool whose last pass (in this frame, or the last frame's) went straight
-        // toward the goal until its trust region held it ([`Course::fell`]): balls the pair
-        // density keeps small creep a few hundredths of a millimetre a pass where the tool
-        // falls free (a shaft dropping 2 mm into its keyways as they align). Such a fall is
-        // taken only where the falling path keeps a wall standing off the tool out and is still a
-        // quarter of the least path width (below), or no wall stands near: a peg 0.02 mm from
-        // its hole's wall, its balls held by their trust regions on the way down, would list
-        // the whole wall along the path frame after frame, or slide down a path too thin to
-        // centre it in.
+        // the tool moving on toward the goal): its path is the straight way there, or, once
+        // such a path was held by its trust slab in this frame (the way runs through a face
+        // the tool is pressed on: the hand a few millimetres ahead of a fast slide and 1 mm
+        // into the face is within the falling cone, and each pass went 0.13 mm where the hand
+        // went 1 mm a frame), along the step that pass made, as far as the way goes along it.
+        // In the mesh mode also a tool whose last pass (in this frame, or the
+        // last frame's) went straight toward the goal until its trust region held it
+        // ([`Course::fell`]): balls the pair density keeps small creep a few hundredths of a
+        // millimetre a pass where the tool falls free (a shaft dropping 2 mm into its keyways
+        // as they align). Such a fall is taken only where the falling path keeps a wall
+        // standing off the tool out and is still a quarter of the least path width (below), or
+        // no wall stands near: a peg 0.02 mm from its hole's wall, its balls held by their
+        // trust regions on the way down, would list the whole wall along the path frame after
+        // frame, or slide down a path too thin to centre it in.
         let wall = self.run.regions.near_standoff - f.skin;
         let falls_clear =
             0.5 * wall >= FALL_LEAST_WIDTH_SHARE * self.params.tuning.path_width_min_mm;
-        let falling = {
+        let fall = {
             let step = Vector3::from(self.run.motion.last_step);
             let way = goal.translation() - q_lin.translation();
             let toward =
                 step.dot(&way) >= self.params.tuning.fall_min_cos * step.norm() * way.norm();
-            falls_clear && f.course.fell
+            let falls = falls_clear && f.course.fell
                 || self.run.motion.behind
                     && toward
                     && (step.norm() >= self.params.tuning.fall_min_step_mm
-                        || falls_clear && self.run.motion.fell)
+                        || falls_clear && self.run.motion.fell);
+            falls.then_some(match f.course.fall_along {
+                Some(held) => Fall::Along(held),
+                None => Fall::Straight,
+            })
         };
+        let falling = fall.is_some();
         // A falling path's width: the least, or in the mesh mode with thin paths as thin as
         // keeps out a wall that stands a little off the tool along the way (the keyways' walls
         // 0.1 mm off the dropping shaft's keys: ~2 300 pairs a path at the least width, ~150
@@ -294,12 +316,13 @@ impl GodObject {
             // come in at the leading edges, not by the density of paths per mm of width.
             let length_cap = if falling { f.cap } else { path_cap };
             plan.sweep = self
-                .predicted_sweep(&q_lin, &goal, length_cap, falling)
+                .predicted_sweep(&q_lin, &goal, length_cap, fall)
                 .filter(|&(_, len)| {
                     path_width <= plan.dense_cap.max(self.params.tuning.min_allow_mm)
                         && len + path_width <= self.params.tuning.path_density_factor * length_cap
                         && (falling || len >= f.course.min_path_len)
                 });
+            plan.fall_path = falling && plan.sweep.is_some();
         }
         path_width
     }
@@ -652,6 +675,7 @@ impl GodObject {
             self.run.regions.cached_bound = false;
         }
         f.course.region = region;
+        f.course.fall_path = plan.fall_path;
         f.course.trust = trust;
         f.course.detect_now = false;
         self.map_warm_start();
