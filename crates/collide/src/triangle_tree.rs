@@ -1034,6 +1034,27 @@ mod tests {
         out
     }
 
+    /// Every pair (tool triangle, object triangle) within `margin` (mm) of each other with the
+    /// tool placed at `q`, by brute force.
+    fn pairs_within(
+        tool: &[Triangle],
+        q: &Pose,
+        object: &[Triangle],
+        margin: f64,
+    ) -> Vec<(u32, u32)> {
+        let (rot, t) = (q.rotation_matrix(), q.translation());
+        let mut near = Vec::new();
+        for (i, a) in tool.iter().enumerate() {
+            let a = a.map(|c| (rot * Vector3::from(c) + t).into());
+            for (j, b) in object.iter().enumerate() {
+                if triangle_distance(&a, b).distance <= margin {
+                    near.push((i as u32, j as u32));
+                }
+            }
+        }
+        near
+    }
+
     /// The pairs (by the meshes' own indices) a descent from `q` along `sweep` lists within
     /// `margin`, and how many box pairs it tested (one step each).
     fn box_tests(
@@ -1104,22 +1125,14 @@ mod tests {
             let (a, tests_a) = box_tests(&ball, &by_faces, &q, &sweep, margin, &mut stack);
             let (b, tests_b) = box_tests(&ball, &by_median, &q, &sweep, margin, &mut stack);
             // Every pair within the margin at the slide's start, by brute force, in both.
-            let (rot, t) = (q.rotation_matrix(), q.translation());
-            let mut near = 0;
-            for (i, tri) in ball_tris.iter().enumerate() {
-                let posed = tri.map(|c| (rot * Vector3::from(c) + t).into());
-                for (j, part) in plate_tris.iter().enumerate() {
-                    if triangle_distance(&posed, part).distance <= margin {
-                        near += 1;
-                        let pair = (i as u32, j as u32);
-                        assert!(
-                            a.contains(&pair) && b.contains(&pair),
-                            "case {case}: {pair:?}"
-                        );
-                    }
-                }
+            let near = pairs_within(&ball_tris, &q, &plate_tris, margin);
+            for pair in &near {
+                assert!(
+                    a.contains(pair) && b.contains(pair),
+                    "case {case}: {pair:?}"
+                );
             }
-            assert!(near > 0, "case {case}: nothing near");
+            assert!(!near.is_empty(), "case {case}: nothing near");
             by_faces_tests += tests_a;
             by_median_tests += tests_b;
         }
@@ -1188,24 +1201,20 @@ mod tests {
             let margin = [0.05, 0.5, 2.0][case % 3];
             let x = rng.random_range(-40.0..40.0);
             let q = Pose::from_array([x, x / 2.0, 0.35 + margin * 0.5, 0.1, -0.05, 0.3]);
-            let (rot, t) = (q.rotation_matrix(), q.translation());
             let (listed, visited) = listed_pairs(&tool, &plate, &q, margin, &mut stack);
             with += visited;
             without += listed_pairs(&tool, &plain, &q, margin, &mut stack).1;
-            let mut near = 0;
-            for (i, a) in tool_tris.iter().enumerate() {
-                let a = a.map(|c| (rot * Vector3::from(c) + t).into());
-                for (j, b) in plate_tris.iter().enumerate() {
-                    if triangle_distance(&a, b).distance <= margin {
-                        near += 1;
-                        assert!(
-                            listed.contains(&(i as u32, j as u32)),
-                            "case {case}: triangles {i} and {j} within {margin} mm not listed"
-                        );
-                    }
-                }
+            let near = pairs_within(&tool_tris, &q, &plate_tris, margin);
+            for (i, j) in &near {
+                assert!(
+                    listed.contains(&(*i, *j)),
+                    "case {case}: triangles {i} and {j} within {margin} mm not listed"
+                );
             }
-            assert!(near > 0 || margin < 0.5, "case {case}: nothing near");
+            assert!(
+                !near.is_empty() || margin < 0.5,
+                "case {case}: nothing near"
+            );
         }
         assert!(
             2 * with < without,
