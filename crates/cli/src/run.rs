@@ -734,6 +734,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     );
     summary.trees = tree_infos(&scene);
     summary.geometry = scene.geometry().name().into();
+    summary.meshes = scene.has_meshes();
     summary.load.extend(mesh_line);
     if scene.solver.geometry != scene.geometry() {
         summary.load.push(format!(
@@ -983,6 +984,13 @@ fn print_human(s: &RunSummary, out: &Path) {
             g.reached_z_mm,
             if g.success { "OK" } else { "NOT REACHED" }
         );
+        if !g.success && s.meshes && s.geometry == engine::Geometry::Spheres.name() {
+            // The leaf spheres stand off the parts by up to a few tenths of a millimetre: a
+            // user whose parts fit tighter than that sees a jam with no cause given.
+            println!(
+                "  the tool touched the leaf spheres, which stand off the parts' surfaces: a fit tighter than they stand off cannot be entered; `--geometry mesh` puts contact on the parts' own triangles"
+            );
+        }
     }
     println!("  wrote {}", out.display());
 }

@@ -13,6 +13,40 @@ fn summary(dir: &Dir, name: &str) -> serde_json::Value {
 }
 
 #[test]
+fn a_peg_that_jams_on_the_leaf_spheres_is_told_of_the_mesh_mode() {
+    let d = Dir::new("jam-hint");
+    // The round peg at 0.05 mm radial clearance jams at the hole's mouth on the spheres.
+    let o = haptic6d(&[
+        "run",
+        "fit/round-r10-c0.05",
+        "--no-plots",
+        "--out",
+        &d.path("spheres"),
+    ]);
+    success(&o);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("NOT REACHED"), "{out}");
+    assert!(out.contains("`--geometry mesh`"), "{out}");
+    assert_eq!(summary(&d, "spheres")["meshes"], true);
+    // On the mesh, a goal not reached (the run cut short) gets no such hint.
+    let o = haptic6d(&[
+        "run",
+        "fit/round-r10-c0.05",
+        "--geometry",
+        "mesh",
+        "--duration",
+        "0.3",
+        "--no-plots",
+        "--out",
+        &d.path("mesh"),
+    ]);
+    success(&o);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("NOT REACHED"), "{out}");
+    assert!(!out.contains("`--geometry mesh`"), "{out}");
+}
+
+#[test]
 fn run_takes_the_geometry_and_says_which_it_used() {
     let d = Dir::new("geometry");
     // A mesh scene: the parts' triangles.

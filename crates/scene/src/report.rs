@@ -170,6 +170,9 @@ pub struct RunSummary {
     pub form: String,
     /// What the tool touched: `spheres` (the trees' leaves) or `mesh` (the parts' triangles).
     pub geometry: String,
+    /// Whether every body has its mesh, so that the run could have used the mesh geometry;
+    /// filled by the caller (`haptic6d run`), false when not known.
+    pub meshes: bool,
     /// Frames run.
     pub frames: usize,
     /// Collision detection time per frame, µs.
@@ -321,6 +324,7 @@ pub fn summarize(
         load_s,
         trees: Vec::new(),
         mesh_penetration_mm: None,
+        meshes: false,
     }
 }
 

@@ -633,11 +633,16 @@ impl Scene {
         )
     }
 
+    /// True when every body has its mesh (the tool and each object), so that the mesh geometry
+    /// mode can run; false where a tree was read from a `.sph` file alone.
+    pub fn has_meshes(&self) -> bool {
+        self.tool_mesh.is_some() && self.object_meshes.iter().all(Option::is_some)
+    }
+
     /// The geometry the engine will keep the tool out of: the mesh mode where it is asked for
     /// and every body has its mesh, else the leaf spheres.
     pub fn geometry(&self) -> engine::Geometry {
-        let all = self.tool_mesh.is_some() && self.object_meshes.iter().all(Option::is_some);
-        if self.solver.geometry == engine::Geometry::Mesh && all {
+        if self.solver.geometry == engine::Geometry::Mesh && self.has_meshes() {
             engine::Geometry::Mesh
         } else {
             engine::Geometry::Spheres
