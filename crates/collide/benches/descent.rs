@@ -2,7 +2,10 @@
 //! `TriangleTree::near_leaf_pairs` and `descend`): a round peg 15 mm long, 256 facets round,
 //! in a hole 0.05 mm wider and 50 mm deep, every leaf pair within a margin of 0.15 mm listed
 //! (the peg's whole side is near the wall: a tight fit's near list), at rest and swept 0.2 mm
-//! down the hole.
+//! down the hole. Then the light contact of the built-in bunny scene, whose lists are short but
+//! listed anew every few frames while the tool turns: the bunny (`assets/bunny.obj`, scaled to
+//! ~100 mm as the scene does) beside a turned copy of itself, margin 0.75 mm, with no pair
+//! within it and with ~50 pairs.
 //!
 //! Run: `cargo bench -p collide --bench descent` (add `-- --quick` for a short run).
 
@@ -97,6 +100,60 @@ fn bench(c: &mut Criterion) {
                     },
                 );
                 (pairs, stack.near_part())
+            })
+        });
+    }
+    group.finish();
+
+    // The bunny beside a copy of itself turned (0.1, 0.2, 0) rad, moved along x by a share of
+    // its width: 0.86 leaves no triangle pair within the margin, 0.84 ~50.
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/bunny.obj");
+    let bunny_mesh = mesh::load_mesh(std::path::Path::new(path))
+        .expect("assets/bunny.obj")
+        .mesh;
+    let bunny: Vec<Triangle> = bunny_mesh
+        .triangles
+        .iter()
+        .map(|t| std::array::from_fn(|c| bunny_mesh.vertices[t[c] as usize].map(|v| 10.0 * v)))
+        .collect();
+    let width = bunny
+        .iter()
+        .flatten()
+        .map(|p| p[0])
+        .fold(f64::NEG_INFINITY, f64::max)
+        - bunny
+            .iter()
+            .flatten()
+            .map(|p| p[0])
+            .fold(f64::INFINITY, f64::min);
+    let bunny = TriangleTree::build(&bunny, &Pose::identity());
+    let mut stack = TriangleTree::stack_for(&bunny, &bunny);
+    let mut group = c.benchmark_group("light contact");
+    group.sample_size(50);
+    for (name, share) in [
+        ("bunny beside a bunny, none within", 0.86),
+        ("bunny on a bunny", 0.84),
+    ] {
+        let q = Pose::from_array([share * width, 0.05 * width, 0.0, 0.1, 0.2, 0.0]);
+        let (rot, t) = (q.rotation_matrix(), q.translation());
+        group.bench_function(BenchmarkId::new("leaf pairs", name), |b| {
+            b.iter(|| {
+                let mut pairs = 0usize;
+                TriangleTree::start_descent(&mut stack);
+                bunny.descend(
+                    black_box(&rot),
+                    black_box(&t),
+                    &Vector3::zeros(),
+                    &bunny,
+                    0.75,
+                    &mut stack,
+                    usize::MAX,
+                    |tools, parts, _| {
+                        pairs += tools.len() * parts.len();
+                        true
+                    },
+                );
+                pairs
             })
         });
     }
