@@ -39,7 +39,6 @@ fn bench(c: &mut Criterion) {
     let mut stack = TriangleTree::stack_for(&peg, &hole);
     // 5 mm in, 0.01 mm off the axis and tilted 1 mrad.
     let q = Pose::from_array([0.01, 0.0, 5.0, 0.001, 0.0, 0.0]);
-    let (rot, t) = (q.rotation_matrix(), q.translation());
     let mut group = c.benchmark_group("descent");
     group.sample_size(20);
     for (name, sweep) in [
@@ -47,24 +46,7 @@ fn bench(c: &mut Criterion) {
         ("peg in hole, swept", Vector3::new(0.0, 0.0, -0.2)),
     ] {
         group.bench_function(BenchmarkId::new("leaf pairs", name), |b| {
-            b.iter(|| {
-                let mut pairs = 0usize;
-                TriangleTree::start_descent(&mut stack);
-                peg.descend(
-                    black_box(&rot),
-                    black_box(&t),
-                    &sweep,
-                    &hole,
-                    0.15,
-                    &mut stack,
-                    usize::MAX,
-                    |tools, parts, _| {
-                        pairs += tools.len() * parts.len();
-                        true
-                    },
-                );
-                pairs
-            })
+            b.iter(|| triangle_pairs(&peg, &hole, &q, &sweep, 0.15, &mut stack))
         });
     }
     group.finish();
@@ -135,29 +117,40 @@ fn bench(c: &mut Criterion) {
         ("bunny on a bunny", 0.84),
     ] {
         let q = Pose::from_array([share * width, 0.05 * width, 0.0, 0.1, 0.2, 0.0]);
-        let (rot, t) = (q.rotation_matrix(), q.translation());
         group.bench_function(BenchmarkId::new("leaf pairs", name), |b| {
-            b.iter(|| {
-                let mut pairs = 0usize;
-                TriangleTree::start_descent(&mut stack);
-                bunny.descend(
-                    black_box(&rot),
-                    black_box(&t),
-                    &Vector3::zeros(),
-                    &bunny,
-                    0.75,
-                    &mut stack,
-                    usize::MAX,
-                    |tools, parts, _| {
-                        pairs += tools.len() * parts.len();
-                        true
-                    },
-                );
-                pairs
-            })
+            b.iter(|| triangle_pairs(&bunny, &bunny, &q, &Vector3::zeros(), 0.75, &mut stack))
         });
     }
     group.finish();
+}
+
+/// A whole descent of `tool` at `q` swept by `sweep` (mm) against `object` within `margin`
+/// (mm): the triangle pairs of the leaf pairs it visits.
+fn triangle_pairs(
+    tool: &TriangleTree,
+    object: &TriangleTree,
+    q: &Pose,
+    sweep: &Vector3<f64>,
+    margin: f64,
+    stack: &mut collide::TreePairStack,
+) -> usize {
+    let (rot, t) = (q.rotation_matrix(), q.translation());
+    let mut pairs = 0usize;
+    TriangleTree::start_descent(stack);
+    tool.descend(
+        black_box(&rot),
+        black_box(&t),
+        sweep,
+        object,
+        margin,
+        stack,
+        usize::MAX,
+        |tools, parts, _| {
+            pairs += tools.len() * parts.len();
+            true
+        },
+    );
+    pairs
 }
 
 /// A flat ring at height `z` (mm) from radius `r0` to `r1`, `round` facets round, facing up.
