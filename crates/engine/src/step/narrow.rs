@@ -1176,8 +1176,9 @@ impl GodObject {
     /// frames until the list in use is spent: the margin the start rule leaves), at most the
     /// full slice. A region's list under way, wanted now, a list with none in use to outlast,
     /// and one past the last descent's cost take the full slice. A paced frame (the loop's
-    /// wait before it given to [`GodObject::idle`]) gives none while the list in use lasts
-    /// [`NEAR_IDLE_LEFT_FRAMES`] more: the wait builds it. With
+    /// wait before it given to [`GodObject::idle`]) gives none while the list in use holds
+    /// the regions [`NEAR_IDLE_LEFT_FRAMES`] more ([`GodObject::near_frames_held`]): the wait
+    /// builds it. With
     /// [`Heuristics::mesh_slice_ceiling`], never past [`Tuning::near_ceiling_share`] of the
     /// budget, the frame's own work included, while the list in use holds
     /// [`NEAR_CEILING_LEFT_FRAMES`] more ([`GodObject::near_frames_held`]).
@@ -1260,10 +1261,13 @@ impl GodObject {
         else {
             return full;
         };
-        if paced && self.near_use(&span, q).left >= NEAR_IDLE_LEFT_FRAMES {
+        if paced && self.near_frames_held(&span, q) >= NEAR_IDLE_LEFT_FRAMES {
             // A paced loop's wait builds the list ahead ([`GodObject::idle`], hundreds of
             // microseconds a period): the frame leaves it to the wait while the list in use
-            // lasts.
+            // holds the regions, by its reach past their margin (as the ceiling reckons), not
+            // by its extra reach alone: once a contact's margin has shrunk below the one it
+            // was listed for, that is spent long before the list (the bunny's lists in a
+            // paced loop: every frame sliced while the wait stood idle).
             return 0.0;
         }
         let spent = if ahead.at.is_some() {
@@ -2568,6 +2572,40 @@ mod tests {
         god.params.budget_us = 2.0 * OWN_LEVEL_MAX_BUDGET_US;
         let fill = god.params.tuning.near_fill_share * god.params.budget_us;
         assert_eq!(god.fill_level_us(), fill);
+    }
+
+    /// A paced frame leaves the next list to the loop's wait while the list in use holds the
+    /// regions by its reach past their margin, though the tool has gone past its extra reach:
+    /// the regions have grown narrower than the one it was listed for (a contact settling).
+    /// At the listed margin, or in a loop that is not paced, the frame builds it.
+    #[test]
+    fn a_paced_frame_leaves_the_next_list_to_the_wait_while_it_holds_narrower_regions() {
+        let (mut god, _, _) = cube_over_sheet();
+        god.params.heuristics.mesh_slice_ceiling = false;
+        let (q, extra, full) = sliding_slowly(&mut god);
+        let span = god.run.regions.near_at.unwrap();
+        let (_, listed) = god.run.regions.contacts_at.unwrap();
+        let fill = god.params.tuning.near_fill_share * god.params.budget_us;
+        // Slid 0.04 mm past the extra reach, along the sheet.
+        let past = span.reach - listed + 0.04;
+        let slid = Pose::from_array([past, 0.0, 2.4, 0.0, 0.0, 0.0]);
+        assert!(god.near_use(&span, &slid).left == 0.0);
+        god.run.lists.idle_given = true;
+        // Regions of the listed margin: the list is spent, the frame builds the next.
+        assert_eq!(god.near_slice_us(&slid, 2.0 * fill), full);
+        // Regions 0.08 mm narrower: held 0.04 mm more, 160 frames at this pace.
+        let narrow = listed - 0.08;
+        god.run.regions.contacts_at = Some((slid, narrow));
+        assert!(god.near_frames_held(&span, &slid) > 100.0);
+        assert_eq!(god.near_slice_us(&slid, 2.0 * fill), 0.0);
+        assert_eq!(god.near_slice_us(&slid, 10.0), 0.0);
+        // A loop that is not paced has no wait to build it in: the frame does.
+        god.run.lists.idle_given = false;
+        assert_eq!(god.near_slice_us(&slid, 2.0 * fill), full);
+        // The pose the list was listed at: held at either margin, the wait builds it.
+        god.run.lists.idle_given = true;
+        assert_eq!(god.near_slice_us(&q, 2.0 * fill), 0.0);
+        assert!(extra > 0.0);
     }
 
     #[test]
