@@ -135,6 +135,13 @@ pub struct Heuristics {
     /// pace its descent needs where that is more, rather than filling every frame to the fixed
     /// share: a scene whose frames take 20 µs is not lifted to 200 by the lists ahead.
     pub mesh_fill_own_level: bool,
+    /// The mesh mode's list ahead taken in the loop's wait: in a paced loop
+    /// ([`GodObject::idle`](crate::GodObject::idle)), the next near list, once built, replaces
+    /// the one in use there as soon as it holds the regions at least as long (by its reach past
+    /// their margin, at the tool's pace), rather than in the frame whose region the old one no
+    /// longer holds. Taking a list inherits what the old one knew of its pairs: ~55 µs for a
+    /// tight fit's 5 500 pairs, paid by every frame that took one (`spline-tight`'s heaviest).
+    pub mesh_idle_take: bool,
 }
 
 impl Default for Heuristics {
@@ -173,6 +180,7 @@ impl Heuristics {
         mesh_near_part: true,
         mesh_slice_ceiling: true,
         mesh_fill_own_level: true,
+        mesh_idle_take: true,
     };
 
     /// Every heuristic off.
@@ -204,10 +212,11 @@ impl Heuristics {
         mesh_near_part: false,
         mesh_slice_ceiling: false,
         mesh_fill_own_level: false,
+        mesh_idle_take: false,
     };
 
     /// The names of the switches (as the bench's ablation study prints them), in order.
-    pub const NAMES: [&'static str; 27] = [
+    pub const NAMES: [&'static str; 28] = [
         "region-reuse",
         "path-regions",
         "slab-regions",
@@ -235,6 +244,7 @@ impl Heuristics {
         "mesh-near-part",
         "mesh-slice-ceiling",
         "mesh-fill-own-level",
+        "mesh-idle-take",
     ];
 
     /// The switch called `name` ([`Heuristics::NAMES`]), for reading and setting.
@@ -267,6 +277,7 @@ impl Heuristics {
             "mesh-near-part" => &mut self.mesh_near_part,
             "mesh-slice-ceiling" => &mut self.mesh_slice_ceiling,
             "mesh-fill-own-level" => &mut self.mesh_fill_own_level,
+            "mesh-idle-take" => &mut self.mesh_idle_take,
             _ => return None,
         })
     }

@@ -1144,6 +1144,29 @@ impl GodObject {
         self.advance_near(Some(end));
     }
 
+    /// In a paced loop's wait ([`Heuristics::mesh_idle_take`]): puts the list built ahead, once
+    /// done, in place of the one in use with the tool at `q`, where it holds a ball region of
+    /// the last region's margin there at least as long as the one in use, and two frames at
+    /// least ([`GodObject::near_frames_held`]); inheriting at `q`, as a ball region there would.
+    /// Returns whether it did.
+    pub(super) fn take_near_list_in_wait(&mut self, q: &Pose) -> bool {
+        if !(self.params.heuristics.mesh_idle_take && self.params.heuristics.mesh_near_list) {
+            return false;
+        }
+        let ahead = self.run.regions.near_ahead;
+        let (Some(next), Some(now)) = (ahead.at, self.run.regions.near_at) else {
+            return false;
+        };
+        if ahead.purpose != NearPurpose::Ahead || !ahead.done || ahead.dropped > 0 {
+            return false;
+        }
+        let held_next = self.near_frames_held(&next, q);
+        if held_next < NEAR_IDLE_LEFT_FRAMES || held_next < self.near_frames_held(&now, q) {
+            return false;
+        }
+        self.take_near_list(true, Some(q))
+    }
+
     /// How far the tool at `q` has used the near list of `span`: its motion bound off the span
     /// (mm), its share along the sweep, and the frames until it is spent (the tool leaves its
     /// reach at the pace its motion bound grows off the sweep, a turn or a step across, or runs
@@ -2606,6 +2629,55 @@ mod tests {
         god.run.lists.idle_given = true;
         assert_eq!(god.near_slice_us(&q, 2.0 * fill), 0.0);
         assert!(extra > 0.0);
+    }
+
+    /// In a paced loop's wait, the list built ahead replaces the one in use once it holds the
+    /// regions at least as long (nearer the tool than its centre), not before, nor while it is
+    /// under way, nor with the switch off; the region after the take lists every pair within
+    /// its margin.
+    #[test]
+    fn a_list_built_ahead_is_taken_in_the_wait_once_it_holds_as_long_as_the_one_in_use() {
+        let (mut god, tool, sheet) = cube_over_sheet();
+        // The cube's face 0.05 mm over the sheet, sliding slowly along it.
+        let q = Pose::from_array([0.0, 0.0, 2.05, 0.0, 0.0, 0.0]);
+        god.detect_triangles(&q, 0.1);
+        let now = god.run.regions.near_at.unwrap();
+        let extra = god.run.regions.near_extra;
+        god.run.motion.last_step = [1e-3 * extra, 0.0, 0.0];
+        god.run.motion.last_motion = 1e-3 * extra;
+        // The next list, centred 0.1 mm on along the sheet.
+        let on = Pose::from_array([0.1, 0.0, 2.05, 0.0, 0.0, 0.0]);
+        let ahead = NearSpan {
+            at: on,
+            sweep: [0.0; 3],
+            reach: now.reach,
+            near: None,
+        };
+        god.begin_near(ahead, NearPurpose::Ahead);
+        // Under way: not taken.
+        god.run.regions.near_ahead.done = false;
+        assert!(!god.take_near_list_in_wait(&on));
+        assert!(god.advance_near(None));
+        // At the old list's centre the old one holds longer: not taken.
+        assert!(!god.take_near_list_in_wait(&q));
+        assert_eq!(god.run.regions.near_at.unwrap().at, now.at);
+        // Switched off: not taken.
+        god.params.heuristics.mesh_idle_take = false;
+        assert!(!god.take_near_list_in_wait(&on));
+        god.params.heuristics.mesh_idle_take = true;
+        // At the new one's centre: taken, inheriting there.
+        assert!(god.take_near_list_in_wait(&on));
+        assert_eq!(god.run.regions.near_at.unwrap().at, on);
+        assert_eq!(god.run.regions.near_ahead.at, None);
+        assert_eq!(god.run.regions.near_bounds_at, Some(on));
+        // The next region there misses no pair within its margin.
+        god.detect_triangles(&on, 0.1);
+        assert_eq!(
+            god.run.regions.near_at.unwrap().at,
+            on,
+            "the taken list serves"
+        );
+        assert!(every_pair_within_kept(&god, &tool, &sheet, &on, 0.1, 0) > 0);
     }
 
     #[test]
