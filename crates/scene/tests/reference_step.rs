@@ -19,6 +19,7 @@ mod common;
 
 use collide::{rotation_log, Pose};
 use engine::{FrameStatus, Geometry, Heuristics, Tuning};
+use std::time::{Duration, Instant};
 
 /// How far apart (mm, largest tool-sphere motion) two answers count as the same: a few times
 /// the convergence tolerance (0.005 mm of open rows) plus the penetration tolerance.
@@ -74,13 +75,15 @@ fn energy(w: &[f64; 6], kt: f64, kr: f64) -> f64 {
 }
 
 /// Replays `name` in `geometry` with `heuristics` and `tuning`, comparing every `stride`-th
-/// frame with the reference.
+/// frame with the reference; with `wait`, each frame followed by that much of a paced loop's
+/// wait given to the engine (`GodObject::idle`).
 fn compare(
     name: &str,
     geometry: Geometry,
     heuristics: Heuristics,
     tuning: Tuning,
     stride: usize,
+    wait: Option<Duration>,
 ) -> Agreement {
     let cache = common::test_cache();
     let mut s = scene::scenes::builtin(name, &cache).unwrap();
@@ -101,6 +104,9 @@ fn compare(
         let q_h = Pose::from_array(sample.q);
         let prev = shipped.q_g();
         let f = shipped.step(&q_h);
+        if let Some(wait) = wait {
+            shipped.idle(Instant::now() + wait);
+        }
         assert!(
             f.q_g.iter().chain(&f.wrench).all(|v| v.is_finite()),
             "{name}: frame {k} is not finite with {heuristics:?}"
@@ -162,7 +168,7 @@ fn check_tuned(
     stride: usize,
 ) {
     for name in scenes {
-        let a = compare(name, geometry, heuristics, tuning, stride);
+        let a = compare(name, geometry, heuristics, tuning, stride, None);
         eprintln!("{name}: {a:?}");
         if geometry == Geometry::Mesh {
             assert!(
@@ -284,6 +290,36 @@ fn every_tuned_value_halved_or_doubled_stays_exact_and_safe() {
 #[test]
 fn every_heuristic_off_at_once_stays_exact_and_safe() {
     check(SCENES, Heuristics::NONE, 4);
+}
+
+/// In a paced loop the wait builds the mesh mode's next near lists and takes them
+/// (`mesh-idle-take`): the frames after it answer as the reference too, with the take in the
+/// wait and without it. (A wait of 300 µs a frame, as a 1 kHz loop gives after its nap.)
+#[test]
+fn in_the_mesh_mode_a_paced_loop_answers_as_the_reference_with_its_wait_and_without_the_take() {
+    for heuristics in [Heuristics::ALL, without("mesh-idle-take")] {
+        for name in MESH_SCENES {
+            let wait = Some(Duration::from_micros(300));
+            let a = compare(name, Geometry::Mesh, heuristics, Tuning::DEFAULT, 4, wait);
+            eprintln!("{name} paced: {a:?}");
+            assert!(
+                a.short as f64 <= MESH_SHORT_SHARE * (a.compared + a.short) as f64,
+                "{name} paced with {heuristics:?}: {} frames short where the reference answers",
+                a.short
+            );
+            assert!(
+                a.compared > 0,
+                "{name}: no frame where both reach the optimum"
+            );
+            assert!(
+                a.worse as f64 <= OTHER_OPTIMA_SHARE * a.compared as f64
+                    && a.worst_excess <= OTHER_OPTIMUM_EXCESS,
+                "{name} paced with {heuristics:?}: {} of {} frames end farther from the hand",
+                a.worse,
+                a.compared
+            );
+        }
+    }
 }
 
 #[test]
