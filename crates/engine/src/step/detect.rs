@@ -904,8 +904,9 @@ impl GodObject {
             // The mesh mode's near list under way (or the next one ahead, where due).
             let q = self.run.motion.q_g;
             self.tend_near(&q, f64::INFINITY, stop);
-            // Done in the wait, it is taken in the wait where it holds as long.
-            if Instant::now() < stop && self.take_near_list_in_wait(&q) {
+            // Done in the wait, it is taken in the wait where it holds as long, and where the
+            // wait has time for its inheritance (not bounded by the clock).
+            if self.take_near_list_in_wait(&q, stop) {
                 self.tend_near(&q, f64::INFINITY, stop);
             }
         }

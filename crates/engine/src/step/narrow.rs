@@ -183,6 +183,11 @@ const FLAT_CONTACT_COS: f64 = 0.999_847_695_156_391_2;
 /// leave at most this share of its pairs (by their listed separations).
 const NEAR_THIN_SHARE: f64 = 0.75;
 
+/// Time a list taken in a paced loop's wait may need for each pair of the old and the new list,
+/// ns ([`GodObject::take_near_list_in_wait`]): its inheritance took ~55 µs for 5 500 pairs
+/// each (`spline-tight`), ~5 ns a pair; twice that and more, so that the wait ends on time.
+const TAKE_NS_PER_PAIR: u64 = 12;
+
 /// The list built ahead starts once the tool has used this share of the current one (its
 /// sweep, or its extra reach off it): later, the pose it is centred at is guessed from nearer;
 /// earlier, it has more frames to be built in.
@@ -1148,8 +1153,9 @@ impl GodObject {
     /// done, in place of the one in use with the tool at `q`, where it holds a ball region of
     /// the last region's margin there at least as long as the one in use, and two frames at
     /// least ([`GodObject::near_frames_held`]); inheriting at `q`, as a ball region there would.
-    /// Returns whether it did.
-    pub(super) fn take_near_list_in_wait(&mut self, q: &Pose) -> bool {
+    /// Only where the time left before `stop` holds the inheritance at
+    /// [`TAKE_NS_PER_PAIR`] for each pair of both lists. Returns whether it did.
+    pub(super) fn take_near_list_in_wait(&mut self, q: &Pose, stop: Instant) -> bool {
         if !(self.params.heuristics.mesh_idle_take && self.params.heuristics.mesh_near_list) {
             return false;
         }
@@ -1158,6 +1164,14 @@ impl GodObject {
             return false;
         };
         if ahead.purpose != NearPurpose::Ahead || !ahead.done || ahead.dropped > 0 {
+            return false;
+        }
+        let pairs = (self.detector.near.len() + self.detector.next_near.len()) as u64;
+        let needed = Duration::from_nanos(TAKE_NS_PER_PAIR.saturating_mul(pairs));
+        if Instant::now()
+            .checked_add(needed)
+            .is_none_or(|end| end > stop)
+        {
             return false;
         }
         let held_next = self.near_frames_held(&next, q);
@@ -2638,6 +2652,7 @@ mod tests {
     #[test]
     fn a_list_built_ahead_is_taken_in_the_wait_once_it_holds_as_long_as_the_one_in_use() {
         let (mut god, tool, sheet) = cube_over_sheet();
+        let far = Instant::now() + Duration::from_secs(60);
         // The cube's face 0.05 mm over the sheet, sliding slowly along it.
         let q = Pose::from_array([0.0, 0.0, 2.05, 0.0, 0.0, 0.0]);
         god.detect_triangles(&q, 0.1);
@@ -2656,17 +2671,19 @@ mod tests {
         god.begin_near(ahead, NearPurpose::Ahead);
         // Under way: not taken.
         god.run.regions.near_ahead.done = false;
-        assert!(!god.take_near_list_in_wait(&on));
+        assert!(!god.take_near_list_in_wait(&on, far));
         assert!(god.advance_near(None));
         // At the old list's centre the old one holds longer: not taken.
-        assert!(!god.take_near_list_in_wait(&q));
+        assert!(!god.take_near_list_in_wait(&q, far));
         assert_eq!(god.run.regions.near_at.unwrap().at, now.at);
         // Switched off: not taken.
         god.params.heuristics.mesh_idle_take = false;
-        assert!(!god.take_near_list_in_wait(&on));
+        assert!(!god.take_near_list_in_wait(&on, far));
         god.params.heuristics.mesh_idle_take = true;
+        // No time left in the wait: not taken.
+        assert!(!god.take_near_list_in_wait(&on, Instant::now()));
         // At the new one's centre: taken, inheriting there.
-        assert!(god.take_near_list_in_wait(&on));
+        assert!(god.take_near_list_in_wait(&on, far));
         assert_eq!(god.run.regions.near_at.unwrap().at, on);
         assert_eq!(god.run.regions.near_ahead.at, None);
         assert_eq!(god.run.regions.near_bounds_at, Some(on));
