@@ -136,7 +136,7 @@ pub struct Heuristics {
     /// share: a scene whose frames take 20 µs is not lifted to 200 by the lists ahead.
     pub mesh_fill_own_level: bool,
     /// The mesh mode's list ahead taken in the loop's wait: in a paced loop
-    /// ([`GodObject::idle`](crate::GodObject::idle)), the next near list, once built, replaces
+    /// ([`Engine::idle`](crate::Engine::idle)), the next near list, once built, replaces
     /// the one in use there as soon as it holds the regions at least as long (by its reach past
     /// their margin, at the tool's pace), rather than in the frame whose region the old one no
     /// longer holds. Taking a list inherits what the old one knew of its pairs: ~55 µs for a
