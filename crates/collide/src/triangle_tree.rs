@@ -690,9 +690,11 @@ fn longest(h: &[f64; 3]) -> f64 {
 /// reached up to 2 mm farther across it.
 ///
 /// Axis by axis, each product taken as its axis needs it, inlined in the descent: a pair apart
-/// along the object box's first axis costs a third of the whole test. Whole descents took
-/// 8–24 % less time than with the turn and offset taken whole first (`cargo bench -p collide
-/// --bench descent`); the same rounding's room, so the same answers (a run's frames alike).
+/// along the object box's first axis costs a third of the whole test. The descent bench's
+/// light contacts took 10–13 % less time than with the turn and offset taken whole first, the
+/// peg at a hole's mouth ~5 %, the peg in its hole (most box pairs not apart) the same
+/// (`cargo bench -p collide --bench descent`, three runs alternated); the same rounding's
+/// room, so the same answers (a run's frames alike).
 #[inline(always)]
 fn posed_boxes_apart(
     (b_axes, b_centre, hb): (&Matrix3<f64>, &[f64; 3], &[f64; 3]),
