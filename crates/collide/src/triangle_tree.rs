@@ -1591,4 +1591,111 @@ mod tests {
         );
         assert!(!called);
     }
+
+    /// The box test taken axis by axis answers as the six face axes taken whole do (the turn
+    /// and offset in the object box's axes first, as the descent once did), on random boxes,
+    /// thin ones, turned, swept or not, at random margins; and a pair it parts has no points
+    /// within the margin (sampled in both boxes, along the sweep).
+    #[test]
+    fn the_box_test_axis_by_axis_parts_boxes_as_the_whole_test_does() {
+        // The six face axes, taken whole: `d` and `r` in the object box's axes.
+        fn whole(
+            b: (&Matrix3<f64>, &Vector3<f64>, &[f64; 3]),
+            a: (&Matrix3<f64>, &Vector3<f64>, &[f64; 3]),
+            sweep: &Vector3<f64>,
+            margin: f64,
+        ) -> (bool, f64) {
+            let turn = b.0.transpose() * a.0;
+            let along = b.0.transpose() * sweep;
+            let d = b.0.transpose() * (a.1 - b.1) + 0.5 * along;
+            let abs = turn.map(|x| x.abs() + 1e-12);
+            let hb = b.2.map(|h| h + margin);
+            // The closest call to a verdict (how far the deciding sides are apart).
+            let mut closest = f64::INFINITY;
+            let mut apart = false;
+            for i in 0..3 {
+                let ra = (0..3).map(|j| a.2[j] * abs[(i, j)]).sum::<f64>();
+                let side = hb[i] + ra + 0.5 * along[i].abs() - d[i].abs();
+                closest = closest.min(side.abs());
+                apart |= side < 0.0;
+            }
+            for j in 0..3 {
+                let rb = (0..3).map(|i| hb[i] * abs[(i, j)]).sum::<f64>();
+                let s = (0..3).map(|i| d[i] * turn[(i, j)]).sum::<f64>();
+                let reach = 0.5 * turn.column(j).dot(&along).abs();
+                let side = a.2[j] + reach + rb - s.abs();
+                closest = closest.min(side.abs());
+                apart |= side < 0.0;
+            }
+            (apart, closest)
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(41);
+        let (mut parted, mut met) = (0, 0);
+        for case in 0..20_000 {
+            let turned = |rng: &mut ChaCha8Rng| {
+                let r = |rng: &mut ChaCha8Rng| rng.random_range(-3.2..3.2);
+                Pose::from_array([0.0, 0.0, 0.0, r(rng), r(rng), r(rng)]).rotation_matrix()
+            };
+            let (ra, rb) = (turned(&mut rng), turned(&mut rng));
+            let half = |rng: &mut ChaCha8Rng| -> [f64; 3] {
+                std::array::from_fn(|_| {
+                    if rng.random_bool(0.2) {
+                        0.0
+                    } else {
+                        rng.random_range(0.0..2.0)
+                    }
+                })
+            };
+            let (ha, hb) = (half(&mut rng), half(&mut rng));
+            let ca = Vector3::from(std::array::from_fn::<f64, 3, _>(|_| {
+                rng.random_range(-4.0..4.0)
+            }));
+            let cb = Vector3::from(std::array::from_fn::<f64, 3, _>(|_| {
+                rng.random_range(-1.0..1.0)
+            }));
+            let sweep = if case % 2 == 0 {
+                Vector3::zeros()
+            } else {
+                Vector3::from(std::array::from_fn::<f64, 3, _>(|_| {
+                    rng.random_range(-2.0..2.0)
+                }))
+            };
+            let margin = rng.random_range(0.0..0.5);
+            let centre_b: [f64; 3] = cb.into();
+            let lazy = posed_boxes_apart(
+                (&rb, &centre_b, &hb),
+                (&ra, &ca, &ha),
+                (sweep != Vector3::zeros()).then_some(&sweep),
+                margin,
+            );
+            let (reference, closest) = whole((&rb, &cb, &hb), (&ra, &ca, &ha), &sweep, margin);
+            // (A verdict within roundings of its threshold may go either way.)
+            if closest > 1e-9 {
+                assert_eq!(lazy, reference, "case {case}");
+            }
+            if !lazy {
+                met += 1;
+                continue;
+            }
+            parted += 1;
+            let point = |rng: &mut ChaCha8Rng, r: &Matrix3<f64>, c: &Vector3<f64>, h: &[f64; 3]| {
+                let local = Vector3::from(std::array::from_fn::<f64, 3, _>(|k| {
+                    h[k] * rng.random_range(-1.0..=1.0)
+                }));
+                c + r * local
+            };
+            for _ in 0..20 {
+                let on_sweep = sweep * rng.random_range(0.0..=1.0);
+                let p = point(&mut rng, &ra, &ca, &ha) + on_sweep;
+                let q = point(&mut rng, &rb, &cb, &hb);
+                assert!(
+                    (p - q).norm() > margin - 1e-9,
+                    "case {case}: points {} apart, margin {margin}",
+                    (p - q).norm()
+                );
+            }
+        }
+        // Both verdicts were tested many times.
+        assert!(parted > 2_000 && met > 2_000, "parted {parted}, met {met}");
+    }
 }
