@@ -39,10 +39,11 @@ impl Pose {
         Vector3::new(self.q[0], self.q[1], self.q[2])
     }
 
-    /// `R(q) = Rz(alpha) Ry(beta) Rx(gamma)`.
+    /// `R(q) = Rz(alpha) Ry(beta) Rx(gamma)`, bit for bit [`rotation_zyx`]'s: from a memo of
+    /// the matrices this thread made last ([`RotationMemo`]) where its angles are there.
     #[inline]
     pub fn rotation_matrix(&self) -> Matrix3<f64> {
-        rotation_zyx(self.q[3], self.q[4], self.q[5])
+        RotationMemo::rotation(self.q[3], self.q[4], self.q[5])
     }
 
     /// `world_from_tool` as an isometry.
@@ -252,6 +253,55 @@ pub fn rotation_zyx(gamma: f64, beta: f64, alpha: f64) -> Matrix3<f64> {
     )
 }
 
+/// The rotation matrices a thread made last, each under its three angles' bits: a frame of
+/// the engine asks for ~40 of a handful of poses (the hand's, the last answer's, a region's
+/// centre, a list's pose: its motion bounds, its linearisations), and three sines and cosines
+/// each were ~17 % of the bunny's frame time. Eight slots, each angle triple in one of them
+/// (by a hash of the bits); a triple found there gives the matrix [`rotation_zyx`] made of
+/// it, so nothing changes but the time. Per thread, so nothing is shared or locked; no slot
+/// needs dropping, so a thread's memo is never torn down under it (and, were it, the matrix is
+/// made as before).
+struct RotationMemo;
+
+/// One slot of [`RotationMemo`]: the angles' bits and their matrix.
+#[derive(Clone, Copy)]
+struct MemoSlot {
+    key: [u64; 3],
+    rot: Matrix3<f64>,
+}
+
+/// Slots of [`RotationMemo`] (a power of two).
+const MEMO_SLOTS: usize = 8;
+
+thread_local! {
+    static ROTATIONS: [std::cell::Cell<Option<MemoSlot>>; MEMO_SLOTS] =
+        const { [const { std::cell::Cell::new(None) }; MEMO_SLOTS] };
+}
+
+impl RotationMemo {
+    /// [`rotation_zyx`] of the angles (rad), from this thread's memo where they are in it.
+    #[inline]
+    fn rotation(gamma: f64, beta: f64, alpha: f64) -> Matrix3<f64> {
+        let key = [gamma.to_bits(), beta.to_bits(), alpha.to_bits()];
+        let mixed = (key[0] ^ key[1].rotate_left(21) ^ key[2].rotate_left(42))
+            .wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let slot = (mixed >> 61) as usize % MEMO_SLOTS;
+        ROTATIONS
+            .try_with(|memo| {
+                let cell = &memo[slot];
+                match cell.get() {
+                    Some(found) if found.key == key => found.rot,
+                    _ => {
+                        let rot = rotation_zyx(gamma, beta, alpha);
+                        cell.set(Some(MemoSlot { key, rot }));
+                        rot
+                    }
+                }
+            })
+            .unwrap_or_else(|_| rotation_zyx(gamma, beta, alpha))
+    }
+}
+
 /// The exact partial derivatives of `R = Rz(alpha) Ry(beta) Rx(gamma)` with respect to
 /// `(gamma, beta, alpha)` (rad): `[dR/dgamma, dR/dbeta, dR/dalpha]`.
 pub fn rotation_zyx_partials(gamma: f64, beta: f64, alpha: f64) -> [Matrix3<f64>; 3] {
@@ -427,5 +477,30 @@ mod tests {
             assert!((p.rotation_matrix() - r).norm() < 1e-9, "beta {beta}");
             assert_eq!(p.translation(), Vector3::new(1.0, 2.0, 3.0));
         }
+    }
+
+    /// A pose's matrix, from the memo or made anew, is bit for bit [`rotation_zyx`]'s: poses
+    /// asked for again and again among many others (more than the memo's slots), signed zeros
+    /// and a non-finite angle included, on two threads.
+    #[test]
+    fn a_rotation_from_the_memo_is_the_one_made_anew() {
+        use rand::{Rng, SeedableRng};
+        let check = |seed: u64| {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let mut pool: Vec<[f64; 3]> = (0..40)
+                .map(|_| std::array::from_fn(|_| rng.random_range(-3.2..3.2)))
+                .collect();
+            pool.extend([[0.0, 0.0, 0.0], [-0.0, 0.0, -0.0], [f64::NAN, 0.1, 0.2]]);
+            for _ in 0..20_000 {
+                let [g, b, a] = pool[rng.random_range(0..pool.len())];
+                let from_pose = Pose::from_array([0.0, 0.0, 0.0, g, b, a]).rotation_matrix();
+                let made = rotation_zyx(g, b, a);
+                let bits = |m: &Matrix3<f64>| m.map(f64::to_bits);
+                assert_eq!(bits(&from_pose), bits(&made), "angles {g} {b} {a}");
+            }
+        };
+        let other = std::thread::spawn(move || check(2));
+        check(1);
+        other.join().unwrap();
     }
 }
