@@ -256,7 +256,7 @@ pub fn rotation_zyx(gamma: f64, beta: f64, alpha: f64) -> Matrix3<f64> {
 /// The rotation matrices a thread made last, each under its three angles' bits: a frame of
 /// the engine asks for ~40 of a handful of poses (the hand's, the last answer's, a region's
 /// centre, a list's pose: its motion bounds, its linearisations), and three sines and cosines
-/// each were ~17 % of the bunny's frame time. Eight slots, each angle triple in one of them
+/// each were ~17 % of the bunny's mesh frames' samples. Eight slots, each angle triple in one of them
 /// (by a hash of the bits); a triple found there gives the matrix [`rotation_zyx`] made of
 /// it, so nothing changes but the time. Per thread, so nothing is shared or locked; no slot
 /// needs dropping, so a thread's memo is never torn down under it (and, were it, the matrix is
