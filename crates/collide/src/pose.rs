@@ -40,7 +40,8 @@ impl Pose {
     }
 
     /// `R(q) = Rz(alpha) Ry(beta) Rx(gamma)`, bit for bit [`rotation_zyx`]'s: from a memo of
-    /// the matrices this thread made last ([`RotationMemo`]) where its angles are there.
+    /// the few matrices this thread made last (by the angles' bits) where its angles are there,
+    /// else made and kept there.
     #[inline]
     pub fn rotation_matrix(&self) -> Matrix3<f64> {
         RotationMemo::rotation(self.q[3], self.q[4], self.q[5])
