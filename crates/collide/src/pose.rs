@@ -257,9 +257,9 @@ pub fn rotation_zyx(gamma: f64, beta: f64, alpha: f64) -> Matrix3<f64> {
 /// The rotation matrices a thread made last, each under its three angles' bits: a frame of
 /// the engine asks for ~40 of a handful of poses (the hand's, the last answer's, a region's
 /// centre, a list's pose: its motion bounds, its linearisations), and three sines and cosines
-/// each were ~17 % of the bunny's mesh frames' samples. Eight slots, each angle triple in one of them
-/// (by a hash of the bits); a triple found there gives the matrix [`rotation_zyx`] made of
-/// it, so nothing changes but the time. Per thread, so nothing is shared or locked; no slot
+/// each were ~17 % of the bunny's mesh frames' samples. [`MEMO_SLOTS`] slots, each angle
+/// triple in one of them (by a hash of the bits); a triple found there gives the matrix
+/// [`rotation_zyx`] made of it, so nothing changes but the time. Per thread, so nothing is shared or locked; no slot
 /// needs dropping, so a thread's memo is never torn down under it (and, were it, the matrix is
 /// made as before).
 struct RotationMemo;
@@ -271,8 +271,9 @@ struct MemoSlot {
     rot: Matrix3<f64>,
 }
 
-/// Slots of [`RotationMemo`] (a power of two).
+/// Slots of [`RotationMemo`] (a power of two, at least two).
 const MEMO_SLOTS: usize = 8;
+const _: () = assert!(MEMO_SLOTS.is_power_of_two() && MEMO_SLOTS >= 2);
 
 thread_local! {
     static ROTATIONS: [std::cell::Cell<Option<MemoSlot>>; MEMO_SLOTS] =
@@ -286,7 +287,8 @@ impl RotationMemo {
         let key = [gamma.to_bits(), beta.to_bits(), alpha.to_bits()];
         let mixed = (key[0] ^ key[1].rotate_left(21) ^ key[2].rotate_left(42))
             .wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        let slot = (mixed >> 61) as usize % MEMO_SLOTS;
+        // The hash's top bits, as many as the slots need.
+        let slot = (mixed >> (u64::BITS - MEMO_SLOTS.trailing_zeros())) as usize;
         ROTATIONS
             .try_with(|memo| {
                 let cell = &memo[slot];
