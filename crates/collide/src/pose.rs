@@ -242,7 +242,12 @@ impl CentreBox {
     /// `2 sin(θ/2) |û × x| <= θ |û × x|`, and so does every point of the shortest turn between
     /// them. `θ · reach` (the box's) where the axis is not defined (a non-finite input).
     pub fn turn_bound(&self, r_a: &Matrix3<f64>, r_b: &Matrix3<f64>) -> f64 {
-        let w = rotation_log(&(r_b * r_a.transpose()));
+        self.turn_bound_by(r_a, &rotation_log(&(r_b * r_a.transpose())))
+    }
+
+    /// [`CentreBox::turn_bound`] of the turn `w` (rotation vector, world, rad) from `r_a`,
+    /// `r_b = exp(w) r_a`: for a caller that needs the turn for more than one bound.
+    pub fn turn_bound_by(&self, r_a: &Matrix3<f64>, w: &Vector3<f64>) -> f64 {
         let th = w.norm();
         if th == 0.0 {
             0.0

@@ -30,10 +30,12 @@ impl Bodies {
         r_a: &Matrix3<f64>,
         r_b: &Matrix3<f64>,
     ) -> f64 {
-        let whole = self.turn_bound(r_a, r_b);
+        // The turn read once for every bound below (each reads the same `r_b r_a^T`).
+        let w = rotation_log(&(r_b * r_a.transpose()));
+        let whole = self.turn_bound_by(r_a, &w);
         part.map_or(whole, |p| {
-            p.turn_bound(r_a, r_b)
-                .min(rotation_angle(r_b, r_a) * p.reach())
+            p.turn_bound_by(r_a, &w)
+                .min(w.norm() * p.reach())
                 .min(whole)
         })
     }
@@ -41,9 +43,14 @@ impl Bodies {
     /// [`GodObject::turn_bound`]: how far (mm) a point of the tool moves at most when it turns
     /// from `r_a` to `r_b`.
     pub(super) fn turn_bound(&self, r_a: &Matrix3<f64>, r_b: &Matrix3<f64>) -> f64 {
+        self.turn_bound_by(r_a, &rotation_log(&(r_b * r_a.transpose())))
+    }
+
+    /// [`Bodies::turn_bound`] of the turn `w` (rotation vector, world, rad) from `r_a`.
+    fn turn_bound_by(&self, r_a: &Matrix3<f64>, w: &Vector3<f64>) -> f64 {
         self.centres
-            .turn_bound(r_a, r_b)
-            .min(rotation_angle(r_b, r_a) * self.reach)
+            .turn_bound_by(r_a, w)
+            .min(w.norm() * self.reach)
     }
 }
 
