@@ -52,6 +52,7 @@
 
 mod constraint;
 mod contact_area;
+mod features;
 mod flat_faces;
 mod mesh_leaves;
 mod near;
@@ -70,6 +71,10 @@ pub use constraint::{
     RotationCoordinates, DEGENERATE_DISTANCE,
 };
 pub use contact_area::{flat_overlap, AreaMoment};
+pub use features::{
+    feature_contacts, Edge, EdgeKind, Feature, FeatureContact, MeshFeatures, PlacedFeatures,
+    FEATURE_SLACK_MM,
+};
 pub use flat_faces::{merge_flat_faces, FlatFaces, FLAT_TOLERANCE_MM};
 pub use mesh_leaves::{MeshLeaves, MeshLeavesError};
 pub use near::near_box;

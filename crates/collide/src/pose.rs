@@ -522,16 +522,16 @@ mod tests {
         let quarter = std::f64::consts::FRAC_PI_2;
         for k in 0..20_000 {
             let axis = Vector3::new(
-                rng.gen_range(-1.0..1.0),
-                rng.gen_range(-1.0..1.0),
-                rng.gen_range(-1.0..1.0f64),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0f64),
             )
             .normalize();
             let angle = match k % 4 {
-                0 => 10f64.powf(rng.gen_range(-14.0..0.0)),
-                1 => quarter + rng.gen_range(-1e-6..1e-6),
-                2 => rng.gen_range(0.0..std::f64::consts::PI - 1e-6),
-                _ => quarter * (1.0 + f64::EPSILON * f64::from(rng.gen_range(-4..=4))),
+                0 => 10f64.powf(rng.random_range(-14.0..0.0)),
+                1 => quarter + rng.random_range(-1e-6..1e-6),
+                2 => rng.random_range(0.0..std::f64::consts::PI - 1e-6),
+                _ => quarter * (1.0 + f64::EPSILON * f64::from(rng.random_range(-4..=4))),
             };
             let w = axis * angle;
             let r = rotation_exp(&w);

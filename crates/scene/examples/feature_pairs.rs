@@ -1,132 +1,37 @@
 //! What a feature-level narrow phase would hold where the mesh mode holds triangle pairs: at
 //! the tool poses of a run (its `frames.csv`), the triangle pairs within a list's reach and
-//! within a region's margin, against the vertex–face and edge–edge pairs that are nearest
-//! features there (a vertex over a face's inside, two convex edges nearest between their
-//! ends), each counted once however many triangle pairs share it.
+//! within a region's margin, their distinct nearest feature pairs, and the candidate nearest
+//! feature pairs of [`collide::feature_contacts`] within a slack of their regions (a vertex over a face's inside, against an
+//! edge in its wedge or a vertex in its cone; two convex edges nearest between their ends),
+//! each counted once however many triangle pairs share it.
 //!
 //! ```text
-//! cargo run --release -p scene --example feature_pairs -- SCENE FRAMES_CSV REACH MARGIN T...
+//! cargo run --release -p scene --example feature_pairs -- SCENE FRAMES_CSV REACH MARGIN SLACK T...
 //! ```
 //!
 //! `SCENE` a built-in (`spline-tight`, `fit/round-r10-c0.05-tilted`, `zoo/sphere-on-sphere`,
 //! …), `FRAMES_CSV` a run of it (`haptic6d run SCENE --geometry mesh --out DIR`), `REACH` and
-//! `MARGIN` in mm, then the frames' times (s). The meshes are taken with their flat faces
+//! `MARGIN` in mm, `SLACK` how far (mm) a pair may stand outside its features' regions (the
+//! motion they may become nearest over), then the frames' times (s). The meshes are taken with their flat faces
 //! merged, as the mesh mode takes them. A measuring tool for the design (docs/design-notes.md),
 //! not part of the engine: it allocates freely.
 
 use std::collections::{HashMap, HashSet};
 
-use collide::{merge_flat_faces, triangle_distance, Pose, Triangle, TriangleTree};
+use collide::{
+    feature_contacts, merge_flat_faces, triangle_distance, Feature, MeshFeatures, PlacedFeatures,
+    Pose, Triangle, TriangleTree,
+};
 use nalgebra::{Matrix3, Vector3};
 use scene::{cache::TreeCache, scenes};
 
 type V = Vector3<f64>;
 
-/// A surface with its topology: vertices by their coordinates' bits, faces, and for each
-/// edge (its two vertex ids, the lower first) whether it is convex.
-struct Surface {
-    points: Vec<V>,
-    faces: Vec<[u32; 3]>,
-    convex_edges: HashSet<(u32, u32)>,
-}
-
-impl Surface {
-    fn new(triangles: &[Triangle]) -> Self {
-        let mut ids: HashMap<[u64; 3], u32> = HashMap::new();
-        let mut points = Vec::new();
-        let mut faces = Vec::new();
-        for t in triangles {
-            let mut f = [0u32; 3];
-            for (k, p) in t.iter().enumerate() {
-                let key = p.map(f64::to_bits);
-                f[k] = *ids.entry(key).or_insert_with(|| {
-                    points.push(V::from(*p));
-                    (points.len() - 1) as u32
-                });
-            }
-            faces.push(f);
-        }
-        let mut by_edge: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
-        for (i, f) in faces.iter().enumerate() {
-            for k in 0..3 {
-                let (a, b) = (f[k], f[(k + 1) % 3]);
-                by_edge.entry((a.min(b), a.max(b))).or_default().push(i);
-            }
-        }
-        let mut s = Self {
-            points,
-            faces,
-            convex_edges: HashSet::new(),
-        };
-        for (edge, fs) in by_edge {
-            // An edge of one face (a hole's rim, an open mesh) counts as convex; one of two
-            // faces is convex where the second face's far corner lies behind the first's plane.
-            let convex = match fs.as_slice() {
-                [f1, f2] => {
-                    let (n, d) = s.plane(*f1);
-                    let far = s.faces[*f2]
-                        .iter()
-                        .find(|&&v| v != edge.0 && v != edge.1)
-                        .map_or(0.0, |&v| n.dot(&s.points[v as usize]) - d);
-                    far < -1e-9
-                }
-                _ => true,
-            };
-            if convex {
-                s.convex_edges.insert(edge);
-            }
-        }
-        s
-    }
-
-    fn plane(&self, f: usize) -> (V, f64) {
-        let [a, b, c] = self.faces[f].map(|v| self.points[v as usize]);
-        let n = (b - a).cross(&(c - a)).normalize();
-        (n, n.dot(&a))
-    }
-}
-
-/// The distance (mm) from `p` to face `f` of `s` where `p` lies over the face's inside (its
-/// projection within the face, by `slack` mm) and in front of it; else `None`.
-fn vertex_face(p: &V, s: &Surface, f: usize, slack: f64) -> Option<f64> {
-    let (n, d) = s.plane(f);
-    let h = n.dot(p) - d;
-    if h < -1e-9 {
-        return None;
-    }
-    let q = p - n * h;
-    let corners = s.faces[f].map(|v| s.points[v as usize]);
-    for k in 0..3 {
-        let (a, b) = (corners[k], corners[(k + 1) % 3]);
-        let inward = n.cross(&(b - a)).normalize();
-        if inward.dot(&(q - a)) < -slack {
-            return None;
-        }
-    }
-    Some(h)
-}
-
-/// The distance (mm) between segments `(a0, a1)` and `(b0, b1)` where their nearest points
-/// are inside both (not at an end); else `None`.
-fn edge_edge(a0: &V, a1: &V, b0: &V, b1: &V) -> Option<f64> {
-    let (u, v, w) = (a1 - a0, b1 - b0, a0 - b0);
-    let (aa, bb, ab, au, bu) = (u.dot(&u), v.dot(&v), u.dot(&v), u.dot(&w), v.dot(&w));
-    let den = aa * bb - ab * ab;
-    if den <= 1e-12 * aa * bb {
-        return None; // parallel: the vertex–face pairs hold them
-    }
-    let s = (ab * bu - bb * au) / den;
-    let t = (aa * bu - ab * au) / den;
-    let inside = |x: f64| x > 1e-9 && x < 1.0 - 1e-9;
-    (inside(s) && inside(t)).then(|| (w + u * s - v * t).norm())
-}
-
-/// The feature of face `f` of `s` the point `q` (on the face) lies at: a corner (kind 0, its
-/// vertex), an edge (kind 1, its two vertices) or the inside (kind 2, the face), by its
-/// barycentric coordinates within `tol` of zero.
-fn feature_at(q: &[f64; 3], s: &Surface, f: usize, tol: f64) -> (u8, u64) {
-    let ids = s.faces[f];
-    let [a, b, c] = ids.map(|v| s.points[v as usize]);
+/// The feature of face `f` of `mesh` (corners placed at `points`) the point `q` on it lies
+/// at: a corner, an edge or the inside, by its barycentric coordinates within `tol` of zero.
+fn feature_at(q: &[f64; 3], mesh: &MeshFeatures, points: &[[f64; 3]], f: u32, tol: f64) -> Feature {
+    let ids = mesh.face(f);
+    let [a, b, c] = ids.map(|v| V::from(points[v as usize]));
     let q = V::from(*q);
     let n = (b - a).cross(&(c - a));
     let area = n.norm_squared();
@@ -137,28 +42,34 @@ fn feature_at(q: &[f64; 3], s: &Surface, f: usize, tol: f64) -> (u8, u64) {
     ];
     let zero: Vec<usize> = (0..3).filter(|&k| bary[k].abs() <= tol).collect();
     match zero.as_slice() {
-        [i, j] => {
-            let k = 3 - i - j;
-            (0, u64::from(ids[k]))
-        }
-        [i] => {
-            let (u, v) = (ids[(i + 1) % 3], ids[(i + 2) % 3]);
-            (1, (u64::from(u.min(v)) << 32) | u64::from(u.max(v)))
-        }
-        _ => (2, f as u64),
+        [i, j] => Feature::Vertex(ids[3 - i - j]),
+        [i] => Feature::Edge(mesh.face_edges(f)[(i + 1) % 3]),
+        _ => Feature::Face(f),
     }
+}
+
+/// Each vertex of `mesh` where `tris` (its faces, placed) puts it.
+fn placed_points(mesh: &MeshFeatures, tris: &[Triangle]) -> Vec<[f64; 3]> {
+    let mut out = vec![[f64::NAN; 3]; mesh.points().len()];
+    for (f, tri) in tris.iter().enumerate() {
+        for (k, &v) in mesh.face(f as u32).iter().enumerate() {
+            out[v as usize] = tri[k];
+        }
+    }
+    out
 }
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    if args.len() < 6 {
-        eprintln!("usage: feature_pairs SCENE FRAMES_CSV REACH MARGIN T...");
+    if args.len() < 7 {
+        eprintln!("usage: feature_pairs SCENE FRAMES_CSV REACH MARGIN SLACK T...");
         std::process::exit(2);
     }
     let (name, frames) = (&args[1], &args[2]);
     let reach: f64 = args[3].parse().expect("REACH in mm");
     let margin: f64 = args[4].parse().expect("MARGIN in mm");
-    let times: Vec<f64> = args[5..]
+    let slack: f64 = args[5].parse().expect("SLACK in mm");
+    let times: Vec<f64> = args[6..]
         .iter()
         .map(|t| t.parse().expect("a time in s"))
         .collect();
@@ -167,7 +78,8 @@ fn main() {
     let tool_mesh = scene.tool_mesh.as_ref().expect("a tool built from a mesh");
     let tool_tris = merged(tool_mesh);
     let tool_tree = TriangleTree::build(&tool_tris, &Pose::identity());
-    let objects: Vec<(Vec<Triangle>, TriangleTree)> = scene
+    let tool_features = MeshFeatures::new(&tool_tris);
+    let objects: Vec<(Vec<Triangle>, TriangleTree, MeshFeatures)> = scene
         .object_meshes
         .iter()
         .zip(&scene.objects)
@@ -179,7 +91,8 @@ fn main() {
                 .map(|tri| tri.map(|p| (rot * V::from(p) + t).into()))
                 .collect();
             let tree = TriangleTree::build(&tris, pose);
-            (placed, tree)
+            let features = MeshFeatures::new(&placed);
+            (placed, tree, features)
         })
         .collect();
 
@@ -202,7 +115,7 @@ fn main() {
         .collect();
 
     println!(
-        "| t (s) | triangle pairs listed | within {reach} mm | within {margin} mm | their nearest feature pairs | vertex–face and edge–edge pairs within {reach} mm | within {margin} mm |"
+        "| t (s) | triangle pairs listed | within {reach} mm | within {margin} mm | their nearest feature pairs | candidate feature pairs (slack {slack} mm) within {reach} mm | within {margin} mm |"
     );
     println!("|---|---|---|---|---|---|---|");
     for &time in &times {
@@ -216,74 +129,48 @@ fn main() {
             .iter()
             .map(|tri| tri.map(|p| (rot * V::from(p) + t).into()))
             .collect();
-        let tool = Surface::new(&posed);
+        let tool_points = placed_points(&tool_features, &posed);
+        let tool = PlacedFeatures {
+            mesh: &tool_features,
+            points: &tool_points,
+        };
         let (mut listed, mut within, mut rows_tri) = (0usize, 0usize, 0usize);
-        let mut features: HashMap<(u8, u64, u64), f64> = HashMap::new();
-        let mut nearest: HashSet<((u8, u64), (u8, u64))> = HashSet::new();
-        for (placed, tree) in &objects {
-            let object = Surface::new(placed);
+        let mut features: HashMap<(usize, Feature, Feature), f64> = HashMap::new();
+        let mut nearest: HashSet<(usize, Feature, Feature)> = HashSet::new();
+        for (k, (placed, tree, object_features)) in objects.iter().enumerate() {
+            let object_points = placed_points(object_features, placed);
+            let object = PlacedFeatures {
+                mesh: object_features,
+                points: &object_points,
+            };
             let mut stack = TriangleTree::stack_for(&tool_tree, tree);
             let mut pairs = Vec::new();
             tool_tree.near_leaf_pairs(&rot, &t, tree, reach, &mut stack, |ts, ps| {
                 for a in ts {
                     for b in ps.clone() {
-                        pairs.push((tool_tree.origin(a) as usize, tree.origin(b) as usize));
+                        pairs.push((tool_tree.origin(a), tree.origin(b)));
                     }
                 }
                 true
             });
             for (a, b) in pairs {
                 listed += 1;
-                let near = triangle_distance(&posed[a], &placed[b]);
-                let d = near.distance;
-                if d > reach {
+                let near = triangle_distance(&posed[a as usize], &placed[b as usize]);
+                if near.distance > reach {
                     continue;
                 }
                 within += 1;
-                rows_tri += usize::from(d <= margin);
-                if d <= margin {
+                if near.distance <= margin {
+                    rows_tri += 1;
                     nearest.insert((
-                        feature_at(&near.on_a, &tool, a, 1e-7),
-                        feature_at(&near.on_b, &object, b, 1e-7),
+                        k,
+                        feature_at(&near.on_a, &tool_features, &tool_points, a, 1e-7),
+                        feature_at(&near.on_b, object_features, &object_points, b, 1e-7),
                     ));
                 }
-                let (fa, fb) = (tool.faces[a], object.faces[b]);
-                let mut note = |key: (u8, u64, u64), d: f64| {
-                    features.insert(key, d);
-                };
-                for &v in &fa {
-                    if let Some(h) = vertex_face(&tool.points[v as usize], &object, b, 1e-9) {
-                        note((0, u64::from(v), b as u64), h);
-                    }
-                }
-                for &v in &fb {
-                    if let Some(h) = vertex_face(&object.points[v as usize], &tool, a, 1e-9) {
-                        note((1, u64::from(v), a as u64), h);
-                    }
-                }
-                for i in 0..3 {
-                    let ea = (fa[i].min(fa[(i + 1) % 3]), fa[i].max(fa[(i + 1) % 3]));
-                    if !tool.convex_edges.contains(&ea) {
-                        continue;
-                    }
-                    for j in 0..3 {
-                        let eb = (fb[j].min(fb[(j + 1) % 3]), fb[j].max(fb[(j + 1) % 3]));
-                        if !object.convex_edges.contains(&eb) {
-                            continue;
-                        }
-                        let p = |s: &Surface, v: u32| s.points[v as usize];
-                        let ends = (
-                            p(&tool, ea.0),
-                            p(&tool, ea.1),
-                            p(&object, eb.0),
-                            p(&object, eb.1),
-                        );
-                        if let Some(d) = edge_edge(&ends.0, &ends.1, &ends.2, &ends.3) {
-                            let key = |e: (u32, u32)| (u64::from(e.0) << 32) | u64::from(e.1);
-                            note((2, key(ea), key(eb)), d);
-                        }
-                    }
-                }
+                feature_contacts(tool, a, object, b, reach, slack, |c| {
+                    features.insert((k, c.a, c.b), c.distance);
+                });
             }
         }
         let f_reach = features.values().filter(|&&d| d <= reach).count();

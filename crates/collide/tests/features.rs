@@ -1,0 +1,399 @@
+//! Mesh features against brute force: over every triangle pair of two meshes that do not meet,
+//! the least distance of the candidate nearest feature pairs ([`feature_contacts`]) is the
+//! least triangle distance, to 1e-9 mm; every candidate's distance is that of its two points,
+//! each on its own feature; and a contact of many triangle pairs holds few feature pairs.
+
+use std::collections::HashMap;
+
+use collide::{
+    feature_contacts, triangle_distance, EdgeKind, Feature, FeatureContact, MeshFeatures,
+    PlacedFeatures, Pose, Triangle,
+};
+use nalgebra::Vector3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+type V = Vector3<f64>;
+
+/// A box of half sides `h` about the origin, its faces counter-clockwise seen from outside.
+fn box_mesh(h: [f64; 3]) -> Vec<Triangle> {
+    let c = |i: usize| -> [f64; 3] {
+        [
+            if i & 1 == 0 { -h[0] } else { h[0] },
+            if i & 2 == 0 { -h[1] } else { h[1] },
+            if i & 4 == 0 { -h[2] } else { h[2] },
+        ]
+    };
+    // Each face's corners counter-clockwise seen from outside.
+    let quads = [
+        [0, 2, 3, 1], // z-
+        [4, 5, 7, 6], // z+
+        [0, 1, 5, 4], // y-
+        [2, 6, 7, 3], // y+
+        [0, 4, 6, 2], // x-
+        [1, 3, 7, 5], // x+
+    ];
+    quads
+        .iter()
+        .flat_map(|q| [[c(q[0]), c(q[1]), c(q[2])], [c(q[0]), c(q[2]), c(q[3])]])
+        .collect()
+}
+
+/// A ball of radius `r` about the origin with `n` segments about its axis and `n / 2` rings:
+/// fans of slivers meet at its poles.
+fn ball_mesh(r: f64, n: usize) -> Vec<Triangle> {
+    let rings = n / 2;
+    let at = |i: usize, k: usize| -> [f64; 3] {
+        let theta = std::f64::consts::PI * i as f64 / rings as f64;
+        let phi = 2.0 * std::f64::consts::PI * (k % n) as f64 / n as f64;
+        if i == 0 {
+            return [0.0, 0.0, r];
+        }
+        if i == rings {
+            return [0.0, 0.0, -r];
+        }
+        [
+            r * theta.sin() * phi.cos(),
+            r * theta.sin() * phi.sin(),
+            r * theta.cos(),
+        ]
+    };
+    let mut tris = Vec::new();
+    for i in 0..rings {
+        for k in 0..n {
+            let (a, b, c, d) = (at(i, k), at(i + 1, k), at(i + 1, k + 1), at(i, k + 1));
+            if i > 0 {
+                tris.push([a, b, d]);
+            }
+            if i + 1 < rings {
+                tris.push([b, c, d]);
+            }
+        }
+    }
+    tris
+}
+
+/// An L-shaped prism (not convex: one concave edge along its height), `h` mm high.
+fn l_prism(h: f64) -> Vec<Triangle> {
+    let outline = [
+        [0.0, 0.0],
+        [2.0, 0.0],
+        [2.0, 1.0],
+        [1.0, 1.0],
+        [1.0, 2.0],
+        [0.0, 2.0],
+    ];
+    let at = |k: usize, z: f64| -> [f64; 3] { [outline[k][0] * 5.0, outline[k][1] * 5.0, z] };
+    // The caps: a fan from the reflex corner (index 3), counter-clockwise from above.
+    let fan = [(4, 5), (5, 0), (0, 1), (1, 2)];
+    let mut tris = Vec::new();
+    for (b, c) in fan {
+        tris.push([at(3, h), at(b, h), at(c, h)]);
+        tris.push([at(3, 0.0), at(c, 0.0), at(b, 0.0)]);
+    }
+    for k in 0..6 {
+        let l = (k + 1) % 6;
+        tris.push([at(k, 0.0), at(l, 0.0), at(l, h)]);
+        tris.push([at(k, 0.0), at(l, h), at(k, h)]);
+    }
+    tris
+}
+
+fn placed(tris: &[Triangle], pose: &Pose) -> Vec<Triangle> {
+    let (rot, t) = (pose.rotation_matrix(), pose.translation());
+    tris.iter()
+        .map(|tri| tri.map(|p| (rot * V::from(p) + t).into()))
+        .collect()
+}
+
+fn random_pose(rng: &mut ChaCha8Rng, spread: f64) -> Pose {
+    Pose::from_array([
+        rng.random_range(-spread..spread),
+        rng.random_range(-spread..spread),
+        rng.random_range(-spread..spread),
+        rng.random_range(-3.2..3.2),
+        rng.random_range(-1.5..1.5),
+        rng.random_range(-3.2..3.2),
+    ])
+}
+
+/// The distance of `p` from the feature `f` of the mesh whose placed triangles are `tris`.
+fn off_feature(p: &[f64; 3], f: Feature, mesh: &MeshFeatures, points: &[[f64; 3]]) -> f64 {
+    let at = |v: u32| V::from(points[v as usize]);
+    let p = V::from(*p);
+    match f {
+        Feature::Vertex(v) => (p - at(v)).norm(),
+        Feature::Edge(e) => {
+            let [a, b] = mesh.edge(e).ends.map(at);
+            let s = ((p - a).dot(&(b - a)) / (b - a).norm_squared()).clamp(0.0, 1.0);
+            (p - (a + (b - a) * s)).norm()
+        }
+        Feature::Face(g) => {
+            let tri = mesh.face(g).map(|v| points[v as usize]);
+            triangle_distance(&tri, &[p.into(), p.into(), p.into()]).distance
+        }
+    }
+}
+
+/// Every candidate of the two placed meshes' triangle pairs within `reach` (mm), each once by
+/// its features, and the least triangle distance.
+fn candidates(
+    a: (&MeshFeatures, &[Triangle]),
+    b: (&MeshFeatures, &[Triangle]),
+    reach: f64,
+) -> (HashMap<(Feature, Feature), FeatureContact>, f64, usize) {
+    let points = |m: &MeshFeatures, tris: &[Triangle]| -> Vec<[f64; 3]> {
+        // The placed corner of each vertex, read back through its first face.
+        let mut out = vec![[f64::NAN; 3]; m.counts().2];
+        for (f, tri) in tris.iter().enumerate() {
+            for (k, &v) in m.face(f as u32).iter().enumerate() {
+                out[v as usize] = tri[k];
+            }
+        }
+        out
+    };
+    let (pa, pb) = (points(a.0, a.1), points(b.0, b.1));
+    let (fa, fb) = (
+        PlacedFeatures {
+            mesh: a.0,
+            points: &pa,
+        },
+        PlacedFeatures {
+            mesh: b.0,
+            points: &pb,
+        },
+    );
+    let mut found = HashMap::new();
+    let mut least = f64::INFINITY;
+    let mut within = 0;
+    for (i, ta) in a.1.iter().enumerate() {
+        for (j, tb) in b.1.iter().enumerate() {
+            let d = triangle_distance(ta, tb);
+            least = least.min(if d.meet { 0.0 } else { d.distance });
+            if d.distance > reach {
+                continue;
+            }
+            within += 1;
+            feature_contacts(fa, i as u32, fb, j as u32, reach, 0.0, |c| {
+                // Each candidate's points are on its features, its distance theirs.
+                assert!(off_feature(&c.on_a, c.a, a.0, &pa) < 1e-9, "{c:?}");
+                assert!(off_feature(&c.on_b, c.b, b.0, &pb) < 1e-9, "{c:?}");
+                let between = (V::from(c.on_a) - V::from(c.on_b)).norm();
+                assert!((between - c.distance).abs() < 1e-12, "{c:?}");
+                found.insert((c.a, c.b), c);
+            });
+        }
+    }
+    (found, least, within)
+}
+
+#[test]
+fn the_least_candidate_is_the_meshes_distance_for_every_pose() {
+    let shapes: [(&str, Vec<Triangle>); 3] = [
+        ("box", box_mesh([4.0, 3.0, 2.0])),
+        ("ball", ball_mesh(5.0, 12)),
+        ("L prism", l_prism(6.0)),
+    ];
+    let mut rng = ChaCha8Rng::seed_from_u64(42);
+    let (mut checked, mut apart) = (0, 0);
+    for (name_a, a) in &shapes {
+        for (name_b, b) in &shapes {
+            let (fa, fb) = (MeshFeatures::new(a), MeshFeatures::new(b));
+            for _ in 0..60 {
+                let pose = random_pose(&mut rng, 16.0);
+                let a_placed = placed(a, &pose);
+                let (found, least, _) = candidates((&fa, &a_placed), (&fb, b), f64::INFINITY);
+                if least <= 1e-6 {
+                    continue; // meeting: no nearest pair to find
+                }
+                let best = found
+                    .values()
+                    .map(|c| c.distance)
+                    .fold(f64::INFINITY, f64::min);
+                assert!(
+                    (best - least).abs() <= 1e-9,
+                    "{name_a} against {name_b}: {best} against {least}"
+                );
+                apart += 1;
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked == 9 && apart > 200, "{apart} poses apart");
+}
+
+/// Two meshes, each placed by a pose, and their gap (mm).
+type Case<'a> = (&'a [Triangle], &'a [Triangle], Pose, Pose, f64);
+
+#[test]
+fn degenerate_contacts_keep_their_nearest_pair() {
+    // A ball's pole right over another's (a vertex over a vertex), a box face over a box face
+    // (faces parallel, edges parallel), a box's edge across another's (edges touching), and
+    // a corner right over a corner.
+    let ball = ball_mesh(5.0, 16);
+    let cube = box_mesh([3.0, 3.0, 3.0]);
+    let quarter = std::f64::consts::FRAC_PI_4;
+    let root2 = 2f64.sqrt();
+    let at = |q: [f64; 6]| Pose::from_array(q);
+    let still = at([0.0; 6]);
+    // (tool, object, the tool's pose, the object's, their gap in mm)
+    let cases: [Case<'_>; 5] = [
+        (
+            &ball,
+            &ball,
+            at([0.0, 0.0, 10.25, 0.0, 0.0, 0.0]),
+            still,
+            0.25,
+        ),
+        (&cube, &cube, at([1.0, 0.5, 6.5, 0.0, 0.0, 0.0]), still, 0.5),
+        (&cube, &cube, at([0.0, 0.0, 6.5, 0.0, 0.0, 0.0]), still, 0.5),
+        (
+            &cube,
+            &cube,
+            at([0.0, 0.0, 6.0 * root2 + 0.1, quarter, 0.0, 0.0]),
+            at([0.0, 0.0, 0.0, 0.0, quarter, 0.0]),
+            0.1,
+        ),
+        (
+            &cube,
+            &cube,
+            at([6.1, 6.1, 6.1, 0.0, 0.0, 0.0]),
+            still,
+            0.03f64.sqrt(),
+        ),
+    ];
+    for (k, (a, b, pose, object_pose, gap)) in cases.into_iter().enumerate() {
+        let (fa, fb) = (MeshFeatures::new(a), MeshFeatures::new(b));
+        let (a_placed, b_placed) = (placed(a, &pose), placed(b, &object_pose));
+        let (found, least, _) = candidates((&fa, &a_placed), (&fb, &b_placed), 1.0);
+        let best = found
+            .values()
+            .map(|c| c.distance)
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            (least - gap).abs() < 1e-9,
+            "case {k}: the gap {least}, not {gap}"
+        );
+        assert!(
+            (best - least).abs() <= 1e-9,
+            "case {k}: {best} against {least}"
+        );
+    }
+}
+
+#[test]
+fn a_ball_resting_on_a_ball_s_pole_is_one_vertex_pair() {
+    // Fans of 32 and 64 slivers meet at the poles: 2 048 triangle pairs within 0.4 mm hold
+    // one nearest feature pair, the two poles.
+    let (tool, ball) = (ball_mesh(8.0, 32), ball_mesh(25.0, 64));
+    let (ft, fb) = (MeshFeatures::new(&tool), MeshFeatures::new(&ball));
+    let tool_placed = placed(&tool, &Pose::from_array([0.0, 0.0, 33.1, 0.0, 0.0, 0.0]));
+    let (found, least, within) = candidates((&ft, &tool_placed), (&fb, &ball), 0.2);
+    assert!((least - 0.1).abs() < 1e-9);
+    assert!(within >= 2_048, "{within} triangle pairs");
+    let nearest: Vec<_> = found
+        .values()
+        .filter(|c| c.distance <= 0.1 + 1e-9)
+        .collect();
+    assert_eq!(nearest.len(), 1, "{nearest:?}");
+    assert!(matches!(
+        (nearest[0].a, nearest[0].b),
+        (Feature::Vertex(_), Feature::Vertex(_))
+    ));
+    eprintln!("{} candidates of {within} triangle pairs", found.len());
+    assert!(found.len() < within / 20, "{} candidates", found.len());
+}
+
+#[test]
+fn edges_are_convex_flat_or_concave_as_their_faces_fold() {
+    let kinds = |tris: &[Triangle]| {
+        let m = MeshFeatures::new(tris);
+        let (_, edges, _) = m.counts();
+        let mut n = [0usize; 4];
+        for e in 0..edges as u32 {
+            n[match m.edge(e).kind {
+                EdgeKind::Convex => 0,
+                EdgeKind::Flat => 1,
+                EdgeKind::Concave => 2,
+                EdgeKind::Boundary => 3,
+            }] += 1;
+        }
+        n
+    };
+    // A box: 12 convex edges, 6 flat diagonals.
+    assert_eq!(kinds(&box_mesh([1.0, 2.0, 3.0])), [12, 6, 0, 0]);
+    // The L prism: 17 convex edges (the caps' six sides twice, five of the six verticals),
+    // one concave vertical, and the caps' flat fan edges and the sides' diagonals.
+    let l = kinds(&l_prism(6.0));
+    assert_eq!((l[0], l[2], l[3]), (17, 1, 0), "{l:?}");
+    // An open mesh's rim: one triangle has three boundary edges.
+    assert_eq!(kinds(&box_mesh([1.0; 3])[..1]), [0, 0, 0, 3]);
+}
+
+#[test]
+fn every_candidate_is_nearest_where_its_features_meet_their_neighbours() {
+    // The culls: from a candidate's point on a vertex, no step along the vertex's edges, and
+    // from a point inside an edge no step into its faces, comes nearer the other point.
+    let shapes = [box_mesh([4.0, 3.0, 2.0]), ball_mesh(5.0, 12), l_prism(6.0)];
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let mut steps = 0;
+    for a in &shapes {
+        for b in &shapes {
+            let (fa, fb) = (MeshFeatures::new(a), MeshFeatures::new(b));
+            for _ in 0..60 {
+                let a_placed = placed(a, &random_pose(&mut rng, 9.0));
+                let (found, least, _) = candidates((&fa, &a_placed), (&fb, b), 3.0);
+                if least <= 1e-6 {
+                    continue;
+                }
+                for c in found.values() {
+                    for (feature, on, other, mesh, tris) in [
+                        (c.a, c.on_a, c.on_b, &fa, a_placed.as_slice()),
+                        (c.b, c.on_b, c.on_a, &fb, b.as_slice()),
+                    ] {
+                        let (p, o) = (V::from(on), V::from(other));
+                        let corner = |v: u32| {
+                            let (f, k) = (0..tris.len() as u32)
+                                .flat_map(|f| (0..3).map(move |k| (f, k)))
+                                .find(|&(f, k)| mesh.face(f)[k] == v)
+                                .expect("a vertex of some face");
+                            V::from(tris[f as usize][k])
+                        };
+                        let ways: Vec<V> = match feature {
+                            Feature::Vertex(v) => {
+                                mesh.neighbours(v).iter().map(|&w| corner(w) - p).collect()
+                            }
+                            Feature::Edge(e) => {
+                                let edge = mesh.edge(e);
+                                let [e0, e1] = edge.ends.map(corner);
+                                let dir = (e1 - e0).normalize();
+                                edge.faces
+                                    .iter()
+                                    .filter(|&&f| f != u32::MAX)
+                                    .filter_map(|&f| {
+                                        let third = mesh
+                                            .face(f)
+                                            .into_iter()
+                                            .find(|v| !edge.ends.contains(v))?;
+                                        let to = corner(third) - e0;
+                                        Some(to - dir * to.dot(&dir))
+                                    })
+                                    .collect()
+                            }
+                            Feature::Face(_) => Vec::new(),
+                        };
+                        for way in ways {
+                            let step = p + way.normalize() * 1e-4;
+                            assert!(
+                                (step - o).norm() >= c.distance - 1e-9,
+                                "{c:?}: a step along {way:?} comes nearer"
+                            );
+                            steps += 1;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(steps > 600, "{steps} steps");
+}
