@@ -7,14 +7,19 @@
 //! small gap (a cube's edge on another's), slivers of faces lying on each other 50 mm from
 //! the origin, and random pairs 0–3 mm apart.
 //!
+//! A second group times `feature_contacts` (the candidate nearest feature pairs of a triangle
+//! pair of two meshes, at a slack of 0 and of 0.05 mm) against the distance on the same pairs:
+//! a ball's pole fan over another's (2 048 pairs, 0.1 mm apart, turned a little) and a box's
+//! face over a box's (its triangles cut 8 × 8, 0.05 mm apart, slid).
+//!
 //! Run: `cargo bench -p collide --bench triangle` (add `-- --quick` for a short run).
 
 use std::f64::consts::TAU;
 use std::hint::black_box;
 
 use collide::{
-    triangle_distance, triangle_distance_all_features, triangle_distance_from, NearestEdges,
-    Triangle,
+    feature_contacts, triangle_distance, triangle_distance_all_features, triangle_distance_from,
+    MeshFeatures, NearestEdges, PlacedFeatures, Pose, Triangle,
 };
 use criterion::{BenchmarkId, Criterion, Throughput};
 use rand::{Rng, SeedableRng};
@@ -165,8 +170,143 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
+/// A ball of radius `r` about `centre` with `n` segments about its axis and `n / 2` rings, its
+/// faces counter-clockwise seen from outside: fans of slivers meet at its poles.
+fn ball(r: f64, n: usize, centre: [f64; 3]) -> Vec<Triangle> {
+    let rings = n / 2;
+    let at = |i: usize, k: usize| -> [f64; 3] {
+        let (theta, phi) = (
+            std::f64::consts::PI * i as f64 / rings as f64,
+            TAU * (k % n) as f64 / n as f64,
+        );
+        let (s, c) = if i == 0 || i == rings {
+            (0.0, if i == 0 { 1.0 } else { -1.0 })
+        } else {
+            (theta.sin(), theta.cos())
+        };
+        [
+            centre[0] + r * s * phi.cos(),
+            centre[1] + r * s * phi.sin(),
+            centre[2] + r * c,
+        ]
+    };
+    let mut tris = Vec::new();
+    for i in 0..rings {
+        for k in 0..n {
+            let (a, b, c, d) = (at(i, k), at(i + 1, k), at(i + 1, k + 1), at(i, k + 1));
+            if i > 0 {
+                tris.push([a, b, d]);
+            }
+            if i + 1 < rings {
+                tris.push([b, c, d]);
+            }
+        }
+    }
+    tris
+}
+
+/// A flat square `side` mm wide at height `z`, cut into `cells × cells` squares of two
+/// triangles, facing up (`up`) or down.
+fn sheet(side: f64, cells: usize, z: f64, up: bool, shift: [f64; 2]) -> Vec<Triangle> {
+    let at = |i: usize, j: usize| -> [f64; 3] {
+        let step = side / cells as f64;
+        [i as f64 * step + shift[0], j as f64 * step + shift[1], z]
+    };
+    let mut tris = Vec::new();
+    for i in 0..cells {
+        for j in 0..cells {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            if up {
+                tris.extend([[a, b, c], [a, c, d]]);
+            } else {
+                tris.extend([[a, c, b], [a, d, c]]);
+            }
+        }
+    }
+    tris
+}
+
+/// Each vertex of `mesh` where `tris` (its faces) puts it.
+fn vertex_points(mesh: &MeshFeatures, tris: &[Triangle]) -> Vec<[f64; 3]> {
+    let mut out = vec![[0.0; 3]; mesh.points().len()];
+    for (f, tri) in tris.iter().enumerate() {
+        for (k, &v) in mesh.face(f as u32).iter().enumerate() {
+            out[v as usize] = tri[k];
+        }
+    }
+    out
+}
+
+fn bench_features(c: &mut Criterion) {
+    let turned = Pose::from_array([0.02, -0.01, 0.0, 0.0, 0.0, 0.03]);
+    let (rot, t) = (turned.rotation_matrix(), turned.translation());
+    let place = |tris: Vec<Triangle>| -> Vec<Triangle> {
+        tris.iter()
+            .map(|tri| tri.map(|p| (rot * nalgebra::Vector3::from(p) + t).into()))
+            .collect()
+    };
+    let cases = [
+        (
+            "pole on pole",
+            place(ball(8.0, 32, [0.0, 0.0, 33.1])),
+            ball(25.0, 64, [0.0; 3]),
+        ),
+        (
+            "face on face",
+            place(sheet(8.0, 8, 0.05, false, [0.3, 0.2])),
+            sheet(8.0, 8, 0.0, true, [0.0, 0.0]),
+        ),
+    ];
+    let mut group = c.benchmark_group("feature_contacts");
+    for (name, a, b) in &cases {
+        let (fa, fb) = (MeshFeatures::new(a), MeshFeatures::new(b));
+        let (pa, pb) = (vertex_points(&fa, a), vertex_points(&fb, b));
+        let (placed_a, placed_b) = (
+            PlacedFeatures {
+                mesh: &fa,
+                points: &pa,
+            },
+            PlacedFeatures {
+                mesh: &fb,
+                points: &pb,
+            },
+        );
+        // The triangle pairs within 0.2 mm.
+        let pairs: Vec<(u32, u32)> = (0..a.len() as u32)
+            .flat_map(|i| (0..b.len() as u32).map(move |j| (i, j)))
+            .filter(|&(i, j)| triangle_distance(&a[i as usize], &b[j as usize]).distance <= 0.2)
+            .collect();
+        group.throughput(Throughput::Elements(pairs.len() as u64));
+        group.bench_with_input(BenchmarkId::new("distance", name), &pairs, |bch, p| {
+            bch.iter(|| {
+                p.iter()
+                    .map(|&(i, j)| {
+                        triangle_distance(black_box(&a[i as usize]), &b[j as usize]).distance
+                    })
+                    .sum::<f64>()
+            })
+        });
+        for slack in [0.0, 0.05] {
+            let label = format!("candidates, slack {slack} mm");
+            group.bench_with_input(BenchmarkId::new(label, name), &pairs, |bch, p| {
+                bch.iter(|| {
+                    let mut n = 0usize;
+                    for &(i, j) in p {
+                        feature_contacts(placed_a, black_box(i), placed_b, j, 0.2, slack, |_| {
+                            n += 1
+                        });
+                    }
+                    n
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
 fn main() {
     let mut c = Criterion::default().configure_from_args();
     bench(&mut c);
+    bench_features(&mut c);
     c.final_summary();
 }
