@@ -10,7 +10,7 @@
 //! A second group times `feature_contacts` (the candidate nearest feature pairs of a triangle
 //! pair of two meshes, at a slack of 0 and of 0.05 mm) against the distance on the same pairs:
 //! a ball's pole fan over another's (2 048 pairs, 0.1 mm apart, turned a little) and a box's
-//! face over a box's (its triangles cut 8 × 8, 0.05 mm apart, slid).
+//! face over a box's (its faces cut 8 × 8, 0.05 mm apart, slid and turned a little).
 //!
 //! Run: `cargo bench -p collide --bench triangle` (add `-- --quick` for a short run).
 
@@ -22,6 +22,7 @@ use collide::{
     MeshFeatures, NearestEdges, PlacedFeatures, Pose, Triangle,
 };
 use criterion::{BenchmarkId, Criterion, Throughput};
+use mesh::generate::{grid_box, uv_sphere};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -170,60 +171,12 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-/// A ball of radius `r` about `centre` with `n` segments about its axis and `n / 2` rings, its
-/// faces counter-clockwise seen from outside: fans of slivers meet at its poles.
-fn ball(r: f64, n: usize, centre: [f64; 3]) -> Vec<Triangle> {
-    let rings = n / 2;
-    let at = |i: usize, k: usize| -> [f64; 3] {
-        let (theta, phi) = (
-            std::f64::consts::PI * i as f64 / rings as f64,
-            TAU * (k % n) as f64 / n as f64,
-        );
-        let (s, c) = if i == 0 || i == rings {
-            (0.0, if i == 0 { 1.0 } else { -1.0 })
-        } else {
-            (theta.sin(), theta.cos())
-        };
-        [
-            centre[0] + r * s * phi.cos(),
-            centre[1] + r * s * phi.sin(),
-            centre[2] + r * c,
-        ]
-    };
-    let mut tris = Vec::new();
-    for i in 0..rings {
-        for k in 0..n {
-            let (a, b, c, d) = (at(i, k), at(i + 1, k), at(i + 1, k + 1), at(i, k + 1));
-            if i > 0 {
-                tris.push([a, b, d]);
-            }
-            if i + 1 < rings {
-                tris.push([b, c, d]);
-            }
-        }
-    }
-    tris
-}
-
-/// A flat square `side` mm wide at height `z`, cut into `cells × cells` squares of two
-/// triangles, facing up (`up`) or down.
-fn sheet(side: f64, cells: usize, z: f64, up: bool, shift: [f64; 2]) -> Vec<Triangle> {
-    let at = |i: usize, j: usize| -> [f64; 3] {
-        let step = side / cells as f64;
-        [i as f64 * step + shift[0], j as f64 * step + shift[1], z]
-    };
-    let mut tris = Vec::new();
-    for i in 0..cells {
-        for j in 0..cells {
-            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-            if up {
-                tris.extend([[a, b, c], [a, c, d]]);
-            } else {
-                tris.extend([[a, c, b], [a, d, c]]);
-            }
-        }
-    }
-    tris
+/// A generated mesh's triangles, moved by `shift`.
+fn triangles(m: &mesh::TriMesh, shift: [f64; 3]) -> Vec<Triangle> {
+    m.triangles
+        .iter()
+        .map(|t| t.map(|v| std::array::from_fn(|k| m.vertices[v as usize][k] + shift[k])))
+        .collect()
 }
 
 /// Each vertex of `mesh` where `tris` (its faces) puts it.
@@ -248,13 +201,16 @@ fn bench_features(c: &mut Criterion) {
     let cases = [
         (
             "pole on pole",
-            place(ball(8.0, 32, [0.0, 0.0, 33.1])),
-            ball(25.0, 64, [0.0; 3]),
+            place(triangles(&uv_sphere(8.0, 16, 32), [0.0, 0.0, 33.1])),
+            triangles(&uv_sphere(25.0, 32, 64), [0.0; 3]),
         ),
         (
             "face on face",
-            place(sheet(8.0, 8, 0.05, false, [0.3, 0.2])),
-            sheet(8.0, 8, 0.0, true, [0.0, 0.0]),
+            place(triangles(
+                &grid_box([0.0; 3], [4.0; 3], 8),
+                [0.3, 0.2, 8.05],
+            )),
+            triangles(&grid_box([0.0; 3], [4.0; 3], 8), [0.0; 3]),
         ),
     ];
     let mut group = c.benchmark_group("feature_contacts");

@@ -15,62 +15,23 @@ use rand_chacha::ChaCha8Rng;
 
 type V = Vector3<f64>;
 
-/// A box of half sides `h` about the origin, its faces counter-clockwise seen from outside.
-fn box_mesh(h: [f64; 3]) -> Vec<Triangle> {
-    let c = |i: usize| -> [f64; 3] {
-        [
-            if i & 1 == 0 { -h[0] } else { h[0] },
-            if i & 2 == 0 { -h[1] } else { h[1] },
-            if i & 4 == 0 { -h[2] } else { h[2] },
-        ]
-    };
-    // Each face's corners counter-clockwise seen from outside.
-    let quads = [
-        [0, 2, 3, 1], // z-
-        [4, 5, 7, 6], // z+
-        [0, 1, 5, 4], // y-
-        [2, 6, 7, 3], // y+
-        [0, 4, 6, 2], // x-
-        [1, 3, 7, 5], // x+
-    ];
-    quads
+/// A generated mesh's triangles.
+fn triangles(m: &mesh::TriMesh) -> Vec<Triangle> {
+    m.triangles
         .iter()
-        .flat_map(|q| [[c(q[0]), c(q[1]), c(q[2])], [c(q[0]), c(q[2]), c(q[3])]])
+        .map(|t| t.map(|v| m.vertices[v as usize]))
         .collect()
+}
+
+/// A box of half sides `h` about the origin, two triangles a face.
+fn box_mesh(h: [f64; 3]) -> Vec<Triangle> {
+    triangles(&mesh::generate::grid_box([0.0; 3], h, 1))
 }
 
 /// A ball of radius `r` about the origin with `n` segments about its axis and `n / 2` rings:
 /// fans of slivers meet at its poles.
-fn ball_mesh(r: f64, n: usize) -> Vec<Triangle> {
-    let rings = n / 2;
-    let at = |i: usize, k: usize| -> [f64; 3] {
-        let theta = std::f64::consts::PI * i as f64 / rings as f64;
-        let phi = 2.0 * std::f64::consts::PI * (k % n) as f64 / n as f64;
-        if i == 0 {
-            return [0.0, 0.0, r];
-        }
-        if i == rings {
-            return [0.0, 0.0, -r];
-        }
-        [
-            r * theta.sin() * phi.cos(),
-            r * theta.sin() * phi.sin(),
-            r * theta.cos(),
-        ]
-    };
-    let mut tris = Vec::new();
-    for i in 0..rings {
-        for k in 0..n {
-            let (a, b, c, d) = (at(i, k), at(i + 1, k), at(i + 1, k + 1), at(i, k + 1));
-            if i > 0 {
-                tris.push([a, b, d]);
-            }
-            if i + 1 < rings {
-                tris.push([b, c, d]);
-            }
-        }
-    }
-    tris
+fn ball_mesh(r: f64, n: u32) -> Vec<Triangle> {
+    triangles(&mesh::generate::uv_sphere(r, n / 2, n))
 }
 
 /// An L-shaped prism (not convex: one concave edge along its height), `h` mm high.
@@ -83,20 +44,11 @@ fn l_prism(h: f64) -> Vec<Triangle> {
         [1.0, 2.0],
         [0.0, 2.0],
     ];
-    let at = |k: usize, z: f64| -> [f64; 3] { [outline[k][0] * 5.0, outline[k][1] * 5.0, z] };
-    // The caps: a fan from the reflex corner (index 3), counter-clockwise from above.
-    let fan = [(4, 5), (5, 0), (0, 1), (1, 2)];
-    let mut tris = Vec::new();
-    for (b, c) in fan {
-        tris.push([at(3, h), at(b, h), at(c, h)]);
-        tris.push([at(3, 0.0), at(c, 0.0), at(b, 0.0)]);
-    }
-    for k in 0..6 {
-        let l = (k + 1) % 6;
-        tris.push([at(k, 0.0), at(l, 0.0), at(l, h)]);
-        tris.push([at(k, 0.0), at(l, h), at(k, h)]);
-    }
-    tris
+    triangles(&mesh::generate::extrude(
+        &outline.map(|p| p.map(|x| 5.0 * x)),
+        0.0,
+        h,
+    ))
 }
 
 fn placed(tris: &[Triangle], pose: &Pose) -> Vec<Triangle> {
