@@ -18,6 +18,7 @@ use std::collections::HashMap;
 
 use nalgebra::Vector3;
 
+use crate::pose::Pose;
 use crate::triangle::Triangle;
 
 type V = Vector3<f64>;
@@ -203,6 +204,18 @@ impl MeshFeatures {
     pub fn neighbours(&self, v: u32) -> &[u32] {
         let (a, b) = (self.first[v as usize], self.first[v as usize + 1]);
         &self.neighbours[a as usize..b as usize]
+    }
+
+    /// Its vertices placed by `pose` (world `= R p + t`, mm) into `out`, cleared first (it
+    /// allocates only where `out` has too little room).
+    pub fn place(&self, pose: &Pose, out: &mut Vec<[f64; 3]>) {
+        let (rot, t) = (pose.rotation_matrix(), pose.translation());
+        out.clear();
+        out.extend(
+            self.points
+                .iter()
+                .map(|p| -> [f64; 3] { (rot * V::from(*p) + t).into() }),
+        );
     }
 
     /// How many faces, edges and vertices.

@@ -87,24 +87,17 @@ fn off_feature(p: &[f64; 3], f: Feature, mesh: &MeshFeatures, points: &[[f64; 3]
     }
 }
 
-/// Every candidate of the two placed meshes' triangle pairs within `reach` (mm), each once by
-/// its features, and the least triangle distance.
+/// Every candidate of two meshes' triangle pairs within `reach` (mm), each once by its
+/// features, the least triangle distance and the triangle pairs within the reach; each mesh
+/// given by its features, its triangles where they stand and the pose that put them there.
 fn candidates(
-    a: (&MeshFeatures, &[Triangle]),
-    b: (&MeshFeatures, &[Triangle]),
+    a: (&MeshFeatures, &[Triangle], &Pose),
+    b: (&MeshFeatures, &[Triangle], &Pose),
     reach: f64,
 ) -> (HashMap<(Feature, Feature), FeatureContact>, f64, usize) {
-    let points = |m: &MeshFeatures, tris: &[Triangle]| -> Vec<[f64; 3]> {
-        // The placed corner of each vertex, read back through its first face.
-        let mut out = vec![[f64::NAN; 3]; m.counts().2];
-        for (f, tri) in tris.iter().enumerate() {
-            for (k, &v) in m.face(f as u32).iter().enumerate() {
-                out[v as usize] = tri[k];
-            }
-        }
-        out
-    };
-    let (pa, pb) = (points(a.0, a.1), points(b.0, b.1));
+    let (mut pa, mut pb) = (Vec::new(), Vec::new());
+    a.0.place(a.2, &mut pa);
+    b.0.place(b.2, &mut pb);
     let (fa, fb) = (
         PlacedFeatures {
             mesh: a.0,
@@ -147,6 +140,7 @@ fn the_least_candidate_is_the_meshes_distance_for_every_pose() {
         ("L prism", l_prism(6.0)),
     ];
     let mut rng = ChaCha8Rng::seed_from_u64(42);
+    let still = Pose::identity();
     let (mut checked, mut apart) = (0, 0);
     for (name_a, a) in &shapes {
         for (name_b, b) in &shapes {
@@ -154,7 +148,8 @@ fn the_least_candidate_is_the_meshes_distance_for_every_pose() {
             for _ in 0..60 {
                 let pose = random_pose(&mut rng, 16.0);
                 let a_placed = placed(a, &pose);
-                let (found, least, _) = candidates((&fa, &a_placed), (&fb, b), f64::INFINITY);
+                let (found, least, _) =
+                    candidates((&fa, &a_placed, &pose), (&fb, b, &still), f64::INFINITY);
                 if least <= 1e-6 {
                     continue; // meeting: no nearest pair to find
                 }
@@ -217,7 +212,8 @@ fn degenerate_contacts_keep_their_nearest_pair() {
     for (k, (a, b, pose, object_pose, gap)) in cases.into_iter().enumerate() {
         let (fa, fb) = (MeshFeatures::new(a), MeshFeatures::new(b));
         let (a_placed, b_placed) = (placed(a, &pose), placed(b, &object_pose));
-        let (found, least, _) = candidates((&fa, &a_placed), (&fb, &b_placed), 1.0);
+        let (found, least, _) =
+            candidates((&fa, &a_placed, &pose), (&fb, &b_placed, &object_pose), 1.0);
         let best = found
             .values()
             .map(|c| c.distance)
@@ -239,8 +235,13 @@ fn a_ball_resting_on_a_ball_s_pole_is_one_vertex_pair() {
     // one nearest feature pair, the two poles.
     let (tool, ball) = (ball_mesh(8.0, 32), ball_mesh(25.0, 64));
     let (ft, fb) = (MeshFeatures::new(&tool), MeshFeatures::new(&ball));
-    let tool_placed = placed(&tool, &Pose::from_array([0.0, 0.0, 33.1, 0.0, 0.0, 0.0]));
-    let (found, least, within) = candidates((&ft, &tool_placed), (&fb, &ball), 0.2);
+    let raised = Pose::from_array([0.0, 0.0, 33.1, 0.0, 0.0, 0.0]);
+    let tool_placed = placed(&tool, &raised);
+    let (found, least, within) = candidates(
+        (&ft, &tool_placed, &raised),
+        (&fb, &ball, &Pose::identity()),
+        0.2,
+    );
     assert!((least - 0.1).abs() < 1e-9);
     assert!(within >= 2_048, "{within} triangle pairs");
     let nearest: Vec<_> = found
@@ -293,8 +294,10 @@ fn every_candidate_is_nearest_where_its_features_meet_their_neighbours() {
         for b in &shapes {
             let (fa, fb) = (MeshFeatures::new(a), MeshFeatures::new(b));
             for _ in 0..60 {
-                let a_placed = placed(a, &random_pose(&mut rng, 9.0));
-                let (found, least, _) = candidates((&fa, &a_placed), (&fb, b), 3.0);
+                let pose = random_pose(&mut rng, 9.0);
+                let a_placed = placed(a, &pose);
+                let (found, least, _) =
+                    candidates((&fa, &a_placed, &pose), (&fb, b, &Pose::identity()), 3.0);
                 if least <= 1e-6 {
                     continue;
                 }

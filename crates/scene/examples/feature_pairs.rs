@@ -48,17 +48,6 @@ fn feature_at(q: &[f64; 3], mesh: &MeshFeatures, points: &[[f64; 3]], f: u32, to
     }
 }
 
-/// Each vertex of `mesh` where `tris` (its faces, placed) puts it.
-fn placed_points(mesh: &MeshFeatures, tris: &[Triangle]) -> Vec<[f64; 3]> {
-    let mut out = vec![[f64::NAN; 3]; mesh.points().len()];
-    for (f, tri) in tris.iter().enumerate() {
-        for (k, &v) in mesh.face(f as u32).iter().enumerate() {
-            out[v as usize] = tri[k];
-        }
-    }
-    out
-}
-
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     if args.len() < 7 {
@@ -129,7 +118,8 @@ fn main() {
             .iter()
             .map(|tri| tri.map(|p| (rot * V::from(p) + t).into()))
             .collect();
-        let tool_points = placed_points(&tool_features, &posed);
+        let mut tool_points = Vec::new();
+        tool_features.place(&pose, &mut tool_points);
         let tool = PlacedFeatures {
             mesh: &tool_features,
             points: &tool_points,
@@ -138,10 +128,11 @@ fn main() {
         let mut features: HashMap<(usize, Feature, Feature), f64> = HashMap::new();
         let mut nearest: HashSet<(usize, Feature, Feature)> = HashSet::new();
         for (k, (placed, tree, object_features)) in objects.iter().enumerate() {
-            let object_points = placed_points(object_features, placed);
+            // Built from its triangles where they stand: its own points are placed.
+            let object_points = object_features.points();
             let object = PlacedFeatures {
                 mesh: object_features,
-                points: &object_points,
+                points: object_points,
             };
             let mut stack = TriangleTree::stack_for(&tool_tree, tree);
             let mut pairs = Vec::new();
@@ -165,7 +156,7 @@ fn main() {
                     nearest.insert((
                         k,
                         feature_at(&near.on_a, &tool_features, &tool_points, a, 1e-7),
-                        feature_at(&near.on_b, object_features, &object_points, b, 1e-7),
+                        feature_at(&near.on_b, object_features, object_points, b, 1e-7),
                     ));
                 }
                 feature_contacts(tool, a, object, b, reach, slack, |c| {
