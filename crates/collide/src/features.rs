@@ -73,7 +73,9 @@ impl Edge {
 
 /// A triangle mesh's features: its vertices (corners equal bit for bit are one), its faces
 /// (the triangles, counter-clockwise seen from outside), its edges and each vertex's
-/// neighbours. Built once (allocates); read without allocating.
+/// neighbours. Built once (allocates); read without allocating. A triangle without area stands
+/// as its points and edges, one with a corner that is not a number gives no candidates;
+/// indices out of range are the caller's to check (they panic).
 #[derive(Clone, Debug)]
 pub struct MeshFeatures {
     points: Vec<[f64; 3]>,

@@ -284,6 +284,43 @@ fn edges_are_convex_flat_or_concave_as_their_faces_fold() {
 }
 
 #[test]
+fn a_triangle_without_area_stands_as_its_point_and_one_not_a_number_gives_nothing() {
+    // Against a good triangle 0.1 mm below: a triangle shrunk to a point is that point over
+    // the face; one with a corner that is not a number gives no candidate.
+    let good = [[[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0]]];
+    let point = [[[0.0, 0.0, 0.1], [0.0, 0.0, 0.1], [0.0, 0.0, 0.1]]];
+    let nan = [[[0.0, 0.0, 0.1], [f64::NAN, 0.0, 0.1], [0.0, 1.0, 0.1]]];
+    let g = MeshFeatures::new(&good);
+    let against = |bad: &[Triangle]| {
+        let b = MeshFeatures::new(bad);
+        let mut found = Vec::new();
+        feature_contacts(
+            PlacedFeatures {
+                mesh: &b,
+                points: b.points(),
+            },
+            0,
+            PlacedFeatures {
+                mesh: &g,
+                points: g.points(),
+            },
+            0,
+            1.0,
+            0.0,
+            |c| found.push(c),
+        );
+        found
+    };
+    let found = against(&point);
+    assert!(!found.is_empty());
+    for c in &found {
+        assert_eq!((c.a, c.b), (Feature::Vertex(0), Feature::Face(0)), "{c:?}");
+        assert!((c.distance - 0.1).abs() < 1e-12, "{c:?}");
+    }
+    assert_eq!(against(&nan), Vec::new());
+}
+
+#[test]
 fn every_candidate_is_nearest_where_its_features_meet_their_neighbours() {
     // The culls: from a candidate's point on a vertex, no step along the vertex's edges, and
     // from a point inside an edge no step into its faces, comes nearer the other point.

@@ -49,22 +49,38 @@ fn feature_at(q: &[f64; 3], mesh: &MeshFeatures, points: &[[f64; 3]], f: u32, to
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    if args.len() < 7 {
-        eprintln!("usage: feature_pairs SCENE FRAMES_CSV REACH MARGIN SLACK T...");
+    if let Err(e) = run() {
+        eprintln!("feature_pairs: {e}");
         std::process::exit(2);
     }
+}
+
+/// A number (mm or s) from the argument `what` names.
+fn number(arg: &str, what: &str) -> Result<f64, String> {
+    arg.parse()
+        .ok()
+        .filter(|x: &f64| x.is_finite())
+        .ok_or_else(|| format!("{what} must be a finite number, not `{arg}`"))
+}
+
+fn run() -> Result<(), String> {
+    let args: Vec<String> = std::env::args().collect();
+    if args.len() < 7 {
+        return Err("usage: feature_pairs SCENE FRAMES_CSV REACH MARGIN SLACK T...".into());
+    }
     let (name, frames) = (&args[1], &args[2]);
-    let reach: f64 = args[3].parse().expect("REACH in mm");
-    let margin: f64 = args[4].parse().expect("MARGIN in mm");
-    let slack: f64 = args[5].parse().expect("SLACK in mm");
-    let times: Vec<f64> = args[6..]
+    let reach = number(&args[3], "REACH (mm)")?;
+    let margin = number(&args[4], "MARGIN (mm)")?;
+    let slack = number(&args[5], "SLACK (mm)")?;
+    let times = args[6..]
         .iter()
-        .map(|t| t.parse().expect("a time in s"))
-        .collect();
-    let scene = scenes::builtin(name, &TreeCache::from_env()).expect("a built-in scene");
+        .map(|t| number(t, "a time (s)"))
+        .collect::<Result<Vec<f64>, String>>()?;
+    let scene = scenes::builtin(name, &TreeCache::from_env())
+        .map_err(|e| format!("{name}: {}", scene::error_chain(&e)))?;
     let merged = |m: &mesh::TriMesh| merge_flat_faces(&m.vertices, &m.triangles).triangles;
-    let tool_mesh = scene.tool_mesh.as_ref().expect("a tool built from a mesh");
+    let not_meshed = || format!("{name}: every body must be built from a mesh");
+    let tool_mesh = scene.tool_mesh.as_ref().ok_or_else(not_meshed)?;
     let tool_tris = merged(tool_mesh);
     let tool_tree = TriangleTree::build(&tool_tris, &Pose::identity());
     let tool_features = MeshFeatures::new(&tool_tris);
@@ -73,7 +89,7 @@ fn main() {
         .iter()
         .zip(&scene.objects)
         .map(|(m, (_, pose))| {
-            let tris = merged(m.as_ref().expect("objects built from meshes"));
+            let tris = merged(m.as_ref().ok_or_else(not_meshed)?);
             let (rot, t) = (pose.rotation_matrix(), pose.translation());
             let placed: Vec<Triangle> = tris
                 .iter()
@@ -81,24 +97,32 @@ fn main() {
                 .collect();
             let tree = TriangleTree::build(&tris, pose);
             let features = MeshFeatures::new(&placed);
-            (placed, tree, features)
+            Ok((placed, tree, features))
         })
-        .collect();
+        .collect::<Result<_, String>>()?;
 
-    let text = std::fs::read_to_string(frames).expect("frames.csv");
+    let text = std::fs::read_to_string(frames).map_err(|e| format!("{frames}: {e}"))?;
     let mut lines = text.lines();
-    let head: Vec<&str> = lines.next().expect("a header").split(',').collect();
-    let col = |n: &str| {
-        head.iter()
+    let head: Vec<&str> = lines
+        .next()
+        .ok_or_else(|| format!("{frames}: empty, a run's frames.csv expected"))?
+        .split(',')
+        .collect();
+    let mut cols = [0usize; 7];
+    for (c, n) in cols
+        .iter_mut()
+        .zip(["t", "xg", "yg", "zg", "gg", "bg", "ag"])
+    {
+        *c = head
+            .iter()
             .position(|h| *h == n)
-            .expect("a column of frames.csv")
-    };
-    let cols = ["t", "xg", "yg", "zg", "gg", "bg", "ag"].map(col);
+            .ok_or_else(|| format!("{frames}: no column `{n}` (a run's frames.csv expected)"))?;
+    }
     let rows: Vec<Vec<f64>> = lines
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
             cols.iter()
-                .map(|&c| f[c].parse().unwrap_or(f64::NAN))
+                .map(|&c| f.get(c).and_then(|x| x.parse().ok()).unwrap_or(f64::NAN))
                 .collect()
         })
         .collect();
@@ -111,7 +135,7 @@ fn main() {
         let row = rows
             .iter()
             .min_by(|a, b| (a[0] - time).abs().total_cmp(&(b[0] - time).abs()))
-            .expect("frames");
+            .ok_or_else(|| format!("{frames}: no frames"))?;
         let pose = Pose::from_array([row[1], row[2], row[3], row[4], row[5], row[6]]);
         let (rot, t): (Matrix3<f64>, V) = (pose.rotation_matrix(), pose.translation());
         let posed: Vec<Triangle> = tool_tris
@@ -172,4 +196,5 @@ fn main() {
             nearest.len()
         );
     }
+    Ok(())
 }
