@@ -67,7 +67,7 @@ fn bench(c: &mut Criterion) {
             b.iter(|| {
                 let mut pairs = 0usize;
                 TriangleTree::start_descent(&mut stack);
-                stack.note_near_part(wide);
+                stack.note_near_part(wide, f64::INFINITY);
                 peg.descend(
                     black_box(&rot),
                     black_box(&t),

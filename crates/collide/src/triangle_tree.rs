@@ -128,6 +128,15 @@ pub struct TreePairStack {
     near_wide: f64,
     near_lo: [f64; 3],
     near_hi: [f64; 3],
+    /// The noting is given up once the near part reaches this far (mm) from the tool origin,
+    /// less by its share of the tests ([`TreePairStack::note_near_part`]; never at `inf`).
+    give_up_past: f64,
+    /// Box pairs the descents tested since the noting began, and those of them tested for the
+    /// near part alone.
+    tested: u64,
+    tested_noting: u64,
+    /// The noting was given up part-way.
+    gave_up: bool,
 }
 
 impl Default for TreePairStack {
@@ -141,6 +150,10 @@ impl Default for TreePairStack {
             near_wide: f64::NEG_INFINITY,
             near_lo: [f64::INFINITY; 3],
             near_hi: [f64::NEG_INFINITY; 3],
+            give_up_past: f64::INFINITY,
+            tested: 0,
+            tested_noting: 0,
+            gave_up: false,
         }
     }
 }
@@ -165,17 +178,32 @@ impl TreePairStack {
     /// boxes, each cut to where it may be within `wide` of the object's box (seen in the tool
     /// frame). A tool point within `wide` of an object triangle lies in both boxes of one such
     /// pair.
-    pub fn note_near_part(&mut self, wide: f64) {
+    ///
+    /// A near part is worth its tests only while it is well inside the tool: the noting is
+    /// given up (no near part, [`TreePairStack::gave_up_noting`]) once some corner of it is
+    /// `give_up_past / (1 + share)` (mm) or farther from the tool origin, `share` the tests
+    /// made for the near part alone per test of the descents so far (`inf`: never given up).
+    pub fn note_near_part(&mut self, wide: f64, give_up_past: f64) {
         self.near_wide = wide;
         self.near_lo = [f64::INFINITY; 3];
         self.near_hi = [f64::NEG_INFINITY; 3];
+        self.give_up_past = give_up_past;
+        self.tested = 0;
+        self.tested_noting = 0;
+        self.gave_up = false;
     }
 
     /// The near part noted since [`TreePairStack::note_near_part`] (lowest and highest corner,
-    /// tool frame, mm): `None` where none is noted, `Some` of an empty box (`lo > hi`) where no
-    /// tool triangle was near.
+    /// tool frame, mm): `None` where none is noted or the noting was given up, `Some` of an
+    /// empty box (`lo > hi`) where no tool triangle was near.
     pub fn near_part(&self) -> Option<([f64; 3], [f64; 3])> {
         (self.near_wide > f64::NEG_INFINITY).then_some((self.near_lo, self.near_hi))
+    }
+
+    /// Whether the noting begun by [`TreePairStack::note_near_part`] was given up part-way:
+    /// its near part reached too far from the tool origin to pay for its tests.
+    pub fn gave_up_noting(&self) -> bool {
+        self.gave_up
     }
 
     /// The part of the tool box `tool` (tool frame, mm) that may be within the near part's
@@ -216,6 +244,18 @@ impl TreePairStack {
         for (k, &(l, u)) in cut.iter().enumerate() {
             self.near_lo[k] = self.near_lo[k].min(l);
             self.near_hi[k] = self.near_hi[k].max(u);
+        }
+        // The farthest corner from the tool origin against the break-even reach: a list's use
+        // lasts about inversely to its near part's arm, which must make up for the share of
+        // the descent's tests spent finding it.
+        let far2: f64 = (0..3)
+            .map(|k| self.near_lo[k].abs().max(self.near_hi[k].abs()).powi(2))
+            .sum();
+        let share = self.tested_noting as f64 / self.tested.max(1) as f64;
+        let limit = self.give_up_past / (1.0 + share);
+        if far2 >= limit * limit {
+            self.near_wide = f64::NEG_INFINITY;
+            self.gave_up = true;
         }
     }
 
@@ -384,6 +424,10 @@ impl TriangleTree {
             near_wide: f64::NEG_INFINITY,
             near_lo: [f64::INFINITY; 3],
             near_hi: [f64::NEG_INFINITY; 3],
+            give_up_past: f64::INFINITY,
+            tested: 0,
+            tested_noting: 0,
+            gave_up: false,
         };
         // Resident from the start ([`crate::touch_pages`]): a zeroed buffer's pages are mapped
         // at their first write, which would be a frame's.
@@ -481,6 +525,8 @@ impl TriangleTree {
             };
             let half = na.half;
             let noting_only = rank & NOTING_ONLY != 0;
+            stack.tested += 1;
+            stack.tested_noting += u64::from(noting_only);
             let apart = noting_only
                 || posed_boxes_apart(
                     (&nb.axes, &nb.center, &nb.half),
@@ -492,7 +538,10 @@ impl TriangleTree {
                 // Apart by the margin: only the near part may still want it, where the two are
                 // within its margin (no cut: nothing of the tool box there, or all of it noted
                 // already).
-                let wanted = stack.near_wide > margin
+                let noting = stack.near_wide > margin;
+                // (A pair apart by the margin costs the near part its cut and its second test.)
+                stack.tested_noting += u64::from(noting && !noting_only);
+                let wanted = noting
                     && stack
                         .cut(
                             &self.node_bounds[a as usize],
@@ -1297,7 +1346,7 @@ mod tests {
             let margin = [0.02, 0.1, 0.3][case % 3];
             let wide = margin + [0.2, 0.8][case % 2];
             TriangleTree::start_descent(&mut stack);
-            stack.note_near_part(wide);
+            stack.note_near_part(wide, f64::INFINITY);
             tool.descend(
                 &rot,
                 &t,
@@ -1357,7 +1406,7 @@ mod tests {
         let object = TriangleTree::build(&square(-0.5, 3.0), &Pose::identity());
         let mut stack = TriangleTree::stack_for(&tool, &object);
         TriangleTree::start_descent(&mut stack);
-        stack.note_near_part(1.0);
+        stack.note_near_part(1.0, f64::INFINITY);
         let (rot, t) = (Matrix3::identity(), Vector3::zeros());
         let mut visited = 0;
         tool.descend(
@@ -1383,6 +1432,68 @@ mod tests {
             smaller >= 4,
             "the near part was smaller than the tool in {smaller} of 16 cases"
         );
+    }
+
+    #[test]
+    fn the_noting_is_given_up_where_the_near_part_reaches_far_from_the_tool_origin() {
+        // A strip 20 mm long (tool frame x from `start`), a small sheet under its last 2 mm.
+        let strip = |start: f64| -> Vec<Triangle> {
+            (0..40)
+                .flat_map(|i| {
+                    let (x0, x1) = (start + 0.5 * f64::from(i), start + 0.5 * f64::from(i + 1));
+                    [
+                        [[x0, -1.0, 0.0], [x1, -1.0, 0.0], [x1, 1.0, 0.0]],
+                        [[x0, -1.0, 0.0], [x1, 1.0, 0.0], [x0, 1.0, 0.0]],
+                    ]
+                })
+                .collect()
+        };
+        let sheet: Vec<Triangle> = vec![
+            [[18.0, -2.0, -0.05], [20.0, -2.0, -0.05], [20.0, 2.0, -0.05]],
+            [[18.0, -2.0, -0.05], [20.0, 2.0, -0.05], [18.0, 2.0, -0.05]],
+        ];
+        let object = TriangleTree::build(&sheet, &Pose::identity());
+        // The tool origin at the strip's far end (the near part 17–20 mm from it), then at its
+        // near end (placed 20 mm on, the same strip in the world).
+        for (start, at, gives_up) in [(0.0, 0.0, true), (-20.0, 20.0, false)] {
+            let tool = TriangleTree::build(&strip(start), &Pose::identity());
+            let reach = crate::CentreBox::of_points(tool.corners()).reach();
+            let (rot, t) = (Matrix3::identity(), Vector3::new(at, 0.0, 0.0));
+            let descend = |give_up_past: f64| {
+                let mut stack = TriangleTree::stack_for(&tool, &object);
+                TriangleTree::start_descent(&mut stack);
+                stack.note_near_part(1.0, give_up_past);
+                let mut visited = Vec::new();
+                tool.descend(
+                    &rot,
+                    &t,
+                    &Vector3::zeros(),
+                    &object,
+                    0.1,
+                    &mut stack,
+                    usize::MAX,
+                    |tools, parts, rank| {
+                        visited.push((tools, parts, rank));
+                        true
+                    },
+                );
+                (visited, stack.near_part(), stack.gave_up_noting())
+            };
+            let (all_visits, all_part, all_gave_up) = descend(f64::INFINITY);
+            let (visits, part, gave_up) = descend(0.9 * reach);
+            assert!(!all_gave_up && all_part.is_some());
+            // The noting never changes the leaf pairs visited.
+            assert!(!visits.is_empty());
+            assert_eq!(visits, all_visits);
+            assert_eq!(gave_up, gives_up, "start {start}");
+            if gives_up {
+                assert_eq!(part, None);
+            } else {
+                assert_eq!(part, all_part);
+                let (lo, hi) = part.expect("noted");
+                assert!(lo[0] >= -5.0 && hi[0] <= 1e-9, "{lo:?}..{hi:?}");
+            }
+        }
     }
 
     #[test]

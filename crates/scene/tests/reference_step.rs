@@ -266,6 +266,7 @@ fn in_the_mesh_mode_the_shipped_step_and_each_mesh_switch_off_answer_as_the_refe
         (without("mesh-region-falls"), 8),
         (without("mesh-slow-growth"), 8),
         (without("mesh-near-part"), 8),
+        (without("mesh-near-part-give-up"), 8),
         (without("mesh-slice-ceiling"), 8),
         // (At this budget the fill level is the fixed share either way: the switch times the
         // lists ahead of a haptic budget, not what they list.)

@@ -120,6 +120,15 @@ pub struct Heuristics {
     /// the tool less than that and the near part's margin. Noted again only where the last
     /// near part lengthened its list's use ([`Tuning::near_part_pays`](crate::Tuning::near_part_pays)).
     pub mesh_near_part: bool,
+    /// The mesh mode's near part given up part-way: a near list's descent stops noting its
+    /// near part once that reaches from the tool origin
+    /// [`Tuning::near_part_pays`](crate::Tuning::near_part_pays) of the whole tool's reach,
+    /// less by the share of the descent's box tests the noting has taken (its break-even: a
+    /// list serves about inversely to its near part's arm), and the next lists are listed
+    /// without one, as after a near part that did not pay. The bunny turning against its own
+    /// mesh is near along ~0.8 of its reach, and the noting took about as many tests as the
+    /// list's own descent.
+    pub mesh_near_part_give_up: bool,
     /// The mesh mode's slice ceiling: the next near list's slice never takes a frame past
     /// [`Tuning::near_ceiling_share`](crate::Tuning::near_ceiling_share) of the budget while
     /// the list in use still holds the last region's margin for two more frames at the last
@@ -178,6 +187,7 @@ impl Heuristics {
         mesh_region_falls: true,
         mesh_slow_growth: true,
         mesh_near_part: true,
+        mesh_near_part_give_up: true,
         mesh_slice_ceiling: true,
         mesh_fill_own_level: true,
         mesh_idle_take: true,
@@ -210,13 +220,14 @@ impl Heuristics {
         mesh_region_falls: false,
         mesh_slow_growth: false,
         mesh_near_part: false,
+        mesh_near_part_give_up: false,
         mesh_slice_ceiling: false,
         mesh_fill_own_level: false,
         mesh_idle_take: false,
     };
 
     /// The names of the switches (as the bench's ablation study prints them), in order.
-    pub const NAMES: [&'static str; 28] = [
+    pub const NAMES: [&'static str; 29] = [
         "region-reuse",
         "path-regions",
         "slab-regions",
@@ -242,6 +253,7 @@ impl Heuristics {
         "mesh-region-falls",
         "mesh-slow-growth",
         "mesh-near-part",
+        "mesh-near-part-give-up",
         "mesh-slice-ceiling",
         "mesh-fill-own-level",
         "mesh-idle-take",
@@ -275,6 +287,7 @@ impl Heuristics {
             "mesh-region-falls" => &mut self.mesh_region_falls,
             "mesh-slow-growth" => &mut self.mesh_slow_growth,
             "mesh-near-part" => &mut self.mesh_near_part,
+            "mesh-near-part-give-up" => &mut self.mesh_near_part_give_up,
             "mesh-slice-ceiling" => &mut self.mesh_slice_ceiling,
             "mesh-fill-own-level" => &mut self.mesh_fill_own_level,
             "mesh-idle-take" => &mut self.mesh_idle_take,

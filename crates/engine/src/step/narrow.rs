@@ -754,7 +754,12 @@ impl GodObject {
         } else {
             f64::NEG_INFINITY
         };
-        self.detector.next_stack.note_near_part(wide);
+        let give_up_past = if self.params.heuristics.mesh_near_part_give_up {
+            self.params.tuning.near_part_pays * self.bodies.centres.reach()
+        } else {
+            f64::INFINITY
+        };
+        self.detector.next_stack.note_near_part(wide, give_up_past);
     }
 
     /// Goes on descending the tool's triangle tree, swept along the span, against each
@@ -837,6 +842,10 @@ impl GodObject {
             }
         }
         ahead.done = ahead.object >= meshes.objects.len();
+        if ahead.done && detector.next_stack.gave_up_noting() {
+            // A near part too far out to pay: as one that did not (`take_near_list`).
+            self.run.regions.near_part_rest = NEAR_PART_REST_LISTS;
+        }
         if ahead.done {
             // Its descent noted its near part (none near: the origin alone, no arm), which
             // the list's span holds from now on.
@@ -3154,6 +3163,9 @@ mod tests {
         // Lists come out long for this sheet's few hundred pairs: their extra reach shrinks,
         // and they are swept along the motion instead.
         god.params.tuning.near_list_pairs = 60;
+        // The cube's bottom reaches as far from its centre as its top, so its near part could
+        // never pay and would be given up; this test is of the lists it bounds.
+        god.params.heuristics.mesh_near_part_give_up = false;
         let mut q = [0.0, 0.0, 2.6, 0.0, 0.0, 0.0];
         for k in 0..600 {
             // Mostly a steady slide, now and then a jump past any list's reach.

@@ -384,8 +384,10 @@ pub struct Tuning {
     pub near_ceiling_share: f64,
     /// With [`Heuristics::mesh_near_part`](crate::Heuristics::mesh_near_part), a list whose near
     /// part bounded the tool's motion at its end to no less than this share of the whole
-    /// tool's bound did not pay for its noting (a tenth of a descent's cost): the next
-    /// eight lists are listed without one.
+    /// tool's bound did not pay for its noting: the next eight lists are listed without one.
+    /// With [`Heuristics::mesh_near_part_give_up`](crate::Heuristics::mesh_near_part_give_up),
+    /// a descent gives its noting up once the near part reaches this share of the whole tool's
+    /// reach from the tool origin, less by the noting's share of the descent's box tests.
     pub near_part_pays: f64,
     /// The next near list is built ahead in slices of at most this share of the frame's budget
     /// (after the frame's own work, never past its deadline): a whole list of a tight fit's wall
