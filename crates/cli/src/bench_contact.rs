@@ -103,7 +103,7 @@ pub fn replay_audited(
     let mut out = Vec::with_capacity(traj.samples.len());
     let period = std::time::Duration::from_secs_f64(1.0 / scene.rate_hz.max(1.0));
     let spin = std::time::Duration::from_secs_f64(scene::rt::DEFAULT_SPIN_US * 1e-6);
-    let mut pacer = scene::rt::Pacer::new(period, spin);
+    let mut pacer = scene::rt::Pacer::new(period, spin).with_nap(scene::rt::loop_nap());
     for s in &traj.samples {
         times.push(s.t);
         if realtime {

@@ -242,6 +242,37 @@ pub const DEFAULT_SPIN_US: f64 = 10_000.0;
 /// nap of 100 µs in every 1 ms frame the loop runs at most 90 % of the time.
 pub const NAP_US: u64 = 100;
 
+/// Whether the kernel stops real-time threads that run too long without sleeping (Linux: its
+/// `/proc/sys/kernel/sched_rt_runtime_us` is not `-1`). Unreadable, or on another system,
+/// assumed so. Read once a process (the first call allocates).
+pub fn rt_throttled() -> bool {
+    static THROTTLED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *THROTTLED.get_or_init(|| {
+        std::fs::read_to_string("/proc/sys/kernel/sched_rt_runtime_us")
+            .map_or(true, |v| v.trim() != "-1")
+    })
+}
+
+/// The nap a paced loop takes after each frame ([`Pacer::with_nap`]): [`NAP_US`], or none
+/// where the kernel lets real-time threads run unthrottled ([`rt_throttled`]) and the machine
+/// has a CPU besides the loop's, which then spins through its whole wait and keeps its core
+/// (the rig's choice: `sysctl kernel.sched_rt_runtime_us=-1`). Measured on a 2-core virtual
+/// machine (docs/design-notes.md §The paced loop): the bunny on its mesh, paced, p99 33–41
+/// against 46–91 µs napping, in three sets of runs.
+pub fn loop_nap() -> Duration {
+    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+    nap_for(rt_throttled(), cpus)
+}
+
+/// [`loop_nap`] for a kernel that throttles real-time threads or not, and `cpus` CPUs.
+fn nap_for(throttled: bool, cpus: usize) -> Duration {
+    if throttled || cpus < 2 {
+        Duration::from_micros(NAP_US)
+    } else {
+        Duration::ZERO
+    }
+}
+
 /// An unpaced loop asked to run at a real-time priority rests [`UNPACED_REST`] after each
 /// [`UNPACED_RUN`] of frames, between two frames: a `SCHED_FIFO` thread that never sleeps is
 /// stopped by the kernel's real-time limit (Linux: 950 ms in every second) for ~50 ms, inside
@@ -288,17 +319,26 @@ pub const WARM_STOP_EARLY_US: u64 = 20;
 pub struct Pacer {
     period: Duration,
     spin: Duration,
+    nap: Duration,
     deadline: Instant,
 }
 
 impl Pacer {
-    /// A schedule of `period` starting now; `spin` before each deadline is spent spinning.
+    /// A schedule of `period` starting now; `spin` before each deadline is spent spinning,
+    /// after a nap of [`NAP_US`].
     pub fn new(period: Duration, spin: Duration) -> Self {
         Self {
             period,
             spin,
+            nap: Duration::from_micros(NAP_US),
             deadline: Instant::now(),
         }
+    }
+
+    /// The same schedule napping `nap` after each frame instead ([`loop_nap`]; zero: none,
+    /// for a real-time thread only where the kernel does not throttle it).
+    pub fn with_nap(self, nap: Duration) -> Self {
+        Self { nap, ..self }
     }
 
     /// Waits until the current frame's deadline (returns at once when it has passed).
@@ -322,9 +362,8 @@ impl Pacer {
             return;
         };
         // Asleep until the spin, and for the nap at least where the wait leaves room for it.
-        let nap = Duration::from_micros(NAP_US);
-        let nap = if left >= nap + Duration::from_micros(NAP_MIN_SPIN_US) {
-            nap
+        let nap = if left >= self.nap + Duration::from_micros(NAP_MIN_SPIN_US) {
+            self.nap
         } else {
             Duration::ZERO
         };
@@ -396,7 +435,12 @@ pub fn run_frames<D: Device + ?Sized>(
     let period = params.pacing.period();
     let rate_hz = params.pacing.effective_rate_hz();
     let start = Instant::now();
-    let mut pacer = Pacer::new(period, params.pacing.spin());
+    let nap = if params.realtime {
+        loop_nap()
+    } else {
+        Duration::from_micros(NAP_US)
+    };
+    let mut pacer = Pacer::new(period, params.pacing.spin()).with_nap(nap);
     let mut last_start: Option<Instant> = None;
     let mut frame = 0usize;
     let mut link = DeviceLink::new(device, params.device);
@@ -601,6 +645,29 @@ mod tests {
         for (at, until) in calls {
             assert!(at + spin >= deadline, "warmed before the spin");
             assert_eq!(until + Duration::from_micros(WARM_STOP_EARLY_US), deadline);
+        }
+    }
+
+    /// The loop naps unless the kernel lets real-time threads run unthrottled and another CPU
+    /// is left to the rest of the machine; a wait without the nap keeps its deadline.
+    #[test]
+    fn a_loop_naps_unless_unthrottled_with_a_cpu_to_spare() {
+        let nap = Duration::from_micros(NAP_US);
+        assert_eq!(nap_for(true, 8), nap);
+        assert_eq!(nap_for(true, 1), nap);
+        assert_eq!(nap_for(false, 1), nap);
+        assert_eq!(nap_for(false, 2), Duration::ZERO);
+        let spin = Duration::from_secs_f64(DEFAULT_SPIN_US * 1e-6);
+        let mut pacer = Pacer::new(Duration::from_millis(1), spin).with_nap(Duration::ZERO);
+        for _ in 0..3 {
+            pacer.end_frame();
+            let deadline = pacer.deadline;
+            let mut calls = 0;
+            pacer.wait_warming(|until| {
+                calls += 1;
+                assert_eq!(until + Duration::from_micros(WARM_STOP_EARLY_US), deadline);
+            });
+            assert!(Instant::now() >= deadline && calls <= 1);
         }
     }
 

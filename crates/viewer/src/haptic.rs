@@ -269,7 +269,7 @@ impl<S: Simulation> ManualFrames<S> {
     /// Runs frames paced at the period until `stop` is set, with the same pacing as
     /// `haptic6d run --realtime` ([`scene::rt::Pacer`]).
     fn run(mut self, stop: &AtomicBool, spin: Duration) {
-        let mut pacer = scene::rt::Pacer::new(self.period, spin);
+        let mut pacer = scene::rt::Pacer::new(self.period, spin).with_nap(scene::rt::loop_nap());
         while !stop.load(Ordering::Acquire) {
             pacer.wait_warming(|until| self.sim.idle(until));
             self.step();
