@@ -216,7 +216,8 @@ const OWN_LEVEL_MAX_BUDGET_US: f64 = 10_000.0;
 const NEAR_CEILING_LEFT_FRAMES: f64 = 2.0;
 
 /// Lists begun without a near part after one that did not pay
-/// ([`Tuning::near_part_pays`]): a tenth of a descent's cost spared on each, while the tool's
+/// ([`Tuning::near_part_pays`]), or whose noting was given up: the noting's box tests (about
+/// as many as the descent's own where it does not pay) spared on each, while the tool's
 /// motion changes little from list to list (a shaft sliding down its hole).
 pub(crate) const NEAR_PART_REST_LISTS: u32 = 8;
 
