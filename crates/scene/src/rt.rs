@@ -257,20 +257,30 @@ pub fn rt_throttled() -> bool {
 /// where the kernel lets real-time threads run unthrottled ([`rt_throttled`]) and the machine
 /// has a CPU besides the loop's, which then spins through its whole wait and keeps its core
 /// (the rig's choice: `sysctl kernel.sched_rt_runtime_us=-1`). Measured on a 2-core virtual
-/// machine (docs/design-notes.md §The paced loop): the bunny on its mesh, paced, p99 33–41
-/// against 46–91 µs napping, in three sets of runs.
+/// machine (docs/design-notes.md §The paced loop): the bunny on its mesh, paced, p99 29–41
+/// against 46–91 µs napping (medians of four sets of three or four runs).
 pub fn loop_nap() -> Duration {
-    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
-    nap_for(rt_throttled(), cpus)
+    if rt_runs_unbroken() {
+        Duration::ZERO
+    } else {
+        Duration::from_micros(NAP_US)
+    }
 }
 
-/// [`loop_nap`] for a kernel that throttles real-time threads or not, and `cpus` CPUs.
-fn nap_for(throttled: bool, cpus: usize) -> Duration {
-    if throttled || cpus < 2 {
-        Duration::from_micros(NAP_US)
-    } else {
-        Duration::ZERO
-    }
+/// Whether a real-time loop may run without ever sleeping: the kernel does not throttle
+/// real-time threads ([`rt_throttled`]) and the machine has a CPU besides the loop's. Read
+/// once a process (the first call allocates).
+pub fn rt_runs_unbroken() -> bool {
+    static UNBROKEN: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *UNBROKEN.get_or_init(|| {
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+        runs_unbroken(rt_throttled(), cpus)
+    })
+}
+
+/// [`rt_runs_unbroken`] for a kernel that throttles real-time threads or not, and `cpus` CPUs.
+fn runs_unbroken(throttled: bool, cpus: usize) -> bool {
+    !throttled && cpus >= 2
 }
 
 /// An unpaced loop asked to run at a real-time priority rests [`UNPACED_REST`] after each
@@ -279,6 +289,7 @@ fn nap_for(throttled: bool, cpus: usize) -> Duration {
 /// whichever frame it is running (`haptic6d run fit/round-r10-c0.02 --geometry mesh`, 3.6 s
 /// of frames: frames of 47–51 ms, one or two a run). A rest of 100 ms after 800 ms keeps any
 /// second's running under 900 ms; the frames' times are unchanged, the run takes ~12 % longer.
+/// None where the kernel does not throttle real-time threads ([`rt_runs_unbroken`]).
 pub const UNPACED_RUN: Duration = Duration::from_millis(800);
 
 /// The rest of an unpaced real-time loop (see [`UNPACED_RUN`]).
@@ -444,8 +455,9 @@ pub fn run_frames<D: Device + ?Sized>(
     let mut last_start: Option<Instant> = None;
     let mut frame = 0usize;
     let mut link = DeviceLink::new(device, params.device);
-    let mut rests = (!params.realtime && params.pacing.rt_priority.is_some())
-        .then_some(UnpacedRests { since: start });
+    let mut rests =
+        (!params.realtime && params.pacing.rt_priority.is_some() && !rt_runs_unbroken())
+            .then_some(UnpacedRests { since: start });
     while records.len() < records.capacity() {
         if params.realtime {
             pacer.wait_warming(|until| engine.idle(until));
@@ -652,11 +664,10 @@ mod tests {
     /// is left to the rest of the machine; a wait without the nap keeps its deadline.
     #[test]
     fn a_loop_naps_unless_unthrottled_with_a_cpu_to_spare() {
-        let nap = Duration::from_micros(NAP_US);
-        assert_eq!(nap_for(true, 8), nap);
-        assert_eq!(nap_for(true, 1), nap);
-        assert_eq!(nap_for(false, 1), nap);
-        assert_eq!(nap_for(false, 2), Duration::ZERO);
+        assert!(!runs_unbroken(true, 8));
+        assert!(!runs_unbroken(true, 1));
+        assert!(!runs_unbroken(false, 1));
+        assert!(runs_unbroken(false, 2));
         let spin = Duration::from_secs_f64(DEFAULT_SPIN_US * 1e-6);
         let mut pacer = Pacer::new(Duration::from_millis(1), spin).with_nap(Duration::ZERO);
         for _ in 0..3 {
