@@ -420,14 +420,7 @@ impl TriangleTree {
             pairs: Vec::with_capacity(a.depth + b.depth + 2),
             posed: vec![(Matrix3::zeros(), Vector3::zeros()); a.nodes.len()],
             stamp: vec![0; a.nodes.len()],
-            current: 1,
-            near_wide: f64::NEG_INFINITY,
-            near_lo: [f64::INFINITY; 3],
-            near_hi: [f64::NEG_INFINITY; 3],
-            give_up_past: f64::INFINITY,
-            tested: 0,
-            tested_noting: 0,
-            gave_up: false,
+            ..TreePairStack::default()
         };
         // Resident from the start ([`crate::touch_pages`]): a zeroed buffer's pages are mapped
         // at their first write, which would be a frame's.
